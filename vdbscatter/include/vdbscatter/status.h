@@ -1,0 +1,40 @@
+/* Status codes and error messages shared by every vdbscatter module. */
+#ifndef VDBSCATTER_STATUS_H
+#define VDBSCATTER_STATUS_H
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+/* Library functions return one of these and fill a vdbs_error on failure.
+ * VDBS_ERR_INPUT is the user's fault (bad file, flag or scene): the CLI exits 2. */
+typedef enum vdbs_status {
+    VDBS_OK = 0,
+    VDBS_ERR_INPUT = 2,
+    VDBS_ERR_IO = 3,
+    VDBS_ERR_GPU = 4,
+    VDBS_ERR_NOMEM = 5,
+    VDBS_ERR_INTERNAL = 6
+} vdbs_status;
+
+#define VDBS_ERROR_MAX 1024
+
+typedef struct vdbs_error {
+    char message[VDBS_ERROR_MAX];
+} vdbs_error;
+
+/* Formats the message into err (when err is not NULL) and returns status. */
+vdbs_status vdbs_error_set(vdbs_error *err, vdbs_status status, const char *fmt, ...)
+#if defined(__GNUC__)
+    __attribute__((format(printf, 3, 4)))
+#endif
+    ;
+
+/* Receives non-fatal warnings (one line each, no trailing newline). */
+typedef void (*vdbs_warn_fn)(void *user, const char *message);
+
+#ifdef __cplusplus
+}
+#endif
+
+#endif

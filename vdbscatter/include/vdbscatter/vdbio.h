@@ -1,0 +1,160 @@
+/* OpenVDB file I/O behind a C API. The only C++ in the project is vdbio.cpp,
+ * which implements this header over OpenVDB and NanoVDB's OpenToNanoVDB. */
+#ifndef VDBSCATTER_VDBIO_H
+#define VDBSCATTER_VDBIO_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#include "vdbscatter/status.h"
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+/* Affine index-to-world map, row-major 3x4: world[r] = sum_c m[r][c] * ijk[c] + m[r][3].
+ * Voxel (i,j,k) has its centre at index-space point (i,j,k). */
+typedef struct vdbio_transform {
+    double m[3][4];
+} vdbio_transform;
+
+/* One grid of a file, as listed by vdbio_list_grids. */
+typedef struct vdbio_grid_summary {
+    char name[256];
+    char value_type[32]; /* OpenVDB's type name: "float", "double", "int32", "vec3s", ... */
+    char grid_class[32]; /* "fog volume", "level set", "unknown", ... */
+    int is_affine;       /* 0 for frustum or other non-linear maps */
+    vdbio_transform transform;
+    double voxel_size[3];    /* world length of the three index axes */
+    int bbox_min[3];         /* active bounding box in index space (inclusive) */
+    int bbox_max[3];
+    uint64_t active_voxels;  /* active voxels, counting voxels inside active tiles */
+    uint64_t active_tiles;
+    double background;
+    double value_min; /* over active values; 0 when empty or not scalar */
+    double value_max;
+} vdbio_grid_summary;
+
+/* Lists every grid of a file, in file order. *grids is malloc'd (free with free()).
+ * Errors: missing file, not a VDB, truncated or unreadable file. */
+vdbs_status vdbio_list_grids(const char *path, vdbio_grid_summary **grids, int *count,
+                             vdbs_error *err);
+
+typedef struct vdbio_read_options {
+    /* Grid name; NULL means "density", or the only float grid of the file whatever its name. */
+    const char *grid_name;
+    /* Which of several grids sharing grid_name (0 = first); from "--grid NAME@INDEX". */
+    int grid_index;
+    /* Convert a level set (signed distance) into a fog volume instead of refusing it. */
+    int from_levelset;
+    vdbs_warn_fn warn; /* may be NULL */
+    void *warn_user;
+} vdbio_read_options;
+
+/* A density grid held in memory, ready for baking. Opaque. */
+typedef struct vdbio_density vdbio_density;
+
+typedef struct vdbio_density_info {
+    char name[256];
+    char source_type[32]; /* type in the file: "float" or "double" */
+    vdbio_transform transform;
+    double voxel_size[3];
+    int bbox_min[3]; /* active bounding box, index space, inclusive */
+    int bbox_max[3];
+    uint64_t active_voxels; /* including voxels inside active tiles */
+    uint64_t active_tiles;
+    float value_min; /* over active values */
+    float value_max;
+    double original_background; /* background as found in the file (now reset to 0) */
+} vdbio_density_info;
+
+/* Reads a float (or double, converted to float) density grid. On return every
+ * inactive value and the background are 0. Errors (VDBS_ERR_INPUT, message naming
+ * the file and the problem): missing file, not a VDB, truncated file, no such grid
+ * (the message lists the grids present), non-float grid, empty grid, level set
+ * (unless from_levelset), NaN/Inf or negative active values (count and first
+ * index/world position), a non-affine (frustum) transform.
+ * Warnings: duplicate grid names, a non-zero background reset to 0. */
+vdbs_status vdbio_density_read(const char *path, const vdbio_read_options *options,
+                               vdbio_density **out, vdbs_error *err);
+
+/* Builds a density grid from a dense array values[(k * dims[1] + j) * dims[0] + i]
+ * whose element (0,0,0) is index (origin[0], origin[1], origin[2]). Values <= 0
+ * are inactive (stored as 0). Used by the procedural samples and the tests. */
+vdbs_status vdbio_density_from_dense(const float *values, const int dims[3],
+                                     const int origin[3], const vdbio_transform *transform,
+                                     const char *name, vdbio_density **out, vdbs_error *err);
+
+void vdbio_density_free(vdbio_density *density);
+
+const vdbio_density_info *vdbio_density_get_info(const vdbio_density *density);
+
+/* Value at an index coordinate (0 where inactive). For tests and samplers. */
+float vdbio_density_value(const vdbio_density *density, const int ijk[3]);
+
+/* NanoVDB float grid of the density (one grid in the buffer), malloc'd; free with free().
+ * The buffer is 32-byte aligned and its size a multiple of 4 bytes. */
+vdbs_status vdbio_density_to_nanovdb(const vdbio_density *density, void **buffer,
+                                     size_t *size, vdbs_error *err);
+
+/* Index coordinates of the output voxels: the active region (tiles voxelised)
+ * dilated by `dilation` voxels in all 26 directions; xyz triples, malloc'd,
+ * in OpenVDB's tree order (leaf by leaf), so nearby voxels are nearby in the list. */
+vdbs_status vdbio_density_output_coords(const vdbio_density *density, int dilation,
+                                        int32_t **coords, size_t *count, vdbs_error *err);
+
+/* A vec3s grid whose values are given for a list of coordinates. */
+typedef struct vdbio_vec3_grid {
+    const char *name;
+    const float *values; /* 3 floats per coordinate, aligned with vdbio_write_request.coords */
+} vdbio_vec3_grid;
+
+/* String metadata (file-level unless noted). Values are written as OpenVDB string metadata. */
+typedef struct vdbio_meta {
+    const char *key;
+    const char *value;
+} vdbio_meta;
+
+typedef struct vdbio_write_request {
+    const vdbio_density *density; /* written as grid "density" with the density's transform */
+    const int32_t *coords;        /* output voxels for the vec3 grids (3 ints each) */
+    size_t coord_count;
+    const vdbio_vec3_grid *vec3_grids;
+    int vec3_grid_count;
+    const vdbio_meta *file_meta; /* written on the file and on every grid */
+    int file_meta_count;
+    int half; /* store as half floats; values beyond 65504 are clamped with a warning */
+    vdbs_warn_fn warn;
+    void *warn_user;
+} vdbio_write_request;
+
+/* Writes all grids to `path` through a temporary file in the same directory that is
+ * renamed on success and removed on failure; refuses a path equal to `input_path`
+ * (when not NULL; compared after resolving links). vec3 grids are marked as
+ * non-fog ("unknown" class) with vector type "invariant". */
+vdbs_status vdbio_write(const char *path, const char *input_path,
+                        const vdbio_write_request *request, vdbs_error *err);
+
+/* A lit VDB opened for reading back (tests, `render --mode baked`): every grid of
+ * the file is loaded; lookups go through cached accessors. */
+typedef struct vdbio_lit vdbio_lit;
+vdbs_status vdbio_lit_open(const char *path, vdbio_lit **out, vdbs_error *err);
+int vdbio_lit_has_grid(const vdbio_lit *lit, const char *name);
+/* Value of a vec3s grid at index coordinates ((0,0,0) where inactive). */
+vdbs_status vdbio_lit_vec3(const vdbio_lit *lit, const char *grid, const int ijk[3],
+                           float out[3], vdbs_error *err);
+/* Value of a float grid at index coordinates (0 where inactive). */
+vdbs_status vdbio_lit_float(const vdbio_lit *lit, const char *grid, const int ijk[3],
+                            float *out, vdbs_error *err);
+/* Transform of a grid of the file. */
+vdbs_status vdbio_lit_transform(const vdbio_lit *lit, const char *grid, vdbio_transform *out,
+                                vdbs_error *err);
+/* File-level string metadata value, or NULL. */
+const char *vdbio_lit_meta(const vdbio_lit *lit, const char *key);
+void vdbio_lit_close(vdbio_lit *lit);
+
+#ifdef __cplusplus
+}
+#endif
+
+#endif
