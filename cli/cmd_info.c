@@ -1,1 +1,221 @@
-/* placeholder: being written */
+/* vdbscatter info FILE.vdb: what a VDB holds and how thick it is optically. */
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include <cjson/cJSON.h>
+
+#include "commands.h"
+#include "options.h"
+#include "vdbscatter/gpu.h"
+#include "vdbscatter/scene.h"
+#include "vdbscatter/vdbio.h"
+#include "vdbscatter/volume.h"
+
+static const char help[] =
+    "usage: vdbscatter info [FILE.vdb] [--density-scale S] [--grid NAME[@INDEX]] [--json] [--gpu]\n"
+    "\n"
+    "Lists every grid of FILE (type, class, voxel size, active bounding box, active\n"
+    "voxels and tiles, value range, background) and the optical thickness of the\n"
+    "density grid for the given density scale (default 1): the largest per-voxel depth\n"
+    "and the depth of straight rays through the volume along each index axis.\n"
+    "\n"
+    "options:\n"
+    "  --density-scale S   sigma_t = density * S\n"
+    "  --grid NAME[@I]     which grid the optical thickness is computed for\n"
+    "  --from-levelset     treat a level set as a fog volume for the thickness\n"
+    "  --gpu               report the OpenGL device found through EGL (FILE optional)\n"
+    "  --json              print JSON on stdout\n";
+
+static const cli_option options[] = {
+    {"--density-scale", CLI_VALUE}, {"--grid", CLI_VALUE}, {"--json", CLI_FLAG},
+    {"--gpu", CLI_FLAG},            {"--from-levelset", CLI_FLAG}, {NULL, CLI_FLAG},
+};
+
+static cJSON *ints3(const int v[3])
+{
+    return cJSON_CreateIntArray(v, 3);
+}
+
+static cJSON *gpu_json(int *ok, char *message, size_t size)
+{
+    cJSON *j = cJSON_CreateObject();
+    vdbs_gpu *gpu = NULL;
+    vdbs_error err;
+    *ok = vdbs_gpu_create(&gpu, &err) == VDBS_OK;
+    cJSON_AddBoolToObject(j, "available", *ok);
+    cJSON_AddBoolToObject(j, "hardware_device", vdbs_gpu_hardware_available());
+    if (!*ok) {
+        cJSON_AddStringToObject(j, "error", err.message);
+        snprintf(message, size, "%s", err.message);
+        return j;
+    }
+    const vdbs_gpu_info *info = vdbs_gpu_get_info(gpu);
+    cJSON_AddStringToObject(j, "platform", info->platform);
+    cJSON_AddStringToObject(j, "vendor", info->vendor);
+    cJSON_AddStringToObject(j, "renderer", info->renderer);
+    cJSON_AddStringToObject(j, "version", info->version);
+    cJSON_AddStringToObject(j, "glsl_version", info->glsl_version);
+    cJSON_AddBoolToObject(j, "software", info->is_software);
+    cJSON_AddNumberToObject(j, "max_ssbo_bytes", (double)info->max_ssbo_bytes);
+    cJSON_AddNumberToObject(j, "max_work_group_invocations", info->max_work_group_invocations);
+    vdbs_gpu_destroy(gpu);
+    return j;
+}
+
+int cmd_info(int argc, char **argv)
+{
+    cli_args args;
+    vdbs_error err;
+    vdbs_status st;
+    if (cli_parse(argc, argv, options, &args, &err) != VDBS_OK)
+        return cli_fail("info", 2, err.message);
+    if (args.help) {
+        fputs(help, stdout);
+        return CLI_EXIT_OK;
+    }
+    int want_gpu = cli_flag(&args, "--gpu");
+    int json = cli_flag(&args, "--json");
+    if (args.positional_count > 1 || (args.positional_count == 0 && !want_gpu))
+        return cli_fail("info", 2, "expected one FILE.vdb");
+    double scale = 1.0;
+    const char *v = cli_value(&args, "--density-scale");
+    if (v && (st = cli_number("--density-scale", v, &scale, &err)) != VDBS_OK)
+        return cli_fail("info", st, err.message);
+    if (scale < 0.0)
+        return cli_fail("info", 2, "--density-scale must be >= 0");
+    static vdbs_scene scene;
+    vdbs_scene_init(&scene);
+    if ((v = cli_value(&args, "--grid")) && (st = vdbs_scene_set_grid(&scene, v, &err)) != VDBS_OK)
+        return cli_fail("info", st, err.message);
+
+    cJSON *root = cJSON_CreateObject();
+    int status = CLI_EXIT_OK;
+    if (want_gpu) {
+        int ok;
+        char message[VDBS_ERROR_MAX];
+        cJSON_AddItemToObject(root, "gpu", gpu_json(&ok, message, sizeof message));
+        if (!ok && !json) {
+            cJSON_Delete(root);
+            return cli_fail("info", 1, message);
+        }
+        if (!ok)
+            status = CLI_EXIT_FAILURE;
+    }
+    if (args.positional_count == 1) {
+        const char *path = args.positional[0];
+        vdbio_grid_summary *grids = NULL;
+        int count = 0;
+        if ((st = vdbio_list_grids(path, &grids, &count, &err)) != VDBS_OK) {
+            cJSON_Delete(root);
+            return cli_fail("info", st, err.message);
+        }
+        cJSON_AddStringToObject(root, "file", path);
+        cJSON *list = cJSON_AddArrayToObject(root, "grids");
+        for (int i = 0; i < count; ++i) {
+            const vdbio_grid_summary *g = &grids[i];
+            cJSON *o = cJSON_CreateObject();
+            cJSON_AddStringToObject(o, "name", g->name);
+            cJSON_AddStringToObject(o, "type", g->value_type);
+            cJSON_AddStringToObject(o, "class", g->grid_class);
+            cJSON_AddBoolToObject(o, "affine", g->is_affine);
+            cJSON_AddItemToObject(o, "voxel_size", cJSON_CreateDoubleArray(g->voxel_size, 3));
+            cJSON_AddItemToObject(o, "bbox_min", ints3(g->bbox_min));
+            cJSON_AddItemToObject(o, "bbox_max", ints3(g->bbox_max));
+            cJSON_AddNumberToObject(o, "active_voxels", (double)g->active_voxels);
+            cJSON_AddNumberToObject(o, "active_tiles", (double)g->active_tiles);
+            cJSON_AddNumberToObject(o, "background", g->background);
+            cJSON_AddNumberToObject(o, "value_min", g->value_min);
+            cJSON_AddNumberToObject(o, "value_max", g->value_max);
+            cJSON_AddItemToArray(list, o);
+        }
+        free(grids);
+
+        /* Optical thickness of the grid bake would use; a file without one still lists. */
+        vdbio_read_options read = {0};
+        read.grid_name = scene.grid[0] ? scene.grid : NULL;
+        read.grid_index = scene.grid_index;
+        read.from_levelset = cli_flag(&args, "--from-levelset");
+        vdbs_volume volume;
+        cJSON *optics = cJSON_AddObjectToObject(root, "optical_thickness");
+        cJSON_AddNumberToObject(optics, "density_scale", scale);
+        if (vdbs_volume_load(path, &read, &volume, &err) == VDBS_OK) {
+            vdbs_thickness t;
+            vdbs_volume_thickness(&volume, scale, &t);
+            cJSON_AddStringToObject(optics, "grid", volume.info.name);
+            cJSON_AddNumberToObject(optics, "voxel_max", t.voxel_max);
+            cJSON_AddItemToObject(optics, "axis_mean", cJSON_CreateDoubleArray(t.axis_mean, 3));
+            cJSON_AddItemToObject(optics, "axis_max", cJSON_CreateDoubleArray(t.axis_max, 3));
+            vdbs_volume_free(&volume);
+        } else {
+            cJSON_AddStringToObject(optics, "unavailable", err.message);
+        }
+    }
+    if (json) {
+        char *text = cJSON_Print(root);
+        puts(text);
+        free(text);
+    } else {
+        const cJSON *gpu = cJSON_GetObjectItem(root, "gpu");
+        if (gpu)
+            printf("gpu: %s (%s, EGL platform %s, %s)\n",
+                   cJSON_GetObjectItem(gpu, "renderer")->valuestring,
+                   cJSON_GetObjectItem(gpu, "version")->valuestring,
+                   cJSON_GetObjectItem(gpu, "platform")->valuestring,
+                   cJSON_IsTrue(cJSON_GetObjectItem(gpu, "software")) ? "software" : "hardware");
+        const cJSON *list = cJSON_GetObjectItem(root, "grids");
+        if (list) {
+            printf("%s: %d grid%s\n", args.positional[0], cJSON_GetArraySize(list),
+                   cJSON_GetArraySize(list) == 1 ? "" : "s");
+            const cJSON *g;
+            cJSON_ArrayForEach(g, list)
+            {
+                const cJSON *vs = cJSON_GetObjectItem(g, "voxel_size");
+                const cJSON *lo = cJSON_GetObjectItem(g, "bbox_min");
+                const cJSON *hi = cJSON_GetObjectItem(g, "bbox_max");
+                printf("  %-12s %-6s %-10s voxel %.4g x %.4g x %.4g%s\n",
+                       cJSON_GetObjectItem(g, "name")->valuestring,
+                       cJSON_GetObjectItem(g, "type")->valuestring,
+                       cJSON_GetObjectItem(g, "class")->valuestring,
+                       cJSON_GetArrayItem(vs, 0)->valuedouble, cJSON_GetArrayItem(vs, 1)->valuedouble,
+                       cJSON_GetArrayItem(vs, 2)->valuedouble,
+                       cJSON_IsTrue(cJSON_GetObjectItem(g, "affine")) ? "" : " (frustum map)");
+                if (cJSON_GetObjectItem(g, "active_voxels")->valuedouble > 0)
+                    printf("               bbox [%d,%d,%d]->[%d,%d,%d]  active %.0f (tiles %.0f)  "
+                           "range [%g, %g]  background %g\n",
+                           cJSON_GetArrayItem(lo, 0)->valueint, cJSON_GetArrayItem(lo, 1)->valueint,
+                           cJSON_GetArrayItem(lo, 2)->valueint, cJSON_GetArrayItem(hi, 0)->valueint,
+                           cJSON_GetArrayItem(hi, 1)->valueint, cJSON_GetArrayItem(hi, 2)->valueint,
+                           cJSON_GetObjectItem(g, "active_voxels")->valuedouble,
+                           cJSON_GetObjectItem(g, "active_tiles")->valuedouble,
+                           cJSON_GetObjectItem(g, "value_min")->valuedouble,
+                           cJSON_GetObjectItem(g, "value_max")->valuedouble,
+                           cJSON_GetObjectItem(g, "background")->valuedouble);
+                else
+                    printf("               empty\n");
+            }
+            const cJSON *o = cJSON_GetObjectItem(root, "optical_thickness");
+            const cJSON *na = cJSON_GetObjectItem(o, "unavailable");
+            if (na) {
+                printf("optical thickness: unavailable (%s)\n", na->valuestring);
+            } else {
+                const cJSON *mean = cJSON_GetObjectItem(o, "axis_mean");
+                const cJSON *max = cJSON_GetObjectItem(o, "axis_max");
+                printf("optical thickness of '%s' at density scale %g:\n"
+                       "  per voxel max %.4g\n"
+                       "  through the volume along x/y/z: mean %.4g / %.4g / %.4g, max %.4g / "
+                       "%.4g / %.4g\n",
+                       cJSON_GetObjectItem(o, "grid")->valuestring, scale,
+                       cJSON_GetObjectItem(o, "voxel_max")->valuedouble,
+                       cJSON_GetArrayItem(mean, 0)->valuedouble,
+                       cJSON_GetArrayItem(mean, 1)->valuedouble,
+                       cJSON_GetArrayItem(mean, 2)->valuedouble,
+                       cJSON_GetArrayItem(max, 0)->valuedouble,
+                       cJSON_GetArrayItem(max, 1)->valuedouble,
+                       cJSON_GetArrayItem(max, 2)->valuedouble);
+            }
+        }
+    }
+    cJSON_Delete(root);
+    return status;
+}

@@ -1,1 +1,52 @@
-int main(void) { return 0; }
+/* vdbscatter: volume-lighting preprocessor. Dispatches to the subcommands. */
+#include <stdio.h>
+#include <string.h>
+
+#include "commands.h"
+#include "options.h"
+
+#ifndef VDBSCATTER_VERSION
+#define VDBSCATTER_VERSION "0"
+#endif
+
+static const char usage[] =
+    "usage: vdbscatter COMMAND [options]\n"
+    "\n"
+    "commands:\n"
+    "  bake IN.vdb -o OUT.vdb     light a density VDB and write a lit VDB\n"
+    "  info FILE.vdb              list grids, sizes, value ranges, optical thickness\n"
+    "  sample NAME -o OUT.vdb     write a procedural sample volume\n"
+    "\n"
+    "Run 'vdbscatter COMMAND --help' for the options of a command.\n"
+    "Exit status: 0 success, 1 failure while working, 2 bad input or usage.\n";
+
+int cli_fail(const char *command, int status, const char *message)
+{
+    fprintf(stderr, "vdbscatter %s: %s\n", command, message);
+    return status == 2 ? CLI_EXIT_USAGE : CLI_EXIT_FAILURE;
+}
+
+int main(int argc, char **argv)
+{
+    if (argc < 2) {
+        fputs(usage, stderr);
+        return CLI_EXIT_USAGE;
+    }
+    const char *cmd = argv[1];
+    if (strcmp(cmd, "--help") == 0 || strcmp(cmd, "-h") == 0 || strcmp(cmd, "help") == 0) {
+        fputs(usage, stdout);
+        return CLI_EXIT_OK;
+    }
+    if (strcmp(cmd, "--version") == 0) {
+        printf("vdbscatter %s\n", VDBSCATTER_VERSION);
+        return CLI_EXIT_OK;
+    }
+    if (strcmp(cmd, "bake") == 0)
+        return cmd_bake(argc - 2, argv + 2);
+    if (strcmp(cmd, "info") == 0)
+        return cmd_info(argc - 2, argv + 2);
+    if (strcmp(cmd, "sample") == 0)
+        return cmd_sample(argc - 2, argv + 2);
+    fprintf(stderr, "vdbscatter: unknown command '%s' (try --help)\n", cmd);
+    return CLI_EXIT_USAGE;
+}

@@ -1,1 +1,223 @@
-/* placeholder: being written */
+#include "options.h"
+
+#include <errno.h>
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+const cli_option cli_scene_options[] = {
+    {"--scene", CLI_VALUE},  {"--grid", CLI_VALUE},    {"--density-scale", CLI_VALUE},
+    {"--albedo", CLI_VALUE}, {"--g", CLI_VALUE},       {"--sun", CLI_VALUE},
+    {"--point", CLI_VALUE},  {"--env", CLI_VALUE},     {"--method", CLI_VALUE},
+    {"--quality", CLI_VALUE}, {NULL, CLI_FLAG},
+};
+
+static const cli_option *find_option(const cli_option *options, const char *name, size_t len)
+{
+    for (const cli_option *o = options; o->name; ++o)
+        if (strlen(o->name) == len && strncmp(o->name, name, len) == 0)
+            return o;
+    for (const cli_option *o = cli_scene_options; o->name; ++o)
+        if (strlen(o->name) == len && strncmp(o->name, name, len) == 0)
+            return options == cli_scene_options ? o : NULL;
+    return NULL;
+}
+
+vdbs_status cli_parse(int argc, char **argv, const cli_option *options, cli_args *out,
+                      vdbs_error *err)
+{
+    memset(out, 0, sizeof *out);
+    for (int i = 0; i < argc; ++i) {
+        const char *a = argv[i];
+        if (strcmp(a, "--help") == 0 || strcmp(a, "-h") == 0) {
+            out->help = 1;
+            continue;
+        }
+        if (a[0] != '-' || strcmp(a, "-") == 0) {
+            if (out->positional_count == (int)(sizeof out->positional / sizeof *out->positional))
+                return vdbs_error_set(err, VDBS_ERR_INPUT, "too many arguments ('%s')", a);
+            out->positional[out->positional_count++] = a;
+            continue;
+        }
+        const char *eq = strchr(a, '=');
+        size_t len = eq ? (size_t)(eq - a) : strlen(a);
+        const cli_option *o = find_option(options, a, len);
+        if (!o)
+            return vdbs_error_set(err, VDBS_ERR_INPUT, "unknown option '%.*s'", (int)len, a);
+        if (out->count == CLI_MAX_ARGS)
+            return vdbs_error_set(err, VDBS_ERR_INPUT, "too many options");
+        cli_arg *arg = &out->args[out->count++];
+        arg->option = o;
+        if (o->kind == CLI_FLAG) {
+            if (eq)
+                return vdbs_error_set(err, VDBS_ERR_INPUT, "%s takes no value", o->name);
+            continue;
+        }
+        if (eq) {
+            arg->value = eq + 1;
+        } else {
+            if (i + 1 >= argc)
+                return vdbs_error_set(err, VDBS_ERR_INPUT, "%s needs a value", o->name);
+            arg->value = argv[++i];
+        }
+    }
+    return VDBS_OK;
+}
+
+const char *cli_value(const cli_args *args, const char *name)
+{
+    const char *v = NULL;
+    for (int i = 0; i < args->count; ++i)
+        if (strcmp(args->args[i].option->name, name) == 0)
+            v = args->args[i].value;
+    return v;
+}
+
+int cli_flag(const cli_args *args, const char *name)
+{
+    for (int i = 0; i < args->count; ++i)
+        if (strcmp(args->args[i].option->name, name) == 0)
+            return 1;
+    return 0;
+}
+
+vdbs_status cli_number(const char *flag, const char *text, double *out, vdbs_error *err)
+{
+    char *end = NULL;
+    errno = 0;
+    double v = strtod(text, &end);
+    if (end == text || *end != '\0' || errno == ERANGE || !isfinite(v))
+        return vdbs_error_set(err, VDBS_ERR_INPUT, "%s: expected a finite number, got '%s'", flag,
+                              text);
+    *out = v;
+    return VDBS_OK;
+}
+
+vdbs_status cli_integer(const char *flag, const char *text, long lo, long hi, long *out,
+                        vdbs_error *err)
+{
+    char *end = NULL;
+    errno = 0;
+    long v = strtol(text, &end, 10);
+    if (end == text || *end != '\0' || errno == ERANGE || v < lo || v > hi)
+        return vdbs_error_set(err, VDBS_ERR_INPUT, "%s: expected an integer in [%ld, %ld], got '%s'",
+                              flag, lo, hi, text);
+    *out = v;
+    return VDBS_OK;
+}
+
+vdbs_status cli_triple(const char *flag, const char *text, int allow_scalar, double out[3],
+                       vdbs_error *err)
+{
+    char buf[256];
+    if (strlen(text) >= sizeof buf)
+        return vdbs_error_set(err, VDBS_ERR_INPUT, "%s: value too long", flag);
+    strcpy(buf, text);
+    int n = 0;
+    char *save = NULL;
+    for (char *tok = strtok_r(buf, ",", &save); tok; tok = strtok_r(NULL, ",", &save)) {
+        if (n == 3 || cli_number(flag, tok, &out[n], NULL) != VDBS_OK)
+            goto bad;
+        ++n;
+    }
+    if (n == 1 && allow_scalar) {
+        out[1] = out[2] = out[0];
+        return VDBS_OK;
+    }
+    if (n == 3 && text[strlen(text) - 1] != ',' && text[0] != ',' && !strstr(text, ",,"))
+        return VDBS_OK;
+bad:
+    return vdbs_error_set(err, VDBS_ERR_INPUT, "%s: expected %s3 finite numbers X,Y,Z, got '%s'",
+                          flag, allow_scalar ? "one or " : "", text);
+}
+
+/* "X,Y,Z[:R,G,B]" for --sun and --point. */
+static vdbs_status parse_light(const char *flag, const char *text, double xyz[3], double rgb[3],
+                               vdbs_error *err)
+{
+    char head[256];
+    const char *colon = strchr(text, ':');
+    size_t len = colon ? (size_t)(colon - text) : strlen(text);
+    if (len >= sizeof head)
+        return vdbs_error_set(err, VDBS_ERR_INPUT, "%s: value too long", flag);
+    memcpy(head, text, len);
+    head[len] = '\0';
+    rgb[0] = rgb[1] = rgb[2] = 1.0;
+    if (cli_triple(flag, head, 0, xyz, NULL) != VDBS_OK ||
+        (colon && cli_triple(flag, colon + 1, 1, rgb, NULL) != VDBS_OK))
+        return vdbs_error_set(err, VDBS_ERR_INPUT,
+                              "%s: expected X,Y,Z[:R,G,B] with finite numbers, got '%s'", flag,
+                              text);
+    return VDBS_OK;
+}
+
+vdbs_status cli_build_scene(const cli_args *args, vdbs_scene *scene, int allow_no_lights,
+                            vdbs_error *err)
+{
+    vdbs_status st;
+    vdbs_scene_init(scene);
+    const char *scene_file = cli_value(args, "--scene");
+    if (scene_file && (st = vdbs_scene_load(scene_file, scene, err)) != VDBS_OK)
+        return st;
+    int lights_replaced = 0;
+    for (int i = 0; i < args->count; ++i) {
+        const char *name = args->args[i].option->name;
+        const char *v = args->args[i].value;
+        double x;
+        if (strcmp(name, "--grid") == 0) {
+            st = vdbs_scene_set_grid(scene, v, err);
+        } else if (strcmp(name, "--density-scale") == 0) {
+            st = cli_number(name, v, &x, err);
+            scene->density_scale = x;
+        } else if (strcmp(name, "--albedo") == 0) {
+            st = cli_triple(name, v, 1, scene->albedo, err);
+        } else if (strcmp(name, "--g") == 0) {
+            st = cli_number(name, v, &x, err);
+            scene->g = x;
+        } else if (strcmp(name, "--method") == 0 || strcmp(name, "--quality") == 0) {
+            char *dst = name[2] == 'm' ? scene->method : scene->quality;
+            if (strlen(v) >= sizeof scene->method)
+                return vdbs_error_set(err, VDBS_ERR_INPUT, "%s: unknown value '%s'", name, v);
+            strcpy(dst, v);
+            st = VDBS_OK;
+        } else if (strcmp(name, "--sun") == 0 || strcmp(name, "--point") == 0 ||
+                   strcmp(name, "--env") == 0) {
+            if (!lights_replaced) {
+                scene->light_count = 0;
+                lights_replaced = 1;
+            }
+            if (scene->light_count == VDBS_MAX_LIGHTS)
+                return vdbs_error_set(err, VDBS_ERR_INPUT, "%s: more than %d lights", name,
+                                      VDBS_MAX_LIGHTS);
+            vdbs_light *light = &scene->lights[scene->light_count];
+            memset(light, 0, sizeof *light);
+            light->env_scale = 1.0;
+            if (strcmp(name, "--env") == 0) {
+                light->type = VDBS_LIGHT_ENV;
+                st = cli_triple(name, v, 1, light->color, err);
+            } else if (strcmp(name, "--sun") == 0) {
+                light->type = VDBS_LIGHT_SUN;
+                st = parse_light(name, v, light->direction, light->color, err);
+            } else {
+                light->type = VDBS_LIGHT_POINT;
+                st = parse_light(name, v, light->position, light->color, err);
+            }
+            scene->light_count++;
+        } else {
+            st = VDBS_OK;
+        }
+        if (st != VDBS_OK)
+            return st;
+    }
+    if (scene->light_count == 0 && allow_no_lights)
+        return VDBS_OK;
+    return vdbs_scene_validate(scene, err);
+}
+
+void cli_warn(void *quiet, const char *message)
+{
+    if (quiet && *(const int *)quiet)
+        return;
+    fprintf(stderr, "vdbscatter: warning: %s\n", message);
+}

@@ -1,0 +1,12 @@
+/* The vdbscatter subcommands; each returns the process exit status. */
+#ifndef VDBSCATTER_CLI_COMMANDS_H
+#define VDBSCATTER_CLI_COMMANDS_H
+
+int cmd_info(int argc, char **argv);
+int cmd_sample(int argc, char **argv);
+int cmd_bake(int argc, char **argv);
+
+/* Prints "vdbscatter CMD: message" on stderr and returns the exit status for st. */
+int cli_fail(const char *command, int status, const char *message);
+
+#endif

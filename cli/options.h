@@ -1,0 +1,67 @@
+/* Command-line parsing shared by every vdbscatter command. */
+#ifndef VDBSCATTER_CLI_OPTIONS_H
+#define VDBSCATTER_CLI_OPTIONS_H
+
+#include "vdbscatter/scene.h"
+#include "vdbscatter/status.h"
+
+/* Exit statuses of every command. */
+#define CLI_EXIT_OK 0
+#define CLI_EXIT_FAILURE 1
+#define CLI_EXIT_USAGE 2
+
+typedef enum cli_arg_kind {
+    CLI_FLAG,  /* no value */
+    CLI_VALUE, /* --name VALUE or --name=VALUE */
+} cli_arg_kind;
+
+typedef struct cli_option {
+    const char *name; /* "--sun", "-o" */
+    cli_arg_kind kind;
+} cli_option;
+
+/* One parsed option occurrence, in command-line order. */
+typedef struct cli_arg {
+    const cli_option *option;
+    const char *value; /* NULL for flags */
+} cli_arg;
+
+#define CLI_MAX_ARGS 256
+
+typedef struct cli_args {
+    cli_arg args[CLI_MAX_ARGS];
+    int count;
+    const char *positional[8];
+    int positional_count;
+    int help;
+} cli_args;
+
+/* Splits argv (after the command name) by the option table; unknown options, missing
+ * values and values given to flags are errors naming the option. */
+vdbs_status cli_parse(int argc, char **argv, const cli_option *options, cli_args *out,
+                      vdbs_error *err);
+
+/* Last value given for an option name, or NULL. */
+const char *cli_value(const cli_args *args, const char *name);
+int cli_flag(const cli_args *args, const char *name);
+
+/* Whole-string numbers: finite doubles, integers within [lo, hi]. */
+vdbs_status cli_number(const char *flag, const char *text, double *out, vdbs_error *err);
+vdbs_status cli_integer(const char *flag, const char *text, long lo, long hi, long *out,
+                        vdbs_error *err);
+/* "X,Y,Z" (or one number repeated when allow_scalar). */
+vdbs_status cli_triple(const char *flag, const char *text, int allow_scalar, double out[3],
+                       vdbs_error *err);
+
+/* The scene options shared by bake, render and tradeoff: --scene, --grid,
+ * --density-scale, --albedo, --g, --sun, --point, --env, --method, --quality.
+ * Loads --scene first, then applies the flags in order; light flags replace the scene's
+ * lights. Validates the result (at least one light unless allow_no_lights). */
+extern const cli_option cli_scene_options[];
+vdbs_status cli_build_scene(const cli_args *args, vdbs_scene *scene, int allow_no_lights,
+                            vdbs_error *err);
+
+/* Prints a warning line on stderr ("vdbscatter: warning: ..."); user = quiet flag ptr. */
+void cli_warn(void *quiet, const char *message);
+
+#endif

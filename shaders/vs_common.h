@@ -1,0 +1,134 @@
+/* The common subset of C99 and GLSL 4.50 that every shared kernel is written in.
+ * Include after PNanoVDB.h (with PNANOVDB_C or PNANOVDB_GLSL defined). In GLSL the
+ * buffers named in VS_DATA_PARAM are global SSBOs; in C they are pointer parameters,
+ * so kernel bodies index them with the same text. */
+#ifndef VS_COMMON_H
+#define VS_COMMON_H
+
+#if defined(PNANOVDB_GLSL)
+
+#define VS_FUNC
+#define VS_PRECISE precise
+#define VS_INT(x) int(x)
+#define VS_UINT(x) uint(x)
+#define VS_FLOAT(x) float(x)
+#define vs_vec4 vec4
+#define VS_DATA_PARAM(T, name)
+#define VS_DATA_ARG(name)
+#define vs_floor floor
+#define vs_exp exp
+#define vs_sqrt sqrt
+#define vs_abs abs
+#define vs_min min
+#define vs_max max
+#define vs_pow pow
+
+#else
+
+#include <math.h>
+
+#define VS_FUNC static inline
+#define VS_PRECISE
+#define VS_INT(x) ((int)(x))
+#define VS_UINT(x) ((unsigned)(x))
+#define VS_FLOAT(x) ((float)(x))
+typedef struct vs_vec4 {
+    float x, y, z, w;
+} vs_vec4;
+#define VS_DATA_PARAM(T, name) const T *name,
+#define VS_DATA_ARG(name) name,
+#define vs_floor floorf
+#define vs_exp expf
+#define vs_sqrt sqrtf
+#define vs_abs fabsf
+#define vs_min fminf
+#define vs_max fmaxf
+#define vs_pow powf
+
+#endif
+
+#define VS_PI 3.14159265358979323846f
+#define VS_INV_4PI 0.0795774715459476679f
+/* Larger than any ray parameter in a grid (world units); finite so that products stay finite. */
+#define VS_T_INFINITE 1.0e30f
+
+VS_FUNC pnanovdb_vec3_t vs_vec3(float x, float y, float z)
+{
+    pnanovdb_vec3_t v;
+    v.x = x;
+    v.y = y;
+    v.z = z;
+    return v;
+}
+
+VS_FUNC pnanovdb_vec3_t vs_vec3_scale(pnanovdb_vec3_t a, float s)
+{
+    return vs_vec3(a.x * s, a.y * s, a.z * s);
+}
+
+VS_FUNC pnanovdb_vec3_t vs_vec3_madd(pnanovdb_vec3_t a, pnanovdb_vec3_t d, float t)
+{
+    return vs_vec3(a.x + d.x * t, a.y + d.y * t, a.z + d.z * t);
+}
+
+VS_FUNC float vs_vec3_dot(pnanovdb_vec3_t a, pnanovdb_vec3_t b)
+{
+    return a.x * b.x + a.y * b.y + a.z * b.z;
+}
+
+VS_FUNC pnanovdb_vec3_t vs_vec3_from_vec4(vs_vec4 v)
+{
+    return vs_vec3(v.x, v.y, v.z);
+}
+
+VS_FUNC pnanovdb_coord_t vs_coord(int x, int y, int z)
+{
+    pnanovdb_coord_t c;
+    c.x = x;
+    c.y = y;
+    c.z = z;
+    return c;
+}
+
+/* Optical depth accumulator: double in C; Kahan-compensated float in GLSL (no double
+ * on many GPUs), so that long marches of small increments keep their digits. */
+#if defined(PNANOVDB_GLSL)
+struct vs_accum {
+    float sum;
+    float carry;
+};
+VS_FUNC void vs_accum_init(inout vs_accum a)
+{
+    a.sum = 0.0f;
+    a.carry = 0.0f;
+}
+VS_FUNC void vs_accum_add(inout vs_accum a, float x)
+{
+    precise float y = x - a.carry;
+    precise float t = a.sum + y;
+    a.carry = (t - a.sum) - y;
+    a.sum = t;
+}
+VS_FUNC float vs_accum_value(vs_accum a)
+{
+    return a.sum;
+}
+#else
+typedef struct vs_accum {
+    double sum;
+} vs_accum;
+VS_FUNC void vs_accum_init(vs_accum *a)
+{
+    a->sum = 0.0;
+}
+VS_FUNC void vs_accum_add(vs_accum *a, float x)
+{
+    a->sum += (double)x;
+}
+VS_FUNC float vs_accum_value(vs_accum a)
+{
+    return (float)a.sum;
+}
+#endif
+
+#endif

@@ -1,0 +1,191 @@
+/* Optical depth along a ray through a NanoVDB float density grid, shared by C and GLSL.
+ *
+ * The density is the trilinear interpolant of the voxel-centre values (voxel (i,j,k)
+ * has its centre at index point (i,j,k); inactive voxels are 0). Rays are marched in
+ * index space over the dual lattice whose cells have voxel centres as corners; along a
+ * ray the interpolant inside one cell is a cubic in t, so Simpson's rule on each cell
+ * segment integrates it exactly. Tiles of value 0 higher in the tree are skipped whole:
+ * an empty node covering voxels [b, b+D) makes the interpolant vanish on the closed
+ * box [b, b+D-1] in index space.
+ *
+ * The ray is x(t) = origin + t * dir in index space, where dir is the index-space image
+ * of a unit world-space step, so t is measured in world units (non-uniform and
+ * rotated voxels included).
+ */
+#ifndef VS_MARCH_H
+#define VS_MARCH_H
+
+/* Beyond this optical depth the transmittance is 0 in float: stop marching. */
+#define VS_TAU_LIMIT 100.0f
+/* Guard against a degenerate ray; far more cells than any real ray crosses. */
+#define VS_MARCH_MAX_STEPS 4194304
+
+VS_FUNC float vs_density_voxel(pnanovdb_buf_t buf, PNANOVDB_INOUT(pnanovdb_readaccessor_t) acc,
+                               pnanovdb_coord_t ijk)
+{
+    pnanovdb_address_t address = pnanovdb_readaccessor_get_value_address(
+        PNANOVDB_GRID_TYPE_FLOAT, buf, acc, PNANOVDB_REF(ijk));
+    return pnanovdb_read_float(buf, address);
+}
+
+VS_FUNC pnanovdb_readaccessor_t vs_density_accessor(pnanovdb_buf_t buf)
+{
+    pnanovdb_grid_handle_t grid;
+    grid.address = pnanovdb_address_null();
+    pnanovdb_root_handle_t root = pnanovdb_tree_get_root(buf, pnanovdb_grid_get_tree(buf, grid));
+    pnanovdb_readaccessor_t acc;
+    pnanovdb_readaccessor_init(PNANOVDB_REF(acc), root);
+    return acc;
+}
+
+/* The eight corner values of the dual cell whose lowest corner is voxel c. */
+struct vs_cell {
+    float v000, v100, v010, v110, v001, v101, v011, v111;
+};
+PNANOVDB_STRUCT_TYPEDEF(vs_cell)
+
+VS_FUNC vs_cell vs_cell_fetch(pnanovdb_buf_t buf, PNANOVDB_INOUT(pnanovdb_readaccessor_t) acc,
+                              pnanovdb_coord_t c)
+{
+    vs_cell cell;
+    cell.v000 = vs_density_voxel(buf, acc, vs_coord(c.x, c.y, c.z));
+    cell.v100 = vs_density_voxel(buf, acc, vs_coord(c.x + 1, c.y, c.z));
+    cell.v010 = vs_density_voxel(buf, acc, vs_coord(c.x, c.y + 1, c.z));
+    cell.v110 = vs_density_voxel(buf, acc, vs_coord(c.x + 1, c.y + 1, c.z));
+    cell.v001 = vs_density_voxel(buf, acc, vs_coord(c.x, c.y, c.z + 1));
+    cell.v101 = vs_density_voxel(buf, acc, vs_coord(c.x + 1, c.y, c.z + 1));
+    cell.v011 = vs_density_voxel(buf, acc, vs_coord(c.x, c.y + 1, c.z + 1));
+    cell.v111 = vs_density_voxel(buf, acc, vs_coord(c.x + 1, c.y + 1, c.z + 1));
+    return cell;
+}
+
+/* Trilinear interpolation inside a cell at local coordinates f in [0,1]^3. */
+VS_FUNC float vs_cell_eval(vs_cell cell, pnanovdb_vec3_t f)
+{
+    float x00 = cell.v000 + (cell.v100 - cell.v000) * f.x;
+    float x10 = cell.v010 + (cell.v110 - cell.v010) * f.x;
+    float x01 = cell.v001 + (cell.v101 - cell.v001) * f.x;
+    float x11 = cell.v011 + (cell.v111 - cell.v011) * f.x;
+    float y0 = x00 + (x10 - x00) * f.y;
+    float y1 = x01 + (x11 - x01) * f.y;
+    return y0 + (y1 - y0) * f.z;
+}
+
+/* Interpolated density at an index-space point (for samplers and tests). */
+VS_FUNC float vs_density_at(pnanovdb_buf_t buf, PNANOVDB_INOUT(pnanovdb_readaccessor_t) acc,
+                            pnanovdb_vec3_t p)
+{
+    pnanovdb_coord_t c = vs_coord(VS_INT(vs_floor(p.x)), VS_INT(vs_floor(p.y)),
+                                  VS_INT(vs_floor(p.z)));
+    vs_cell cell = vs_cell_fetch(buf, acc, c);
+    return vs_cell_eval(cell, vs_vec3(p.x - VS_FLOAT(c.x), p.y - VS_FLOAT(c.y),
+                                      p.z - VS_FLOAT(c.z)));
+}
+
+/* Parameter where the ray leaves the box [lo, hi] along axis component (o, d). */
+VS_FUNC float vs_axis_exit(float o, float d, float lo, float hi)
+{
+    if (d > 0.0f)
+        return (hi - o) / d;
+    if (d < 0.0f)
+        return (lo - o) / d;
+    return VS_T_INFINITE;
+}
+
+VS_FUNC float vs_axis_enter(float o, float d, float lo, float hi)
+{
+    if (d > 0.0f)
+        return (lo - o) / d;
+    if (d < 0.0f)
+        return (hi - o) / d;
+    return (o >= lo && o <= hi) ? -VS_T_INFINITE : VS_T_INFINITE;
+}
+
+/* Optical depth sigma_t integrated over t in [0, tmax] from index-space point origin
+ * along dir, sigma_t = density * density_scale. Only the box [box_lo, box_hi] (index
+ * space, the support of the interpolant) is marched. Stops early once the depth passes
+ * VS_TAU_LIMIT (the transmittance is then 0 in float). */
+VS_FUNC float vs_optical_depth(pnanovdb_buf_t buf, PNANOVDB_INOUT(pnanovdb_readaccessor_t) acc,
+                               pnanovdb_vec3_t origin, pnanovdb_vec3_t dir, float tmax,
+                               pnanovdb_vec3_t box_lo, pnanovdb_vec3_t box_hi,
+                               float density_scale)
+{
+    float t0 = vs_max(0.0f, vs_max(vs_axis_enter(origin.x, dir.x, box_lo.x, box_hi.x),
+                                   vs_max(vs_axis_enter(origin.y, dir.y, box_lo.y, box_hi.y),
+                                          vs_axis_enter(origin.z, dir.z, box_lo.z, box_hi.z))));
+    float t1 = vs_min(tmax, vs_min(vs_axis_exit(origin.x, dir.x, box_lo.x, box_hi.x),
+                                   vs_min(vs_axis_exit(origin.y, dir.y, box_lo.y, box_hi.y),
+                                          vs_axis_exit(origin.z, dir.z, box_lo.z, box_hi.z))));
+    vs_accum tau;
+    vs_accum_init(PNANOVDB_REF(tau));
+    if (!(t0 < t1) || density_scale <= 0.0f)
+        return 0.0f;
+    float tau_limit = VS_TAU_LIMIT / density_scale;
+
+    /* Cells are found by probing a thousandth of a voxel ahead, relative to the cell
+     * size rather than to t, so that the probe never lands back in the previous cell. */
+    float dmax = vs_max(vs_abs(dir.x), vs_max(vs_abs(dir.y), vs_abs(dir.z)));
+    float probe = 1.0e-3f / dmax;
+    pnanovdb_vec3_t delta = vs_vec3(dir.x != 0.0f ? vs_abs(1.0f / dir.x) : VS_T_INFINITE,
+                                    dir.y != 0.0f ? vs_abs(1.0f / dir.y) : VS_T_INFINITE,
+                                    dir.z != 0.0f ? vs_abs(1.0f / dir.z) : VS_T_INFINITE);
+    int sx = dir.x > 0.0f ? 1 : (dir.x < 0.0f ? -1 : 0);
+    int sy = dir.y > 0.0f ? 1 : (dir.y < 0.0f ? -1 : 0);
+    int sz = dir.z > 0.0f ? 1 : (dir.z < 0.0f ? -1 : 0);
+
+    float t = t0;
+    pnanovdb_coord_t c = vs_coord(0, 0, 0);
+    pnanovdb_vec3_t next = vs_vec3(0.0f, 0.0f, 0.0f);
+    pnanovdb_bool_t locate = PNANOVDB_TRUE;
+    for (int step = 0; step < VS_MARCH_MAX_STEPS && t < t1; ++step) {
+        if (locate) {
+            pnanovdb_vec3_t q = vs_vec3_madd(origin, dir, t + probe);
+            c = vs_coord(VS_INT(vs_floor(q.x)), VS_INT(vs_floor(q.y)), VS_INT(vs_floor(q.z)));
+            next.x = vs_max(t, vs_axis_exit(origin.x, dir.x, VS_FLOAT(c.x), VS_FLOAT(c.x + 1)));
+            next.y = vs_max(t, vs_axis_exit(origin.y, dir.y, VS_FLOAT(c.y), VS_FLOAT(c.y + 1)));
+            next.z = vs_max(t, vs_axis_exit(origin.z, dir.z, VS_FLOAT(c.z), VS_FLOAT(c.z + 1)));
+            locate = PNANOVDB_FALSE;
+        }
+        int dim = VS_INT(pnanovdb_readaccessor_get_dim(PNANOVDB_GRID_TYPE_FLOAT, buf, acc,
+                                                       PNANOVDB_REF(c)));
+        if (dim > 1 && vs_density_voxel(buf, acc, c) == 0.0f) {
+            int mask = ~(dim - 1);
+            float hi = VS_FLOAT(dim - 1);
+            float bx = VS_FLOAT(c.x & mask), by = VS_FLOAT(c.y & mask), bz = VS_FLOAT(c.z & mask);
+            float t_empty = vs_min(vs_axis_exit(origin.x, dir.x, bx, bx + hi),
+                                   vs_min(vs_axis_exit(origin.y, dir.y, by, by + hi),
+                                          vs_axis_exit(origin.z, dir.z, bz, bz + hi)));
+            if (t_empty > t + probe) {
+                t = t_empty;
+                locate = PNANOVDB_TRUE;
+                continue;
+            }
+        }
+        float t_exit = vs_min(t1, vs_min(next.x, vs_min(next.y, next.z)));
+        if (t_exit > t) {
+            vs_cell cell = vs_cell_fetch(buf, acc, c);
+            pnanovdb_vec3_t local =
+                vs_vec3(origin.x - VS_FLOAT(c.x), origin.y - VS_FLOAT(c.y), origin.z - VS_FLOAT(c.z));
+            float fa = vs_cell_eval(cell, vs_vec3_madd(local, dir, t));
+            float fm = vs_cell_eval(cell, vs_vec3_madd(local, dir, 0.5f * (t + t_exit)));
+            float fb = vs_cell_eval(cell, vs_vec3_madd(local, dir, t_exit));
+            vs_accum_add(PNANOVDB_REF(tau), (t_exit - t) * (fa + 4.0f * fm + fb) * (1.0f / 6.0f));
+            if (vs_accum_value(tau) > tau_limit)
+                break;
+            t = t_exit;
+        }
+        if (next.x <= next.y && next.x <= next.z) {
+            c.x += sx;
+            next.x += delta.x;
+        } else if (next.y <= next.z) {
+            c.y += sy;
+            next.y += delta.y;
+        } else {
+            c.z += sz;
+            next.z += delta.z;
+        }
+    }
+    return vs_accum_value(tau) * density_scale;
+}
+
+#endif

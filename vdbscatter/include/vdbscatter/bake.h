@@ -1,0 +1,54 @@
+/* `bake`: density VDB in, lit VDB out (DESIGN.md "The lit VDB"). */
+#ifndef VDBSCATTER_BAKE_H
+#define VDBSCATTER_BAKE_H
+
+#include "vdbscatter/scene.h"
+#include "vdbscatter/status.h"
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+typedef enum vdbs_backend {
+    VDBS_BACKEND_AUTO = 0, /* a hardware GPU if EGL finds one, else the C path */
+    VDBS_BACKEND_CPU = 1,
+    VDBS_BACKEND_GPU = 2
+} vdbs_backend;
+
+typedef struct vdbs_bake_options {
+    const char *input;  /* density VDB; scene->volume_file when NULL */
+    const char *output; /* lit VDB */
+    const vdbs_scene *scene; /* validated */
+    vdbs_backend backend;
+    int from_levelset;
+    int half;
+    int progress; /* show progress on stderr */
+    vdbs_warn_fn warn;
+    void *warn_user;
+} vdbs_bake_options;
+
+typedef struct vdbs_bake_report {
+    char backend[16];   /* "cpu" or "gpu" */
+    char renderer[256]; /* GL renderer for gpu, "C (OpenMP, N threads)" for cpu */
+    char grid[256];
+    unsigned long long active_voxels;
+    unsigned long long output_voxels;
+    int sky_directions;
+    double seconds_load;
+    double seconds_solve;
+    double seconds_write;
+    double seconds_total;
+    float radiance_max[3]; /* per channel, over output voxels */
+} vdbs_bake_report;
+
+vdbs_status vdbs_bake(const vdbs_bake_options *options, vdbs_bake_report *report,
+                      vdbs_error *err);
+
+/* Parses "auto", "cpu" or "gpu". */
+vdbs_status vdbs_backend_parse(const char *text, vdbs_backend *backend, vdbs_error *err);
+
+#ifdef __cplusplus
+}
+#endif
+
+#endif

@@ -1,0 +1,33 @@
+/* Progress lines on stderr for long work; silent unless enabled (the CLI enables it
+ * only when stderr is a terminal and -q is not given). */
+#ifndef VDBSCATTER_PROGRESS_H
+#define VDBSCATTER_PROGRESS_H
+
+#include <stdint.h>
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+typedef struct vdbs_progress {
+    int enabled;
+    const char *label;
+    uint64_t total;
+    double started;
+    double last_print;
+} vdbs_progress;
+
+/* Monotonic wall-clock seconds. */
+double vdbs_now(void);
+
+void vdbs_progress_begin(vdbs_progress *progress, int enabled, const char *label,
+                         uint64_t total);
+/* Rate-limited to a few updates a second; safe to call often from one thread. */
+void vdbs_progress_update(vdbs_progress *progress, uint64_t done);
+void vdbs_progress_end(vdbs_progress *progress);
+
+#ifdef __cplusplus
+}
+#endif
+
+#endif

@@ -1,0 +1,79 @@
+/* A density volume ready for the solvers: the NanoVDB buffer that C and GLSL read,
+ * its affine transform both ways, and the list of output voxels. */
+#ifndef VDBSCATTER_VOLUME_H
+#define VDBSCATTER_VOLUME_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#include "vdbscatter/status.h"
+#include "vdbscatter/vdbio.h"
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+typedef struct vdbs_volume {
+    vdbio_density *density; /* owned */
+    vdbio_density_info info;
+    uint32_t *nano; /* NanoVDB float grid, owned */
+    size_t nano_size;
+    double index_to_world[3][4];
+    double world_to_index[3][4];
+    double mean_voxel_size; /* mean world length of the three index axes */
+    int32_t *coords;        /* output voxels: active region dilated by one voxel (xyz triples) */
+    size_t coord_count;
+} vdbs_volume;
+
+/* Reads a density grid and prepares it (see vdbio_density_read for the errors). */
+vdbs_status vdbs_volume_load(const char *path, const vdbio_read_options *options,
+                             vdbs_volume *volume, vdbs_error *err);
+
+/* Prepares an already built density grid; takes ownership of it (also on failure). */
+vdbs_status vdbs_volume_from_density(vdbio_density *density, vdbs_volume *volume,
+                                     vdbs_error *err);
+
+void vdbs_volume_free(vdbs_volume *volume);
+
+/* Index-space image of a world-space vector (linear part of the inverse map). */
+void vdbs_volume_index_vector(const vdbs_volume *volume, const double world[3],
+                              double index[3]);
+void vdbs_volume_index_point(const vdbs_volume *volume, const double world[3],
+                             double index[3]);
+void vdbs_volume_world_point(const vdbs_volume *volume, const double index[3],
+                             double world[3]);
+
+/* Index-space box outside which the interpolated density is 0: the active bounding
+ * box grown by one voxel (the trilinear ramp beyond the outermost centres). */
+void vdbs_volume_support_box(const vdbs_volume *volume, float lo[3], float hi[3]);
+
+#ifdef __cplusplus
+}
+#endif
+
+#endif
+
+#ifndef VDBSCATTER_VOLUME_THICKNESS
+#define VDBSCATTER_VOLUME_THICKNESS
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+/* Optical thickness of a volume for a density scale, for `info`: the largest per-voxel
+ * depth (max density * scale * mean voxel size) and the depth of straight rays along
+ * each index axis through a lattice of up to 64 x 64 positions across the bounding box
+ * (mean over rays that meet any density, and max). */
+typedef struct vdbs_thickness {
+    double voxel_max;
+    double axis_mean[3];
+    double axis_max[3];
+    int axis_rays_hit[3];
+} vdbs_thickness;
+
+void vdbs_volume_thickness(const vdbs_volume *volume, double density_scale,
+                           vdbs_thickness *out);
+
+#ifdef __cplusplus
+}
+#endif
+#endif
