@@ -1,0 +1,29 @@
+#!/usr/bin/env bash
+# Installs every Debian 12 package vdbscatter needs to build, test and run.
+# Safe to run again: apt-get skips what is already installed.
+set -euo pipefail
+
+packages=(
+  build-essential cmake pkg-config git
+  libopenvdb-dev libnanovdb-dev libopenvdb-tools python3 python3-openvdb libboost-iostreams-dev
+  libegl-dev libegl-mesa0 libgl1-mesa-dri libgl-dev libepoxy-dev
+  libglfw3-dev xvfb xauth libpng-dev libstb-dev libopenexr-dev openexr
+  liblapacke-dev libopenblas0-pthread libcjson-dev libcmocka-dev
+)
+
+missing=()
+for p in "${packages[@]}"; do
+  dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
+done
+if [ ${#missing[@]} -eq 0 ]; then
+  echo "setup: all ${#packages[@]} packages already installed"
+  exit 0
+fi
+
+SUDO=""
+if [ "$(id -u)" -ne 0 ]; then
+  SUDO="sudo"
+fi
+echo "setup: installing ${missing[*]}"
+$SUDO env DEBIAN_FRONTEND=noninteractive apt-get update -qq
+$SUDO env DEBIAN_FRONTEND=noninteractive apt-get install -y -qq --no-install-recommends "${missing[@]}"

@@ -1,0 +1,347 @@
+#!/usr/bin/python3
+"""The vdbscatter command as a pipeline meets it: help, flags, bad input (one line,
+exit 2, no output file), every real file in the shared data folder, and output that
+OpenVDB's own tools (vdb_print, pyopenvdb) read back."""
+import json
+import math
+import os
+import shutil
+import subprocess
+import tempfile
+import unittest
+
+import pyopenvdb as vdb
+
+EXE = os.environ["VDBSCATTER"]
+DATA = os.environ["VDBSCATTER_DATA_DIR"]
+SAMPLES = os.environ["VDBSCATTER_SAMPLES_DIR"]
+PI = math.pi
+
+
+def run(*args, check=None):
+    p = subprocess.run([EXE, *map(str, args)], capture_output=True, text=True, timeout=600)
+    if check is not None and p.returncode != check:
+        raise AssertionError(f"{args}: exit {p.returncode}, stderr: {p.stderr}")
+    return p
+
+
+def component_range(grid):
+    """Smallest and largest component over the active values of a vec3 grid."""
+    lo, hi = math.inf, -math.inf
+    for item in grid.citerOnValues():
+        lo = min(lo, *item.value)
+        hi = max(hi, *item.value)
+    return lo, hi
+
+
+def data(name):
+    return os.path.join(DATA, name)
+
+
+class Base(unittest.TestCase):
+    def setUp(self):
+        self.dir = tempfile.mkdtemp(prefix="vdbscatter-test-", dir=os.environ.get("VDBSCATTER_TMP"))
+
+    def tearDown(self):
+        shutil.rmtree(self.dir, ignore_errors=True)
+
+    def path(self, name):
+        return os.path.join(self.dir, name)
+
+    def assert_bad_input(self, args, needle, output="out.vdb"):
+        """Exit 2, one line on stderr containing needle, no output file or temp file left."""
+        p = run(*args)
+        self.assertEqual(p.returncode, 2, f"{args}: {p.stderr}")
+        lines = [l for l in p.stderr.splitlines() if l.strip()]
+        errors = [l for l in lines if "warning" not in l]
+        self.assertEqual(len(errors), 1, f"{args}: expected one error line, got {p.stderr!r}")
+        self.assertIn(needle.lower(), errors[0].lower(), f"{args}")
+        if output:
+            self.assertFalse(os.path.exists(self.path(output)), f"{args} left {output}")
+        self.assertEqual([f for f in os.listdir(self.dir) if "tmp" in f], [], f"{args} left a temp file")
+        return errors[0]
+
+    def bake(self, src, *extra, out="lit.vdb"):
+        out_path = self.path(out)
+        p = run("bake", src, "-o", out_path, *extra, check=0)
+        return out_path, p
+
+
+class HelpAndFlags(Base):
+    def test_help_every_command(self):
+        for cmd in ["bake", "info", "sample"]:
+            p = run(cmd, "--help", check=0)
+            self.assertIn("usage: vdbscatter " + cmd, p.stdout)
+        self.assertIn("commands:", run("--help", check=0).stdout)
+        self.assertEqual(run().returncode, 2)
+        self.assertEqual(run("frobnicate").returncode, 2)
+
+    def test_unknown_and_malformed_flags(self):
+        src = data("wdas_cloud_sixteenth.vdb")
+        out = self.path("out.vdb")
+        base = ["bake", src, "-o", out, "--sun", "0,-1,0"]
+        cases = [
+            (base + ["--frobnicate"], "--frobnicate"),
+            (base + ["--density-scale", "abc"], "--density-scale"),
+            (base + ["--density-scale", "1e999"], "--density-scale"),
+            (base + ["--density-scale=-1"], "density"),
+            (base + ["--g", "nan"], "--g"),
+            (base + ["--g", "1"], "g"),
+            (base + ["--albedo", "1,2"], "--albedo"),
+            (base + ["--albedo", "1.5"], "albedo"),
+            (["bake", src, "-o", out, "--sun", "1,2"], "--sun"),
+            (["bake", src, "-o", out, "--sun", "0,-1,0:1,x,1"], "--sun"),
+            (["bake", src, "-o", out, "--sun", "0,0,0"], "sun"),
+            (["bake", src, "-o", out, "--point", "1,2,3:"], "--point"),
+            (["bake", src, "-o", out], "light"),
+            (base + ["--backend", "tpu"], "--backend"),
+            (base + ["--quality", "extreme"], "quality"),
+            (base + ["--method", "pop"], "pop"),
+            (base + ["--scene"], "--scene"),
+            (base + ["--half=1"], "--half"),
+            (["bake", src, "--sun", "0,-1,0"], "-o"),
+            (["sample", "cloud", "-o", out, "--res", "0"], "--res"),
+            (["sample", "cloud", "-o", out, "--res", "12x"], "--res"),
+            (["sample", "teapot", "-o", out], "teapot"),
+        ]
+        for args, needle in cases:
+            with self.subTest(args=args):
+                self.assert_bad_input(args, needle)
+
+    def test_flag_equals_form(self):
+        a, _ = self.bake(data("usd_densityAndHeat.vdb"), "--sun", "0,-1,0:2,2,2", "--density-scale", "3", out="a.vdb")
+        b, _ = self.bake(data("usd_densityAndHeat.vdb"), "--sun=0,-1,0:2,2,2", "--density-scale=3", out="b.vdb")
+        ga = vdb.read(a, "radiance")
+        gb = vdb.read(b, "radiance")
+        self.assertEqual(ga.activeVoxelCount(), gb.activeVoxelCount())
+        acc_b = gb.getConstAccessor()
+        for value in list(ga.citerOnValues())[:2000]:
+            self.assertEqual(acc_b.getValue(value.min), value.value)
+
+    def test_scene_file_and_overrides(self):
+        scene = {
+            "volume": {"file": data("usd_densityAndHeat.vdb"), "density_scale": 2.0, "albedo": 0.9},
+            "lights": [{"type": "sun", "direction": [0, -1, 0], "irradiance": [1, 1, 1]}],
+        }
+        sp = self.path("scene.json")
+        with open(sp, "w") as f:
+            json.dump(scene, f)
+        out = self.path("lit.vdb")
+        p = run("bake", "--scene", sp, "-o", out, "--json", check=0)
+        report = json.loads(p.stdout)
+        self.assertEqual(report["scene"]["volume"]["density_scale"], 2.0)
+        p = run("bake", "--scene", sp, "-o", out, "--density-scale", "5", "--env", "0.1,0.1,0.1", "--json", check=0)
+        report = json.loads(p.stdout)
+        self.assertEqual(report["scene"]["volume"]["density_scale"], 5.0)
+        self.assertEqual([l["type"] for l in report["scene"]["lights"]], ["env"])
+        with open(sp, "w") as f:
+            f.write('{"volume": {"density_scale": 2.0,}')
+        self.assert_bad_input(["bake", "--scene", sp, "-o", out + "2"], "scene", output="lit.vdb2")
+        with open(sp, "w") as f:
+            json.dump({"volume": {"densty_scale": 1}}, f)
+        self.assert_bad_input(["bake", data("usd_densityAndHeat.vdb"), "--scene", sp, "-o", self.path("x.vdb"), "--sun", "0,-1,0"], "densty_scale", output="x.vdb")
+
+
+class BadFiles(Base):
+    def bake_args(self, src, *extra):
+        return ["bake", src, "-o", self.path("out.vdb"), "--sun", "0,-1,0", *extra]
+
+    def test_missing_foreign_truncated(self):
+        self.assert_bad_input(self.bake_args(self.path("nope.vdb")), "nope.vdb")
+        text = self.path("notes.vdb")
+        with open(text, "w") as f:
+            f.write("this is not a volume\n" * 100)
+        self.assert_bad_input(self.bake_args(text), "notes.vdb")
+        src = data("wdas_cloud_sixteenth.vdb")
+        for fraction in [0.02, 0.5, 0.97]:
+            cut = self.path(f"cut{fraction}.vdb")
+            with open(src, "rb") as f:
+                blob = f.read()
+            with open(cut, "wb") as f:
+                f.write(blob[: int(len(blob) * fraction)])
+            with self.subTest(fraction=fraction):
+                self.assert_bad_input(self.bake_args(cut), "cut")
+
+    def test_grid_problems(self):
+        line = self.assert_bad_input(self.bake_args(data("usd_smoke_000001.vdb")), "empty")
+        self.assertIn("density", line)
+        line = self.assert_bad_input(self.bake_args(data("usd_densityAndHeat.vdb"), "--grid", "smoke"), "smoke")
+        self.assertIn("heat", line)  # lists the grids that exist
+        self.assert_bad_input(self.bake_args(data("usd_smoke_000001.vdb"), "--grid", "obstacles"), "int32")
+        self.assert_bad_input(self.bake_args(data("usd_smoke_000001.vdb"), "--grid", "velocity"), "vec3s")
+        self.assert_bad_input(self.bake_args(data("openvdb_sphere_ls.vdb")), "--from-levelset")
+        self.assert_bad_input(self.bake_args(data("arnold_3density_grids.vdb"), "--grid", "density@3"), "density")
+        self.assert_bad_input(self.bake_args(data("arnold_3density_grids.vdb"), "--grid", "density@x"), "density@x")
+
+    def test_bad_values(self):
+        for name, bad, needle in [("nan", float("nan"), "nan"), ("neg", -0.5, "negative"), ("inf", float("inf"), "inf")]:
+            grid = vdb.FloatGrid()
+            grid.name = "density"
+            acc = grid.getAccessor()
+            for i in range(4):
+                for j in range(4):
+                    for k in range(4):
+                        acc.setValueOn((i, j, k), 0.5)
+            acc.setValueOn((2, 1, 3), bad)
+            acc.setValueOn((3, 3, 3), bad)
+            src = self.path(f"{name}.vdb")
+            vdb.write(src, grids=[grid])
+            with self.subTest(name=name):
+                line = self.assert_bad_input(self.bake_args(src), needle)
+                self.assertIn("2", line)  # how many
+
+    def test_output_equal_to_input(self):
+        src = self.path("in.vdb")
+        shutil.copy(data("usd_densityAndHeat.vdb"), src)
+        before = os.path.getsize(src)
+        p = run("bake", src, "-o", src, "--sun", "0,-1,0")
+        self.assertEqual(p.returncode, 2)
+        self.assertEqual(os.path.getsize(src), before)
+        self.assertEqual(len(p.stderr.strip().splitlines()), 1)
+
+
+class RealFiles(Base):
+    def read_meta(self, path):
+        return vdb.readAllGridMetadata(path)
+
+    def check_lit(self, path, src_voxels=None):
+        names = {g.name for g in vdb.readAllGridMetadata(path)}
+        self.assertTrue({"density", "radiance", "ms", "ms_l1x", "ms_l1y", "ms_l1z"} <= names, names)
+        self.assertEqual(subprocess.run(["vdb_print", path], capture_output=True).returncode, 0)
+        radiance = vdb.read(path, "radiance")
+        density = vdb.read(path, "density")
+        if src_voxels is not None:
+            self.assertEqual(density.activeVoxelCount(), src_voxels)
+        self.assertGreater(radiance.activeVoxelCount(), density.activeVoxelCount())
+        lo, hi = component_range(radiance)
+        self.assertTrue(math.isfinite(hi) and lo >= 0, (lo, hi))
+        return radiance
+
+    def test_clouds_and_smokes(self):
+        for name, scale in [("wdas_cloud_sixteenth.vdb", 1.0), ("openvdb_smoke1.vdb", 2.0),
+                            ("usd_smoke_000002.vdb", 2.0), ("usd_densityAndHeat.vdb", 1.0),
+                            ("plasma_blender_fluid_0001_multigrid.vdb", 1.0)]:
+            with self.subTest(name=name):
+                out, p = self.bake(data(name), "--sun", "0.3,-1,0.2:3,3,3", "--density-scale", scale, "-q", out=name)
+                self.assertEqual(p.stderr, "")
+                r = self.check_lit(out)
+                # S1 never exceeds the unattenuated light: E / 4pi
+                self.assertLessEqual(component_range(r)[1], 3.0 / (4 * PI) * (1 + 1e-6))
+                meta = vdb.readAllGridMetadata(out)[0]
+                scene = json.loads(meta["vdbscatter_scene"])
+                self.assertEqual(scene["volume"]["density_scale"], scale)
+                self.assertEqual(meta["vdbscatter_method"], "single")
+
+    def test_double_grid(self):
+        out, _ = self.bake(data("smoke_double_128x64x64.vdb"), "--sun", "0,-1,0", "--quality", "low", "-q")
+        self.check_lit(out, src_voxels=524288)
+
+    def test_duplicate_names(self):
+        out, p = self.bake(data("arnold_3density_grids.vdb"), "--sun", "0,-1,0", out="a0.vdb")
+        self.assertIn("density@1", p.stderr)
+        self.assertIn("warning", p.stderr)
+        first = vdb.read(out, "density")
+        out1, _ = self.bake(data("arnold_3density_grids.vdb"), "--sun", "0,-1,0", "--grid", "density@1", "-q", out="a1.vdb")
+        second = vdb.read(out1, "density")
+        a = sorted((v.min, v.value) for v in first.citerOnValues())
+        b = sorted((v.min, v.value) for v in second.citerOnValues())
+        self.assertNotEqual(a, b)
+
+    def test_background_and_tiles(self):
+        out, p = self.bake(data("vpt_box.vdb"), "--sun", "0,-1,0", "--density-scale", "2")
+        self.assertIn("background", p.stderr)
+        density = vdb.read(out, "density")
+        self.assertEqual(density.background, 0.0)
+        self.assertEqual(density.activeVoxelCount(), 9261)
+        radiance = vdb.read(out, "radiance")
+        self.assertEqual(radiance.activeVoxelCount(), 23 ** 3)  # 21^3 dilated by one
+        # top face of a homogeneous box under a normal sun: half a voxel of depth
+        h = density.transform.voxelSize()[1]
+        top = radiance.getConstAccessor().getValue((0, 10, 0))
+        self.assertAlmostEqual(top[0], math.exp(-0.5 * h * 2.0) / (4 * PI), delta=1e-3 * top[0])
+
+    def test_rotated_transform_carried(self):
+        src = data("vpt_dragon_with_xform.vdb")
+        out, _ = self.bake(src, "--sun", "0,-1,0", "-q")
+        gin = vdb.read(src, "density")
+        for grid in ["density", "radiance"]:
+            g = vdb.read(out, grid)
+            for ijk in [(0, 0, 0), (1, 0, 0), (0, 1, 0), (0, 0, 1), (-70, 99, 31)]:
+                a = gin.transform.indexToWorld(ijk)
+                b = g.transform.indexToWorld(ijk)
+                for x, y in zip(a, b):
+                    self.assertAlmostEqual(x, y, places=12)
+
+    def test_levelset_conversion(self):
+        out, _ = self.bake(data("openvdb_sphere_ls.vdb"), "--from-levelset", "--sun", "0,-1,0", "-q")
+        d = vdb.read(out, "density")
+        lo, hi = d.evalMinMax()
+        self.assertGreaterEqual(lo, 0.0)
+        self.assertLessEqual(hi, 1.0)
+        self.assertGreater(d.activeVoxelCount(), 100000)
+
+    def test_half_report_and_json(self):
+        rp = self.path("report.json")
+        out, p = self.bake(data("usd_densityAndHeat.vdb"), "--sun", "0,-1,0:1e6,1e6,1e6", "--half",
+                           "--report", rp, "--json")
+        self.assertIn("65504", p.stderr)
+        report = json.loads(p.stdout)
+        with open(rp) as f:
+            self.assertEqual(json.load(f)["grids"], report["grids"])
+        for stage in ["load", "solve", "write", "total"]:
+            self.assertGreaterEqual(report["seconds"][stage], 0.0)
+        self.assertEqual(report["backend"], "cpu")
+        r = vdb.read(out, "radiance")
+        self.assertLessEqual(component_range(r)[1], 65504.0)
+
+
+class Samples(Base):
+    def test_every_sample(self):
+        for name in ["cloud", "smoke", "sphere", "slab", "cube"]:
+            out = self.path(name + ".vdb")
+            run("sample", name, "-o", out, "--res", "24", check=0)
+            self.assertEqual(subprocess.run(["vdb_print", out], capture_output=True).returncode, 0)
+            info = json.loads(run("info", out, "--json", check=0).stdout)
+            g = info["grids"][0]
+            self.assertEqual(g["name"], "density")
+            self.assertAlmostEqual(g["voxel_size"][0], 2 / 24, places=12)
+
+    def test_sphere_round_trip(self):
+        res = 20
+        out = self.path("sphere.vdb")
+        run("sample", "sphere", "-o", out, "--res", res, check=0)
+        g = vdb.read(out, "density")
+        h = 2.0 / res
+        expected = set()
+        for i in range(res):
+            for j in range(res):
+                for k in range(res):
+                    x, y, z = (-1 + (c + 0.5) * h for c in (i, j, k))
+                    if x * x + y * y + z * z <= 0.8 * 0.8:
+                        expected.add((i, j, k))
+        got = {v.min for v in g.citerOnValues()}
+        self.assertEqual(got, expected)
+        self.assertTrue(all(v.value == 1.0 for v in g.citerOnValues()))
+        for ijk in [(0, 0, 0), (3, 5, 7)]:
+            w = g.transform.indexToWorld(ijk)
+            for c, x in zip(ijk, w):
+                self.assertAlmostEqual(x, -1 + (c + 0.5) * h, places=12)
+
+    def test_info_thickness(self):
+        out = self.path("slab.vdb")
+        run("sample", "slab", "-o", out, "--res", "32", check=0)
+        info = json.loads(run("info", out, "--json", "--density-scale", "4", check=0).stdout)
+        t = info["optical_thickness"]
+        # 8 rows of voxels |y| <= 0.25 -> interpolant support spans 8 voxels in y: tau = 4 * 8 h
+        self.assertAlmostEqual(t["axis_max"][1], 4 * 8 * (2 / 32), delta=1e-4)
+        self.assertAlmostEqual(t["voxel_max"], 4 * (2 / 32), delta=1e-9)
+
+    def test_info_gpu(self):
+        p = run("info", "--gpu", "--json", check=0)
+        gpu = json.loads(p.stdout)["gpu"]
+        self.assertTrue(gpu["available"])
+        self.assertRegex(gpu["version"], r"^4\.[3-6]")
+
+
+if __name__ == "__main__":
+    unittest.main(verbosity=2)
