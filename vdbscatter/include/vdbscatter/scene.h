@@ -23,16 +23,17 @@ typedef struct vdbs_light {
     double direction[3]; /* sun: unit direction in which the light travels */
     double position[3];  /* point: world position */
     double color[3];     /* sun: irradiance W/m^2; point: intensity W/sr; env: constant radiance */
-    double angular_diameter_deg; /* sun; 0 = delta light */
+    double angular_diameter_deg;  /* sun; 0 = delta light */
     char env_file[VDBS_PATH_MAX]; /* env: lat-long OpenEXR (resolved path), "" for constant */
-    double env_scale;             /* env: multiplier of the map */
+    double env_scale;             /* env: multiplier of the map (1 for a constant env) */
+    /* Fields a light type does not use are 0, except color = 1 for an env map. */
 } vdbs_light;
 
 typedef struct vdbs_camera {
     int present;
     double position[3];
     double target[3];
-    double up[3]; /* default +Y */
+    double up[3];   /* default +Y */
     double fov_deg; /* vertical field of view */
     int width;
     int height;
@@ -58,23 +59,34 @@ void vdbs_scene_init(vdbs_scene *scene);
 
 /* Parses scene JSON. Relative paths are resolved against base_dir (may be NULL).
  * Unknown keys are errors (a typo must not be silently ignored). Every error names
- * the offending key, e.g. "scene: lights[1].direction: expected 3 finite numbers". */
+ * the offending key, e.g. "scene: lights[1].direction: expected 3 finite numbers".
+ * The scene starts from vdbs_scene_init; keys not given keep those defaults. On error
+ * *scene is left untouched. Ranges are checked by vdbs_scene_validate, not here.
+ * Per light type: sun {direction (required), irradiance = 1, angular_diameter_deg = 0},
+ * point {position (required), intensity = 1}, env {color | file [, scale = 1]}; a camera
+ * needs position and target. Colours and albedo take one number or three. */
 vdbs_status vdbs_scene_parse(const char *json_text, const char *base_dir, vdbs_scene *scene,
                              vdbs_error *err);
 
-/* Reads and parses a scene file (base_dir = the file's folder). */
+/* Reads and parses a scene file (base_dir = the file's folder). Errors, including a
+ * missing or unreadable file, are VDBS_ERR_INPUT and start with "scene FILE: ". */
 vdbs_status vdbs_scene_load(const char *path, vdbs_scene *scene, vdbs_error *err);
 
-/* Serialises the resolved scene as JSON (malloc'd string; free with free()).
- * vdbs_scene_parse of the result gives back the same scene. */
+/* Serialises the resolved scene as JSON (malloc'd string; free with free(); NULL when
+ * out of memory). vdbs_scene_parse of the result with base_dir NULL gives back the same
+ * scene, bit for bit (paths are already resolved; an absent camera is not written). */
 char *vdbs_scene_to_json(const vdbs_scene *scene);
 
 /* Checks ranges: finite values, density_scale >= 0, albedo in [0,1], g in (-1,1)
  * (|g| <= 0.999), non-zero sun directions (normalised in place), non-negative colours,
- * at least one light, camera fov in (0,180) and positive size. */
+ * at least one light, camera fov in (0,180) and positive size. Also: width and height
+ * at most 16384, target != position, up not parallel to the view direction, sun
+ * angular_diameter_deg in [0,180), env scale >= 0, a known method and quality. Errors
+ * name the key path ("scene: volume.g: ..."); on error nothing is normalised. */
 vdbs_status vdbs_scene_validate(vdbs_scene *scene, vdbs_error *err);
 
-/* Parses "NAME" or "NAME@INDEX" into scene->grid / scene->grid_index. */
+/* Parses "NAME" or "NAME@INDEX" (split at the last '@'; INDEX decimal digits) into
+ * scene->grid / scene->grid_index. A bad spec leaves the scene unchanged. */
 vdbs_status vdbs_scene_set_grid(vdbs_scene *scene, const char *spec, vdbs_error *err);
 
 /* Number of sky quadrature directions for a quality name, or 0 if unknown. */

@@ -1,0 +1,541 @@
+/* Scene files: parsing of the DESIGN.md shape, path resolution, every error class with
+ * its key path, validation ranges, and the to_json round trip. */
+#include "testutil.h"
+
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "vdbscatter/scene.h"
+
+/* The DESIGN.md sketch, extended with every light type and every optional key. */
+static const char *const sketch =
+    "{ \"volume\": {\"file\": \"cloud.vdb\", \"grid\": \"density\", \"density_scale\": 20.0,\n"
+    "              \"albedo\": [0.99, 0.99, 0.99], \"g\": 0.85},\n"
+    "  \"lights\": [ {\"type\": \"sun\", \"direction\": [0.3, -1, 0.2], \"irradiance\": [3, 3, "
+    "3], \"angular_diameter_deg\": 0},\n"
+    "              {\"type\": \"point\", \"position\": [0,1,0], \"intensity\": [5,5,5]},\n"
+    "              {\"type\": \"env\", \"color\": [0.2, 0.3, 0.5]},\n"
+    "              {\"type\": \"env\", \"file\": \"sky.exr\", \"scale\": 1.0} ],\n"
+    "  \"camera\": {\"position\": [0, 1, 6], \"target\": [0, 0, 0], \"fov_deg\": 35, \"width\": "
+    "640, \"height\": 480, \"up\": [0,1,0]},\n"
+    "  \"solver\": {\"method\": \"pop\", \"quality\": \"medium\"} }\n";
+
+static vdbs_scene *new_scene(void)
+{
+    vdbs_scene *s = malloc(sizeof *s);
+    assert_non_null(s);
+    vdbs_scene_init(s);
+    return s;
+}
+
+static void assert_vec3(const double v[3], double x, double y, double z)
+{
+    assert_true(v[0] == x && v[1] == y && v[2] == z);
+}
+
+static void assert_contains(const char *haystack, const char *needle)
+{
+    if (!strstr(haystack, needle))
+        fail_msg("message \"%s\" does not contain \"%s\"", haystack, needle);
+}
+
+static void test_design_sketch(void **state)
+{
+    (void)state;
+    vdbs_scene *s = new_scene();
+    vdbs_error err = {{0}};
+    assert_int_equal(vdbs_scene_parse(sketch, "/data/scenes", s, &err), VDBS_OK);
+
+    assert_string_equal(s->volume_file, "/data/scenes/cloud.vdb");
+    assert_string_equal(s->grid, "density");
+    assert_int_equal(s->grid_index, 0);
+    assert_true(s->density_scale == 20.0);
+    assert_vec3(s->albedo, 0.99, 0.99, 0.99);
+    assert_true(s->g == 0.85);
+
+    assert_int_equal(s->light_count, 4);
+    assert_int_equal(s->lights[0].type, VDBS_LIGHT_SUN);
+    assert_vec3(s->lights[0].direction, 0.3, -1.0, 0.2);
+    assert_vec3(s->lights[0].color, 3.0, 3.0, 3.0);
+    assert_true(s->lights[0].angular_diameter_deg == 0.0);
+    assert_int_equal(s->lights[1].type, VDBS_LIGHT_POINT);
+    assert_vec3(s->lights[1].position, 0.0, 1.0, 0.0);
+    assert_vec3(s->lights[1].color, 5.0, 5.0, 5.0);
+    assert_int_equal(s->lights[2].type, VDBS_LIGHT_ENV);
+    assert_string_equal(s->lights[2].env_file, "");
+    assert_vec3(s->lights[2].color, 0.2, 0.3, 0.5);
+    assert_int_equal(s->lights[3].type, VDBS_LIGHT_ENV);
+    assert_string_equal(s->lights[3].env_file, "/data/scenes/sky.exr");
+    assert_true(s->lights[3].env_scale == 1.0);
+
+    assert_int_equal(s->camera.present, 1);
+    assert_vec3(s->camera.position, 0.0, 1.0, 6.0);
+    assert_vec3(s->camera.target, 0.0, 0.0, 0.0);
+    assert_vec3(s->camera.up, 0.0, 1.0, 0.0);
+    assert_true(s->camera.fov_deg == 35.0);
+    assert_int_equal(s->camera.width, 640);
+    assert_int_equal(s->camera.height, 480);
+    assert_string_equal(s->method, "pop");
+    assert_string_equal(s->quality, "medium");
+
+    /* validate normalises the sun direction in place and changes nothing else */
+    assert_int_equal(vdbs_scene_validate(s, &err), VDBS_OK);
+    const double *d = s->lights[0].direction;
+    double len = sqrt(0.3 * 0.3 + 1.0 + 0.2 * 0.2);
+    assert_true(fabs(d[0] - 0.3 / len) < 1e-15);
+    assert_true(fabs(d[1] + 1.0 / len) < 1e-15);
+    assert_true(fabs(d[2] - 0.2 / len) < 1e-15);
+    assert_true(fabs(d[0] * d[0] + d[1] * d[1] + d[2] * d[2] - 1.0) < 1e-15);
+    assert_vec3(s->lights[1].position, 0.0, 1.0, 0.0);
+    free(s);
+}
+
+static void test_defaults_and_scalars(void **state)
+{
+    (void)state;
+    vdbs_scene *s = new_scene();
+    vdbs_error err = {{0}};
+    assert_int_equal(vdbs_scene_parse("{}", NULL, s, &err), VDBS_OK);
+    /* Cycles' Principled Volume defaults */
+    assert_true(s->density_scale == 1.0);
+    assert_vec3(s->albedo, 0.5, 0.5, 0.5);
+    assert_true(s->g == 0.0);
+    assert_string_equal(s->method, "single");
+    assert_string_equal(s->quality, "medium");
+    assert_string_equal(s->volume_file, "");
+    assert_string_equal(s->grid, "");
+    assert_int_equal(s->light_count, 0);
+    assert_int_equal(s->camera.present, 0);
+
+    /* a single number stands for all three components of albedo and colours */
+    assert_int_equal(
+        vdbs_scene_parse("{\"volume\": {\"albedo\": 0.7}, \"lights\": [{\"type\": \"sun\", "
+                         "\"direction\": [0,-1,0], \"irradiance\": 2}, {\"type\": \"env\", "
+                         "\"color\": 0.25}, {\"type\": \"point\", \"position\": [1,2,3]}]}",
+                         NULL, s, &err),
+        VDBS_OK);
+    assert_vec3(s->albedo, 0.7, 0.7, 0.7);
+    assert_vec3(s->lights[0].color, 2.0, 2.0, 2.0);
+    assert_vec3(s->lights[1].color, 0.25, 0.25, 0.25);
+    assert_vec3(s->lights[2].color, 1.0, 1.0, 1.0); /* default intensity */
+
+    /* a camera needs only position and target */
+    assert_int_equal(vdbs_scene_parse("{\"camera\": {\"position\": [0,0,5], \"target\": [0,0,0]}}",
+                                      NULL, s, &err),
+                     VDBS_OK);
+    assert_int_equal(s->camera.present, 1);
+    assert_vec3(s->camera.up, 0.0, 1.0, 0.0);
+    assert_true(s->camera.fov_deg > 0.0 && s->camera.width > 0 && s->camera.height > 0);
+    free(s);
+}
+
+static void test_relative_paths(void **state)
+{
+    (void)state;
+    vdbs_scene *s = new_scene();
+    vdbs_error err = {{0}};
+    const char *json = "{\"volume\": {\"file\": \"vols/cloud.vdb\"}, \"lights\": [{\"type\": "
+                       "\"env\", \"file\": \"sky.exr\", \"scale\": 2}]}";
+    assert_int_equal(vdbs_scene_parse(json, "scenes", s, &err), VDBS_OK);
+    assert_string_equal(s->volume_file, "scenes/vols/cloud.vdb");
+    assert_string_equal(s->lights[0].env_file, "scenes/sky.exr");
+    assert_true(s->lights[0].env_scale == 2.0);
+    assert_int_equal(vdbs_scene_parse(json, "/a/b/", s, &err), VDBS_OK);
+    assert_string_equal(s->volume_file, "/a/b/vols/cloud.vdb");
+    assert_int_equal(vdbs_scene_parse(json, NULL, s, &err), VDBS_OK);
+    assert_string_equal(s->volume_file, "vols/cloud.vdb");
+    assert_int_equal(vdbs_scene_parse(json, "", s, &err), VDBS_OK);
+    assert_string_equal(s->volume_file, "vols/cloud.vdb");
+    /* absolute paths are kept */
+    assert_int_equal(
+        vdbs_scene_parse("{\"volume\": {\"file\": \"/abs/cloud.vdb\"}}", "scenes", s, &err),
+        VDBS_OK);
+    assert_string_equal(s->volume_file, "/abs/cloud.vdb");
+    free(s);
+}
+
+static void test_load(void **state)
+{
+    (void)state;
+    vdbs_scene *s = new_scene();
+    vdbs_error err = {{0}};
+    char expected[4096];
+    const char *path = test_tmp_path("test_scene_load.json");
+    FILE *f = fopen(path, "w");
+    assert_non_null(f);
+    fputs(sketch, f);
+    fclose(f);
+    assert_int_equal(vdbs_scene_load(path, s, &err), VDBS_OK);
+    snprintf(expected, sizeof expected, "%s", test_tmp_path("cloud.vdb"));
+    assert_string_equal(s->volume_file, expected);
+    assert_int_equal(s->light_count, 4);
+
+    /* errors in a file name the file */
+    f = fopen(path, "w");
+    assert_non_null(f);
+    fputs("{\"volume\": {\"g\": true}}", f);
+    fclose(f);
+    assert_int_equal(vdbs_scene_load(path, s, &err), VDBS_ERR_INPUT);
+    snprintf(expected, sizeof expected, "scene %s: volume.g: ", path);
+    assert_contains(err.message, expected);
+
+    const char *missing = test_tmp_path("no_such_scene.json");
+    assert_int_equal(vdbs_scene_load(missing, s, &err), VDBS_ERR_INPUT);
+    snprintf(expected, sizeof expected, "scene %s: ", missing);
+    assert_contains(err.message, expected);
+
+    /* a directory opens but cannot be read */
+    assert_int_equal(vdbs_scene_load(test_tmp_path(""), s, &err), VDBS_ERR_INPUT);
+    assert_contains(err.message, "scene ");
+    free(s);
+}
+
+typedef struct error_case {
+    const char *json;
+    const char *message; /* expected part of the message */
+} error_case;
+
+static const char *const sun = "{\"type\": \"sun\", \"direction\": [0,-1,0]}";
+
+static void test_parse_errors(void **state)
+{
+    (void)state;
+    char irradance[512];
+    snprintf(irradance, sizeof irradance,
+             "{\"lights\": [%s, {\"type\": \"sun\", \"direction\": [0,-1,0], \"irradance\": "
+             "[1,1,1]}]}",
+             sun);
+    const error_case cases[] = {
+        /* unknown keys, at every level */
+        {irradance, "scene: lights[1]: unknown key \"irradance\""},
+        {"{\"volum\": {}}", "scene: unknown key \"volum\""},
+        {"{\"volume\": {\"density\": 1}}", "scene: volume: unknown key \"density\""},
+        {"{\"camera\": {\"position\": [0,0,1], \"target\": [0,0,0], \"fov\": 30}}",
+         "scene: camera: unknown key \"fov\""},
+        {"{\"solver\": {\"methd\": \"pop\"}}", "scene: solver: unknown key \"methd\""},
+        {"{\"lights\": [{\"type\": \"sun\", \"direction\": [0,-1,0], \"position\": [0,0,0]}]}",
+         "scene: lights[0]: unknown key \"position\""},
+        {"{\"volume\": {\"g\": 0.1, \"g\": 0.2}}", "scene: volume: duplicate key \"g\""},
+        /* keys are case-sensitive */
+        {"{\"Volume\": {}}", "scene: unknown key \"Volume\""},
+        /* wrong types */
+        {"{\"volume\": {\"g\": \"0.5\"}}", "scene: volume.g: expected a number, got a string"},
+        {"{\"volume\": {\"density_scale\": null}}", "scene: volume.density_scale: expected"},
+        {"{\"volume\": {\"albedo\": [1, 1]}}", "scene: volume.albedo: expected"},
+        {"{\"volume\": {\"albedo\": [1, \"a\", 1]}}", "scene: volume.albedo[1]: expected"},
+        {"{\"volume\": {\"file\": 3}}", "scene: volume.file: expected a string"},
+        {"{\"volume\": {\"file\": \"\"}}", "scene: volume.file: expected a non-empty string"},
+        {"{\"volume\": []}", "scene: volume: expected an object"},
+        {"{\"lights\": {}}", "scene: lights: expected an array"},
+        {"{\"lights\": [1]}", "scene: lights[0]: expected an object"},
+        {"{\"lights\": [{\"type\": \"spot\"}]}", "scene: lights[0].type: unknown light type"},
+        {"{\"lights\": [{\"type\": 1}]}", "scene: lights[0].type: expected a string"},
+        {"{\"lights\": [{\"direction\": [0,1,0]}]}", "scene: lights[0]: missing \"type\""},
+        {"{\"lights\": [{\"type\": \"sun\"}]}", "scene: lights[0]: missing \"direction\""},
+        {"{\"lights\": [{\"type\": \"point\"}]}", "scene: lights[0]: missing \"position\""},
+        {"{\"lights\": [{\"type\": \"sun\", \"direction\": 1}]}",
+         "scene: lights[0].direction: expected an array of 3 numbers"},
+        {"{\"lights\": [{\"type\": \"env\"}]}", "scene: lights[0]: an env light needs"},
+        {"{\"lights\": [{\"type\": \"env\", \"file\": \"a.exr\", \"color\": 1}]}",
+         "scene: lights[0]: give either \"file\" or \"color\""},
+        {"{\"lights\": [{\"type\": \"env\", \"color\": 1, \"scale\": 2}]}",
+         "scene: lights[0]: \"scale\" applies"},
+        {"{\"camera\": {\"position\": [0,0,1], \"target\": [0,0,0], \"width\": 10.5}}",
+         "scene: camera.width: expected an integer"},
+        {"{\"camera\": {\"target\": [0,0,0]}}", "scene: camera: missing \"position\""},
+        {"{\"solver\": {\"quality\": \"extreme\"}}", "scene: solver.quality: unknown quality"},
+        {"{\"solver\": {\"method\": \"magic\"}}", "scene: solver.method: unknown method"},
+        {"{\"solver\": {\"method\": 1}}", "scene: solver.method: expected a string"},
+        /* non-finite numbers: JSON has no NaN, but a huge exponent overflows to Inf */
+        {"{\"volume\": {\"density_scale\": 1e999}}",
+         "scene: volume.density_scale: expected a finite number"},
+        {"{\"volume\": {\"g\": -1e999}}", "scene: volume.g: expected a finite number"},
+        {"{\"lights\": [{\"type\": \"point\", \"position\": [0, -1e999, 0]}]}",
+         "scene: lights[0].position[1]: expected a finite number"},
+        {"{\"volume\": {\"albedo\": 1e999}}", "scene: volume.albedo: expected a finite number"},
+        /* grid specs */
+        {"{\"volume\": {\"grid\": \"density@x\"}}", "scene: volume.grid: \"density@x\""},
+        {"{\"volume\": {\"grid\": \"density@\"}}", "scene: volume.grid:"},
+        /* syntax and shape */
+        {"{\"volume\": }", "scene: invalid JSON at line 1, column 12"},
+        {"{\n\"volume\": {}\n,}", "scene: invalid JSON at line 3"},
+        {"{} trailing", "scene: invalid JSON"},
+        {"", "scene: invalid JSON"},
+        {"[]", "scene: expected a JSON object at the top level"},
+    };
+    vdbs_scene *s = new_scene();
+    vdbs_scene *before = new_scene();
+    for (size_t i = 0; i < sizeof cases / sizeof cases[0]; ++i) {
+        vdbs_error err = {{0}};
+        vdbs_status st = vdbs_scene_parse(cases[i].json, NULL, s, &err);
+        if (st != VDBS_ERR_INPUT)
+            fail_msg("case %zu (%s): status %d, expected VDBS_ERR_INPUT", i, cases[i].json,
+                     (int)st);
+        assert_contains(err.message, cases[i].message);
+        assert_true(strncmp(err.message, "scene: ", 7) == 0);
+        /* a failed parse leaves the scene untouched */
+        assert_memory_equal(s, before, sizeof *s);
+    }
+    free(s);
+    free(before);
+}
+
+static void test_validate_errors(void **state)
+{
+    (void)state;
+    const error_case cases[] = {
+        {"{}", "scene: lights: no light at all"},
+        {"{\"lights\": []}", "scene: lights: no light at all"},
+        {"{\"volume\": {\"g\": 0.9995}, \"lights\": [SUN]}", "scene: volume.g:"},
+        {"{\"volume\": {\"g\": -1}, \"lights\": [SUN]}", "scene: volume.g:"},
+        {"{\"volume\": {\"albedo\": 2}, \"lights\": [SUN]}", "scene: volume.albedo:"},
+        {"{\"volume\": {\"albedo\": [0.5, -0.1, 0.5]}, \"lights\": [SUN]}",
+         "scene: volume.albedo:"},
+        {"{\"volume\": {\"density_scale\": -1}, \"lights\": [SUN]}",
+         "scene: volume.density_scale:"},
+        {"{\"lights\": [{\"type\": \"sun\", \"direction\": [0, 0, 0]}]}",
+         "scene: lights[0].direction: must be a non-zero vector"},
+        {"{\"lights\": [SUN, {\"type\": \"sun\", \"direction\": [0, 1, 0], \"irradiance\": [1, "
+         "-1, 1]}]}",
+         "scene: lights[1].irradiance:"},
+        {"{\"lights\": [{\"type\": \"point\", \"position\": [0,0,0], \"intensity\": -2}]}",
+         "scene: lights[0].intensity:"},
+        {"{\"lights\": [{\"type\": \"env\", \"color\": [0, 0, -0.5]}]}", "scene: lights[0].color:"},
+        {"{\"lights\": [{\"type\": \"env\", \"file\": \"a.exr\", \"scale\": -1}]}",
+         "scene: lights[0].scale:"},
+        {"{\"lights\": [{\"type\": \"sun\", \"direction\": [0, -1, 0], \"angular_diameter_deg\": "
+         "-1}]}",
+         "scene: lights[0].angular_diameter_deg:"},
+        {"{\"lights\": [SUN], \"camera\": {\"position\": [0,0,5], \"target\": [0,0,0], "
+         "\"fov_deg\": 0}}",
+         "scene: camera.fov_deg:"},
+        {"{\"lights\": [SUN], \"camera\": {\"position\": [0,0,5], \"target\": [0,0,0], "
+         "\"fov_deg\": 180}}",
+         "scene: camera.fov_deg:"},
+        {"{\"lights\": [SUN], \"camera\": {\"position\": [0,0,5], \"target\": [0,0,0], "
+         "\"width\": 0}}",
+         "scene: camera.width:"},
+        {"{\"lights\": [SUN], \"camera\": {\"position\": [0,0,5], \"target\": [0,0,0], "
+         "\"height\": 16385}}",
+         "scene: camera.height:"},
+        {"{\"lights\": [SUN], \"camera\": {\"position\": [1,2,3], \"target\": [1,2,3]}}",
+         "scene: camera.target: must differ from camera.position"},
+        {"{\"lights\": [SUN], \"camera\": {\"position\": [0,5,0], \"target\": [0,0,0]}}",
+         "scene: camera.up:"},
+        {"{\"lights\": [SUN], \"camera\": {\"position\": [0,0,5], \"target\": [0,0,0], \"up\": "
+         "[0,0,0]}}",
+         "scene: camera.up:"},
+    };
+    vdbs_scene *s = new_scene();
+    vdbs_scene *copy = new_scene();
+    for (size_t i = 0; i < sizeof cases / sizeof cases[0]; ++i) {
+        char json[1024];
+        /* substitute a valid sun for SUN */
+        const char *at = strstr(cases[i].json, "SUN");
+        if (at)
+            snprintf(json, sizeof json, "%.*s%s%s", (int)(at - cases[i].json), cases[i].json, sun,
+                     at + 3);
+        else
+            snprintf(json, sizeof json, "%s", cases[i].json);
+        vdbs_error err = {{0}};
+        if (vdbs_scene_parse(json, NULL, s, &err) != VDBS_OK)
+            fail_msg("case %zu (%s) does not parse: %s", i, json, err.message);
+        memcpy(copy, s, sizeof *s);
+        vdbs_status st = vdbs_scene_validate(s, &err);
+        if (st != VDBS_ERR_INPUT)
+            fail_msg("case %zu (%s): status %d, expected VDBS_ERR_INPUT", i, json, (int)st);
+        assert_contains(err.message, cases[i].message);
+        /* a failed validation does not normalise anything */
+        assert_memory_equal(s, copy, sizeof *s);
+    }
+
+    /* the edges of the ranges are valid */
+    vdbs_error err = {{0}};
+    char json[512];
+    snprintf(json, sizeof json,
+             "{\"volume\": {\"g\": -0.999, \"albedo\": [0, 1, 0.5], \"density_scale\": 0}, "
+             "\"lights\": [%s], \"camera\": {\"position\": [0,0,5], \"target\": [0,0,0], "
+             "\"fov_deg\": 179.9, \"width\": 1, \"height\": 16384}}",
+             sun);
+    assert_int_equal(vdbs_scene_parse(json, NULL, s, &err), VDBS_OK);
+    assert_int_equal(vdbs_scene_validate(s, &err), VDBS_OK);
+    s->g = 0.999;
+    assert_int_equal(vdbs_scene_validate(s, &err), VDBS_OK);
+
+    /* values set by code rather than JSON are checked too */
+    s->density_scale = NAN;
+    assert_int_equal(vdbs_scene_validate(s, &err), VDBS_ERR_INPUT);
+    assert_contains(err.message, "volume.density_scale");
+    s->density_scale = 1.0;
+    s->g = NAN;
+    assert_int_equal(vdbs_scene_validate(s, &err), VDBS_ERR_INPUT);
+    assert_contains(err.message, "volume.g");
+    s->g = 0.0;
+    snprintf(s->method, sizeof s->method, "%s", "bogus");
+    assert_int_equal(vdbs_scene_validate(s, &err), VDBS_ERR_INPUT);
+    assert_contains(err.message, "solver.method");
+    free(s);
+    free(copy);
+}
+
+static void assert_scene_equal(const vdbs_scene *a, const vdbs_scene *b)
+{
+    assert_string_equal(a->volume_file, b->volume_file);
+    assert_string_equal(a->grid, b->grid);
+    assert_int_equal(a->grid_index, b->grid_index);
+    assert_true(a->density_scale == b->density_scale);
+    for (int c = 0; c < 3; ++c)
+        assert_true(a->albedo[c] == b->albedo[c]);
+    assert_true(a->g == b->g);
+    assert_int_equal(a->light_count, b->light_count);
+    for (int i = 0; i < a->light_count; ++i) {
+        const vdbs_light *la = &a->lights[i], *lb = &b->lights[i];
+        assert_int_equal(la->type, lb->type);
+        for (int c = 0; c < 3; ++c) {
+            assert_true(la->direction[c] == lb->direction[c]);
+            assert_true(la->position[c] == lb->position[c]);
+            assert_true(la->color[c] == lb->color[c]);
+        }
+        assert_true(la->angular_diameter_deg == lb->angular_diameter_deg);
+        assert_string_equal(la->env_file, lb->env_file);
+        assert_true(la->env_scale == lb->env_scale);
+    }
+    assert_int_equal(a->camera.present, b->camera.present);
+    if (!a->camera.present)
+        return; /* an absent camera's fields mean nothing and are not written */
+    for (int c = 0; c < 3; ++c) {
+        assert_true(a->camera.position[c] == b->camera.position[c]);
+        assert_true(a->camera.target[c] == b->camera.target[c]);
+        assert_true(a->camera.up[c] == b->camera.up[c]);
+    }
+    assert_true(a->camera.fov_deg == b->camera.fov_deg);
+    assert_int_equal(a->camera.width, b->camera.width);
+    assert_int_equal(a->camera.height, b->camera.height);
+    assert_string_equal(a->method, b->method);
+    assert_string_equal(a->quality, b->quality);
+}
+
+static void round_trip(const vdbs_scene *s)
+{
+    vdbs_scene *back = new_scene();
+    vdbs_error err = {{0}};
+    char *json = vdbs_scene_to_json(s);
+    assert_non_null(json);
+    /* to_json holds resolved paths: read it back without a base folder */
+    if (vdbs_scene_parse(json, NULL, back, &err) != VDBS_OK)
+        fail_msg("%s\nin: %s", err.message, json);
+    assert_scene_equal(s, back);
+    free(json);
+    free(back);
+}
+
+static void test_round_trip(void **state)
+{
+    (void)state;
+    vdbs_scene *s = new_scene();
+    vdbs_error err = {{0}};
+
+    round_trip(s); /* defaults */
+
+    assert_int_equal(vdbs_scene_parse(sketch, "/data/scenes", s, &err), VDBS_OK);
+    round_trip(s);
+    assert_int_equal(vdbs_scene_validate(s, &err), VDBS_OK);
+    round_trip(s); /* normalised directions need 17 digits */
+
+    /* values whose shortest decimal form needs 16-17 digits, and extremes */
+    s->density_scale = 0.1 + 0.2;
+    s->albedo[0] = 1.0 / 3.0;
+    s->albedo[1] = 0.0;
+    s->albedo[2] = 1.0;
+    s->g = -2.0 / 3.0;
+    s->lights[0].color[0] = 1e-300;
+    s->lights[0].color[1] = 1.7976931348623157e308;
+    s->lights[0].color[2] = 4.9e-324;
+    s->lights[0].angular_diameter_deg = 0.53;
+    s->lights[1].position[0] = -0.0;
+    s->lights[1].position[2] = -123456.789012345678;
+    s->camera.fov_deg = 35.000000000000007;
+    s->camera.width = 1;
+    s->camera.height = 16384;
+    snprintf(s->method, sizeof s->method, "%s", "inet");
+    snprintf(s->quality, sizeof s->quality, "%s", "ultra");
+    round_trip(s);
+
+    /* grid names with an index, and with an '@' of their own */
+    assert_int_equal(vdbs_scene_set_grid(s, "density@3", &err), VDBS_OK);
+    round_trip(s);
+    assert_int_equal(vdbs_scene_set_grid(s, "a@b@0", &err), VDBS_OK);
+    assert_string_equal(s->grid, "a@b");
+    round_trip(s);
+
+    /* strings that need escaping, many lights, no camera */
+    snprintf(s->volume_file, sizeof s->volume_file, "%s", "/tmp/we\"ird\\name\tx.vdb");
+    s->camera.present = 0;
+    s->light_count = VDBS_MAX_LIGHTS;
+    for (int i = 4; i < VDBS_MAX_LIGHTS; ++i) {
+        s->lights[i] = s->lights[i % 4];
+        if (s->lights[i].env_file[0])
+            s->lights[i].env_scale = i * 0.1; /* a map's colour is not stored */
+        else
+            s->lights[i].color[0] = i * 0.1;
+    }
+    round_trip(s);
+    free(s);
+}
+
+static void test_grid_spec(void **state)
+{
+    (void)state;
+    vdbs_scene *s = new_scene();
+    vdbs_error err = {{0}};
+    assert_int_equal(vdbs_scene_set_grid(s, "density@2", &err), VDBS_OK);
+    assert_string_equal(s->grid, "density");
+    assert_int_equal(s->grid_index, 2);
+    assert_int_equal(vdbs_scene_set_grid(s, "temperature", &err), VDBS_OK);
+    assert_string_equal(s->grid, "temperature");
+    assert_int_equal(s->grid_index, 0);
+
+    const char *const bad[] = {"density@x",  "density@",           "@2", "", "density@-1",
+                               "density@1x", "density@99999999999"};
+    for (size_t i = 0; i < sizeof bad / sizeof bad[0]; ++i) {
+        char quoted[64];
+        assert_int_equal(vdbs_scene_set_grid(s, bad[i], &err), VDBS_ERR_INPUT);
+        snprintf(quoted, sizeof quoted, "\"%s\"", bad[i]);
+        assert_contains(err.message, quoted);
+        assert_true(strncmp(err.message, "scene: ", 7) == 0);
+        /* the previous grid stays */
+        assert_string_equal(s->grid, "temperature");
+    }
+
+    assert_int_equal(vdbs_scene_parse("{\"volume\": {\"grid\": \"density@2\"}}", NULL, s, &err),
+                     VDBS_OK);
+    assert_string_equal(s->grid, "density");
+    assert_int_equal(s->grid_index, 2);
+    free(s);
+}
+
+static void test_quality(void **state)
+{
+    (void)state;
+    assert_int_equal(vdbs_quality_sky_directions("low"), 16);
+    assert_int_equal(vdbs_quality_sky_directions("medium"), 64);
+    assert_int_equal(vdbs_quality_sky_directions("high"), 256);
+    assert_int_equal(vdbs_quality_sky_directions("ultra"), 1024);
+    assert_int_equal(vdbs_quality_sky_directions("Medium"), 0);
+    assert_int_equal(vdbs_quality_sky_directions(""), 0);
+    assert_int_equal(vdbs_quality_sky_directions(NULL), 0);
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_design_sketch),  cmocka_unit_test(test_defaults_and_scalars),
+        cmocka_unit_test(test_relative_paths), cmocka_unit_test(test_load),
+        cmocka_unit_test(test_parse_errors),   cmocka_unit_test(test_validate_errors),
+        cmocka_unit_test(test_round_trip),     cmocka_unit_test(test_grid_spec),
+        cmocka_unit_test(test_quality),
+    };
+    return cmocka_run_group_tests(tests, NULL, NULL);
+}
