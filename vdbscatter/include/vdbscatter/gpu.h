@@ -27,9 +27,13 @@ typedef struct vdbs_gpu_info {
 typedef struct vdbs_gpu vdbs_gpu;
 
 /* Creates an OpenGL 4.3+ core context without any surface: EGL device platform
- * first, then surfaceless Mesa, then the default display. Fails with VDBS_ERR_GPU
- * and a message saying what each attempt answered. The context is current on the
- * calling thread until vdbs_gpu_destroy. */
+ * first (hardware devices before software ones), then surfaceless Mesa, then the
+ * default display. Buffers use direct state access, so GL 4.5 or
+ * GL_ARB_direct_state_access is required too. Fails with VDBS_ERR_GPU and a message
+ * saying what each attempt answered. The context is current on the calling thread
+ * until vdbs_gpu_destroy; every other vdbs_gpu_* call must come from that thread.
+ * Creating and destroying contexts is not thread-safe (EGL displays are shared and
+ * reference-counted across vdbs_gpu objects). */
 vdbs_status vdbs_gpu_create(vdbs_gpu **out, vdbs_error *err);
 void vdbs_gpu_destroy(vdbs_gpu *gpu);
 const vdbs_gpu_info *vdbs_gpu_get_info(const vdbs_gpu *gpu);
@@ -39,7 +43,8 @@ const vdbs_gpu_info *vdbs_gpu_get_info(const vdbs_gpu *gpu);
 int vdbs_gpu_hardware_available(void);
 
 /* A shader embedded at build time from shaders/: `text` is the whole source with
- * every `#include "file"` expanded and `#line L F` directives where F indexes `files`. */
+ * every `#include "file"` expanded and `#line L F` directives where F indexes `files`
+ * (files[0] is the shader itself). Tests may build their own. */
 typedef struct vdbs_shader_source {
     const char *name; /* file name in shaders/, e.g. "single_scatter.comp" */
     const char *text;
@@ -52,14 +57,20 @@ const vdbs_shader_source *vdbs_shader_find(const char *name);
 
 /* Compiles and links a compute program. `defines` (may be NULL) is inserted after the
  * #version line, e.g. "#define LOCAL_SIZE 64\n". Compile errors come back as
- * VDBS_ERR_GPU with each message rewritten as "file:line: message". */
+ * VDBS_ERR_GPU with each message rewritten as "file:line: message" (one per line,
+ * errors only when there are any; "<defines>:line:" for errors in `defines`).
+ * The `#line` directives are interpreted here, not by the driver: Mesa drops their
+ * file numbers from most messages. */
 vdbs_status vdbs_gpu_program_create(vdbs_gpu *gpu, const vdbs_shader_source *source,
                                     const char *defines, unsigned int *program,
                                     vdbs_error *err);
 void vdbs_gpu_program_destroy(vdbs_gpu *gpu, unsigned int program);
 
-/* Shader storage buffers. `data` may be NULL (contents zeroed). Fails cleanly when
- * size exceeds what the driver allows for one binding. */
+/* Shader storage buffers (immutable storage, updatable with glNamedBufferSubData).
+ * `data` may be NULL (contents zeroed); size 0 makes a 4-byte buffer. Sizes above
+ * info.max_ssbo_bytes (GL_MAX_SHADER_STORAGE_BLOCK_SIZE; 128 MiB on llvmpipe, though it
+ * tolerates more) are refused with VDBS_ERR_GPU and a message suggesting --backend cpu.
+ * buffer_read waits for earlier shader writes; reads beyond the end fail. */
 vdbs_status vdbs_gpu_buffer_create(vdbs_gpu *gpu, size_t size, const void *data,
                                    unsigned int *buffer, vdbs_error *err);
 vdbs_status vdbs_gpu_buffer_read(vdbs_gpu *gpu, unsigned int buffer, size_t offset,
@@ -73,7 +84,14 @@ void vdbs_gpu_buffer_bind(vdbs_gpu *gpu, unsigned int buffer, unsigned int bindi
  * first item of the chunk, so an invocation's item is
  * u_item_offset + gl_GlobalInvocationID.x (items >= u_item_count must do nothing;
  * u_item_count is set too). Calls progress(user, done, count) after each chunk when
- * not NULL; waits for completion (glFinish) before returning. */
+ * not NULL; waits for completion (glFinish) before returning.
+ * `local_size` must equal the shader's declared size (x, 1, 1), else
+ * VDBS_ERR_INTERNAL. A chunk is `chunk_items` rounded down to whole groups (at least
+ * one group; 0 means as large as the limit allows), so every item runs exactly once.
+ * Without u_item_offset, a count that needs several chunks is VDBS_ERR_INTERNAL.
+ * Both uniforms are GLSL uints, so count must stay below 2^32 - local_size. Chunks
+ * are separated by shader-storage and image barriers; with a progress callback each
+ * chunk is finished (glFinish) before the callback, so the progress is real. */
 vdbs_status vdbs_gpu_dispatch_items(vdbs_gpu *gpu, unsigned int program, uint64_t count,
                                     unsigned int local_size, uint64_t chunk_items,
                                     void (*progress)(void *user, uint64_t done, uint64_t total),
