@@ -1,4 +1,5 @@
 /* vdbscatter bake IN.vdb -o OUT.vdb: light a density volume and write a lit VDB. */
+#define _POSIX_C_SOURCE 200809L
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>

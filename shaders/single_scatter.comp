@@ -23,7 +23,7 @@ void main()
     if (item >= u_item_count)
         return;
     ivec3 ijk = ivec3(coords[3u * item], coords[3u * item + 1u], coords[3u * item + 2u]);
-    pnanovdb_buf_t buf = 0u;
+    pnanovdb_buf_t buf = pnanovdb_buf_t(0u);
     pnanovdb_readaccessor_t acc = vs_density_accessor(buf);
     vec3 s = vs_single_average(buf, acc, ijk);
     radiance[3u * item] = s.x;

@@ -49,6 +49,10 @@ typedef struct vs_vec4 {
 
 #define VS_PI 3.14159265358979323846f
 #define VS_INV_4PI 0.0795774715459476679f
+/* VS_PRECISE marks arithmetic that must round as written: the C build does not contract
+ * a * b + c into FMA (ISO C mode), and `precise` stops the GLSL compiler from doing it,
+ * so that both paths see the same rounding where a march is sensitive to it. */
+
 /* Larger than any ray parameter in a grid (world units); finite so that products stay finite. */
 #define VS_T_INFINITE 1.0e30f
 
@@ -68,7 +72,10 @@ VS_FUNC pnanovdb_vec3_t vs_vec3_scale(pnanovdb_vec3_t a, float s)
 
 VS_FUNC pnanovdb_vec3_t vs_vec3_madd(pnanovdb_vec3_t a, pnanovdb_vec3_t d, float t)
 {
-    return vs_vec3(a.x + d.x * t, a.y + d.y * t, a.z + d.z * t);
+    VS_PRECISE float x = a.x + d.x * t;
+    VS_PRECISE float y = a.y + d.y * t;
+    VS_PRECISE float z = a.z + d.z * t;
+    return vs_vec3(x, y, z);
 }
 
 VS_FUNC float vs_vec3_dot(pnanovdb_vec3_t a, pnanovdb_vec3_t b)
@@ -111,7 +118,17 @@ VS_FUNC void vs_accum_add(inout vs_accum a, float x)
 }
 VS_FUNC float vs_accum_value(vs_accum a)
 {
-    return a.sum;
+    return a.sum - a.carry;
+}
+/* exp(-(sum - carry)) without losing the pair's digits: exp(-x) = 2^-n exp(-r) with
+ * n = round(x / ln 2) and r = x - n ln 2 (Cody-Waite: ln2_hi has 15 significant bits, so
+ * n * ln2_hi is exact for n < 512), so a float exp only ever sees |r| <= 0.35. Without
+ * it, an optical depth of 60 held in one float is already 2e-6 off in transmittance. */
+VS_FUNC float vs_accum_exp_neg(vs_accum a)
+{
+    precise float n = floor(a.sum * 1.44269504f + 0.5f);
+    precise float r = ((a.sum - n * 0.693145751953125f) - n * 1.42860677e-6f) - a.carry;
+    return ldexp(exp(-r), -int(n));
 }
 #else
 typedef struct vs_accum {
@@ -128,6 +145,10 @@ VS_FUNC void vs_accum_add(vs_accum *a, float x)
 VS_FUNC float vs_accum_value(vs_accum a)
 {
     return (float)a.sum;
+}
+VS_FUNC float vs_accum_exp_neg(vs_accum a)
+{
+    return (float)exp(-a.sum);
 }
 #endif
 

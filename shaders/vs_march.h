@@ -62,13 +62,14 @@ VS_FUNC vs_cell vs_cell_fetch(pnanovdb_buf_t buf, PNANOVDB_INOUT(pnanovdb_readac
 /* Trilinear interpolation inside a cell at local coordinates f in [0,1]^3. */
 VS_FUNC float vs_cell_eval(vs_cell cell, pnanovdb_vec3_t f)
 {
-    float x00 = cell.v000 + (cell.v100 - cell.v000) * f.x;
-    float x10 = cell.v010 + (cell.v110 - cell.v010) * f.x;
-    float x01 = cell.v001 + (cell.v101 - cell.v001) * f.x;
-    float x11 = cell.v011 + (cell.v111 - cell.v011) * f.x;
-    float y0 = x00 + (x10 - x00) * f.y;
-    float y1 = x01 + (x11 - x01) * f.y;
-    return y0 + (y1 - y0) * f.z;
+    VS_PRECISE float x00 = cell.v000 + (cell.v100 - cell.v000) * f.x;
+    VS_PRECISE float x10 = cell.v010 + (cell.v110 - cell.v010) * f.x;
+    VS_PRECISE float x01 = cell.v001 + (cell.v101 - cell.v001) * f.x;
+    VS_PRECISE float x11 = cell.v011 + (cell.v111 - cell.v011) * f.x;
+    VS_PRECISE float y0 = x00 + (x10 - x00) * f.y;
+    VS_PRECISE float y1 = x01 + (x11 - x01) * f.y;
+    VS_PRECISE float v = y0 + (y1 - y0) * f.z;
+    return v;
 }
 
 /* Interpolated density at an index-space point (for samplers and tests). */
@@ -102,13 +103,12 @@ VS_FUNC float vs_axis_enter(float o, float d, float lo, float hi)
 }
 
 /* Optical depth sigma_t integrated over t in [0, tmax] from index-space point origin
- * along dir, sigma_t = density * density_scale. Only the box [box_lo, box_hi] (index
- * space, the support of the interpolant) is marched. Stops early once the depth passes
- * VS_TAU_LIMIT (the transmittance is then 0 in float). */
-VS_FUNC float vs_optical_depth(pnanovdb_buf_t buf, PNANOVDB_INOUT(pnanovdb_readaccessor_t) acc,
-                               pnanovdb_vec3_t origin, pnanovdb_vec3_t dir, float tmax,
-                               pnanovdb_vec3_t box_lo, pnanovdb_vec3_t box_hi,
-                               float density_scale)
+ * along dir, sigma_t = density * density_scale, as an accumulator (see vs_accum_exp_neg).
+ * Only the box [box_lo, box_hi] (index space, the support of the interpolant) is
+ * marched. Stops early once the depth passes VS_TAU_LIMIT (transmittance 0 in float). */
+VS_FUNC vs_accum vs_march(pnanovdb_buf_t buf, PNANOVDB_INOUT(pnanovdb_readaccessor_t) acc,
+                          pnanovdb_vec3_t origin, pnanovdb_vec3_t dir, float tmax,
+                          pnanovdb_vec3_t box_lo, pnanovdb_vec3_t box_hi, float density_scale)
 {
     float t0 = vs_max(0.0f, vs_max(vs_axis_enter(origin.x, dir.x, box_lo.x, box_hi.x),
                                    vs_max(vs_axis_enter(origin.y, dir.y, box_lo.y, box_hi.y),
@@ -119,8 +119,7 @@ VS_FUNC float vs_optical_depth(pnanovdb_buf_t buf, PNANOVDB_INOUT(pnanovdb_reada
     vs_accum tau;
     vs_accum_init(PNANOVDB_REF(tau));
     if (!(t0 < t1) || density_scale <= 0.0f)
-        return 0.0f;
-    float tau_limit = VS_TAU_LIMIT / density_scale;
+        return tau;
 
     /* Cells are found by probing a thousandth of a voxel ahead, relative to the cell
      * size rather than to t, so that the probe never lands back in the previous cell. */
@@ -148,9 +147,12 @@ VS_FUNC float vs_optical_depth(pnanovdb_buf_t buf, PNANOVDB_INOUT(pnanovdb_reada
         }
         int dim = VS_INT(pnanovdb_readaccessor_get_dim(PNANOVDB_GRID_TYPE_FLOAT, buf, acc,
                                                        PNANOVDB_REF(c)));
-        if (dim > 1 && vs_density_voxel(buf, acc, c) == 0.0f) {
-            int mask = ~(dim - 1);
-            float hi = VS_FLOAT(dim - 1);
+        int last = dim - 1;
+        /* Skippable only when the whole cell (corners c and c+1) lies in the empty tile. */
+        if (dim > 1 && (c.x & last) != last && (c.y & last) != last && (c.z & last) != last &&
+            vs_density_voxel(buf, acc, c) == 0.0f) {
+            int mask = ~last;
+            float hi = VS_FLOAT(last);
             float bx = VS_FLOAT(c.x & mask), by = VS_FLOAT(c.y & mask), bz = VS_FLOAT(c.z & mask);
             float t_empty = vs_min(vs_axis_exit(origin.x, dir.x, bx, bx + hi),
                                    vs_min(vs_axis_exit(origin.y, dir.y, by, by + hi),
@@ -169,8 +171,10 @@ VS_FUNC float vs_optical_depth(pnanovdb_buf_t buf, PNANOVDB_INOUT(pnanovdb_reada
             float fa = vs_cell_eval(cell, vs_vec3_madd(local, dir, t));
             float fm = vs_cell_eval(cell, vs_vec3_madd(local, dir, 0.5f * (t + t_exit)));
             float fb = vs_cell_eval(cell, vs_vec3_madd(local, dir, t_exit));
-            vs_accum_add(PNANOVDB_REF(tau), (t_exit - t) * (fa + 4.0f * fm + fb) * (1.0f / 6.0f));
-            if (vs_accum_value(tau) > tau_limit)
+            VS_PRECISE float segment =
+                (t_exit - t) * (fa + 4.0f * fm + fb) * (1.0f / 6.0f) * density_scale;
+            vs_accum_add(PNANOVDB_REF(tau), segment);
+            if (vs_accum_value(tau) > VS_TAU_LIMIT)
                 break;
             t = t_exit;
         }
@@ -185,7 +189,24 @@ VS_FUNC float vs_optical_depth(pnanovdb_buf_t buf, PNANOVDB_INOUT(pnanovdb_reada
             next.z += delta.z;
         }
     }
-    return vs_accum_value(tau) * density_scale;
+    return tau;
+}
+
+VS_FUNC float vs_optical_depth(pnanovdb_buf_t buf, PNANOVDB_INOUT(pnanovdb_readaccessor_t) acc,
+                               pnanovdb_vec3_t origin, pnanovdb_vec3_t dir, float tmax,
+                               pnanovdb_vec3_t box_lo, pnanovdb_vec3_t box_hi,
+                               float density_scale)
+{
+    return vs_accum_value(vs_march(buf, acc, origin, dir, tmax, box_lo, box_hi, density_scale));
+}
+
+/* exp(-optical depth) along the same ray. */
+VS_FUNC float vs_transmittance(pnanovdb_buf_t buf, PNANOVDB_INOUT(pnanovdb_readaccessor_t) acc,
+                               pnanovdb_vec3_t origin, pnanovdb_vec3_t dir, float tmax,
+                               pnanovdb_vec3_t box_lo, pnanovdb_vec3_t box_hi,
+                               float density_scale)
+{
+    return vs_accum_exp_neg(vs_march(buf, acc, origin, dir, tmax, box_lo, box_hi, density_scale));
 }
 
 #endif

@@ -39,11 +39,11 @@ VS_FUNC pnanovdb_vec3_t vs_single_average(VS_DATA_PARAM(vs_vec4, light_data) pna
         vs_vec4 head = light_data[VS_SINGLE_HEADER + 2 * i];
         pnanovdb_vec3_t color = vs_vec3_from_vec4(light_data[VS_SINGLE_HEADER + 2 * i + 1]);
         float weight;
-        float tau;
+        float transmittance;
         if (VS_INT(head.x) == VS_LIGHT_SUN) {
             weight = 1.0f;
-            tau = vs_optical_depth(buf, acc, p, vs_vec3(head.y, head.z, head.w), VS_T_INFINITE,
-                                   box_lo, box_hi, density_scale);
+            transmittance = vs_transmittance(buf, acc, p, vs_vec3(head.y, head.z, head.w),
+                                             VS_T_INFINITE, box_lo, box_hi, density_scale);
         } else {
             pnanovdb_vec3_t d = vs_vec3(head.y - p.x, head.z - p.y, head.w - p.z);
             pnanovdb_vec3_t w = vs_vec3(vs_vec3_dot(vs_vec3_from_vec4(light_data[1]), d),
@@ -52,11 +52,10 @@ VS_FUNC pnanovdb_vec3_t vs_single_average(VS_DATA_PARAM(vs_vec4, light_data) pna
             float r = vs_sqrt(vs_vec3_dot(w, w));
             float rc = vs_max(r, r_min);
             weight = 1.0f / (rc * rc);
-            tau = r > 0.0f ? vs_optical_depth(buf, acc, p, vs_vec3_scale(d, 1.0f / r), r, box_lo,
-                                              box_hi, density_scale)
-                           : 0.0f;
+            transmittance = r > 0.0f ? vs_transmittance(buf, acc, p, vs_vec3_scale(d, 1.0f / r),
+                                                        r, box_lo, box_hi, density_scale)
+                                     : 1.0f;
         }
-        float transmittance = vs_exp(-tau);
         sum = vs_vec3_madd(sum, color, weight * transmittance);
     }
 
@@ -64,9 +63,9 @@ VS_FUNC pnanovdb_vec3_t vs_single_average(VS_DATA_PARAM(vs_vec4, light_data) pna
         float sky_transmittance_sum = 0.0f;
         int first = VS_SINGLE_HEADER + 2 * light_count;
         for (int k = 0; k < sky_count; ++k) {
-            float tau = vs_optical_depth(buf, acc, p, vs_vec3_from_vec4(light_data[first + k]),
-                                         VS_T_INFINITE, box_lo, box_hi, density_scale);
-            sky_transmittance_sum += vs_exp(-tau);
+            sky_transmittance_sum +=
+                vs_transmittance(buf, acc, p, vs_vec3_from_vec4(light_data[first + k]),
+                                 VS_T_INFINITE, box_lo, box_hi, density_scale);
         }
         sum = vs_vec3_madd(sum, vs_vec3_from_vec4(light_data[6]), sky_transmittance_sum);
     }
