@@ -200,6 +200,10 @@ vdbs_status cli_build_scene(const cli_args *args, vdbs_scene *scene, int allow_n
             } else if (strcmp(name, "--sun") == 0) {
                 light->type = VDBS_LIGHT_SUN;
                 st = parse_light(name, v, light->direction, light->color, err);
+                const double *d = light->direction;
+                if (st == VDBS_OK && d[0] == 0.0 && d[1] == 0.0 && d[2] == 0.0)
+                    st = vdbs_error_set(err, VDBS_ERR_INPUT,
+                                        "--sun: the direction must not be zero, got '%s'", v);
             } else {
                 light->type = VDBS_LIGHT_POINT;
                 st = parse_light(name, v, light->position, light->color, err);
