@@ -1,1 +1,1225 @@
-extern const int vdbs_placeholder_vdbio; const int vdbs_placeholder_vdbio = 0;
+/* OpenVDB / NanoVDB bridge: the only C++ translation unit of vdbscatter.
+ * Every entry point catches every exception and turns it into a vdbs_error. */
+#include "vdbscatter/vdbio.h"
+
+#include <openvdb/openvdb.h>
+#include <openvdb/io/Archive.h>
+#include <openvdb/io/GridDescriptor.h>
+#include <openvdb/io/io.h>
+#include <openvdb/math/Transform.h>
+#include <openvdb/tools/LevelSetUtil.h>
+#include <openvdb/tools/Morphology.h>
+#include <nanovdb/util/OpenToNanoVDB.h>
+
+#include <algorithm>
+#include <atomic>
+#include <cerrno>
+#include <climits>
+#include <cmath>
+#include <cstdarg>
+#include <cstdint>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <fstream>
+#include <map>
+#include <memory>
+#include <mutex>
+#include <new>
+#include <string>
+#include <vector>
+
+#include <fcntl.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+namespace
+{
+
+using openvdb::Coord;
+using openvdb::FloatGrid;
+using openvdb::FloatTree;
+using openvdb::GridBase;
+using openvdb::Vec3SGrid;
+using openvdb::Vec3STree;
+
+const float kHalfMax = 65504.0f;
+
+/* Thrown inside the bridge, caught at the C boundary. */
+struct Failure {
+    vdbs_status status;
+    std::string message;
+};
+
+[[noreturn]] void fail(vdbs_status status, const std::string &message)
+{
+    throw Failure{status, message};
+}
+
+std::string format(const char *fmt, ...) __attribute__((format(printf, 1, 2)));
+std::string format(const char *fmt, ...)
+{
+    char buf[2048];
+    va_list ap;
+    va_start(ap, fmt);
+    vsnprintf(buf, sizeof buf, fmt, ap);
+    va_end(ap);
+    return buf;
+}
+
+/* OpenVDB messages about corrupt files can quote kilobytes of garbage read as a
+ * string: keep error lines short and on one line (UTF-8 bytes pass through). */
+std::string sanitize(const std::string &text, size_t max_len = 160)
+{
+    std::string out;
+    bool space = false;
+    for (unsigned char c : text) {
+        if (c < 0x20 || c == 0x7f || c == ' ') {
+            space = true;
+            continue;
+        }
+        if (space && !out.empty())
+            out += ' ';
+        space = false;
+        out += static_cast<char>(c);
+        if (out.size() >= max_len) {
+            out += "...";
+            break;
+        }
+    }
+    return out;
+}
+
+void init_openvdb()
+{
+    static std::once_flag once;
+    std::call_once(once, [] { openvdb::initialize(); });
+}
+
+template <typename F> vdbs_status guarded(vdbs_error *err, F &&body)
+{
+    try {
+        init_openvdb();
+        body();
+        return VDBS_OK;
+    } catch (const Failure &f) {
+        return vdbs_error_set(err, f.status, "%s", f.message.c_str());
+    } catch (const std::bad_alloc &) {
+        return vdbs_error_set(err, VDBS_ERR_NOMEM, "out of memory");
+    } catch (const std::exception &e) {
+        return vdbs_error_set(err, VDBS_ERR_INTERNAL, "OpenVDB: %s", sanitize(e.what()).c_str());
+    } catch (...) {
+        return vdbs_error_set(err, VDBS_ERR_INTERNAL, "unknown exception in the OpenVDB bridge");
+    }
+}
+
+void copy_string(char *dst, size_t size, const std::string &src)
+{
+    snprintf(dst, size, "%s", src.c_str());
+}
+
+/* OpenVDB applies its Mat4 to row vectors (translation in row 3); ours is the
+ * transposed 3x4 column-vector form. */
+vdbio_transform transform_to_c(const openvdb::math::Transform &t)
+{
+    const openvdb::Mat4d m = t.baseMap()->getAffineMap()->getMat4();
+    vdbio_transform out;
+    for (int r = 0; r < 3; ++r) {
+        for (int c = 0; c < 3; ++c)
+            out.m[r][c] = m(c, r);
+        out.m[r][3] = m(3, r);
+    }
+    return out;
+}
+
+void voxel_size_of(const vdbio_transform &t, double out[3])
+{
+    for (int c = 0; c < 3; ++c)
+        out[c] = std::sqrt(t.m[0][c] * t.m[0][c] + t.m[1][c] * t.m[1][c] + t.m[2][c] * t.m[2][c]);
+}
+
+openvdb::math::Transform::Ptr transform_from_c(const vdbio_transform *t)
+{
+    if (!t)
+        return openvdb::math::Transform::createLinearTransform(1.0);
+    openvdb::Mat4d m = openvdb::Mat4d::identity();
+    for (int r = 0; r < 3; ++r) {
+        for (int c = 0; c < 4; ++c) {
+            if (!std::isfinite(t->m[r][c]))
+                fail(VDBS_ERR_INPUT, "transform has a non-finite entry");
+        }
+        for (int c = 0; c < 3; ++c)
+            m(c, r) = t->m[r][c];
+        m(3, r) = t->m[r][3];
+    }
+    const double det = m.getMat3().det();
+    if (!(std::fabs(det) > 0.0) || !std::isfinite(det))
+        fail(VDBS_ERR_INPUT, "transform is singular");
+    return openvdb::math::Transform::createLinearTransform(m);
+}
+
+void bbox_to_c(const openvdb::CoordBBox &box, bool empty, int mn[3], int mx[3])
+{
+    for (int a = 0; a < 3; ++a) {
+        mn[a] = empty ? 0 : box.min()[a];
+        mx[a] = empty ? -1 : box.max()[a];
+    }
+}
+
+std::string coord_str(const Coord &c)
+{
+    return format("(%d, %d, %d)", c.x(), c.y(), c.z());
+}
+
+std::string world_str(const openvdb::math::Transform &t, const Coord &c)
+{
+    const openvdb::Vec3d w = t.indexToWorld(c);
+    return format("(%g, %g, %g)", w.x(), w.y(), w.z());
+}
+
+/* Reads archives through Archive's protected API instead of io::File: the stream
+ * throws on every short read, so a truncated file is an error instead of garbage,
+ * and grids are listed in file order while only the chosen ones are loaded. */
+class Reader : public openvdb::io::Archive
+{
+  public:
+    struct Entry {
+        openvdb::io::GridDescriptor gd;
+        GridBase::Ptr grid; /* type, half flag; filled by load() */
+        bool loaded = false;
+    };
+
+    std::string path;
+    std::vector<Entry> entries;
+    openvdb::MetaMap file_meta;
+
+    void open(const std::string &file, bool load_all)
+    {
+        path = file;
+        struct stat st;
+        if (stat(file.c_str(), &st) != 0)
+            fail(VDBS_ERR_INPUT, format("%s: %s", file.c_str(),
+                                        errno == ENOENT ? "no such file" : strerror(errno)));
+        if (S_ISDIR(st.st_mode))
+            fail(VDBS_ERR_INPUT, format("%s: is a directory, not a VDB file", file.c_str()));
+        size_ = static_cast<uint64_t>(st.st_size);
+        is_.open(file, std::ios::in | std::ios::binary);
+        if (!is_)
+            fail(VDBS_ERR_INPUT, format("%s: cannot open: %s", file.c_str(), strerror(errno)));
+        int64_t magic = 0;
+        is_.read(reinterpret_cast<char *>(&magic), sizeof magic);
+        if (is_.gcount() != sizeof magic || magic != openvdb::OPENVDB_MAGIC)
+            fail(VDBS_ERR_INPUT, format("%s: not an OpenVDB file%s", file.c_str(),
+                                        size_ == 0 ? " (empty file)" : ""));
+        is_.seekg(0);
+        is_.exceptions(std::ios::failbit | std::ios::badbit | std::ios::eofbit);
+        guard_io([&] { read_directory(load_all); });
+    }
+
+    GridBase::Ptr load(size_t index)
+    {
+        guard_io([&] { load_entry(index); });
+        return entries[index].grid;
+    }
+
+    /* Human-readable name: "density", or "density@1" for the second of several. */
+    std::string display_name(size_t index) const
+    {
+        const std::string &name = entries[index].gd.gridName();
+        int before = 0, total = 0;
+        for (size_t i = 0; i < entries.size(); ++i) {
+            if (entries[i].gd.gridName() == name) {
+                if (i < index)
+                    ++before;
+                ++total;
+            }
+        }
+        return total > 1 ? format("%s@%d", name.c_str(), before) : name;
+    }
+
+    std::string grid_list() const
+    {
+        std::string out;
+        /* The error line must stay readable (and fit vdbs_error) for files with many grids. */
+        const size_t shown = std::min<size_t>(entries.size(), 16);
+        for (size_t i = 0; i < shown; ++i) {
+            if (i)
+                out += ", ";
+            out += sanitize(display_name(i), 60) + " (" + sanitize(value_type(i), 30) + ")";
+        }
+        if (shown < entries.size())
+            out += format(" and %zu more", entries.size() - shown);
+        return out;
+    }
+
+    std::string value_type(size_t index) const
+    {
+        const Entry &e = entries[index];
+        return e.grid ? e.grid->valueType() : e.gd.gridType();
+    }
+
+  private:
+    std::ifstream is_;
+    uint64_t size_ = 0;
+    openvdb::io::StreamMetadata::Ptr stream_meta_;
+
+    template <typename F> void guard_io(F &&body)
+    {
+        try {
+            body();
+        } catch (const Failure &) {
+            throw;
+        } catch (const std::ios_base::failure &) {
+            const bool eof = is_.eof();
+            is_.clear();
+            fail(VDBS_ERR_INPUT, format("%s: %s", path.c_str(),
+                                        eof ? "truncated file (unexpected end of file)"
+                                            : "read error (corrupt or truncated file?)"));
+        } catch (const openvdb::LookupError &e) {
+            fail(VDBS_ERR_INPUT, format("%s: unsupported or corrupt grid (OpenVDB: %s)",
+                                        path.c_str(), sanitize(e.what()).c_str()));
+        } catch (const std::bad_alloc &) {
+            fail(VDBS_ERR_INPUT,
+                 format("%s: corrupt file (absurd sizes) or out of memory", path.c_str()));
+        } catch (const std::exception &e) {
+            fail(VDBS_ERR_INPUT, format("%s: corrupt or truncated file (OpenVDB: %s)", path.c_str(),
+                                        sanitize(e.what()).c_str()));
+        }
+    }
+
+    uint64_t pos()
+    {
+        return static_cast<uint64_t>(static_cast<std::streamoff>(is_.tellg()));
+    }
+
+    /* A string length beyond the end of the file means truncation or garbage;
+     * checked before OpenVDB allocates it. */
+    void check_string_ahead()
+    {
+        const uint64_t at = pos();
+        uint32_t len = 0;
+        is_.read(reinterpret_cast<char *>(&len), sizeof len);
+        if (at + sizeof len + len > size_)
+            fail(VDBS_ERR_INPUT, format("%s: truncated or corrupt file (grid descriptor at byte "
+                                        "%llu runs past the end of the file)",
+                                        path.c_str(), static_cast<unsigned long long>(at)));
+        is_.seekg(static_cast<std::streamoff>(at));
+    }
+
+    void read_directory(bool load_all)
+    {
+        readHeader(is_);
+        stream_meta_ = std::make_shared<openvdb::io::StreamMetadata>();
+        stream_meta_->setSeekable(inputHasGridOffsets());
+        openvdb::io::setStreamMetadataPtr(is_, stream_meta_, /*transfer=*/false);
+        setFormatVersion(is_);
+        setLibraryVersion(is_);
+        setDataCompression(is_);
+        file_meta.readMeta(is_);
+        const int32_t count = readGridCount(is_);
+        if (count < 0 || static_cast<uint64_t>(count) > size_)
+            fail(VDBS_ERR_INPUT, format("%s: corrupt file (grid count %d)", path.c_str(), count));
+        for (int32_t i = 0; i < count; ++i) {
+            check_string_ahead();
+            Entry e;
+            e.grid = e.gd.read(is_);
+            if (!e.grid)
+                fail(VDBS_ERR_INPUT, format("%s: grid type %s is not supported", path.c_str(),
+                                            sanitize(e.gd.gridType(), 60).c_str()));
+            if (inputHasGridOffsets()) {
+                const uint64_t end = static_cast<uint64_t>(e.gd.getEndPos());
+                if (e.gd.getGridPos() < 0 || e.gd.getGridPos() > e.gd.getEndPos() || end > size_)
+                    fail(VDBS_ERR_INPUT,
+                         format("%s: truncated file (grid \"%s\" ends at byte %llu, the file "
+                                "has %llu bytes)",
+                                path.c_str(), sanitize(e.gd.gridName(), 80).c_str(),
+                                static_cast<unsigned long long>(end),
+                                static_cast<unsigned long long>(size_)));
+                entries.push_back(e);
+                e.gd.seekToEnd(is_);
+            } else {
+                /* Without offsets the grids can only be read in sequence. */
+                Archive::readGrid(e.grid, e.gd, is_);
+                e.loaded = true;
+                entries.push_back(e);
+            }
+        }
+        if (load_all) {
+            for (size_t i = 0; i < entries.size(); ++i)
+                load_entry(i);
+        }
+        connect_instances();
+    }
+
+    void load_entry(size_t index, size_t depth = 0)
+    {
+        Entry &e = entries[index];
+        if (e.loaded)
+            return;
+        if (e.gd.isInstance()) {
+            /* A corrupt file could make a grid its own (indirect) parent. */
+            if (depth > entries.size())
+                fail(VDBS_ERR_INPUT,
+                     format("%s: corrupt file (grid instances form a cycle)", path.c_str()));
+            bool found = false;
+            for (size_t i = 0; i < entries.size(); ++i) {
+                if (entries[i].gd.uniqueName() == e.gd.instanceParentName()) {
+                    load_entry(i, depth + 1);
+                    found = true;
+                }
+            }
+            if (!found)
+                fail(VDBS_ERR_INPUT, format("%s: grid \"%s\" is an instance of a missing grid",
+                                            path.c_str(), sanitize(e.gd.gridName(), 80).c_str()));
+        }
+        e.gd.seekToGrid(is_);
+        Archive::readGrid(e.grid, e.gd, is_);
+        e.loaded = true;
+        connect_instances();
+    }
+
+    void connect_instances()
+    {
+        NamedGridMap named;
+        for (const Entry &e : entries) {
+            if (e.loaded)
+                named[e.gd.uniqueName()] = e.grid;
+        }
+        for (const Entry &e : entries) {
+            if (e.loaded && e.gd.isInstance() && named.count(e.gd.instanceParentName()))
+                connectInstance(e.gd, named);
+        }
+    }
+};
+
+/* Writes through Archive's protected stream API so that write errors on our own
+ * std::ofstream are seen (io::File::write does not check them). */
+class Writer : public openvdb::io::Archive
+{
+  public:
+    void write_to(std::ostream &os, const openvdb::GridCPtrVec &grids,
+                  const openvdb::MetaMap &meta) const
+    {
+        Archive::write(os, grids, /*seekable=*/true, meta);
+    }
+};
+
+struct ActiveStats {
+    float vmin = 0.0f, vmax = 0.0f;
+    bool any = false;
+    uint64_t nonfinite = 0, negative = 0;
+    Coord first_nonfinite, first_negative;
+    float nonfinite_value = 0.0f, negative_value = 0.0f;
+};
+
+ActiveStats active_stats(const FloatTree &tree)
+{
+    ActiveStats s;
+    for (auto it = tree.cbeginValueOn(); it; ++it) {
+        const float v = *it;
+        const uint64_t n = it.isVoxelValue() ? 1 : it.getVoxelCount();
+        if (!std::isfinite(v)) {
+            if (s.nonfinite == 0) {
+                s.first_nonfinite = it.getCoord();
+                s.nonfinite_value = v;
+            }
+            s.nonfinite += n;
+        } else if (v < 0.0f) {
+            if (s.negative == 0) {
+                s.first_negative = it.getCoord();
+                s.negative_value = v;
+            }
+            s.negative += n;
+        } else if (!s.any) {
+            s.vmin = s.vmax = v;
+            s.any = true;
+        } else {
+            s.vmin = std::min(s.vmin, v);
+            s.vmax = std::max(s.vmax, v);
+        }
+    }
+    return s;
+}
+
+/* Zero is the only value the samplers may see outside the active region. */
+void zero_inactive(FloatTree &tree)
+{
+    for (auto it = tree.beginValueOff(); it; ++it)
+        it.setValue(0.0f);
+    tree.root().setBackground(0.0f, /*updateChildNodes=*/false);
+}
+
+} // namespace
+
+struct vdbio_density {
+    FloatGrid::Ptr grid;
+    vdbio_density_info info;
+};
+
+namespace
+{
+
+void fill_info(vdbio_density &d, const std::string &name, const char *source_type,
+               double original_background, const ActiveStats &stats)
+{
+    vdbio_density_info &info = d.info;
+    memset(&info, 0, sizeof info);
+    copy_string(info.name, sizeof info.name, name);
+    copy_string(info.source_type, sizeof info.source_type, source_type);
+    info.transform = transform_to_c(d.grid->transform());
+    voxel_size_of(info.transform, info.voxel_size);
+    const FloatTree &tree = d.grid->tree();
+    info.active_voxels = tree.activeVoxelCount();
+    info.active_tiles = tree.activeTileCount();
+    bbox_to_c(d.grid->evalActiveVoxelBoundingBox(), info.active_voxels == 0, info.bbox_min,
+              info.bbox_max);
+    info.value_min = stats.vmin;
+    info.value_max = stats.vmax;
+    info.original_background = original_background;
+}
+
+void warn(vdbs_warn_fn fn, void *user, const std::string &message)
+{
+    if (fn)
+        fn(user, message.c_str());
+}
+
+/* Picks the descriptor index for the read options; throws on every ambiguity. */
+size_t select_grid(const Reader &r, const vdbio_read_options &o)
+{
+    const std::string &path = r.path;
+    if (r.entries.empty())
+        fail(VDBS_ERR_INPUT, format("%s: the file contains no grids", path.c_str()));
+    if (o.grid_index < 0)
+        fail(VDBS_ERR_INPUT, format("%s: grid index %d is negative", path.c_str(), o.grid_index));
+    const std::string wanted = o.grid_name ? o.grid_name : "density";
+    std::vector<size_t> named;
+    for (size_t i = 0; i < r.entries.size(); ++i) {
+        if (r.entries[i].gd.gridName() == wanted)
+            named.push_back(i);
+    }
+    if (named.empty() && !o.grid_name) {
+        std::vector<size_t> scalar;
+        for (size_t i = 0; i < r.entries.size(); ++i) {
+            const std::string t = r.value_type(i);
+            if (t == "float" || t == "double")
+                scalar.push_back(i);
+        }
+        if (scalar.size() == 1 && o.grid_index == 0)
+            return scalar[0];
+        fail(VDBS_ERR_INPUT,
+             format("%s: no grid named \"density\" and %s; grids: %s", path.c_str(),
+                    scalar.empty() ? "no float grid" : "several float grids (pick one with --grid)",
+                    r.grid_list().c_str()));
+    }
+    if (named.empty())
+        fail(VDBS_ERR_INPUT, format("%s: no grid named \"%s\"; grids: %s", path.c_str(),
+                                    sanitize(wanted, 80).c_str(), r.grid_list().c_str()));
+    if (static_cast<size_t>(o.grid_index) >= named.size())
+        fail(VDBS_ERR_INPUT,
+             format("%s: grid index %d out of range: %zu grid%s named \"%s\"", path.c_str(),
+                    o.grid_index, named.size(), named.size() == 1 ? " is" : "s are",
+                    sanitize(wanted, 80).c_str()));
+    if (named.size() > 1 && o.grid_index == 0)
+        warn(o.warn, o.warn_user,
+             format("%s: %zu grids are named \"%s\"; using the first (--grid %s@1 picks another)",
+                    path.c_str(), named.size(), sanitize(wanted, 80).c_str(),
+                    sanitize(wanted, 80).c_str()));
+    return named[static_cast<size_t>(o.grid_index)];
+}
+
+void density_read(const char *path, const vdbio_read_options *options, vdbio_density **out)
+{
+    if (!path || !out)
+        fail(VDBS_ERR_INTERNAL, "vdbio_density_read: NULL argument");
+    vdbio_read_options o;
+    memset(&o, 0, sizeof o);
+    if (options)
+        o = *options;
+
+    Reader r;
+    r.open(path, /*load_all=*/false);
+    const size_t index = select_grid(r, o);
+    const std::string label = r.display_name(index);
+    const std::string gname = sanitize(label, 120);
+    const std::string type = r.value_type(index);
+    if (type != "float" && type != "double")
+        fail(VDBS_ERR_INPUT,
+             format("%s: grid \"%s\" holds %s values; a density must be a float or double grid",
+                    path, gname.c_str(), sanitize(type, 40).c_str()));
+
+    GridBase::Ptr base = r.load(index);
+    FloatGrid::Ptr grid;
+    if (type == "double") {
+        auto dgrid = openvdb::gridPtrCast<openvdb::DoubleGrid>(base);
+        if (!dgrid)
+            fail(VDBS_ERR_INTERNAL, "double grid cast failed");
+        grid = FloatGrid::create(std::make_shared<FloatTree>(dgrid->tree()));
+        grid->insertMeta(*dgrid);
+        grid->setTransform(dgrid->transform().copy());
+    } else {
+        grid = openvdb::gridPtrCast<FloatGrid>(base);
+        if (!grid)
+            fail(VDBS_ERR_INTERNAL, "float grid cast failed");
+    }
+
+    if (!grid->transform().isLinear())
+        fail(VDBS_ERR_INPUT,
+             format("%s: grid \"%s\" has a non-linear (%s) transform; only affine transforms "
+                    "are supported",
+                    path, gname.c_str(), grid->transform().mapType().c_str()));
+
+    const double original_background = static_cast<double>(grid->background());
+    const openvdb::GridClass cls = grid->getGridClass();
+    if (cls == openvdb::GRID_LEVEL_SET && !o.from_levelset)
+        fail(VDBS_ERR_INPUT,
+             format("%s: grid \"%s\" is a level set (signed distance), not a density; pass "
+                    "--from-levelset to convert it to a fog volume",
+                    path, gname.c_str()));
+    if (o.from_levelset) {
+        if (cls == openvdb::GRID_FOG_VOLUME) {
+            warn(o.warn, o.warn_user,
+                 format("%s: grid \"%s\" is already a fog volume; --from-levelset ignored", path,
+                        gname.c_str()));
+        } else {
+            openvdb::tools::sdfToFogVolume(*grid);
+        }
+    }
+
+    if (grid->tree().activeVoxelCount() == 0)
+        fail(VDBS_ERR_INPUT,
+             format("%s: grid \"%s\" is empty (no active voxels)", path, gname.c_str()));
+
+    const double background = static_cast<double>(grid->background());
+    zero_inactive(grid->tree());
+    if (background != 0.0)
+        warn(o.warn, o.warn_user,
+             format("%s: grid \"%s\" has background %g; background and inactive values reset "
+                    "to 0",
+                    path, gname.c_str(), background));
+
+    const ActiveStats s = active_stats(grid->tree());
+    if (s.nonfinite || s.negative) {
+        std::string what;
+        const openvdb::math::Transform &t = grid->transform();
+        if (s.nonfinite)
+            what +=
+                format("%llu NaN/Inf active value%s (first %g at index %s, world %s)%s",
+                       static_cast<unsigned long long>(s.nonfinite), s.nonfinite == 1 ? "" : "s",
+                       static_cast<double>(s.nonfinite_value), coord_str(s.first_nonfinite).c_str(),
+                       world_str(t, s.first_nonfinite).c_str(),
+                       type == "double" ? " after conversion to float" : "");
+        if (s.nonfinite && s.negative)
+            what += " and ";
+        if (s.negative)
+            what +=
+                format("%llu negative active value%s (first %g at index %s, world %s)",
+                       static_cast<unsigned long long>(s.negative), s.negative == 1 ? "" : "s",
+                       static_cast<double>(s.negative_value), coord_str(s.first_negative).c_str(),
+                       world_str(t, s.first_negative).c_str());
+        const bool hint = s.negative && cls != openvdb::GRID_FOG_VOLUME && !o.from_levelset;
+        fail(VDBS_ERR_INPUT,
+             format("%s: grid \"%s\" has %s%s", path, gname.c_str(), what.c_str(),
+                    hint ? "; if it is a signed distance field, pass --from-levelset" : ""));
+    }
+
+    auto d = std::make_unique<vdbio_density>();
+    d->grid = grid;
+    d->grid->setGridClass(openvdb::GRID_FOG_VOLUME);
+    fill_info(*d, label, type.c_str(), original_background, s);
+    *out = d.release();
+}
+
+void density_from_dense(const float *values, const int dims[3], const int origin[3],
+                        const vdbio_transform *transform, const char *name, vdbio_density **out)
+{
+    if (!values || !dims || !out)
+        fail(VDBS_ERR_INTERNAL, "vdbio_density_from_dense: NULL argument");
+    for (int a = 0; a < 3; ++a) {
+        if (dims[a] <= 0)
+            fail(VDBS_ERR_INPUT, format("dense grid dimensions %d x %d x %d are not positive",
+                                        dims[0], dims[1], dims[2]));
+    }
+    const std::string gname = name ? name : "density";
+    const Coord o = origin ? Coord(origin[0], origin[1], origin[2]) : Coord(0);
+    FloatGrid::Ptr grid = FloatGrid::create(0.0f);
+    grid->setTransform(transform_from_c(transform));
+    grid->setName(gname);
+    grid->setGridClass(openvdb::GRID_FOG_VOLUME);
+    auto acc = grid->getAccessor();
+    const size_t nx = static_cast<size_t>(dims[0]), ny = static_cast<size_t>(dims[1]);
+    uint64_t nonfinite = 0;
+    Coord first_bad;
+    for (int k = 0; k < dims[2]; ++k) {
+        for (int j = 0; j < dims[1]; ++j) {
+            const float *row = values + (static_cast<size_t>(k) * ny + j) * nx;
+            for (int i = 0; i < dims[0]; ++i) {
+                const float v = row[i];
+                if (!std::isfinite(v)) {
+                    if (nonfinite++ == 0)
+                        first_bad = o + Coord(i, j, k);
+                } else if (v > 0.0f) {
+                    acc.setValueOn(o + Coord(i, j, k), v);
+                }
+            }
+        }
+    }
+    if (nonfinite)
+        fail(VDBS_ERR_INPUT,
+             format("dense grid \"%s\" has %llu NaN/Inf values (first at index %s)",
+                    sanitize(gname, 120).c_str(), static_cast<unsigned long long>(nonfinite),
+                    coord_str(first_bad).c_str()));
+    auto d = std::make_unique<vdbio_density>();
+    d->grid = grid;
+    fill_info(*d, gname, "float", 0.0, active_stats(grid->tree()));
+    *out = d.release();
+}
+
+/* realpath() of a path whose last component may not exist yet. */
+std::string resolve(const char *path)
+{
+    char buf[PATH_MAX];
+    if (realpath(path, buf))
+        return buf;
+    return std::string();
+}
+
+bool same_file(const char *out, const char *in)
+{
+    struct stat so, si;
+    if (!in || stat(in, &si) != 0)
+        return false;
+    if (stat(out, &so) == 0 && so.st_dev == si.st_dev && so.st_ino == si.st_ino)
+        return true;
+    const std::string a = resolve(out), b = resolve(in);
+    return !a.empty() && a == b;
+}
+
+bool reserved_grid_meta(const std::string &key)
+{
+    static const char *const names[] = {"name",        "class",          "value_type",
+                                        "vector_type", "is_local_space", "is_saved_as_half_float"};
+    for (const char *n : names) {
+        if (key == n)
+            return true;
+    }
+    return key.compare(0, 5, "file_") == 0;
+}
+
+void vdb_write(const char *path, const char *input_path, const vdbio_write_request *req)
+{
+    if (!path || !req || !req->density || !req->density->grid)
+        fail(VDBS_ERR_INTERNAL, "vdbio_write: NULL argument");
+    if (req->coord_count && !req->coords)
+        fail(VDBS_ERR_INTERNAL, "vdbio_write: coordinates missing");
+    if (req->vec3_grid_count < 0 || (req->vec3_grid_count && !req->vec3_grids) ||
+        req->file_meta_count < 0 || (req->file_meta_count && !req->file_meta))
+        fail(VDBS_ERR_INTERNAL, "vdbio_write: bad grid or metadata list");
+    if (same_file(path, input_path))
+        fail(VDBS_ERR_INPUT,
+             format("%s: refusing to overwrite the input file %s", path, input_path));
+
+    const FloatGrid &src = *req->density->grid;
+    uint64_t clamped = 0;
+
+    FloatGrid::Ptr density;
+    if (req->half) {
+        bool big = false;
+        for (auto it = src.tree().cbeginValueAll(); it && !big; ++it)
+            big = std::fabs(*it) > kHalfMax;
+        if (big) {
+            density = FloatGrid::create(std::make_shared<FloatTree>(src.tree()));
+            for (auto it = density->tree().beginValueAll(); it; ++it) {
+                const float v = *it;
+                if (std::fabs(v) > kHalfMax) {
+                    it.setValue(std::copysign(kHalfMax, v));
+                    clamped += it.isVoxelValue() ? 1 : it.getVoxelCount();
+                }
+            }
+        }
+    }
+    if (!density)
+        density = FloatGrid::create(req->density->grid->treePtr());
+    density->setTransform(src.transform().copy());
+    density->setName("density");
+    density->setGridClass(openvdb::GRID_FOG_VOLUME);
+    density->setSaveFloatAsHalf(req->half != 0);
+
+    openvdb::GridCPtrVec grids;
+    std::vector<GridBase::Ptr> all{density};
+    for (int g = 0; g < req->vec3_grid_count; ++g) {
+        const vdbio_vec3_grid &vg = req->vec3_grids[g];
+        if (!vg.name || !vg.name[0] || (!vg.values && req->coord_count))
+            fail(VDBS_ERR_INTERNAL, format("vdbio_write: vec3 grid %d has no name or values", g));
+        for (const GridBase::Ptr &other : all) {
+            if (other->getName() == vg.name)
+                fail(VDBS_ERR_INTERNAL, format("vdbio_write: two grids named \"%s\"", vg.name));
+        }
+        Vec3SGrid::Ptr grid = Vec3SGrid::create(openvdb::Vec3s(0.0f));
+        grid->setName(vg.name);
+        grid->setTransform(src.transform().copy());
+        grid->setGridClass(openvdb::GRID_UNKNOWN);
+        grid->setVectorType(openvdb::VEC_INVARIANT);
+        grid->setSaveFloatAsHalf(req->half != 0);
+        auto acc = grid->getAccessor();
+        for (size_t i = 0; i < req->coord_count; ++i) {
+            const int32_t *c = req->coords + 3 * i;
+            openvdb::Vec3s v(vg.values[3 * i], vg.values[3 * i + 1], vg.values[3 * i + 2]);
+            if (req->half) {
+                for (int a = 0; a < 3; ++a) {
+                    if (std::fabs(v[a]) > kHalfMax) {
+                        v[a] = std::copysign(kHalfMax, v[a]);
+                        ++clamped;
+                    }
+                }
+            }
+            acc.setValueOn(Coord(c[0], c[1], c[2]), v);
+        }
+        all.push_back(grid);
+    }
+
+    openvdb::MetaMap file_meta;
+    bool has_creator = false;
+    for (int m = 0; m < req->file_meta_count; ++m) {
+        const vdbio_meta &kv = req->file_meta[m];
+        if (!kv.key || !kv.key[0] || !kv.value)
+            fail(VDBS_ERR_INTERNAL, format("vdbio_write: metadata entry %d is incomplete", m));
+        file_meta.insertMeta(kv.key, openvdb::StringMetadata(kv.value));
+        has_creator = has_creator || strcmp(kv.key, "creator") == 0;
+        if (!reserved_grid_meta(kv.key)) {
+            for (const GridBase::Ptr &g : all)
+                g->insertMeta(kv.key, openvdb::StringMetadata(kv.value));
+        }
+    }
+    if (!has_creator)
+        file_meta.insertMeta("creator", openvdb::StringMetadata("vdbscatter"));
+    for (const GridBase::Ptr &g : all)
+        grids.push_back(g);
+
+    const std::string out = path;
+    const size_t slash = out.rfind('/');
+    const std::string dir = slash == std::string::npos ? "" : out.substr(0, slash + 1);
+    const std::string base = slash == std::string::npos ? out : out.substr(slash + 1);
+    if (base.empty())
+        fail(VDBS_ERR_INPUT, format("%s: output path names a directory", path));
+    const std::string tmp = dir + "." + base + ".tmp." + std::to_string(getpid());
+
+    try {
+        std::ofstream os(tmp, std::ios::out | std::ios::binary | std::ios::trunc);
+        if (!os)
+            fail(VDBS_ERR_IO,
+                 format("%s: cannot create %s: %s", path, tmp.c_str(), strerror(errno)));
+        Writer().write_to(os, grids, file_meta);
+        os.flush();
+        os.close();
+        if (os.fail())
+            fail(VDBS_ERR_IO,
+                 format("%s: writing %s failed: %s", path, tmp.c_str(), strerror(errno)));
+        /* The data must be on disk before the rename makes it visible. */
+        const int fd = ::open(tmp.c_str(), O_RDONLY);
+        if (fd < 0 || fsync(fd) != 0) {
+            const int e = errno;
+            if (fd >= 0)
+                close(fd);
+            fail(VDBS_ERR_IO, format("%s: cannot sync %s: %s", path, tmp.c_str(), strerror(e)));
+        }
+        close(fd);
+        if (rename(tmp.c_str(), path) != 0)
+            fail(VDBS_ERR_IO,
+                 format("%s: cannot rename %s into place: %s", path, tmp.c_str(), strerror(errno)));
+    } catch (const Failure &) {
+        unlink(tmp.c_str());
+        throw;
+    } catch (const std::bad_alloc &) {
+        unlink(tmp.c_str());
+        throw;
+    } catch (const std::exception &e) {
+        unlink(tmp.c_str());
+        fail(VDBS_ERR_IO,
+             format("%s: writing failed (OpenVDB: %s)", path, sanitize(e.what()).c_str()));
+    } catch (...) {
+        unlink(tmp.c_str());
+        throw;
+    }
+    if (clamped)
+        warn(req->warn, req->warn_user,
+             format("%s: %llu value%s beyond the half-float range clamped to +-65504", path,
+                    static_cast<unsigned long long>(clamped), clamped == 1 ? "" : "s"));
+}
+
+template <typename GridT> void scalar_range(const GridT &grid, double &lo, double &hi)
+{
+    bool any = false;
+    for (auto it = grid.tree().cbeginValueOn(); it; ++it) {
+        const double v = static_cast<double>(*it);
+        if (std::isnan(v))
+            continue;
+        lo = any ? std::min(lo, v) : v;
+        hi = any ? std::max(hi, v) : v;
+        any = true;
+    }
+}
+
+void summarize(const Reader &r, size_t index, vdbio_grid_summary &s)
+{
+    const GridBase &g = *r.entries[index].grid;
+    memset(&s, 0, sizeof s);
+    copy_string(s.name, sizeof s.name, r.entries[index].gd.gridName());
+    copy_string(s.value_type, sizeof s.value_type, g.valueType());
+    copy_string(s.grid_class, sizeof s.grid_class, GridBase::gridClassToString(g.getGridClass()));
+    s.is_affine = g.transform().isLinear() ? 1 : 0;
+    s.transform = transform_to_c(g.transform());
+    voxel_size_of(s.transform, s.voxel_size);
+    s.active_voxels = g.activeVoxelCount();
+    s.active_tiles = g.baseTree().activeTileCount();
+    bbox_to_c(g.evalActiveVoxelBoundingBox(), s.active_voxels == 0, s.bbox_min, s.bbox_max);
+    if (const auto *f = dynamic_cast<const FloatGrid *>(&g)) {
+        s.background = f->background();
+        scalar_range(*f, s.value_min, s.value_max);
+    } else if (const auto *d = dynamic_cast<const openvdb::DoubleGrid *>(&g)) {
+        s.background = d->background();
+        scalar_range(*d, s.value_min, s.value_max);
+    } else if (const auto *i32 = dynamic_cast<const openvdb::Int32Grid *>(&g)) {
+        s.background = i32->background();
+    } else if (const auto *i64 = dynamic_cast<const openvdb::Int64Grid *>(&g)) {
+        s.background = static_cast<double>(i64->background());
+    } else if (const auto *b = dynamic_cast<const openvdb::BoolGrid *>(&g)) {
+        s.background = b->background() ? 1.0 : 0.0;
+    }
+}
+
+/* Per-thread accessor cache for vdbio_lit lookups: a vdbio_lit may be shared by
+ * many threads, so it cannot own mutable accessors. */
+template <typename TreeT> struct LitCache {
+    uint64_t serial = 0;
+    const void *grid = nullptr;
+    std::unique_ptr<openvdb::tree::ValueAccessor<const TreeT, false>> acc;
+};
+
+std::atomic<uint64_t> lit_serial{1};
+
+} // namespace
+
+struct vdbio_lit {
+    std::string path;
+    std::vector<GridBase::Ptr> grids;
+    std::map<std::string, std::string> meta;
+    uint64_t serial;
+};
+
+namespace
+{
+
+const GridBase *lit_find(const vdbio_lit *lit, const char *name)
+{
+    if (!lit || !name)
+        return nullptr;
+    for (const GridBase::Ptr &g : lit->grids) {
+        if (g->getName() == name)
+            return g.get();
+    }
+    return nullptr;
+}
+
+template <typename GridT>
+const GridT &lit_typed(const vdbio_lit *lit, const char *name, const char *want)
+{
+    if (!lit || !name)
+        fail(VDBS_ERR_INTERNAL, "vdbio_lit: NULL argument");
+    const GridBase *g = lit_find(lit, name);
+    if (!g)
+        fail(VDBS_ERR_INPUT, format("%s: no grid named \"%s\"", lit->path.c_str(), name));
+    const GridT *t = dynamic_cast<const GridT *>(g);
+    if (!t)
+        fail(VDBS_ERR_INPUT, format("%s: grid \"%s\" holds %s values, not %s", lit->path.c_str(),
+                                    name, g->valueType().c_str(), want));
+    return *t;
+}
+
+template <typename GridT>
+typename GridT::ValueType lit_lookup(const vdbio_lit *lit, const GridT &grid, const int ijk[3])
+{
+    thread_local LitCache<typename GridT::TreeType> cache;
+    if (cache.serial != lit->serial || cache.grid != &grid || !cache.acc) {
+        cache.acc.reset(
+            new openvdb::tree::ValueAccessor<const typename GridT::TreeType, false>(grid.tree()));
+        cache.serial = lit->serial;
+        cache.grid = &grid;
+    }
+    const Coord c(ijk[0], ijk[1], ijk[2]);
+    return cache.acc->isValueOn(c) ? cache.acc->getValue(c) : typename GridT::ValueType(0);
+}
+
+} // namespace
+
+extern "C" {
+
+vdbs_status vdbio_list_grids(const char *path, vdbio_grid_summary **grids, int *count,
+                             vdbs_error *err)
+{
+    if (grids)
+        *grids = nullptr;
+    if (count)
+        *count = 0;
+    return guarded(err, [&] {
+        if (!path || !grids || !count)
+            fail(VDBS_ERR_INTERNAL, "vdbio_list_grids: NULL argument");
+        Reader r;
+        r.open(path, /*load_all=*/true);
+        const size_t n = r.entries.size();
+        auto *list =
+            static_cast<vdbio_grid_summary *>(calloc(n ? n : 1, sizeof(vdbio_grid_summary)));
+        if (!list)
+            throw std::bad_alloc();
+        try {
+            for (size_t i = 0; i < n; ++i)
+                summarize(r, i, list[i]);
+        } catch (...) {
+            free(list);
+            throw;
+        }
+        *grids = list;
+        *count = static_cast<int>(n);
+    });
+}
+
+vdbs_status vdbio_density_read(const char *path, const vdbio_read_options *options,
+                               vdbio_density **out, vdbs_error *err)
+{
+    if (out)
+        *out = nullptr;
+    return guarded(err, [&] { density_read(path, options, out); });
+}
+
+vdbs_status vdbio_density_from_dense(const float *values, const int dims[3], const int origin[3],
+                                     const vdbio_transform *transform, const char *name,
+                                     vdbio_density **out, vdbs_error *err)
+{
+    if (out)
+        *out = nullptr;
+    return guarded(err, [&] { density_from_dense(values, dims, origin, transform, name, out); });
+}
+
+void vdbio_density_free(vdbio_density *density)
+{
+    delete density;
+}
+
+const vdbio_density_info *vdbio_density_get_info(const vdbio_density *density)
+{
+    return density ? &density->info : nullptr;
+}
+
+float vdbio_density_value(const vdbio_density *density, const int ijk[3])
+{
+    if (!density || !ijk)
+        return 0.0f;
+    return density->grid->tree().getValue(Coord(ijk[0], ijk[1], ijk[2]));
+}
+
+vdbs_status vdbio_density_to_nanovdb(const vdbio_density *density, void **buffer, size_t *size,
+                                     vdbs_error *err)
+{
+    if (buffer)
+        *buffer = nullptr;
+    if (size)
+        *size = 0;
+    return guarded(err, [&] {
+        if (!density || !buffer || !size)
+            fail(VDBS_ERR_INTERNAL, "vdbio_density_to_nanovdb: NULL argument");
+        auto handle = nanovdb::openToNanoVDB(*density->grid);
+        const size_t n = handle.size();
+        const size_t padded = (n + 31) / 32 * 32;
+        void *mem = aligned_alloc(32, padded ? padded : 32);
+        if (!mem)
+            throw std::bad_alloc();
+        memcpy(mem, handle.data(), n);
+        memset(static_cast<char *>(mem) + n, 0, padded - n);
+        *buffer = mem;
+        *size = padded;
+    });
+}
+
+vdbs_status vdbio_density_output_coords(const vdbio_density *density, int dilation,
+                                        int32_t **coords, size_t *count, vdbs_error *err)
+{
+    if (coords)
+        *coords = nullptr;
+    if (count)
+        *count = 0;
+    return guarded(err, [&] {
+        if (!density || !coords || !count)
+            fail(VDBS_ERR_INTERNAL, "vdbio_density_output_coords: NULL argument");
+        if (dilation < 0)
+            fail(VDBS_ERR_INTERNAL,
+                 format("vdbio_density_output_coords: dilation %d < 0", dilation));
+        openvdb::MaskTree mask(density->grid->tree(), false, openvdb::TopologyCopy());
+        mask.voxelizeActiveTiles();
+        if (dilation > 0)
+            openvdb::tools::dilateActiveValues(mask, dilation, openvdb::tools::NN_FACE_EDGE_VERTEX,
+                                               openvdb::tools::EXPAND_TILES);
+        mask.voxelizeActiveTiles();
+        const size_t n = static_cast<size_t>(mask.activeVoxelCount());
+        if (n == 0)
+            return;
+        auto *list = static_cast<int32_t *>(malloc(n * 3 * sizeof(int32_t)));
+        if (!list)
+            throw std::bad_alloc();
+        size_t i = 0;
+        for (auto leaf = mask.cbeginLeaf(); leaf; ++leaf) {
+            for (auto v = leaf->cbeginValueOn(); v; ++v) {
+                const Coord c = v.getCoord();
+                if (i < n) {
+                    list[3 * i] = c.x();
+                    list[3 * i + 1] = c.y();
+                    list[3 * i + 2] = c.z();
+                }
+                ++i;
+            }
+        }
+        if (i != n) {
+            free(list);
+            fail(VDBS_ERR_INTERNAL, "output coordinates: voxel count mismatch");
+        }
+        *coords = list;
+        *count = n;
+    });
+}
+
+vdbs_status vdbio_write(const char *path, const char *input_path,
+                        const vdbio_write_request *request, vdbs_error *err)
+{
+    return guarded(err, [&] { vdb_write(path, input_path, request); });
+}
+
+vdbs_status vdbio_lit_open(const char *path, vdbio_lit **out, vdbs_error *err)
+{
+    if (out)
+        *out = nullptr;
+    return guarded(err, [&] {
+        if (!path || !out)
+            fail(VDBS_ERR_INTERNAL, "vdbio_lit_open: NULL argument");
+        Reader r;
+        r.open(path, /*load_all=*/true);
+        auto lit = std::make_unique<vdbio_lit>();
+        lit->path = path;
+        lit->serial = lit_serial.fetch_add(1);
+        for (const Reader::Entry &e : r.entries) {
+            e.grid->setName(e.gd.gridName());
+            lit->grids.push_back(e.grid);
+        }
+        for (auto it = r.file_meta.beginMeta(); it != r.file_meta.endMeta(); ++it) {
+            if (it->second && it->second->typeName() == openvdb::StringMetadata::staticTypeName())
+                lit->meta[it->first] =
+                    static_cast<const openvdb::StringMetadata &>(*it->second).value();
+        }
+        *out = lit.release();
+    });
+}
+
+int vdbio_lit_has_grid(const vdbio_lit *lit, const char *name)
+{
+    return lit_find(lit, name) != nullptr;
+}
+
+vdbs_status vdbio_lit_vec3(const vdbio_lit *lit, const char *grid, const int ijk[3], float out[3],
+                           vdbs_error *err)
+{
+    return guarded(err, [&] {
+        if (!ijk || !out)
+            fail(VDBS_ERR_INTERNAL, "vdbio_lit_vec3: NULL argument");
+        const Vec3SGrid &g = lit_typed<Vec3SGrid>(lit, grid, "vec3s");
+        const openvdb::Vec3s v = lit_lookup(lit, g, ijk);
+        out[0] = v.x();
+        out[1] = v.y();
+        out[2] = v.z();
+    });
+}
+
+vdbs_status vdbio_lit_float(const vdbio_lit *lit, const char *grid, const int ijk[3], float *out,
+                            vdbs_error *err)
+{
+    return guarded(err, [&] {
+        if (!ijk || !out)
+            fail(VDBS_ERR_INTERNAL, "vdbio_lit_float: NULL argument");
+        const FloatGrid &g = lit_typed<FloatGrid>(lit, grid, "float");
+        *out = lit_lookup(lit, g, ijk);
+    });
+}
+
+vdbs_status vdbio_lit_transform(const vdbio_lit *lit, const char *grid, vdbio_transform *out,
+                                vdbs_error *err)
+{
+    return guarded(err, [&] {
+        if (!lit || !grid || !out)
+            fail(VDBS_ERR_INTERNAL, "vdbio_lit_transform: NULL argument");
+        const GridBase *g = lit_find(lit, grid);
+        if (!g)
+            fail(VDBS_ERR_INPUT, format("%s: no grid named \"%s\"", lit->path.c_str(), grid));
+        *out = transform_to_c(g->transform());
+    });
+}
+
+const char *vdbio_lit_meta(const vdbio_lit *lit, const char *key)
+{
+    if (!lit || !key)
+        return nullptr;
+    const auto it = lit->meta.find(key);
+    return it == lit->meta.end() ? nullptr : it->second.c_str();
+}
+
+void vdbio_lit_close(vdbio_lit *lit)
+{
+    delete lit;
+}
+
+vdbs_status vdbio_debug_write_float_grid(const char *path, const char *grid_name,
+                                         const float *values, const int dims[3],
+                                         const int origin[3], float background, int flags,
+                                         vdbs_error *err)
+{
+    return guarded(err, [&] {
+        if (!path || (!values) != (!dims))
+            fail(VDBS_ERR_INTERNAL, "vdbio_debug_write_float_grid: NULL argument");
+        if (!values) {
+            std::ofstream os(path, std::ios::out | std::ios::binary | std::ios::trunc);
+            Writer().write_to(os, openvdb::GridCPtrVec(), openvdb::MetaMap());
+            os.close();
+            if (os.fail())
+                fail(VDBS_ERR_IO, format("%s: write failed", path));
+            return;
+        }
+        FloatGrid::Ptr grid = FloatGrid::create(background);
+        grid->setName(grid_name ? grid_name : "density");
+        grid->setGridClass((flags & VDBIO_DEBUG_LEVEL_SET) ? openvdb::GRID_LEVEL_SET
+                                                           : openvdb::GRID_FOG_VOLUME);
+        if (flags & VDBIO_DEBUG_FRUSTUM)
+            grid->setTransform(openvdb::math::Transform::createFrustumTransform(
+                openvdb::BBoxd(openvdb::Vec3d(0.0), openvdb::Vec3d(dims[0], dims[1], dims[2])), 0.5,
+                1.0, 1.0));
+        const Coord o = origin ? Coord(origin[0], origin[1], origin[2]) : Coord(0);
+        auto acc = grid->getAccessor();
+        size_t n = 0;
+        for (int k = 0; k < dims[2]; ++k)
+            for (int j = 0; j < dims[1]; ++j)
+                for (int i = 0; i < dims[0]; ++i)
+                    acc.setValueOn(o + Coord(i, j, k), values[n++]);
+        GridBase::Ptr out = grid;
+        if (flags & VDBIO_DEBUG_DOUBLE) {
+            auto d =
+                openvdb::DoubleGrid::create(std::make_shared<openvdb::DoubleTree>(grid->tree()));
+            d->insertMeta(*grid);
+            d->setTransform(grid->transform().copy());
+            out = d;
+        }
+        std::ofstream os(path, std::ios::out | std::ios::binary | std::ios::trunc);
+        if (!os)
+            fail(VDBS_ERR_IO, format("%s: cannot create: %s", path, strerror(errno)));
+        Writer().write_to(os, openvdb::GridCPtrVec{out}, openvdb::MetaMap());
+        os.close();
+        if (os.fail())
+            fail(VDBS_ERR_IO, format("%s: write failed", path));
+    });
+}
+
+} /* extern "C" */

@@ -26,16 +26,17 @@ typedef struct vdbio_grid_summary {
     int is_affine;       /* 0 for frustum or other non-linear maps */
     vdbio_transform transform;
     double voxel_size[3];    /* world length of the three index axes */
-    int bbox_min[3];         /* active bounding box in index space (inclusive) */
-    int bbox_max[3];
+    int bbox_min[3];         /* active bounding box in index space (inclusive); */
+    int bbox_max[3];         /* min 0 and max -1 when the grid is empty */
     uint64_t active_voxels;  /* active voxels, counting voxels inside active tiles */
     uint64_t active_tiles;
-    double background;
-    double value_min; /* over active values; 0 when empty or not scalar */
+    double background; /* scalar grids (float, double, int32, int64, bool); 0 otherwise */
+    double value_min;  /* over active values of float/double grids; 0 when empty or otherwise */
     double value_max;
 } vdbio_grid_summary;
 
-/* Lists every grid of a file, in file order. *grids is malloc'd (free with free()).
+/* Lists every grid of a file, in file order (duplicate names appear as often as they
+ * occur). *grids is malloc'd (free with free()).
  * Errors: missing file, not a VDB, truncated or unreadable file. */
 vdbs_status vdbio_list_grids(const char *path, vdbio_grid_summary **grids, int *count,
                              vdbs_error *err);
@@ -43,9 +44,11 @@ vdbs_status vdbio_list_grids(const char *path, vdbio_grid_summary **grids, int *
 typedef struct vdbio_read_options {
     /* Grid name; NULL means "density", or the only float grid of the file whatever its name. */
     const char *grid_name;
-    /* Which of several grids sharing grid_name (0 = first); from "--grid NAME@INDEX". */
+    /* Which of several grids sharing grid_name (0 = first); from "--grid NAME@INDEX".
+     * The duplicate-name warning is given only for index 0; out of range is an error. */
     int grid_index;
-    /* Convert a level set (signed distance) into a fog volume instead of refusing it. */
+    /* Convert a level set (signed distance) into a fog volume instead of refusing it
+     * (openvdb::tools::sdfToFogVolume); ignored with a warning for a fog volume. */
     int from_levelset;
     vdbs_warn_fn warn; /* may be NULL */
     void *warn_user;
@@ -55,12 +58,12 @@ typedef struct vdbio_read_options {
 typedef struct vdbio_density vdbio_density;
 
 typedef struct vdbio_density_info {
-    char name[256];
+    char name[256];       /* grid name; "NAME@N" when several grids share the name */
     char source_type[32]; /* type in the file: "float" or "double" */
     vdbio_transform transform;
     double voxel_size[3];
-    int bbox_min[3]; /* active bounding box, index space, inclusive */
-    int bbox_max[3];
+    int bbox_min[3]; /* active bounding box, index space, inclusive; */
+    int bbox_max[3]; /* min 0 and max -1 for an empty grid (only from_dense makes one) */
     uint64_t active_voxels; /* including voxels inside active tiles */
     uint64_t active_tiles;
     float value_min; /* over active values */
@@ -80,7 +83,10 @@ vdbs_status vdbio_density_read(const char *path, const vdbio_read_options *optio
 
 /* Builds a density grid from a dense array values[(k * dims[1] + j) * dims[0] + i]
  * whose element (0,0,0) is index (origin[0], origin[1], origin[2]). Values <= 0
- * are inactive (stored as 0). Used by the procedural samples and the tests. */
+ * are inactive (stored as 0). Used by the procedural samples and the tests.
+ * origin NULL means (0,0,0), transform NULL the identity, name NULL "density".
+ * All values <= 0 give an empty grid (not an error). NaN/Inf values and a
+ * singular transform are VDBS_ERR_INPUT. */
 vdbs_status vdbio_density_from_dense(const float *values, const int dims[3],
                                      const int origin[3], const vdbio_transform *transform,
                                      const char *name, vdbio_density **out, vdbs_error *err);
@@ -89,11 +95,12 @@ void vdbio_density_free(vdbio_density *density);
 
 const vdbio_density_info *vdbio_density_get_info(const vdbio_density *density);
 
-/* Value at an index coordinate (0 where inactive). For tests and samplers. */
+/* Value at an index coordinate (0 where inactive). For tests and samplers;
+ * thread-safe (uncached tree lookup). */
 float vdbio_density_value(const vdbio_density *density, const int ijk[3]);
 
 /* NanoVDB float grid of the density (one grid in the buffer), malloc'd; free with free().
- * The buffer is 32-byte aligned and its size a multiple of 4 bytes. */
+ * The buffer is 32-byte aligned; *size is rounded up to a multiple of 32 (zero padding). */
 vdbs_status vdbio_density_to_nanovdb(const vdbio_density *density, void **buffer,
                                      size_t *size, vdbs_error *err);
 
@@ -128,15 +135,20 @@ typedef struct vdbio_write_request {
     void *warn_user;
 } vdbio_write_request;
 
-/* Writes all grids to `path` through a temporary file in the same directory that is
- * renamed on success and removed on failure; refuses a path equal to `input_path`
- * (when not NULL; compared after resolving links). vec3 grids are marked as
- * non-fog ("unknown" class) with vector type "invariant". */
+/* Writes all grids to `path` through a temporary file in the same directory
+ * (".NAME.tmp.PID") that is fsync'd and renamed on success and removed on failure;
+ * refuses (VDBS_ERR_INPUT) a path that is the same file as `input_path` (when not
+ * NULL and existing; compared by realpath and by device/inode). vec3 grids are
+ * marked as non-fog ("unknown" class) with vector type "invariant". File metadata
+ * gets "creator" = "vdbscatter" unless file_meta sets it; grids get every file_meta
+ * entry except OpenVDB's reserved keys (name, class, value_type, file_*, ...).
+ * Output errors are VDBS_ERR_IO. */
 vdbs_status vdbio_write(const char *path, const char *input_path,
                         const vdbio_write_request *request, vdbs_error *err);
 
 /* A lit VDB opened for reading back (tests, `render --mode baked`): every grid of
- * the file is loaded; lookups go through cached accessors. */
+ * the file is loaded; lookups go through per-thread cached accessors, so one
+ * vdbio_lit may be shared by many threads. With duplicate names the first grid wins. */
 typedef struct vdbio_lit vdbio_lit;
 vdbs_status vdbio_lit_open(const char *path, vdbio_lit **out, vdbs_error *err);
 int vdbio_lit_has_grid(const vdbio_lit *lit, const char *name);
@@ -152,6 +164,20 @@ vdbs_status vdbio_lit_transform(const vdbio_lit *lit, const char *grid, vdbio_tr
 /* File-level string metadata value, or NULL. */
 const char *vdbio_lit_meta(const vdbio_lit *lit, const char *key);
 void vdbio_lit_close(vdbio_lit *lit);
+
+/* For tests only: writes one grid whose every element of the dense array (same
+ * layout as vdbio_density_from_dense) is active with its raw value, including
+ * negatives and NaN, with the given background, straight to `path`.
+ * values and dims NULL write a file without grids. */
+enum {
+    VDBIO_DEBUG_LEVEL_SET = 1, /* grid class "level set" instead of "fog volume" */
+    VDBIO_DEBUG_FRUSTUM = 2,   /* a frustum (non-linear) transform */
+    VDBIO_DEBUG_DOUBLE = 4     /* store as a double grid */
+};
+vdbs_status vdbio_debug_write_float_grid(const char *path, const char *grid_name,
+                                         const float *values, const int dims[3],
+                                         const int origin[3], float background, int flags,
+                                         vdbs_error *err);
 
 #ifdef __cplusplus
 }
