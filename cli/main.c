@@ -14,6 +14,8 @@ static const char usage[] =
     "\n"
     "commands:\n"
     "  bake IN.vdb -o OUT.vdb     light a density VDB and write a lit VDB\n"
+    "  render IN.vdb -o IMG.exr   ray-march or path-trace a picture of a volume\n"
+    "  compare A B                error metrics of image A against reference B\n"
     "  info FILE.vdb              list grids, sizes, value ranges, optical thickness\n"
     "  sample NAME -o OUT.vdb     write a procedural sample volume\n"
     "\n"
@@ -45,6 +47,10 @@ int main(int argc, char **argv)
         return cmd_bake(argc - 2, argv + 2);
     if (strcmp(cmd, "info") == 0)
         return cmd_info(argc - 2, argv + 2);
+    if (strcmp(cmd, "render") == 0)
+        return cmd_render(argc - 2, argv + 2);
+    if (strcmp(cmd, "compare") == 0)
+        return cmd_compare(argc - 2, argv + 2);
     if (strcmp(cmd, "sample") == 0)
         return cmd_sample(argc - 2, argv + 2);
     fprintf(stderr, "vdbscatter: unknown command '%s' (try --help)\n", cmd);

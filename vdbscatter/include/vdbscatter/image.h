@@ -1,0 +1,57 @@
+/* Images: linear RGB float pixels (row 0 on top), optional per-pixel standard errors;
+ * OpenEXR and 8-bit sRGB PNG files; the error metrics of `vdbscatter compare`. */
+#ifndef VDBSCATTER_IMAGE_H
+#define VDBSCATTER_IMAGE_H
+
+#include "vdbscatter/status.h"
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+typedef struct vdbs_image {
+    int width;
+    int height;
+    float *rgb; /* 3 * width * height, linear, row-major, row 0 on top */
+    float *se;  /* NULL, or 3 * width * height standard errors of the pixel estimates */
+} vdbs_image;
+
+vdbs_status vdbs_image_alloc(vdbs_image *image, int width, int height, int with_se,
+                             vdbs_error *err);
+void vdbs_image_free(vdbs_image *image);
+
+/* Writes by extension: ".exr" linear float RGB (plus channels se.R, se.G, se.B when se is
+ * set), ".png" 8-bit sRGB of rgb * 2^exposure_ev. Written to a temporary name in the same
+ * folder and renamed. Errors: unknown extension (VDBS_ERR_INPUT), I/O. */
+vdbs_status vdbs_image_write(const char *path, const vdbs_image *image, double exposure_ev,
+                             vdbs_error *err);
+
+/* Reads an EXR (channels R, G, B; se.R, se.G, se.B when present; half or float) or a PNG
+ * (decoded from sRGB to linear). Errors (VDBS_ERR_INPUT): missing, unreadable or foreign
+ * file, missing R/G/B channels. */
+vdbs_status vdbs_image_read(const char *path, vdbs_image *image, vdbs_error *err);
+
+typedef struct vdbs_image_metrics {
+    double relrmse;     /* sqrt(mean((a-b)^2)) / sqrt(mean(b^2)), all pixels and channels */
+    double mean_rel;    /* mean of |a-b| / (|b| + 1e-3 mean(b)) */
+    double p99_rel;     /* 99th percentile of the same */
+    long long samples;  /* pixel-channel values used (after masking) */
+    int has_se;         /* both images carry se.* channels */
+    double noise_share; /* mean(se_a^2 + se_b^2) / mean((a-b)^2) */
+    double z_mean;      /* mean of z = (a-b) / sqrt(se_a^2 + se_b^2) */
+    double z_rms;       /* rms of z */
+    double se_image_a;  /* sqrt(mean(se_a^2)) / sqrt(mean(a^2)) when a has se, else 0 */
+    double se_image_b;
+} vdbs_image_metrics;
+
+/* Metrics of a against the reference b. mask_below > 0 ignores pixels whose reference
+ * luminance (0.2126 R + 0.7152 G + 0.0722 B) is below it. Errors: different sizes
+ * (VDBS_ERR_INPUT), nothing left after masking. */
+vdbs_status vdbs_image_compare(const vdbs_image *a, const vdbs_image *b, double mask_below,
+                               vdbs_image_metrics *metrics, vdbs_error *err);
+
+#ifdef __cplusplus
+}
+#endif
+
+#endif
