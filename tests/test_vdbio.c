@@ -41,9 +41,7 @@ static vdbio_density *read_ok(const char *file, const vdbio_read_options *o)
 {
     vdbio_density *d = NULL;
     vdbs_error err;
-    /* A stale message must not survive a successful call. Calling vdbs_error_set here
-     * also makes the static link pull status.o in before libvdbscatter_vdbio needs it:
-     * this test uses nothing else of libvdbscatter. */
+    /* The call must succeed whatever message the error struct held before. */
     vdbs_error_set(&err, VDBS_OK, "stale");
     vdbs_status st = vdbio_density_read(test_data_path(file), o, &d, &err);
     if (st != VDBS_OK)
