@@ -199,6 +199,16 @@ class BadFiles(Base):
         self.assertEqual(os.path.getsize(src), before)
         self.assertEqual(len(p.stderr.strip().splitlines()), 1)
 
+    def test_unwritable_outputs(self):
+        src = data("usd_densityAndHeat.vdb")
+        sub = self.path("sub")
+        os.mkdir(sub)
+        self.assert_bad_input(["bake", src, "-o", sub, "--sun", "0,-1,0"], "directory", output=None)
+        self.assert_bad_input(["bake", src, "-o", self.path("missing/x.vdb"), "--sun", "0,-1,0"],
+                              "does not exist", output=None)
+        self.assert_bad_input(["sample", "cube", "-o", sub], "directory", output=None)
+        self.assertEqual(os.listdir(sub), [])
+
 
 class RealFiles(Base):
     def read_meta(self, path):

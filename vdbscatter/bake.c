@@ -89,6 +89,9 @@ vdbs_status vdbs_bake(const vdbs_bake_options *o, vdbs_bake_report *report, vdbs
         return vdbs_error_set(err, VDBS_ERR_INPUT,
                               "--method %s is not implemented yet (available: single)",
                               scene->method);
+    vdbs_status st = vdbio_check_output(o->output, input, err);
+    if (st != VDBS_OK)
+        return st;
     int sky = vdbs_quality_sky_directions(scene->quality);
     if (sky <= 0)
         return vdbs_error_set(err, VDBS_ERR_INPUT, "unknown quality '%s'", scene->quality);
@@ -104,7 +107,7 @@ vdbs_status vdbs_bake(const vdbs_bake_options *o, vdbs_bake_report *report, vdbs
     read.warn = o->warn;
     read.warn_user = o->warn_user;
     vdbs_volume volume;
-    vdbs_status st = vdbs_volume_load(input, &read, &volume, err);
+    st = vdbs_volume_load(input, &read, &volume, err);
     if (st != VDBS_OK)
         return st;
     report->seconds_load = vdbs_now() - t_start;

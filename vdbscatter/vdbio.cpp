@@ -695,6 +695,26 @@ bool same_file(const char *out, const char *in)
     return !a.empty() && a == b;
 }
 
+/* Refuses outputs that can never be written, before any work is done. */
+void check_output(const char *path, const char *input_path)
+{
+    if (!path || !path[0])
+        fail(VDBS_ERR_INPUT, "no output path");
+    if (same_file(path, input_path))
+        fail(VDBS_ERR_INPUT,
+             format("%s: refusing to overwrite the input file %s", path, input_path));
+    struct stat st;
+    if (stat(path, &st) == 0 && S_ISDIR(st.st_mode))
+        fail(VDBS_ERR_INPUT, format("%s: is a directory, not an output file", path));
+    std::string dir(path);
+    const size_t slash = dir.find_last_of('/');
+    dir = slash == std::string::npos ? "." : (slash == 0 ? "/" : dir.substr(0, slash));
+    if (stat(dir.c_str(), &st) != 0 || !S_ISDIR(st.st_mode))
+        fail(VDBS_ERR_INPUT, format("%s: the folder %s does not exist", path, dir.c_str()));
+    if (access(dir.c_str(), W_OK) != 0)
+        fail(VDBS_ERR_INPUT, format("%s: the folder %s is not writable", path, dir.c_str()));
+}
+
 bool reserved_grid_meta(const std::string &key)
 {
     static const char *const names[] = {"name",        "class",          "value_type",
@@ -715,9 +735,7 @@ void vdb_write(const char *path, const char *input_path, const vdbio_write_reque
     if (req->vec3_grid_count < 0 || (req->vec3_grid_count && !req->vec3_grids) ||
         req->file_meta_count < 0 || (req->file_meta_count && !req->file_meta))
         fail(VDBS_ERR_INTERNAL, "vdbio_write: bad grid or metadata list");
-    if (same_file(path, input_path))
-        fail(VDBS_ERR_INPUT,
-             format("%s: refusing to overwrite the input file %s", path, input_path));
+    check_output(path, input_path);
 
     const FloatGrid &src = *req->density->grid;
     uint64_t clamped = 0;
@@ -1084,6 +1102,11 @@ vdbs_status vdbio_density_output_coords(const vdbio_density *density, int dilati
         *coords = list;
         *count = n;
     });
+}
+
+vdbs_status vdbio_check_output(const char *path, const char *input_path, vdbs_error *err)
+{
+    return guarded(err, [&] { check_output(path, input_path); });
 }
 
 vdbs_status vdbio_write(const char *path, const char *input_path,

@@ -135,6 +135,11 @@ typedef struct vdbio_write_request {
     void *warn_user;
 } vdbio_write_request;
 
+/* The output checks vdbio_write makes first, for callers that want to fail before long
+ * work: VDBS_ERR_INPUT when path is the input file, a directory, or in a folder that does
+ * not exist or is not writable. */
+vdbs_status vdbio_check_output(const char *path, const char *input_path, vdbs_error *err);
+
 /* Writes all grids to `path` through a temporary file in the same directory
  * (".NAME.tmp.PID") that is fsync'd and renamed on success and removed on failure;
  * refuses (VDBS_ERR_INPUT) a path that is the same file as `input_path` (when not
