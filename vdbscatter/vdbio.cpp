@@ -1170,6 +1170,30 @@ vdbs_status vdbio_lit_float(const vdbio_lit *lit, const char *grid, const int ij
     });
 }
 
+vdbs_status vdbio_lit_vec3_nanovdb(const vdbio_lit *lit, const char *grid, void **buffer,
+                                   size_t *size, vdbs_error *err)
+{
+    if (buffer)
+        *buffer = nullptr;
+    if (size)
+        *size = 0;
+    return guarded(err, [&] {
+        if (!buffer || !size)
+            fail(VDBS_ERR_INTERNAL, "vdbio_lit_vec3_nanovdb: NULL argument");
+        const Vec3SGrid &g = lit_typed<Vec3SGrid>(lit, grid, "vec3s");
+        auto handle = nanovdb::openToNanoVDB(g);
+        const size_t n = handle.size();
+        const size_t padded = (n + 31) / 32 * 32;
+        void *mem = aligned_alloc(32, padded ? padded : 32);
+        if (!mem)
+            throw std::bad_alloc();
+        memcpy(mem, handle.data(), n);
+        memset(static_cast<char *>(mem) + n, 0, padded - n);
+        *buffer = mem;
+        *size = padded;
+    });
+}
+
 vdbs_status vdbio_lit_transform(const vdbio_lit *lit, const char *grid, vdbio_transform *out,
                                 vdbs_error *err)
 {

@@ -163,6 +163,11 @@ vdbs_status vdbio_lit_vec3(const vdbio_lit *lit, const char *grid, const int ijk
 /* Value of a float grid at index coordinates (0 where inactive). */
 vdbs_status vdbio_lit_float(const vdbio_lit *lit, const char *grid, const int ijk[3],
                             float *out, vdbs_error *err);
+/* NanoVDB Vec3f grid of a vec3s grid of the file (one grid in the buffer), with the same
+ * allocation convention as vdbio_density_to_nanovdb (32-byte aligned, free with free()).
+ * Errors: no such grid, not a vec3s grid (VDBS_ERR_INPUT). */
+vdbs_status vdbio_lit_vec3_nanovdb(const vdbio_lit *lit, const char *grid, void **buffer,
+                                   size_t *size, vdbs_error *err);
 /* Transform of a grid of the file. */
 vdbs_status vdbio_lit_transform(const vdbio_lit *lit, const char *grid, vdbio_transform *out,
                                 vdbs_error *err);

@@ -1,0 +1,453 @@
+/* Deterministic ray-marched rendering (`render --mode single|baked`, later the viewer),
+ * shared by C and GLSL. Include after vs_common.h, vs_march.h and vs_phase.h.
+ *
+ * Along a camera ray, L = integral T(0,t) sigma_s(x) S(x, wo) dt + T_total L_background,
+ * with S = S1 (+ Sms in baked mode). The ray is cut into segments of step_voxels voxels
+ * inside the support box; each segment [a,b] adds (T_a - T_b) * albedo * S(mid), the exact
+ * integral when S is constant on the segment (sigma_s = albedo sigma_t and
+ * integral T sigma_t dt = T_a - T_b), so thick media never overshoot. T comes from the
+ * exact march of the trilinear density (vs_march.h). S1 is exact for suns and point
+ * lights (marched transmittance times HG) and a fixed K-direction quadrature for the
+ * constant sky; Sms is reconstructed from trilinear samples of the lit VDB's ms and
+ * ms_l1x/y/z grids (DESIGN.md "The lit VDB").
+ *
+ * The work of a ray is a sequence of units, each exactly one march (the camera segment, or
+ * the transmittance toward one light or sky direction from the segment's midpoint), kept
+ * in a vs_render_state so that it can stop after any unit and resume in a later dispatch:
+ * llvmpipe ends every loop of an invocation once 65535 loop iterations have run in total
+ * (LP_MAX_TGSI_LOOP_ITERATIONS, shared by all loops), so a whole ray at quality medium does
+ * not fit in one invocation there. One march per unit through a single call site bounds
+ * the iterations of a unit by the march's cell count, whatever the SIMD lanes do.
+ *
+ * All grids live in one buffer (GLSL has a single pnanovdb_buf_data): the density grid at
+ * byte 0, the four vec3 grids at the byte offsets stored in the table. PNanoVDB handles
+ * are addresses, so a grid at a non-zero offset reads like one at 0.
+ *
+ * render_data layout (vec4 each), written by vdbscatter/render.c:
+ *   [0]  (light count, sky direction count K, density_scale, minimum point-light distance)
+ *   [1..3] index-to-world linear rows (xyz): world vectors from index vectors
+ *   [4]  box_lo (xyz), step in voxels (w);  [5] box_hi (xyz), 1 when ms grids are present (w)
+ *   [6]  albedo (rgb), HG g (w)
+ *   [7]  background radiance seen by rays that leave the volume (rgb)
+ *   [8]  sky radiance times the quadrature weight 4 pi / K (rgb)
+ *   [9]  grid offsets in units of 32 bytes, split as (hi, lo) = (offset >> 16, offset & 0xffff)
+ *        so that floats hold them exactly: (ms hi, ms lo, l1x hi, l1x lo)
+ *   [10] (l1y hi, l1y lo, l1z hi, l1z lo)
+ *   [11..13] world-to-index linear rows (xyz): index vectors from world vectors
+ *   [14] camera origin in index space (xyz), image width (w)
+ *   [15] camera forward, world (xyz), image height (w)
+ *   [16] camera right * tan(half horizontal fov) (xyz)
+ *   [17] camera up * tan(half vertical fov) (xyz)
+ *   then per light three entries:
+ *     (type, x, y, z): sun: index-space image of a unit world step towards the sun;
+ *                      point: index-space position
+ *     (x, y, z, 0): sun: world direction of travel (unit); point: world position
+ *     (r, g, b, 0): sun irradiance or point intensity
+ *   then per sky direction two entries: index-space image of a unit world step towards
+ *   the sky, and the unit world direction towards the sky.
+ */
+#ifndef VS_RENDER_H
+#define VS_RENDER_H
+
+#define VS_RENDER_HEADER 18
+#define VS_RENDER_LIGHT_SUN 0
+#define VS_RENDER_LIGHT_POINT 1
+/* Guard on segments per camera ray (a step of 1/8 voxel across a 2^17-voxel grid). */
+#define VS_RENDER_MAX_SEGMENTS 1048576
+
+#if defined(PNANOVDB_GLSL)
+VS_FUNC pnanovdb_address_t vs_render_grid_address(float hi, float lo)
+{
+    return pnanovdb_address_offset(pnanovdb_address_null(), (uint(hi) * 65536u + uint(lo)) * 32u);
+}
+#else
+VS_FUNC pnanovdb_address_t vs_render_grid_address(float hi, float lo)
+{
+    return pnanovdb_address_offset64(pnanovdb_address_null(),
+                                     ((uint64_t)hi * 65536u + (uint64_t)lo) * 32u);
+}
+#endif
+
+VS_FUNC pnanovdb_readaccessor_t vs_grid_accessor(pnanovdb_buf_t buf, pnanovdb_address_t address)
+{
+    pnanovdb_grid_handle_t grid;
+    grid.address = address;
+    pnanovdb_root_handle_t root = pnanovdb_tree_get_root(buf, pnanovdb_grid_get_tree(buf, grid));
+    pnanovdb_readaccessor_t acc;
+    pnanovdb_readaccessor_init(PNANOVDB_REF(acc), root);
+    return acc;
+}
+
+/* One read accessor per grid of the buffer (per thread / invocation). */
+struct vs_render_accessors {
+    pnanovdb_readaccessor_t density;
+    pnanovdb_readaccessor_t ms;
+    pnanovdb_readaccessor_t l1x;
+    pnanovdb_readaccessor_t l1y;
+    pnanovdb_readaccessor_t l1z;
+};
+PNANOVDB_STRUCT_TYPEDEF(vs_render_accessors)
+
+VS_FUNC vs_render_accessors vs_render_accessors_init(VS_DATA_PARAM(vs_vec4, render_data)
+                                                         pnanovdb_buf_t buf)
+{
+    vs_render_accessors a;
+    a.density = vs_density_accessor(buf);
+    if (render_data[5].w != 0.0f) {
+        a.ms = vs_grid_accessor(buf, vs_render_grid_address(render_data[9].x, render_data[9].y));
+        a.l1x = vs_grid_accessor(buf, vs_render_grid_address(render_data[9].z, render_data[9].w));
+        a.l1y = vs_grid_accessor(buf, vs_render_grid_address(render_data[10].x, render_data[10].y));
+        a.l1z = vs_grid_accessor(buf, vs_render_grid_address(render_data[10].z, render_data[10].w));
+    } else {
+        a.ms = a.density;
+        a.l1x = a.density;
+        a.l1y = a.density;
+        a.l1z = a.density;
+    }
+    return a;
+}
+
+/* Value of a NanoVDB Vec3f grid at a voxel (the background where inactive). */
+VS_FUNC pnanovdb_vec3_t vs_vec3_voxel(pnanovdb_buf_t buf,
+                                      PNANOVDB_INOUT(pnanovdb_readaccessor_t) acc,
+                                      pnanovdb_coord_t ijk)
+{
+    pnanovdb_address_t address = pnanovdb_readaccessor_get_value_address(
+        PNANOVDB_GRID_TYPE_VEC3F, buf, acc, PNANOVDB_REF(ijk));
+    return vs_vec3(pnanovdb_read_float(buf, address),
+                   pnanovdb_read_float(buf, pnanovdb_address_offset(address, 4u)),
+                   pnanovdb_read_float(buf, pnanovdb_address_offset(address, 8u)));
+}
+
+VS_FUNC pnanovdb_vec3_t vs_vec3_lerp(pnanovdb_vec3_t a, pnanovdb_vec3_t b, float t)
+{
+    VS_PRECISE float x = a.x + (b.x - a.x) * t;
+    VS_PRECISE float y = a.y + (b.y - a.y) * t;
+    VS_PRECISE float z = a.z + (b.z - a.z) * t;
+    return vs_vec3(x, y, z);
+}
+
+/* Trilinear interpolant of a Vec3f grid over voxel centres (as vs_density_at). */
+VS_FUNC pnanovdb_vec3_t vs_vec3_at(pnanovdb_buf_t buf, PNANOVDB_INOUT(pnanovdb_readaccessor_t) acc,
+                                   pnanovdb_vec3_t p)
+{
+    pnanovdb_coord_t c =
+        vs_coord(VS_INT(vs_floor(p.x)), VS_INT(vs_floor(p.y)), VS_INT(vs_floor(p.z)));
+    float fx = p.x - VS_FLOAT(c.x);
+    float fy = p.y - VS_FLOAT(c.y);
+    float fz = p.z - VS_FLOAT(c.z);
+    pnanovdb_vec3_t x00 = vs_vec3_lerp(vs_vec3_voxel(buf, acc, vs_coord(c.x, c.y, c.z)),
+                                       vs_vec3_voxel(buf, acc, vs_coord(c.x + 1, c.y, c.z)), fx);
+    pnanovdb_vec3_t x10 =
+        vs_vec3_lerp(vs_vec3_voxel(buf, acc, vs_coord(c.x, c.y + 1, c.z)),
+                     vs_vec3_voxel(buf, acc, vs_coord(c.x + 1, c.y + 1, c.z)), fx);
+    pnanovdb_vec3_t x01 =
+        vs_vec3_lerp(vs_vec3_voxel(buf, acc, vs_coord(c.x, c.y, c.z + 1)),
+                     vs_vec3_voxel(buf, acc, vs_coord(c.x + 1, c.y, c.z + 1)), fx);
+    pnanovdb_vec3_t x11 =
+        vs_vec3_lerp(vs_vec3_voxel(buf, acc, vs_coord(c.x, c.y + 1, c.z + 1)),
+                     vs_vec3_voxel(buf, acc, vs_coord(c.x + 1, c.y + 1, c.z + 1)), fx);
+    return vs_vec3_lerp(vs_vec3_lerp(x00, x10, fy), vs_vec3_lerp(x01, x11, fy), fz);
+}
+
+/* 1 - exp(-x) for x >= 0 without the cancellation of the float subtraction for small x
+ * (a segment of optical depth 1e-6 would be 6% off): Taylor series below 1/4, where its
+ * first omitted term is below 1e-10 relative. */
+VS_FUNC float vs_one_minus_exp_neg(float x)
+{
+    if (x < 0.25f) {
+        VS_PRECISE float s = 1.0f - x * (1.0f / 8.0f);
+        s = 1.0f - x * (1.0f / 7.0f) * s;
+        s = 1.0f - x * (1.0f / 6.0f) * s;
+        s = 1.0f - x * (1.0f / 5.0f) * s;
+        s = 1.0f - x * (1.0f / 4.0f) * s;
+        s = 1.0f - x * (1.0f / 3.0f) * s;
+        s = 1.0f - x * 0.5f * s;
+        VS_PRECISE float r = x * s;
+        return r;
+    }
+    return 1.0f - vs_exp(-x);
+}
+
+/* Sms toward wo for one colour channel from ms and its first-moment vector l1:
+ * n = l1/|l1|, b = min(|l1| / (3 ms), 0.999), Sms = 4 pi ms f_hg(wo.n, b); 0 where ms <= 0,
+ * ms itself (isotropic) where l1 = 0. |l1| is computed on the largest component's scale
+ * so that it neither overflows nor underflows. */
+VS_FUNC float vs_ms_channel(float ms, float lx, float ly, float lz, pnanovdb_vec3_t wo)
+{
+    if (!(ms > 0.0f))
+        return 0.0f;
+    float m = vs_max(vs_abs(lx), vs_max(vs_abs(ly), vs_abs(lz)));
+    if (!(m > 0.0f))
+        return ms;
+    pnanovdb_vec3_t u = vs_vec3(lx / m, ly / m, lz / m);
+    float r = vs_sqrt(vs_vec3_dot(u, u));
+    float len = m * r;
+    float b = vs_min(len / (3.0f * ms), 0.999f);
+    pnanovdb_vec3_t n = vs_vec3_scale(u, 1.0f / r);
+    return 4.0f * VS_PI * ms * vs_hg_dirs(b, n, wo);
+}
+
+/* Sms at index-space point p toward the world direction wo, from the baked grids. */
+VS_FUNC pnanovdb_vec3_t vs_render_ms(pnanovdb_buf_t buf, PNANOVDB_INOUT(vs_render_accessors) accs,
+                                     pnanovdb_vec3_t p, pnanovdb_vec3_t wo)
+{
+    pnanovdb_vec3_t ms = vs_vec3_at(buf, PNANOVDB_REF(PNANOVDB_DEREF(accs).ms), p);
+    pnanovdb_vec3_t lx = vs_vec3_at(buf, PNANOVDB_REF(PNANOVDB_DEREF(accs).l1x), p);
+    pnanovdb_vec3_t ly = vs_vec3_at(buf, PNANOVDB_REF(PNANOVDB_DEREF(accs).l1y), p);
+    pnanovdb_vec3_t lz = vs_vec3_at(buf, PNANOVDB_REF(PNANOVDB_DEREF(accs).l1z), p);
+    return vs_vec3(vs_ms_channel(ms.x, lx.x, ly.x, lz.x, wo),
+                   vs_ms_channel(ms.y, lx.y, ly.y, lz.y, wo),
+                   vs_ms_channel(ms.z, lx.z, ly.z, lz.z, wo));
+}
+
+/* One camera ray, set up once per pixel (and again on every resumed dispatch). */
+struct vs_render_ray_info {
+    pnanovdb_vec3_t origin; /* index space */
+    pnanovdb_vec3_t dir;    /* index-space image of a unit world step */
+    pnanovdb_vec3_t wo;     /* world, unit: -(ray direction) */
+    float t0;               /* segments cover [t0, t0 + span] in n equal parts */
+    float span;
+    float inv_n;
+    int n; /* 0 when the ray misses the support box or the medium is empty */
+};
+PNANOVDB_STRUCT_TYPEDEF(vs_render_ray_info)
+
+/* Progress of one ray, so that the work can stop after any unit and resume later. */
+struct vs_render_state {
+    int seg;      /* current segment */
+    int unit;     /* 0: march the segment; then 1 + light index; then 1 + lights + sky index */
+    int stop;     /* 0 running; 1 last segment (the optical depth limit was passed); 2 done */
+    vs_accum tau; /* optical depth from the camera to the end of the current segment */
+    float transmittance;      /* exp(-tau) */
+    float weight;             /* T_a - T_b of the current segment */
+    float sky_sum;            /* sum over sky directions of T_k p(k) so far */
+    pnanovdb_vec3_t source;   /* S so far at the current segment's midpoint (without the sky) */
+    pnanovdb_vec3_t radiance; /* integral so far, background not included */
+};
+PNANOVDB_STRUCT_TYPEDEF(vs_render_state)
+
+VS_FUNC vs_render_ray_info vs_render_ray_begin(VS_DATA_PARAM(vs_vec4, render_data)
+                                                   pnanovdb_vec3_t origin,
+                                               pnanovdb_vec3_t dir, pnanovdb_vec3_t wo)
+{
+    pnanovdb_vec3_t box_lo = vs_vec3_from_vec4(render_data[4]);
+    pnanovdb_vec3_t box_hi = vs_vec3_from_vec4(render_data[5]);
+    vs_render_ray_info ray;
+    ray.origin = origin;
+    ray.dir = dir;
+    ray.wo = wo;
+    ray.t0 = vs_max(0.0f, vs_max(vs_axis_enter(origin.x, dir.x, box_lo.x, box_hi.x),
+                                 vs_max(vs_axis_enter(origin.y, dir.y, box_lo.y, box_hi.y),
+                                        vs_axis_enter(origin.z, dir.z, box_lo.z, box_hi.z))));
+    float t1 = vs_min(vs_axis_exit(origin.x, dir.x, box_lo.x, box_hi.x),
+                      vs_min(vs_axis_exit(origin.y, dir.y, box_lo.y, box_hi.y),
+                             vs_axis_exit(origin.z, dir.z, box_lo.z, box_hi.z)));
+    ray.span = t1 - ray.t0;
+    ray.n = 0;
+    ray.inv_n = 1.0f;
+    if (ray.t0 < t1 && render_data[0].z > 0.0f) {
+        /* World length of step_voxels voxels along this ray. */
+        float h = render_data[4].w / vs_sqrt(vs_vec3_dot(dir, dir));
+        float steps = ray.span / h;
+        ray.n = steps < VS_FLOAT(VS_RENDER_MAX_SEGMENTS) ? VS_INT(vs_floor(steps)) + 1
+                                                         : VS_RENDER_MAX_SEGMENTS;
+        ray.inv_n = 1.0f / VS_FLOAT(ray.n);
+    }
+    return ray;
+}
+
+/* The camera ray through the centre of pixel (px, py), row 0 on top. */
+VS_FUNC vs_render_ray_info vs_render_camera_ray(VS_DATA_PARAM(vs_vec4, render_data) int px, int py)
+{
+    float width = render_data[14].w;
+    float height = render_data[15].w;
+    VS_PRECISE float sx = 2.0f * (VS_FLOAT(px) + 0.5f) / width - 1.0f;
+    VS_PRECISE float sy = 1.0f - 2.0f * (VS_FLOAT(py) + 0.5f) / height;
+    pnanovdb_vec3_t d = vs_vec3_madd(
+        vs_vec3_madd(vs_vec3_from_vec4(render_data[15]), vs_vec3_from_vec4(render_data[16]), sx),
+        vs_vec3_from_vec4(render_data[17]), sy);
+    pnanovdb_vec3_t world = vs_vec3_scale(d, 1.0f / vs_sqrt(vs_vec3_dot(d, d)));
+    pnanovdb_vec3_t dir = vs_vec3(vs_vec3_dot(vs_vec3_from_vec4(render_data[11]), world),
+                                  vs_vec3_dot(vs_vec3_from_vec4(render_data[12]), world),
+                                  vs_vec3_dot(vs_vec3_from_vec4(render_data[13]), world));
+    return vs_render_ray_begin(VS_DATA_ARG(render_data) vs_vec3_from_vec4(render_data[14]), dir,
+                               vs_vec3_scale(world, -1.0f));
+}
+
+VS_FUNC vs_render_state vs_render_state_init(vs_render_ray_info ray)
+{
+    vs_render_state st;
+    st.seg = 0;
+    st.unit = 0;
+    st.stop = ray.n > 0 ? 0 : 2;
+    vs_accum_init(PNANOVDB_REF(st.tau));
+    st.transmittance = 1.0f;
+    st.weight = 0.0f;
+    st.sky_sum = 0.0f;
+    st.source = vs_vec3(0.0f, 0.0f, 0.0f);
+    st.radiance = vs_vec3(0.0f, 0.0f, 0.0f);
+    return st;
+}
+
+VS_FUNC void vs_render_next_segment(vs_render_ray_info ray, PNANOVDB_INOUT(vs_render_state) st)
+{
+    PNANOVDB_DEREF(st).unit = 0;
+    PNANOVDB_DEREF(st).seg += 1;
+    if (PNANOVDB_DEREF(st).stop == 1 || PNANOVDB_DEREF(st).seg >= ray.n)
+        PNANOVDB_DEREF(st).stop = 2;
+}
+
+/* One unit of work, which always marches exactly once through one call site: the camera
+ * segment (unit 0; it also samples Sms), or the transmittance toward one light or sky
+ * direction from the segment's midpoint. Keeping one march per unit bounds the loop
+ * iterations a unit can take (see render_march.comp). */
+VS_FUNC void vs_render_unit(VS_DATA_PARAM(vs_vec4, render_data) pnanovdb_buf_t buf,
+                            PNANOVDB_INOUT(vs_render_accessors) accs, vs_render_ray_info ray,
+                            PNANOVDB_INOUT(vs_render_state) st)
+{
+    int light_count = VS_INT(render_data[0].x);
+    int sky_count = VS_INT(render_data[0].y);
+    float density_scale = render_data[0].z;
+    pnanovdb_vec3_t box_lo = vs_vec3_from_vec4(render_data[4]);
+    pnanovdb_vec3_t box_hi = vs_vec3_from_vec4(render_data[5]);
+    float g = render_data[6].w;
+    int seg = PNANOVDB_DEREF(st).seg;
+    int unit = PNANOVDB_DEREF(st).unit;
+    VS_PRECISE float a = ray.t0 + ray.span * (VS_FLOAT(seg) * ray.inv_n);
+    VS_PRECISE float b =
+        seg + 1 == ray.n ? ray.t0 + ray.span : ray.t0 + ray.span * (VS_FLOAT(seg + 1) * ray.inv_n);
+    pnanovdb_vec3_t mid = vs_vec3_madd(ray.origin, ray.dir, 0.5f * (a + b));
+
+    /* What this unit marches: origin, direction, length; and how its result is used. */
+    pnanovdb_vec3_t origin = mid;
+    pnanovdb_vec3_t dir = ray.dir;
+    float tmax = VS_T_INFINITE;
+    float phase = 0.0f;
+    float falloff = 1.0f;
+    pnanovdb_vec3_t color = vs_vec3(0.0f, 0.0f, 0.0f);
+    int light = unit - 1;
+    int sky = unit - 1 - light_count;
+    if (unit == 0) {
+        origin = vs_vec3_madd(ray.origin, ray.dir, a);
+        tmax = b - a;
+    } else if (light < light_count) {
+        vs_vec4 head = render_data[VS_RENDER_HEADER + 3 * light];
+        pnanovdb_vec3_t world = vs_vec3_from_vec4(render_data[VS_RENDER_HEADER + 3 * light + 1]);
+        color = vs_vec3_from_vec4(render_data[VS_RENDER_HEADER + 3 * light + 2]);
+        if (VS_INT(head.x) == VS_RENDER_LIGHT_SUN) {
+            dir = vs_vec3(head.y, head.z, head.w);
+            phase = vs_hg_dirs(g, world, ray.wo);
+        } else {
+            pnanovdb_vec3_t d = vs_vec3(head.y - mid.x, head.z - mid.y, head.w - mid.z);
+            pnanovdb_vec3_t w = vs_vec3(vs_vec3_dot(vs_vec3_from_vec4(render_data[1]), d),
+                                        vs_vec3_dot(vs_vec3_from_vec4(render_data[2]), d),
+                                        vs_vec3_dot(vs_vec3_from_vec4(render_data[3]), d));
+            float r = vs_sqrt(vs_vec3_dot(w, w));
+            float rc = vs_max(r, render_data[0].w);
+            falloff = 1.0f / (rc * rc);
+            /* A light exactly at the midpoint has no direction: isotropic, unshadowed. */
+            dir = vs_vec3(1.0f, 0.0f, 0.0f);
+            tmax = 0.0f;
+            phase = VS_INV_4PI;
+            if (r > 0.0f) {
+                dir = vs_vec3_scale(d, 1.0f / r);
+                tmax = r;
+                phase = vs_hg_dirs(g, vs_vec3_scale(w, -1.0f / r), ray.wo);
+            }
+        }
+    } else {
+        int entry = VS_RENDER_HEADER + 3 * light_count + 2 * sky;
+        dir = vs_vec3_from_vec4(render_data[entry]);
+        phase =
+            vs_hg_dirs(g, vs_vec3_scale(vs_vec3_from_vec4(render_data[entry + 1]), -1.0f), ray.wo);
+    }
+
+    vs_accum depth = vs_march(buf, PNANOVDB_REF(PNANOVDB_DEREF(accs).density), origin, dir, tmax,
+                              box_lo, box_hi, density_scale);
+
+    if (unit == 0) {
+        float tau = vs_accum_value(depth);
+        if (!(tau > 0.0f)) {
+            vs_render_next_segment(ray, st);
+            return;
+        }
+        /* T_a - T_b = T_a (1 - exp(-tau)), accurate for thin segments too. */
+        float w = PNANOVDB_DEREF(st).transmittance * vs_one_minus_exp_neg(tau);
+        vs_accum_add(PNANOVDB_REF(PNANOVDB_DEREF(st).tau), tau);
+        if (vs_accum_value(PNANOVDB_DEREF(st).tau) > VS_TAU_LIMIT) {
+            PNANOVDB_DEREF(st).transmittance = 0.0f;
+            PNANOVDB_DEREF(st).stop = 1;
+        } else {
+            PNANOVDB_DEREF(st).transmittance = vs_accum_exp_neg(PNANOVDB_DEREF(st).tau);
+        }
+        if (!(w > 0.0f)) {
+            vs_render_next_segment(ray, st);
+            return;
+        }
+        PNANOVDB_DEREF(st).weight = w;
+        PNANOVDB_DEREF(st).sky_sum = 0.0f;
+        PNANOVDB_DEREF(st).source = render_data[5].w != 0.0f ? vs_render_ms(buf, accs, mid, ray.wo)
+                                                             : vs_vec3(0.0f, 0.0f, 0.0f);
+    } else if (light < light_count) {
+        float transmittance = vs_accum_exp_neg(depth);
+        PNANOVDB_DEREF(st).source =
+            vs_vec3_madd(PNANOVDB_DEREF(st).source, color, transmittance * phase * falloff);
+    } else {
+        PNANOVDB_DEREF(st).sky_sum += vs_accum_exp_neg(depth) * phase;
+    }
+
+    PNANOVDB_DEREF(st).unit = unit + 1;
+    if (unit + 1 > light_count + sky_count) {
+        pnanovdb_vec3_t s =
+            vs_vec3_madd(PNANOVDB_DEREF(st).source, vs_vec3_from_vec4(render_data[8]),
+                         PNANOVDB_DEREF(st).sky_sum);
+        pnanovdb_vec3_t albedo = vs_vec3_from_vec4(render_data[6]);
+        float w = PNANOVDB_DEREF(st).weight;
+        PNANOVDB_DEREF(st).radiance = vs_vec3(PNANOVDB_DEREF(st).radiance.x + albedo.x * s.x * w,
+                                              PNANOVDB_DEREF(st).radiance.y + albedo.y * s.y * w,
+                                              PNANOVDB_DEREF(st).radiance.z + albedo.z * s.z * w);
+        vs_render_next_segment(ray, st);
+    }
+}
+
+/* Runs up to max_units units (fewer when the ray is done). */
+VS_FUNC void vs_render_advance(VS_DATA_PARAM(vs_vec4, render_data) pnanovdb_buf_t buf,
+                               PNANOVDB_INOUT(vs_render_accessors) accs, vs_render_ray_info ray,
+                               PNANOVDB_INOUT(vs_render_state) st, int max_units)
+{
+    for (int u = 0; u < max_units; ++u) {
+        if (PNANOVDB_DEREF(st).stop == 2)
+            break;
+        vs_render_unit(VS_DATA_ARG(render_data) buf, accs, ray, st);
+    }
+}
+
+/* The ray's radiance: the in-scattered integral plus the background seen through it. */
+VS_FUNC pnanovdb_vec3_t vs_render_result(VS_DATA_PARAM(vs_vec4, render_data) vs_render_state st)
+{
+    return vs_vec3_madd(st.radiance, vs_vec3_from_vec4(render_data[7]), st.transmittance);
+}
+
+/* Whole-ray and whole-pixel forms (C path, viewer): all units in one go. */
+VS_FUNC pnanovdb_vec3_t vs_render_ray(VS_DATA_PARAM(vs_vec4, render_data) pnanovdb_buf_t buf,
+                                      PNANOVDB_INOUT(vs_render_accessors) accs,
+                                      pnanovdb_vec3_t origin, pnanovdb_vec3_t dir,
+                                      pnanovdb_vec3_t wo)
+{
+    vs_render_ray_info ray = vs_render_ray_begin(VS_DATA_ARG(render_data) origin, dir, wo);
+    vs_render_state st = vs_render_state_init(ray);
+    vs_render_advance(VS_DATA_ARG(render_data) buf, accs, ray, PNANOVDB_REF(st), 2147483647);
+    return vs_render_result(VS_DATA_ARG(render_data) st);
+}
+
+VS_FUNC pnanovdb_vec3_t vs_render_pixel(VS_DATA_PARAM(vs_vec4, render_data) pnanovdb_buf_t buf,
+                                        PNANOVDB_INOUT(vs_render_accessors) accs, int px, int py)
+{
+    vs_render_ray_info ray = vs_render_camera_ray(VS_DATA_ARG(render_data) px, py);
+    vs_render_state st = vs_render_state_init(ray);
+    vs_render_advance(VS_DATA_ARG(render_data) buf, accs, ray, PNANOVDB_REF(st), 2147483647);
+    return vs_render_result(VS_DATA_ARG(render_data) st);
+}
+
+#endif
