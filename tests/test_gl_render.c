@@ -245,7 +245,7 @@ static void test_baked_synthetic(void **state)
     if (vdbio_lit_open(path, &lit, &err) != VDBS_OK)
         fail_msg("%s", err.message);
     vdbs_ms_grids ms;
-    if (vdbs_ms_grids_load(lit, &volume, &ms, &err) != VDBS_OK)
+    if (vdbs_ms_grids_load(lit, volume.index_to_world, &ms, &err) != VDBS_OK)
         fail_msg("%s", err.message);
     vdbio_lit_close(lit);
     remove(path);

@@ -192,7 +192,7 @@ static void test_ms_reconstruction(void **state)
     if (vdbio_lit_open(path, &lit, &err) != VDBS_OK)
         fail_msg("%s", err.message);
     vdbs_ms_grids grids;
-    if (vdbs_ms_grids_load(lit, &volume, &grids, &err) != VDBS_OK)
+    if (vdbs_ms_grids_load(lit, volume.index_to_world, &grids, &err) != VDBS_OK)
         fail_msg("%s", err.message);
     vdbio_lit_close(lit);
     remove(path);
@@ -418,7 +418,7 @@ static void test_baked_single_bake_equals_single(void **state)
     vdbio_lit *lit = NULL;
     assert_int_equal(vdbio_lit_open(lit_path, &lit, &err), VDBS_OK);
     vdbs_ms_grids grids;
-    if (vdbs_ms_grids_load(lit, &baked, &grids, &err) != VDBS_OK)
+    if (vdbs_ms_grids_load(lit, baked.index_to_world, &grids, &err) != VDBS_OK)
         fail_msg("%s", err.message);
     vdbio_lit_close(lit);
     remove(lit_path);

@@ -52,8 +52,8 @@ static int same_transform(const vdbio_transform *a, const double b[3][4])
     return 1;
 }
 
-vdbs_status vdbs_ms_grids_load(const vdbio_lit *lit, const vdbs_volume *volume, vdbs_ms_grids *out,
-                               vdbs_error *err)
+vdbs_status vdbs_ms_grids_load(const vdbio_lit *lit, const double index_to_world[3][4],
+                               vdbs_ms_grids *out, vdbs_error *err)
 {
     memset(out, 0, sizeof *out);
     uint32_t **bufs[4] = {&out->ms, &out->l1x, &out->l1y, &out->l1z};
@@ -61,7 +61,7 @@ vdbs_status vdbs_ms_grids_load(const vdbio_lit *lit, const vdbs_volume *volume, 
     for (int i = 0; i < 4; ++i) {
         vdbio_transform t;
         vdbs_status st = vdbio_lit_transform(lit, ms_grid_names[i], &t, err);
-        if (st == VDBS_OK && !same_transform(&t, volume->index_to_world))
+        if (st == VDBS_OK && !same_transform(&t, index_to_world))
             st = vdbs_error_set(err, VDBS_ERR_INPUT,
                                 "grid '%s' is not on the density grid's transform",
                                 ms_grid_names[i]);

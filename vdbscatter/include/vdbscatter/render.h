@@ -33,11 +33,12 @@ typedef struct vdbs_ms_grids {
     size_t ms_size, l1x_size, l1y_size, l1z_size;
 } vdbs_ms_grids;
 
-/* Converts the lit VDB's `ms`, `ms_l1x`, `ms_l1y`, `ms_l1z` grids. Errors (VDBS_ERR_INPUT):
- * a grid missing or not vec3s, or a grid whose transform differs from the volume's (the
- * kernel samples them in the density's index space). */
-vdbs_status vdbs_ms_grids_load(const vdbio_lit *lit, const vdbs_volume *volume, vdbs_ms_grids *out,
-                               vdbs_error *err);
+/* Converts the lit VDB's `ms`, `ms_l1x`, `ms_l1y`, `ms_l1z` grids. `index_to_world` is the
+ * density grid's transform (vdbs_volume.index_to_world), which every grid must share: the
+ * kernel samples them in the density's index space. Errors (VDBS_ERR_INPUT): a grid
+ * missing or not vec3s, or on another transform. */
+vdbs_status vdbs_ms_grids_load(const vdbio_lit *lit, const double index_to_world[3][4],
+                               vdbs_ms_grids *out, vdbs_error *err);
 void vdbs_ms_grids_free(vdbs_ms_grids *grids);
 
 typedef struct vdbs_march_options {
