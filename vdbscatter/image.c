@@ -1,1 +1,614 @@
-/* placeholder: being written */
+/* Images: allocation, OpenEXR (OpenEXRCore C API) and 8-bit sRGB PNG (stb) files, and
+ * the error metrics of `vdbscatter compare`. */
+#define _POSIX_C_SOURCE 200809L
+#include "vdbscatter/image.h"
+
+#include <errno.h>
+#include <fcntl.h>
+#include <math.h>
+#include <stdint.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <strings.h>
+#include <unistd.h>
+
+#include <openexr.h>
+#include <stb_image.h>
+#include <stb_image_write.h>
+
+/* Bounds that keep EXR byte strides (3 floats per pixel) within int32 and buffer sizes
+ * within size_t on 32-bit systems too. */
+#define IMAGE_MAX_SIDE (1 << 24)
+#define IMAGE_MAX_PIXELS ((long long)1 << 28)
+
+vdbs_status vdbs_image_alloc(vdbs_image *image, int width, int height, int with_se, vdbs_error *err)
+{
+    memset(image, 0, sizeof *image);
+    if (width <= 0 || height <= 0 || width > IMAGE_MAX_SIDE || height > IMAGE_MAX_SIDE ||
+        (long long)width * height > IMAGE_MAX_PIXELS)
+        return vdbs_error_set(err, VDBS_ERR_INPUT, "image size %dx%d is out of range", width,
+                              height);
+    size_t n = (size_t)width * (size_t)height * 3;
+    image->rgb = calloc(n, sizeof(float));
+    if (with_se)
+        image->se = calloc(n, sizeof(float));
+    if (!image->rgb || (with_se && !image->se)) {
+        vdbs_image_free(image);
+        return vdbs_error_set(err, VDBS_ERR_NOMEM, "out of memory for a %dx%d image", width,
+                              height);
+    }
+    image->width = width;
+    image->height = height;
+    return VDBS_OK;
+}
+
+void vdbs_image_free(vdbs_image *image)
+{
+    if (!image)
+        return;
+    free(image->rgb);
+    free(image->se);
+    memset(image, 0, sizeof *image);
+}
+
+/* ---- helpers -------------------------------------------------------------------------- */
+
+static int has_extension(const char *path, const char *ext)
+{
+    size_t n = strlen(path), m = strlen(ext);
+    return n > m && strcasecmp(path + n - m, ext) == 0;
+}
+
+/* "dir/.name.tmp.PID": hidden, in the destination folder so that rename() is atomic. */
+static char *temp_path_for(const char *path)
+{
+    const char *slash = strrchr(path, '/');
+    size_t dir_len = slash ? (size_t)(slash - path + 1) : 0;
+    size_t n = strlen(path) + 32;
+    char *tmp = malloc(n);
+    if (tmp)
+        snprintf(tmp, n, "%.*s.%s.tmp.%ld", (int)dir_len, path, path + dir_len, (long)getpid());
+    return tmp;
+}
+
+/* Flushes the temporary file to disk and renames it over path; removes it on failure. */
+static vdbs_status commit_temp(const char *tmp, const char *path, vdbs_error *err)
+{
+    int fd = open(tmp, O_RDONLY);
+    if (fd < 0 || fsync(fd) != 0) {
+        int e = errno;
+        if (fd >= 0)
+            close(fd);
+        unlink(tmp);
+        return vdbs_error_set(err, VDBS_ERR_IO, "%s: cannot sync %s: %s", path, tmp, strerror(e));
+    }
+    close(fd);
+    if (rename(tmp, path) != 0) {
+        int e = errno;
+        unlink(tmp);
+        return vdbs_error_set(err, VDBS_ERR_IO, "%s: cannot rename %s into place: %s", path, tmp,
+                              strerror(e));
+    }
+    return VDBS_OK;
+}
+
+/* OpenEXRCore reports details through a callback (by default onto stderr). Library code
+ * must not print, so the last message is kept per thread and folded into our error. */
+static _Thread_local char exr_message[512];
+
+static void exr_quiet_handler(exr_const_context_t ctxt, exr_result_t code, const char *msg)
+{
+    (void)ctxt;
+    snprintf(exr_message, sizeof exr_message, "%s",
+             msg ? msg : exr_get_default_error_message(code));
+}
+
+static exr_context_initializer_t exr_initializer(void)
+{
+    exr_context_initializer_t init = EXR_DEFAULT_CONTEXT_INITIALIZER;
+    init.error_handler_fn = exr_quiet_handler;
+    return init;
+}
+
+static const char *exr_reason(exr_result_t rv)
+{
+    return exr_message[0] ? exr_message : exr_get_default_error_message(rv);
+}
+
+/* ---- EXR ------------------------------------------------------------------------------- */
+
+static const char *const channel_names[6] = {"R", "G", "B", "se.R", "se.G", "se.B"};
+
+static vdbs_status exr_write(const char *path, const char *tmp, const vdbs_image *image,
+                             vdbs_error *err)
+{
+    exr_context_initializer_t init = exr_initializer();
+    exr_context_t ctx = NULL;
+    exr_encode_pipeline_t enc = EXR_ENCODE_PIPELINE_INITIALIZER;
+    int have_enc = 0, part = 0;
+    const int w = image->width, h = image->height;
+    const int nchan = image->se ? 6 : 3;
+    exr_message[0] = '\0';
+    exr_result_t rv = exr_start_write(&ctx, tmp, EXR_WRITE_FILE_DIRECTLY, &init);
+    if (rv == EXR_ERR_SUCCESS)
+        rv = exr_add_part(ctx, "rgb", EXR_STORAGE_SCANLINE, &part);
+    if (rv == EXR_ERR_SUCCESS)
+        rv = exr_initialize_required_attr_simple(ctx, part, w, h, EXR_COMPRESSION_ZIP);
+    for (int c = 0; c < nchan && rv == EXR_ERR_SUCCESS; ++c)
+        rv = exr_add_channel(ctx, part, channel_names[c], EXR_PIXEL_FLOAT, EXR_PERCEPTUALLY_LINEAR,
+                             1, 1);
+    if (rv == EXR_ERR_SUCCESS)
+        rv = exr_write_header(ctx);
+    int32_t lines = 1;
+    if (rv == EXR_ERR_SUCCESS)
+        rv = exr_get_scanlines_per_chunk(ctx, part, &lines);
+    for (int y = 0; y < h && rv == EXR_ERR_SUCCESS; y += lines) {
+        exr_chunk_info_t cinfo;
+        rv = exr_write_scanline_chunk_info(ctx, part, y, &cinfo);
+        if (rv != EXR_ERR_SUCCESS)
+            break;
+        if (!have_enc) {
+            rv = exr_encoding_initialize(ctx, part, &cinfo, &enc);
+            have_enc = rv == EXR_ERR_SUCCESS;
+        } else {
+            rv = exr_encoding_update(ctx, part, &cinfo, &enc);
+        }
+        if (rv != EXR_ERR_SUCCESS)
+            break;
+        for (int i = 0; i < enc.channel_count; ++i) {
+            exr_coding_channel_info_t *ch = &enc.channels[i];
+            int c = 0;
+            while (c < nchan && strcmp(ch->channel_name, channel_names[c]) != 0)
+                ++c;
+            const float *plane = c < 3 ? image->rgb + c : image->se + (c - 3);
+            ch->user_bytes_per_element = 4;
+            ch->user_data_type = EXR_PIXEL_FLOAT;
+            ch->user_pixel_stride = 3 * (int32_t)sizeof(float);
+            ch->user_line_stride = 3 * w * (int32_t)sizeof(float);
+            ch->encode_from_ptr = (const uint8_t *)(plane + (size_t)y * w * 3);
+        }
+        rv = exr_encoding_choose_default_routines(ctx, part, &enc);
+        if (rv == EXR_ERR_SUCCESS)
+            rv = exr_encoding_run(ctx, part, &enc);
+    }
+    if (have_enc) {
+        exr_result_t rd = exr_encoding_destroy(ctx, &enc);
+        if (rv == EXR_ERR_SUCCESS)
+            rv = rd;
+    }
+    if (ctx) {
+        /* exr_finish writes the chunk offset table, so its result matters too. */
+        exr_result_t rf = exr_finish(&ctx);
+        if (rv == EXR_ERR_SUCCESS)
+            rv = rf;
+    }
+    if (rv != EXR_ERR_SUCCESS) {
+        unlink(tmp);
+        return vdbs_error_set(err, VDBS_ERR_IO, "%s: writing OpenEXR failed: %s", path,
+                              exr_reason(rv));
+    }
+    return VDBS_OK;
+}
+
+/* Points the decoder's wanted channels at their float planes (one plane per channel:
+ * interleaved outputs hit an OpenEXR 3.1.5 fast path that writes channels out of order). */
+static void exr_bind_planes(exr_decode_pipeline_t *dec, float *const planes[6], int width, int x0,
+                            int y0)
+{
+    for (int i = 0; i < dec->channel_count; ++i) {
+        exr_coding_channel_info_t *ch = &dec->channels[i];
+        ch->decode_to_ptr = NULL;
+        for (int c = 0; c < 6; ++c) {
+            if (planes[c] && strcmp(ch->channel_name, channel_names[c]) == 0) {
+                ch->user_bytes_per_element = 4;
+                ch->user_data_type = EXR_PIXEL_FLOAT;
+                ch->user_pixel_stride = (int32_t)sizeof(float);
+                ch->user_line_stride = width * (int32_t)sizeof(float);
+                ch->decode_to_ptr = (uint8_t *)(planes[c] + (size_t)y0 * width + x0);
+            }
+        }
+    }
+}
+
+static vdbs_status exr_read(const char *path, vdbs_image *image, vdbs_error *err)
+{
+    exr_context_initializer_t init = exr_initializer();
+    init.flags |= EXR_CONTEXT_FLAG_SILENT_HEADER_PARSE;
+    exr_context_t ctx = NULL;
+    exr_decode_pipeline_t dec = EXR_DECODE_PIPELINE_INITIALIZER;
+    int have_dec = 0;
+    float *planes[6] = {NULL};
+    vdbs_status st = VDBS_OK;
+    exr_message[0] = '\0';
+    exr_result_t rv = exr_start_read(&ctx, path, &init);
+    if (rv != EXR_ERR_SUCCESS) {
+        st = vdbs_error_set(err, VDBS_ERR_INPUT, "%s: unreadable OpenEXR file: %s", path,
+                            exr_reason(rv));
+        goto done;
+    }
+    exr_storage_t storage = EXR_STORAGE_LAST_TYPE;
+    const exr_attr_chlist_t *chlist = NULL;
+    exr_attr_box2i_t dw;
+    if (exr_get_storage(ctx, 0, &storage) != EXR_ERR_SUCCESS ||
+        exr_get_channels(ctx, 0, &chlist) != EXR_ERR_SUCCESS ||
+        exr_get_data_window(ctx, 0, &dw) != EXR_ERR_SUCCESS) {
+        st = vdbs_error_set(err, VDBS_ERR_INPUT, "%s: OpenEXR header lacks required attributes",
+                            path);
+        goto done;
+    }
+    if (storage != EXR_STORAGE_SCANLINE && storage != EXR_STORAGE_TILED) {
+        st = vdbs_error_set(err, VDBS_ERR_INPUT, "%s: deep OpenEXR images are not supported", path);
+        goto done;
+    }
+    int present[6] = {0};
+    for (int i = 0; i < chlist->num_channels; ++i) {
+        const exr_attr_chlist_entry_t *e = &chlist->entries[i];
+        for (int c = 0; c < 6; ++c) {
+            if (strcmp(e->name.str, channel_names[c]) != 0)
+                continue;
+            if (e->pixel_type != EXR_PIXEL_HALF && e->pixel_type != EXR_PIXEL_FLOAT) {
+                st = vdbs_error_set(err, VDBS_ERR_INPUT, "%s: channel %s is not half or float",
+                                    path, e->name.str);
+                goto done;
+            }
+            if (e->x_sampling != 1 || e->y_sampling != 1) {
+                st = vdbs_error_set(err, VDBS_ERR_INPUT, "%s: channel %s is subsampled", path,
+                                    e->name.str);
+                goto done;
+            }
+            present[c] = 1;
+        }
+    }
+    if (!present[0] || !present[1] || !present[2]) {
+        st = vdbs_error_set(err, VDBS_ERR_INPUT, "%s: OpenEXR image has no R, G and B channels",
+                            path);
+        goto done;
+    }
+    const int with_se = present[3] && present[4] && present[5];
+    long long w64 = (long long)dw.max.x - dw.min.x + 1, h64 = (long long)dw.max.y - dw.min.y + 1;
+    if (w64 <= 0 || h64 <= 0 || w64 > IMAGE_MAX_SIDE || h64 > IMAGE_MAX_SIDE ||
+        w64 * h64 > IMAGE_MAX_PIXELS) {
+        st = vdbs_error_set(err, VDBS_ERR_INPUT, "%s: OpenEXR data window %lldx%lld is unusable",
+                            path, w64, h64);
+        goto done;
+    }
+    const int w = (int)w64, h = (int)h64;
+    for (int c = 0; c < (with_se ? 6 : 3); ++c) {
+        planes[c] = calloc((size_t)w * h, sizeof(float));
+        if (!planes[c]) {
+            st = vdbs_error_set(err, VDBS_ERR_NOMEM, "%s: out of memory for %dx%d pixels", path, w,
+                                h);
+            goto done;
+        }
+    }
+
+    /* One list of chunks for both layouts: scanline blocks or level-0 tiles. */
+    int chunks_x = 1, chunks_y = 0;
+    uint32_t tile_w = 0, tile_h = 0;
+    int32_t lines = 1;
+    if (storage == EXR_STORAGE_SCANLINE) {
+        rv = exr_get_scanlines_per_chunk(ctx, 0, &lines);
+        if (rv != EXR_ERR_SUCCESS || lines <= 0)
+            goto corrupt;
+        chunks_y = (h + lines - 1) / lines;
+    } else {
+        exr_tile_level_mode_t level;
+        exr_tile_round_mode_t round;
+        rv = exr_get_tile_descriptor(ctx, 0, &tile_w, &tile_h, &level, &round);
+        if (rv != EXR_ERR_SUCCESS || tile_w == 0 || tile_h == 0)
+            goto corrupt;
+        chunks_x = (int)((w + tile_w - 1) / tile_w);
+        chunks_y = (int)((h + tile_h - 1) / tile_h);
+    }
+    for (int cy = 0; cy < chunks_y; ++cy) {
+        for (int cx = 0; cx < chunks_x; ++cx) {
+            exr_chunk_info_t cinfo;
+            int x0 = 0, y0 = 0;
+            if (storage == EXR_STORAGE_SCANLINE) {
+                y0 = cy * lines;
+                rv = exr_read_scanline_chunk_info(ctx, 0, dw.min.y + y0, &cinfo);
+            } else {
+                x0 = cx * (int)tile_w;
+                y0 = cy * (int)tile_h;
+                rv = exr_read_tile_chunk_info(ctx, 0, cx, cy, 0, 0, &cinfo);
+            }
+            if (rv != EXR_ERR_SUCCESS)
+                goto corrupt;
+            /* The chunk table is untrusted: its blocks must lie inside the image. */
+            if (storage == EXR_STORAGE_SCANLINE)
+                y0 = cinfo.start_y - dw.min.y;
+            if (y0 < 0 || cinfo.height <= 0 || cinfo.width <= 0 || y0 + cinfo.height > h ||
+                x0 + cinfo.width > w)
+                goto corrupt;
+            if (!have_dec) {
+                rv = exr_decoding_initialize(ctx, 0, &cinfo, &dec);
+                have_dec = rv == EXR_ERR_SUCCESS;
+            } else {
+                rv = exr_decoding_update(ctx, 0, &cinfo, &dec);
+            }
+            if (rv != EXR_ERR_SUCCESS)
+                goto corrupt;
+            exr_bind_planes(&dec, planes, w, x0, y0);
+            rv = exr_decoding_choose_default_routines(ctx, 0, &dec);
+            if (rv == EXR_ERR_SUCCESS)
+                rv = exr_decoding_run(ctx, 0, &dec);
+            if (rv != EXR_ERR_SUCCESS)
+                goto corrupt;
+        }
+    }
+    st = vdbs_image_alloc(image, w, h, with_se, err);
+    if (st != VDBS_OK)
+        goto done;
+    for (size_t i = 0, n = (size_t)w * h; i < n; ++i) {
+        for (int c = 0; c < 3; ++c) {
+            image->rgb[3 * i + c] = planes[c][i];
+            if (with_se)
+                image->se[3 * i + c] = planes[3 + c][i];
+        }
+    }
+    goto done;
+corrupt:
+    st = vdbs_error_set(err, VDBS_ERR_INPUT, "%s: corrupt or truncated OpenEXR file: %s", path,
+                        exr_reason(rv));
+done:
+    if (have_dec)
+        exr_decoding_destroy(ctx, &dec);
+    if (ctx)
+        exr_finish(&ctx);
+    for (int c = 0; c < 6; ++c)
+        free(planes[c]);
+    return st;
+}
+
+/* ---- PNG ------------------------------------------------------------------------------- */
+
+static double srgb_encode(double v)
+{
+    return v <= 0.0031308 ? 12.92 * v : 1.055 * pow(v, 1.0 / 2.4) - 0.055;
+}
+
+static double srgb_decode(double s)
+{
+    return s <= 0.04045 ? s / 12.92 : pow((s + 0.055) / 1.055, 2.4);
+}
+
+static vdbs_status png_write(const char *path, const char *tmp, const vdbs_image *image,
+                             double exposure_ev, vdbs_error *err)
+{
+    const size_t n = (size_t)image->width * image->height * 3;
+    unsigned char *bytes = malloc(n);
+    if (!bytes)
+        return vdbs_error_set(err, VDBS_ERR_NOMEM, "%s: out of memory", path);
+    const double scale = exp2(exposure_ev);
+    for (size_t i = 0; i < n; ++i) {
+        double v = image->rgb[i] * scale;
+        /* NaN fails both comparisons and becomes black, like a negative value. */
+        v = v > 0.0 ? (v < 1.0 ? v : 1.0) : 0.0;
+        bytes[i] = (unsigned char)(srgb_encode(v) * 255.0 + 0.5);
+    }
+    int ok = stbi_write_png(tmp, image->width, image->height, 3, bytes, image->width * 3);
+    free(bytes);
+    if (!ok) {
+        unlink(tmp);
+        return vdbs_error_set(err, VDBS_ERR_IO, "%s: cannot write PNG to %s", path, tmp);
+    }
+    return VDBS_OK;
+}
+
+static vdbs_status png_read(const char *path, vdbs_image *image, vdbs_error *err)
+{
+    int w = 0, h = 0, comp = 0;
+    const int is16 = stbi_is_16_bit(path);
+    void *data = is16 ? (void *)stbi_load_16(path, &w, &h, &comp, 3)
+                      : (void *)stbi_load(path, &w, &h, &comp, 3);
+    if (!data)
+        return vdbs_error_set(err, VDBS_ERR_INPUT, "%s: corrupt or unsupported PNG file: %s", path,
+                              stbi_failure_reason());
+    vdbs_status st = vdbs_image_alloc(image, w, h, 0, err);
+    if (st == VDBS_OK) {
+        const size_t n = (size_t)w * h * 3;
+        if (is16) {
+            const unsigned short *p = data;
+            for (size_t i = 0; i < n; ++i)
+                image->rgb[i] = (float)srgb_decode(p[i] / 65535.0);
+        } else {
+            float table[256];
+            for (int b = 0; b < 256; ++b)
+                table[b] = (float)srgb_decode(b / 255.0);
+            const unsigned char *p = data;
+            for (size_t i = 0; i < n; ++i)
+                image->rgb[i] = table[p[i]];
+        }
+    }
+    stbi_image_free(data);
+    return st;
+}
+
+/* ---- public I/O ------------------------------------------------------------------------ */
+
+vdbs_status vdbs_image_write(const char *path, const vdbs_image *image, double exposure_ev,
+                             vdbs_error *err)
+{
+    const int exr = has_extension(path, ".exr"), png = has_extension(path, ".png");
+    if (!exr && !png)
+        return vdbs_error_set(err, VDBS_ERR_INPUT, "%s: unknown image extension (use .exr or .png)",
+                              path);
+    if (!image || !image->rgb || image->width <= 0 || image->height <= 0)
+        return vdbs_error_set(err, VDBS_ERR_INTERNAL, "%s: empty image", path);
+    if (png && !isfinite(exposure_ev))
+        return vdbs_error_set(err, VDBS_ERR_INPUT, "%s: exposure is not finite", path);
+    char *tmp = temp_path_for(path);
+    if (!tmp)
+        return vdbs_error_set(err, VDBS_ERR_NOMEM, "%s: out of memory", path);
+    vdbs_status st =
+        exr ? exr_write(path, tmp, image, err) : png_write(path, tmp, image, exposure_ev, err);
+    if (st == VDBS_OK)
+        st = commit_temp(tmp, path, err);
+    free(tmp);
+    return st;
+}
+
+vdbs_status vdbs_image_read(const char *path, vdbs_image *image, vdbs_error *err)
+{
+    memset(image, 0, sizeof *image);
+    FILE *f = fopen(path, "rb");
+    if (!f)
+        return vdbs_error_set(err, VDBS_ERR_INPUT, "%s: cannot open: %s", path, strerror(errno));
+    unsigned char magic[8] = {0};
+    size_t got = fread(magic, 1, sizeof magic, f);
+    fclose(f);
+    /* The content decides the format, so a misnamed file still reads. */
+    static const unsigned char exr_magic[4] = {0x76, 0x2f, 0x31, 0x01};
+    static const unsigned char png_magic[8] = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1a, '\n'};
+    if (got >= 4 && memcmp(magic, exr_magic, 4) == 0)
+        return exr_read(path, image, err);
+    if (got == 8 && memcmp(magic, png_magic, 8) == 0)
+        return png_read(path, image, err);
+    return vdbs_error_set(err, VDBS_ERR_INPUT, "%s: not an OpenEXR or PNG image", path);
+}
+
+/* ---- comparison ------------------------------------------------------------------------ */
+
+/* k-th smallest of x[0..n) (reorders x): Hoare partitioning, which splits runs of equal
+ * values evenly, so images with many identical errors stay O(n). */
+static double select_kth(double *x, size_t n, size_t k)
+{
+    size_t lo = 0, hi = n - 1;
+    while (lo < hi) {
+        double pivot = x[lo + (hi - lo) / 2];
+        size_t i = lo, j = hi;
+        while (i <= j) {
+            while (x[i] < pivot)
+                ++i;
+            while (x[j] > pivot)
+                --j;
+            if (i <= j) {
+                double t = x[i];
+                x[i] = x[j];
+                x[j] = t;
+                ++i;
+                if (j == 0)
+                    break;
+                --j;
+            }
+        }
+        if (k <= j)
+            hi = j;
+        else if (k >= i)
+            lo = i;
+        else
+            return x[k];
+    }
+    return x[k];
+}
+
+/* Linear interpolation between order statistics at q (n-1), as numpy's default. */
+static double percentile(double *x, size_t n, double q)
+{
+    double pos = q * (double)(n - 1);
+    size_t k = (size_t)pos;
+    double frac = pos - (double)k;
+    double lo = select_kth(x, n, k);
+    if (frac == 0.0 || k + 1 >= n)
+        return lo;
+    /* After selection every element above index k is >= x[k]: the next statistic is their
+     * minimum. */
+    double hi = x[k + 1];
+    for (size_t i = k + 2; i < n; ++i)
+        if (x[i] < hi)
+            hi = x[i];
+    return lo + frac * (hi - lo);
+}
+
+/* num/den where 0/0 means "no error and no scale" = 0 and x/0 is +inf. */
+static double ratio(double num, double den)
+{
+    if (den > 0.0)
+        return num / den;
+    return num == 0.0 ? 0.0 : INFINITY;
+}
+
+vdbs_status vdbs_image_compare(const vdbs_image *a, const vdbs_image *b, double mask_below,
+                               vdbs_image_metrics *metrics, vdbs_error *err)
+{
+    memset(metrics, 0, sizeof *metrics);
+    if (a->width != b->width || a->height != b->height)
+        return vdbs_error_set(err, VDBS_ERR_INPUT,
+                              "image sizes differ: %dx%d against reference %dx%d", a->width,
+                              a->height, b->width, b->height);
+    const size_t pixels = (size_t)a->width * a->height;
+    unsigned char *keep = malloc(pixels ? pixels : 1);
+    if (!keep)
+        return vdbs_error_set(err, VDBS_ERR_NOMEM, "out of memory comparing images");
+    size_t kept = 0;
+    double sum_b = 0.0;
+    for (size_t p = 0; p < pixels; ++p) {
+        const float *rb = b->rgb + 3 * p;
+        double lum = 0.2126 * rb[0] + 0.7152 * rb[1] + 0.0722 * rb[2];
+        keep[p] = !(mask_below > 0.0) || lum >= mask_below;
+        if (keep[p]) {
+            ++kept;
+            sum_b += fabs(rb[0]) + fabs(rb[1]) + fabs(rb[2]);
+        }
+    }
+    if (kept == 0) {
+        free(keep);
+        return vdbs_error_set(err, VDBS_ERR_INPUT, "no pixel of the reference has luminance >= %g",
+                              mask_below);
+    }
+    const size_t n = 3 * kept;
+    double *rel = malloc(n * sizeof *rel);
+    if (!rel) {
+        free(keep);
+        return vdbs_error_set(err, VDBS_ERR_NOMEM, "out of memory comparing images");
+    }
+    /* mean(|b|) rather than mean(b): the same for radiance, and never a negative floor. */
+    const double floor_b = 1e-3 * sum_b / (double)n;
+    const int has_se = a->se && b->se;
+    double sum_d2 = 0.0, sum_b2 = 0.0, sum_a2 = 0.0, sum_rel = 0.0;
+    double sum_sa2 = 0.0, sum_sb2 = 0.0, sum_z = 0.0, sum_z2 = 0.0;
+    size_t m = 0, nz = 0;
+    for (size_t p = 0; p < pixels; ++p) {
+        if (!keep[p])
+            continue;
+        for (size_t i = 3 * p; i < 3 * p + 3; ++i) {
+            const double va = a->rgb[i], vb = b->rgb[i], d = va - vb;
+            sum_d2 += d * d;
+            sum_b2 += vb * vb;
+            sum_a2 += va * va;
+            double r = ratio(fabs(d), fabs(vb) + floor_b);
+            if (isnan(r))
+                r = INFINITY; /* NaN pixels count as the worst error, and keep selection sane */
+            rel[m++] = r;
+            sum_rel += r;
+            const double sa2 = a->se ? (double)a->se[i] * a->se[i] : 0.0;
+            const double sb2 = b->se ? (double)b->se[i] * b->se[i] : 0.0;
+            sum_sa2 += sa2;
+            sum_sb2 += sb2;
+            if (has_se && sa2 + sb2 > 0.0) {
+                const double z = d / sqrt(sa2 + sb2);
+                sum_z += z;
+                sum_z2 += z * z;
+                ++nz;
+            }
+        }
+    }
+    free(keep);
+    metrics->samples = (long long)n;
+    metrics->relrmse = sqrt(ratio(sum_d2, sum_b2));
+    metrics->mean_rel = sum_rel / (double)n;
+    metrics->p99_rel = percentile(rel, n, 0.99);
+    free(rel);
+    metrics->has_se = has_se;
+    if (has_se) {
+        metrics->noise_share = ratio(sum_sa2 + sum_sb2, sum_d2);
+        metrics->z_mean = nz ? sum_z / (double)nz : NAN;
+        metrics->z_rms = nz ? sqrt(sum_z2 / (double)nz) : NAN;
+    }
+    if (a->se)
+        metrics->se_image_a = sqrt(ratio(sum_sa2, sum_a2));
+    if (b->se)
+        metrics->se_image_b = sqrt(ratio(sum_sb2, sum_b2));
+    return VDBS_OK;
+}

@@ -46,7 +46,11 @@ typedef struct vdbs_image_metrics {
 
 /* Metrics of a against the reference b. mask_below > 0 ignores pixels whose reference
  * luminance (0.2126 R + 0.7152 G + 0.0722 B) is below it. Errors: different sizes
- * (VDBS_ERR_INPUT), nothing left after masking. */
+ * (VDBS_ERR_INPUT), nothing left after masking.
+ * Conventions: mean(b) in the relative-error floor is mean(|b|); p99_rel interpolates
+ * linearly between order statistics (numpy's default); a ratio x/0 is 0 when x is 0 and
+ * +inf otherwise (relrmse of anything but black against a black reference is +inf); NaN
+ * errors count as +inf; z_mean and z_rms are NaN when every se_a^2 + se_b^2 is 0. */
 vdbs_status vdbs_image_compare(const vdbs_image *a, const vdbs_image *b, double mask_below,
                                vdbs_image_metrics *metrics, vdbs_error *err);
 
