@@ -1,0 +1,973 @@
+/* The Monte-Carlo reference against independent answers: reflected and transmitted
+ * fractions of homogeneous slabs (energy tally) and the radiance leaving them (rendered,
+ * single and all orders) against an adding-doubling solution written here; single
+ * scattering of a point light against quadrature; energy conservation in a closed sphere;
+ * noise falling as 1/sqrt(spp); bit-identical images whatever the thread count; rounds
+ * under a time limit; HG sampling against its CDF; finite, non-negative results at the
+ * numerical extremes of DESIGN.md. */
+#include "testutil.h"
+
+#include <math.h>
+#include <omp.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "vdbscatter/camera.h"
+#include "vdbscatter/image.h"
+#include "vdbscatter/progress.h"
+#include "vdbscatter/reference.h"
+#include "vdbscatter/samples.h"
+#include "vdbscatter/scene.h"
+#include "vdbscatter/volume.h"
+
+#define PI 3.14159265358979323846
+
+/* ---- adding-doubling for a plane-parallel homogeneous slab under a normal beam ----
+ *
+ * Under a normal beam the radiance field is azimuthally symmetric, so only the azimuth
+ * average of the phase function matters. Directions are NQ Gauss-Legendre cosines per
+ * hemisphere; the azimuth-averaged HG (numerical azimuth integral, no Legendre series, so
+ * g = 0.9 needs no delta-M) is renormalised per row so that the quadrature conserves
+ * energy. A layer of thickness tau / 2^27 starts in exact single scattering; doubling
+ * it 27 times gives the slab's reflection and transmission of the beam (fluxes good to
+ * about 1e-6: fewer doublings leave multiple scattering out of the thin layer, more
+ * lose digits to rounding; 64 and 160 directions agree to 1e-6 for g = 0.9). In optical depth a
+ * plane-parallel slab with constant albedo and g depends only on its total thickness, so
+ * the voxelised slab's half-voxel ramps do not change the answer. */
+#define NQ 64
+
+static void gauss_legendre01(int n, double *x, double *w)
+{
+    for (int i = 0; i < n; ++i) {
+        double z = cos(PI * (i + 0.75) / (n + 0.5)), pp = 0.0;
+        for (int it = 0; it < 100; ++it) {
+            double p0 = 1.0, p1 = 0.0;
+            for (int k = 1; k <= n; ++k) {
+                double p2 = p1;
+                p1 = p0;
+                p0 = ((2.0 * k - 1.0) * z * p1 - (k - 1.0) * p2) / k;
+            }
+            pp = n * (z * p0 - p1) / (z * z - 1.0);
+            double dz = p0 / pp;
+            z -= dz;
+            if (fabs(dz) < 1e-15)
+                break;
+        }
+        x[i] = 0.5 * (1.0 - z);
+        w[i] = 1.0 / ((1.0 - z * z) * pp * pp);
+    }
+}
+
+static double hg_naive(double g, double mu)
+{
+    double d = 1.0 + g * g - 2.0 * g * mu;
+    return (1.0 - g * g) / (4.0 * PI * d * sqrt(d));
+}
+
+/* Azimuth average of HG between directions of cosines a and b to the slab normal. */
+static double hg_azimuth(double g, double a, double b)
+{
+    const int m = 720;
+    double sa = sqrt(fmax(0.0, 1.0 - a * a)), sb = sqrt(fmax(0.0, 1.0 - b * b)), sum = 0.0;
+    for (int k = 0; k < m; ++k)
+        sum += hg_naive(g, a * b + sa * sb * cos(2.0 * PI * k / m));
+    return sum / m;
+}
+
+static void matmul(const double *a, const double *b, double *out)
+{
+    for (int i = 0; i < NQ; ++i)
+        for (int j = 0; j < NQ; ++j) {
+            double s = 0.0;
+            for (int k = 0; k < NQ; ++k)
+                s += a[i * NQ + k] * b[k * NQ + j];
+            out[i * NQ + j] = s;
+        }
+}
+
+static void matvec(const double *a, const double *v, double *out)
+{
+    for (int i = 0; i < NQ; ++i) {
+        double s = 0.0;
+        for (int k = 0; k < NQ; ++k)
+            s += a[i * NQ + k] * v[k];
+        out[i] = s;
+    }
+}
+
+/* Inverse of a (NQ x NQ) by Gauss-Jordan elimination with partial pivoting. */
+static void matinv(const double *a, double *inv)
+{
+    static double m[NQ * 2 * NQ];
+    for (int i = 0; i < NQ; ++i)
+        for (int j = 0; j < 2 * NQ; ++j)
+            m[i * 2 * NQ + j] = j < NQ ? a[i * NQ + j] : (j - NQ == i);
+    for (int c = 0; c < NQ; ++c) {
+        int p = c;
+        for (int r = c + 1; r < NQ; ++r)
+            if (fabs(m[r * 2 * NQ + c]) > fabs(m[p * 2 * NQ + c]))
+                p = r;
+        for (int j = 0; j < 2 * NQ; ++j) {
+            double t = m[c * 2 * NQ + j];
+            m[c * 2 * NQ + j] = m[p * 2 * NQ + j];
+            m[p * 2 * NQ + j] = t;
+        }
+        double d = m[c * 2 * NQ + c];
+        for (int j = 0; j < 2 * NQ; ++j)
+            m[c * 2 * NQ + j] /= d;
+        for (int r = 0; r < NQ; ++r) {
+            if (r == c)
+                continue;
+            double f = m[r * 2 * NQ + c];
+            if (f != 0.0)
+                for (int j = 0; j < 2 * NQ; ++j)
+                    m[r * 2 * NQ + j] -= f * m[c * 2 * NQ + j];
+        }
+    }
+    for (int i = 0; i < NQ; ++i)
+        for (int j = 0; j < NQ; ++j)
+            inv[i * NQ + j] = m[i * 2 * NQ + NQ + j];
+}
+
+/* Fractions of a normal beam of irradiance 1 reflected and transmitted (direct
+ * included) by a slab; r_rad and t_rad (NULL or NQ values) receive the diffusely
+ * reflected and transmitted radiance at the cosines of gauss_legendre01(NQ). */
+static void adding_doubling(double tau, double albedo, double g, double *refl, double *trans,
+                            double *r_rad, double *t_rad)
+{
+    const int doublings = 27;
+    double mu[NQ], wq[NQ];
+    gauss_legendre01(NQ, mu, wq);
+    size_t bytes = sizeof(double) * NQ * NQ;
+    double *pf = malloc(bytes), *pb = malloc(bytes), *r = malloc(bytes), *t = malloc(bytes);
+    double *q = malloc(bytes), *tmp = malloc(bytes), *tmp2 = malloc(bytes), *tq = malloc(bytes);
+    double r0[NQ], t0[NQ];
+
+    /* Azimuth-averaged phase into the same hemisphere (pf) and the other one (pb),
+     * times the solid-angle weight 2 pi w_j, scaled symmetrically (p_ij d_i d_j, a few
+     * Sinkhorn steps) so that rows and columns both sum to 1: the quadrature then
+     * conserves energy exactly. */
+    double scale[NQ];
+    for (int i = 0; i < NQ; ++i) {
+        scale[i] = 1.0;
+        for (int j = 0; j < NQ; ++j) {
+            pf[i * NQ + j] = hg_azimuth(g, mu[i], mu[j]);
+            pb[i * NQ + j] = hg_azimuth(g, mu[i], -mu[j]);
+        }
+    }
+    for (int it = 0; it < 200; ++it) {
+        double worst = 0.0;
+        for (int i = 0; i < NQ; ++i) {
+            double sum = 0.0;
+            for (int j = 0; j < NQ; ++j)
+                sum += 2.0 * PI * wq[j] * scale[i] * scale[j] * (pf[i * NQ + j] + pb[i * NQ + j]);
+            worst = fmax(worst, fabs(sum - 1.0));
+            scale[i] /= sqrt(sum);
+        }
+        if (worst < 1e-15)
+            break;
+    }
+    for (int i = 0; i < NQ; ++i)
+        for (int j = 0; j < NQ; ++j) {
+            double f = 2.0 * PI * wq[j] * scale[i] * scale[j];
+            pf[i * NQ + j] *= f;
+            pb[i * NQ + j] *= f;
+        }
+    double beam_sum = 0.0;
+    for (int i = 0; i < NQ; ++i)
+        beam_sum += 2.0 * PI * wq[i] * (hg_naive(g, mu[i]) + hg_naive(g, -mu[i]));
+
+    /* Exact single scattering in the thin layer: light entering along mu_j and leaving
+     * along mu_i after one scattering at depth x is weighted exp(-x/mu_j) exp(-y/mu_i)
+     * / mu_i with y = x (reflection) or delta - x (transmission). */
+    double delta = ldexp(tau, -doublings);
+    for (int i = 0; i < NQ; ++i) {
+        for (int j = 0; j <= NQ; ++j) {
+            double mj = j < NQ ? mu[j] : 1.0, mi = mu[i];
+            double ref = mj / (mi + mj) * -expm1(-delta * (1.0 / mi + 1.0 / mj));
+            double tra = fabs(mi - mj) > 1e-9 * mi
+                             ? mj / (mi - mj) * (exp(-delta / mi) - exp(-delta / mj))
+                             : delta / mi * exp(-delta / mi);
+            if (j < NQ) {
+                r[i * NQ + j] = albedo * pb[i * NQ + j] * ref;
+                t[i * NQ + j] = albedo * pf[i * NQ + j] * tra;
+            } else {
+                r0[i] = albedo * hg_naive(g, -mi) / beam_sum * ref;
+                t0[i] = albedo * hg_naive(g, mi) / beam_sum * tra;
+            }
+        }
+        t[i * NQ + i] += exp(-delta / mu[i]);
+    }
+    double e0 = exp(-delta);
+
+    for (int n = 0; n < doublings; ++n) {
+        matmul(r, r, tmp);
+        for (int i = 0; i < NQ * NQ; ++i)
+            tmp[i] = (i % (NQ + 1) == 0 ? 1.0 : 0.0) - tmp[i];
+        matinv(tmp, q);
+        /* Beam: D = Q (t0 + e0 R r0) down and U = R D + e0 r0 up at the interface. */
+        double v[NQ], dn[NQ], up[NQ], a[NQ], b[NQ];
+        matvec(r, r0, v);
+        for (int i = 0; i < NQ; ++i)
+            v[i] = t0[i] + e0 * v[i];
+        matvec(q, v, dn);
+        matvec(r, dn, up);
+        for (int i = 0; i < NQ; ++i)
+            up[i] += e0 * r0[i];
+        matvec(t, up, a);
+        matvec(t, dn, b);
+        for (int i = 0; i < NQ; ++i) {
+            r0[i] += a[i];
+            t0[i] = b[i] + e0 * t0[i];
+        }
+        e0 *= e0;
+        /* Diffuse: R' = R + T Q R T, T' = T Q T. */
+        matmul(t, q, tq);
+        matmul(r, t, tmp);
+        matmul(tq, tmp, tmp2);
+        for (int i = 0; i < NQ * NQ; ++i)
+            r[i] += tmp2[i];
+        matmul(tq, t, tmp);
+        memcpy(t, tmp, bytes);
+    }
+    double fr = 0.0, ft = 0.0;
+    for (int i = 0; i < NQ; ++i) {
+        fr += 2.0 * PI * wq[i] * mu[i] * r0[i];
+        ft += 2.0 * PI * wq[i] * mu[i] * t0[i];
+    }
+    *refl = fr;
+    *trans = e0 + ft;
+    if (r_rad)
+        memcpy(r_rad, r0, sizeof r0);
+    if (t_rad)
+        memcpy(t_rad, t0, sizeof t0);
+    free(pf);
+    free(pb);
+    free(r);
+    free(t);
+    free(q);
+    free(tmp);
+    free(tmp2);
+    free(tq);
+}
+
+/* ---- volumes and scenes ---- */
+
+static void make_volume(const float *values, const int dims[3], const double m[3][4],
+                        vdbs_volume *volume)
+{
+    vdbio_transform xf;
+    memcpy(xf.m, m, sizeof xf.m);
+    vdbio_density *density = NULL;
+    vdbs_error err;
+    if (vdbio_density_from_dense(values, dims, NULL, &xf, "density", &density, &err) != VDBS_OK)
+        fail_msg("%s", err.message);
+    if (vdbs_volume_from_density(density, volume, &err) != VDBS_OK)
+        fail_msg("%s", err.message);
+}
+
+/* A slab n voxels thick along y (voxel height 1/n, so its optical thickness is exactly
+ * density_scale including the two half-voxel ramps) and w voxels of size 1 across, 64
+ * times wider than it is thick, centred on the origin. */
+static void make_slab(int n, int w, vdbs_volume *volume)
+{
+    float *values = malloc(sizeof(float) * (size_t)w * n * w);
+    for (size_t i = 0; i < (size_t)w * n * w; ++i)
+        values[i] = 1.0f;
+    int dims[3] = {w, n, w};
+    double m[3][4] = {{1.0, 0.0, 0.0, -0.5 * (w - 1)},
+                      {0.0, 1.0 / n, 0.0, -0.5 * (n - 1) / n},
+                      {0.0, 0.0, 1.0, -0.5 * (w - 1)}};
+    make_volume(values, dims, m, volume);
+    free(values);
+}
+
+static void make_sample(const char *name, int res, vdbs_volume *volume)
+{
+    vdbio_density *density = NULL;
+    vdbs_error err;
+    if (vdbs_sample_create(name, res, 1, &density, &err) != VDBS_OK)
+        fail_msg("%s", err.message);
+    if (vdbs_volume_from_density(density, volume, &err) != VDBS_OK)
+        fail_msg("%s", err.message);
+}
+
+static void medium(vdbs_scene *scene, double density_scale, double albedo, double g)
+{
+    vdbs_scene_init(scene);
+    scene->density_scale = density_scale;
+    scene->albedo[0] = scene->albedo[1] = scene->albedo[2] = albedo;
+    scene->g = g;
+}
+
+static void add_sun(vdbs_scene *scene, double x, double y, double z, double e)
+{
+    vdbs_light *l = &scene->lights[scene->light_count++];
+    memset(l, 0, sizeof *l);
+    l->type = VDBS_LIGHT_SUN;
+    double len = sqrt(x * x + y * y + z * z);
+    l->direction[0] = x / len;
+    l->direction[1] = y / len;
+    l->direction[2] = z / len;
+    l->color[0] = l->color[1] = l->color[2] = e;
+}
+
+static void add_point(vdbs_scene *scene, double x, double y, double z, double intensity)
+{
+    vdbs_light *l = &scene->lights[scene->light_count++];
+    memset(l, 0, sizeof *l);
+    l->type = VDBS_LIGHT_POINT;
+    l->position[0] = x;
+    l->position[1] = y;
+    l->position[2] = z;
+    l->color[0] = l->color[1] = l->color[2] = intensity;
+}
+
+static void add_env(vdbs_scene *scene, double r, double g, double b)
+{
+    vdbs_light *l = &scene->lights[scene->light_count++];
+    memset(l, 0, sizeof *l);
+    l->type = VDBS_LIGHT_ENV;
+    l->color[0] = r;
+    l->color[1] = g;
+    l->color[2] = b;
+    l->env_scale = 1.0;
+}
+
+static void image_make(vdbs_image *image, int width, int height)
+{
+    vdbs_error err;
+    if (vdbs_image_alloc(image, width, height, 1, &err) != VDBS_OK)
+        fail_msg("%s", err.message);
+}
+
+static void image_drop(vdbs_image *image)
+{
+    vdbs_image_free(image);
+}
+
+static void render_camera(const vdbs_volume *volume, const vdbs_scene *scene,
+                          const vdbs_camera *camera, int spp, int max_bounces, uint64_t seed,
+                          vdbs_image *image)
+{
+    vdbs_camera_frame frame;
+    vdbs_error err;
+    assert_int_equal(vdbs_camera_frame_init(camera, &frame, &err), VDBS_OK);
+    image_make(image, camera->width, camera->height);
+    vdbs_reference_options options = {0};
+    options.spp = spp;
+    options.max_bounces = max_bounces;
+    options.seed = seed;
+    if (vdbs_reference_render(volume, scene, &frame, &options, image, NULL, &err) != VDBS_OK)
+        fail_msg("%s", err.message);
+}
+
+static void render(const vdbs_volume *volume, const vdbs_scene *scene, int size, int spp,
+                   int max_bounces, uint64_t seed, vdbs_image *image)
+{
+    vdbs_camera camera;
+    vdbs_camera_frame_volume(volume, size, size, &camera);
+    vdbs_camera_frame frame;
+    vdbs_error err;
+    assert_int_equal(vdbs_camera_frame_init(&camera, &frame, &err), VDBS_OK);
+    image_make(image, size, size);
+    vdbs_reference_options options = {0};
+    options.spp = spp;
+    options.max_bounces = max_bounces;
+    options.seed = seed;
+    int done = 0;
+    if (vdbs_reference_render(volume, scene, &frame, &options, image, &done, &err) != VDBS_OK)
+        fail_msg("%s", err.message);
+    assert_int_equal(done, spp);
+}
+
+/* ---- tests ---- */
+
+static void test_slab(void **state)
+{
+    (void)state;
+    const int n = 16, w = 64;
+    vdbs_volume volume;
+    make_slab(n, w, &volume);
+    const double taus[] = {1.0, 4.0}, albedos[] = {0.5, 0.99}, gs[] = {0.0, 0.9};
+    const double centre[3] = {0.0, 0.0, 0.0};
+    uint64_t seed = 11;
+    for (int a = 0; a < 2; ++a)
+        for (int b = 0; b < 2; ++b)
+            for (int c = 0; c < 2; ++c) {
+                double tau = taus[a], albedo = albedos[b], g = gs[c];
+                double r_ad, t_ad;
+                adding_doubling(tau, albedo, g, &r_ad, &t_ad, NULL, NULL);
+                vdbs_scene scene;
+                medium(&scene, tau, albedo, g);
+                add_sun(&scene, 0.0, -1.0, 0.0, 1.0);
+                vdbs_reference_tally tally;
+                vdbs_error err;
+                const int64_t paths = 2000000;
+                double t0 = omp_get_wtime();
+                if (vdbs_reference_tally_sun(&volume, &scene, centre, 0.5, paths, 100000, seed++,
+                                             &tally, &err) != VDBS_OK)
+                    fail_msg("%s", err.message);
+                double dt = omp_get_wtime() - t0;
+                print_message("slab tau %g albedo %g g %g: R %.5f +- %.5f (AD %.5f)  T %.5f +- "
+                              "%.5f (AD %.5f)  A %.5f  side %.2e  %.2fs\n",
+                              tau, albedo, g, tally.reflected, tally.reflected_se, r_ad,
+                              tally.transmitted, tally.transmitted_se, t_ad, tally.absorbed,
+                              tally.side_leak, dt);
+                assert_true(tally.side_leak < 1e-3);
+                double tol_r = fmax(0.01 * r_ad, 4.0 * tally.reflected_se);
+                double tol_t = fmax(0.01 * t_ad, 4.0 * tally.transmitted_se);
+                if (fabs(tally.reflected - r_ad) > tol_r || fabs(tally.transmitted - t_ad) > tol_t)
+                    fail_msg("slab tau %g albedo %g g %g: R %.6f T %.6f, adding-doubling R %.6f "
+                             "T %.6f",
+                             tau, albedo, g, tally.reflected, tally.transmitted, r_ad, t_ad);
+            }
+    vdbs_volume_free(&volume);
+}
+
+/* Mean of channel 0 over the image and its standard error (pixels are independent). */
+static void image_mean(const vdbs_image *image, double *mean, double *se)
+{
+    int n = image->width * image->height;
+    double m = 0.0, v = 0.0;
+    for (int i = 0; i < n; ++i) {
+        m += image->rgb[3 * i];
+        v += (double)image->se[3 * i] * image->se[3 * i];
+    }
+    *mean = m / n;
+    *se = sqrt(v) / n;
+}
+
+static double hg_phase(double g, double mu)
+{
+    return hg_naive(g, mu);
+}
+
+/* Radiance leaving the slab of test_slab in a direction of cosine mu to its normal,
+ * seen by a narrow camera at the slab's centre, against single scattering in closed
+ * form (max_bounces 1) and against adding-doubling (all orders): next-event estimation
+ * to the sun with ratio-tracked shadow rays, and the bounce limit. */
+static void test_slab_radiance(void **state)
+{
+    (void)state;
+    vdbs_volume volume;
+    make_slab(16, 64, &volume);
+    double mu_q[NQ], w_q[NQ];
+    gauss_legendre01(NQ, mu_q, w_q);
+    int node = 0;
+    for (int i = 0; i < NQ; ++i)
+        if (fabs(mu_q[i] - 0.7) < fabs(mu_q[node] - 0.7))
+            node = i;
+    const double mu = mu_q[node], sin_t = sqrt(1.0 - mu * mu);
+    const double tau = 1.0, albedo = 0.9, gs[2] = {0.0, 0.9};
+    uint64_t seed = 300;
+    for (int k = 0; k < 2; ++k) {
+        double g = gs[k];
+        double r_flux, t_flux, r_rad[NQ], t_rad[NQ];
+        adding_doubling(tau, albedo, g, &r_flux, &t_flux, r_rad, t_rad);
+        /* Single scattering of a normal beam of irradiance 1 (cosine mu0 = 1). */
+        double r1 = albedo * hg_phase(g, -mu) / (1.0 + mu) * -expm1(-tau * (1.0 + 1.0 / mu));
+        double t1 = albedo * hg_phase(g, mu) * (exp(-tau) - exp(-tau / mu)) / (1.0 - mu);
+        vdbs_scene scene;
+        medium(&scene, tau, albedo, g);
+        add_sun(&scene, 0.0, -1.0, 0.0, 1.0);
+        for (int side = 0; side < 2; ++side) {
+            /* Above: looking down at the lit face; below: looking up at the far face. */
+            double sy = side == 0 ? 1.0 : -1.0;
+            vdbs_camera camera = {0};
+            camera.present = 1;
+            camera.target[1] = 0.5 * sy;
+            camera.position[0] = camera.target[0] + 3.0 * sin_t;
+            camera.position[1] = camera.target[1] + 3.0 * mu * sy;
+            camera.up[2] = 1.0;
+            camera.fov_deg = 2.0;
+            camera.width = camera.height = 4;
+            for (int bounces = 1; bounces <= 1000; bounces += 999) {
+                double expected =
+                    bounces == 1 ? (side == 0 ? r1 : t1) : (side == 0 ? r_rad[node] : t_rad[node]);
+                vdbs_image image;
+                double t0 = omp_get_wtime();
+                render_camera(&volume, &scene, &camera, 65536, bounces, seed++, &image);
+                double mean, se;
+                image_mean(&image, &mean, &se);
+                print_message("slab radiance g %g %s mu %.4f bounces %d: %.6f +- %.6f, expected "
+                              "%.6f (%.2fs)\n",
+                              g, side == 0 ? "reflected" : "transmitted", mu, bounces, mean, se,
+                              expected, omp_get_wtime() - t0);
+                image_drop(&image);
+                if (fabs(mean - expected) > fmax(0.01 * expected, 4.0 * se))
+                    fail_msg("slab radiance g %g side %d bounces %d: %.6f +- %.6f, expected %.6f",
+                             g, side, bounces, mean, se, expected);
+            }
+        }
+    }
+    vdbs_volume_free(&volume);
+}
+
+/* Interpolated density of an n^3 block of ones at index point u: separable, one ramp
+ * per axis from 1 at the outer centres to 0 one voxel further out. */
+static double block_density(int n, const double u[3])
+{
+    double d = 1.0;
+    for (int a = 0; a < 3; ++a) {
+        double out = u[a] < 0.0 ? -u[a] : (u[a] > n - 1 ? u[a] - (n - 1) : 0.0);
+        d *= fmax(0.0, 1.0 - out);
+    }
+    return d;
+}
+
+/* Optical depth between two world points through the block (voxel size h, voxel 0 at
+ * the origin), by the midpoint rule. */
+static double block_depth(int n, double h, double sigma, const double a[3], const double b[3])
+{
+    const int m = 400;
+    double len = sqrt((b[0] - a[0]) * (b[0] - a[0]) + (b[1] - a[1]) * (b[1] - a[1]) +
+                      (b[2] - a[2]) * (b[2] - a[2]));
+    double sum = 0.0;
+    for (int i = 0; i < m; ++i) {
+        double f = (i + 0.5) / m, u[3];
+        for (int k = 0; k < 3; ++k)
+            u[k] = (a[k] + f * (b[k] - a[k])) / h;
+        sum += block_density(n, u);
+    }
+    return sum / m * len * sigma;
+}
+
+/* Single scattering of a point light by a homogeneous block, against quadrature along
+ * each pixel's ray of sigma_s p I / r^2 with both transmittances. */
+static void test_point_single(void **state)
+{
+    (void)state;
+    const int n = 12;
+    const double h = 0.1, sigma = 1.5, albedo = 0.8, g = 0.4;
+    float values[12 * 12 * 12];
+    for (int i = 0; i < n * n * n; ++i)
+        values[i] = 1.0f;
+    int dims[3] = {n, n, n};
+    double m[3][4] = {{h, 0.0, 0.0, 0.0}, {0.0, h, 0.0, 0.0}, {0.0, 0.0, h, 0.0}};
+    vdbs_volume volume;
+    make_volume(values, dims, m, &volume);
+    vdbs_scene scene;
+    medium(&scene, sigma, albedo, g);
+    const double light[3] = {1.6, 1.4, 0.2}, intensity = 3.0;
+    add_point(&scene, light[0], light[1], light[2], intensity);
+
+    vdbs_camera camera = {0};
+    camera.present = 1;
+    camera.position[0] = 0.3;
+    camera.position[1] = 0.7;
+    camera.position[2] = 4.0;
+    camera.target[0] = camera.target[1] = camera.target[2] = 0.55;
+    camera.fov_deg = 10.0;
+    camera.width = camera.height = 3;
+    vdbs_image image;
+    render_camera(&volume, &scene, &camera, 200000, 1, 77, &image);
+
+    vdbs_camera_frame frame;
+    vdbs_error err;
+    assert_int_equal(vdbs_camera_frame_init(&camera, &frame, &err), VDBS_OK);
+    for (int py = 0; py < 3; ++py)
+        for (int px = 0; px < 3; ++px) {
+            double dir[3];
+            vdbs_camera_ray(&frame, px + 0.5, py + 0.5, dir);
+            /* The block's support is [-h, n h] per axis; march the ray across it. */
+            double t_lo = 0.0, t_hi = 1e30;
+            for (int a = 0; a < 3; ++a) {
+                double ta = (-h - frame.origin[a]) / dir[a];
+                double tb = (n * h - frame.origin[a]) / dir[a];
+                t_lo = fmax(t_lo, fmin(ta, tb));
+                t_hi = fmin(t_hi, fmax(ta, tb));
+            }
+            double expected = 0.0;
+            if (t_lo < t_hi) {
+                const int steps = 1000;
+                double dt = (t_hi - t_lo) / steps, depth = 0.0;
+                double entry[3];
+                for (int a = 0; a < 3; ++a)
+                    entry[a] = frame.origin[a] + t_lo * dir[a];
+                for (int i = 0; i < steps; ++i) {
+                    double t = t_lo + (i + 0.5) * dt, x[3], u[3], v[3];
+                    for (int a = 0; a < 3; ++a) {
+                        x[a] = frame.origin[a] + t * dir[a];
+                        u[a] = x[a] / h;
+                        v[a] = light[a] - x[a];
+                    }
+                    double r = sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
+                    /* Cosine between the light's propagation -v and the outgoing -dir. */
+                    double cos_s = (v[0] * dir[0] + v[1] * dir[1] + v[2] * dir[2]) / r;
+                    depth = block_depth(n, h, sigma, entry, x);
+                    double s = sigma * block_density(n, u);
+                    expected += s * albedo * hg_phase(g, cos_s) * intensity / (r * r) *
+                                exp(-depth - block_depth(n, h, sigma, x, light)) * dt;
+                }
+            }
+            double got = image.rgb[3 * (py * 3 + px)], se = image.se[3 * (py * 3 + px)];
+            print_message("point light pixel (%d,%d): %.6f +- %.6f, expected %.6f\n", px, py, got,
+                          se, expected);
+            if (fabs(got - expected) > fmax(0.01 * expected, 4.0 * se))
+                fail_msg("pixel (%d,%d): %.6f +- %.6f, expected %.6f", px, py, got, se, expected);
+        }
+    image_drop(&image);
+    vdbs_volume_free(&volume);
+}
+
+/* Single scattering of a normal beam by an isotropic slab: the reflected flux is
+ * (albedo / 2) int_0^1 mu / (1 + mu) (1 - exp(-tau (1 + 1/mu))) dmu. */
+static double single_reflection(double tau, double albedo)
+{
+    const int m = 200000;
+    double s = 0.0;
+    for (int i = 0; i < m; ++i) {
+        double mu = (i + 0.5) / m;
+        s += mu / (1.0 + mu) * (1.0 - exp(-tau * (1.0 + 1.0 / mu)));
+    }
+    return 0.5 * albedo * s / m;
+}
+
+static void test_adding_doubling_checks(void **state)
+{
+    (void)state;
+    /* The independent solver itself: no scattering gives exp(-tau); albedo 1 conserves
+     * energy; a weakly scattering slab reflects its single-scattering closed form. */
+    double r, t;
+    adding_doubling(2.0, 0.0, 0.5, &r, &t, NULL, NULL);
+    assert_true(fabs(t - exp(-2.0)) < 1e-9 && fabs(r) < 1e-12);
+    adding_doubling(1.0, 1.0, 0.9, &r, &t, NULL, NULL);
+    assert_true(fabs(r + t - 1.0) < 1e-5);
+    adding_doubling(4.0, 1.0, 0.0, &r, &t, NULL, NULL);
+    assert_true(fabs(r + t - 1.0) < 1e-5);
+    for (int k = 0; k < 2; ++k) {
+        double tau = k ? 4.0 : 1.0, r1 = single_reflection(tau, 1e-4);
+        adding_doubling(tau, 1e-4, 0.0, &r, &t, NULL, NULL);
+        print_message("tau %g: single-scattering R %.9g, adding-doubling %.9g\n", tau, r1, r);
+        assert_true(fabs(r / r1 - 1.0) < 1e-3);
+    }
+}
+
+static void test_energy_sphere(void **state)
+{
+    (void)state;
+    vdbs_volume volume;
+    make_sample("sphere", 32, &volume);
+    const double centre[3] = {0.0, 0.0, 0.0};
+    vdbs_error err;
+    vdbs_reference_tally tally;
+
+    /* Albedo 1: everything that enters leaves. */
+    vdbs_scene scene;
+    medium(&scene, 8.0, 1.0, 0.5);
+    add_sun(&scene, 0.2, -1.0, 0.1, 1.0);
+    if (vdbs_reference_tally_sun(&volume, &scene, centre, 0.8, 400000, 1 << 20, 5, &tally, &err) !=
+        VDBS_OK)
+        fail_msg("%s", err.message);
+    print_message("sphere albedo 1: R %.5f T %.5f A %.3g +- %.3g\n", tally.reflected,
+                  tally.transmitted, tally.absorbed, tally.absorbed_se);
+    assert_true(fabs(tally.absorbed) <= 4.0 * tally.absorbed_se);
+    assert_true(fabs(tally.reflected + tally.transmitted - 1.0) <=
+                fmax(1e-12, 4.0 * (tally.reflected_se + tally.transmitted_se)));
+    assert_true(tally.reflected > 0.2);
+
+    /* Albedo 0.8 with roulette: reflected + transmitted + absorbed = 1 in expectation
+     * (the sum's standard error is at most the sum of the three). */
+    medium(&scene, 8.0, 0.8, 0.5);
+    add_sun(&scene, 0.2, -1.0, 0.1, 1.0);
+    if (vdbs_reference_tally_sun(&volume, &scene, centre, 0.8, 400000, 1 << 20, 6, &tally, &err) !=
+        VDBS_OK)
+        fail_msg("%s", err.message);
+    double sum = tally.reflected + tally.transmitted + tally.absorbed;
+    double se = tally.reflected_se + tally.transmitted_se + tally.absorbed_se;
+    print_message("sphere albedo 0.8: R %.5f T %.5f A %.5f sum %.5f +- %.5f\n", tally.reflected,
+                  tally.transmitted, tally.absorbed, sum, se);
+    assert_true(fabs(sum - 1.0) <= 4.0 * se);
+    vdbs_volume_free(&volume);
+}
+
+static void sphere_scene(vdbs_scene *scene)
+{
+    medium(scene, 4.0, 0.9, 0.3);
+    add_sun(scene, 0.3, -1.0, 0.2, 2.0);
+    add_env(scene, 0.1, 0.15, 0.25);
+}
+
+static double rms_diff(const vdbs_image *a, const vdbs_image *b)
+{
+    double s = 0.0;
+    size_t n = (size_t)3 * a->width * a->height;
+    for (size_t i = 0; i < n; ++i)
+        s += ((double)a->rgb[i] - b->rgb[i]) * ((double)a->rgb[i] - b->rgb[i]);
+    return sqrt(s / n);
+}
+
+static void test_noise_falls(void **state)
+{
+    (void)state;
+    vdbs_volume volume;
+    make_sample("sphere", 32, &volume);
+    vdbs_scene scene;
+    sphere_scene(&scene);
+    double rms[2];
+    const int spps[2] = {16, 256};
+    for (int k = 0; k < 2; ++k) {
+        vdbs_image a, b;
+        render(&volume, &scene, 64, spps[k], 64, 100, &a);
+        render(&volume, &scene, 64, spps[k], 64, 200, &b);
+        rms[k] = rms_diff(&a, &b);
+        image_drop(&a);
+        image_drop(&b);
+    }
+    print_message("rms difference: %g at 16 spp, %g at 256 spp, ratio %.3f\n", rms[0], rms[1],
+                  rms[0] / rms[1]);
+    assert_true(rms[1] > 0.0);
+    assert_true(fabs(rms[0] / rms[1] / 4.0 - 1.0) < 0.15);
+    vdbs_volume_free(&volume);
+}
+
+static void test_deterministic_threads(void **state)
+{
+    (void)state;
+    vdbs_volume volume;
+    make_sample("sphere", 32, &volume);
+    vdbs_scene scene;
+    sphere_scene(&scene);
+    add_point(&scene, 1.2, 0.8, 1.0, 2.0);
+    int threads = omp_get_max_threads();
+    vdbs_image a, b;
+    omp_set_num_threads(1);
+    render(&volume, &scene, 24, 8, 16, 42, &a);
+    omp_set_num_threads(2);
+    render(&volume, &scene, 24, 8, 16, 42, &b);
+    omp_set_num_threads(threads);
+    size_t bytes = sizeof(float) * 3 * 24 * 24;
+    assert_memory_equal(a.rgb, b.rgb, bytes);
+    assert_memory_equal(a.se, b.se, bytes);
+    double mean = 0.0;
+    for (int i = 0; i < 3 * 24 * 24; ++i)
+        mean += a.rgb[i];
+    assert_true(mean > 0.0);
+    image_drop(&a);
+    image_drop(&b);
+    vdbs_volume_free(&volume);
+}
+
+/* Rounds under a time limit merge into the same mean and standard error as one render
+ * of all their samples (same seed: the sample indices continue across rounds). */
+static void test_time_limit(void **state)
+{
+    (void)state;
+    vdbs_volume volume;
+    make_sample("sphere", 16, &volume);
+    vdbs_scene scene;
+    sphere_scene(&scene);
+    vdbs_camera camera;
+    vdbs_camera_frame_volume(&volume, 8, 8, &camera);
+    vdbs_camera_frame frame;
+    vdbs_error err;
+    assert_int_equal(vdbs_camera_frame_init(&camera, &frame, &err), VDBS_OK);
+    vdbs_progress progress;
+    vdbs_progress_begin(&progress, 0, "reference", 100);
+    vdbs_reference_options options = {0};
+    options.spp = 3;
+    options.time_limit = 0.2;
+    options.max_bounces = 8;
+    options.seed = 5;
+    options.progress = &progress;
+    vdbs_image a, b;
+    image_make(&a, 8, 8);
+    int done = 0;
+    assert_int_equal(vdbs_reference_render(&volume, &scene, &frame, &options, &a, &done, &err),
+                     VDBS_OK);
+    assert_true(done >= 3 && done % 3 == 0);
+    options.spp = done;
+    options.time_limit = 0.0;
+    image_make(&b, 8, 8);
+    int done_b = 0;
+    assert_int_equal(vdbs_reference_render(&volume, &scene, &frame, &options, &b, &done_b, &err),
+                     VDBS_OK);
+    assert_int_equal(done_b, done);
+    print_message("time limit: %d samples per pixel\n", done);
+    for (int i = 0; i < 3 * 64; ++i) {
+        assert_true(fabs(a.rgb[i] - b.rgb[i]) <= 1e-5 * fabs(b.rgb[i]) + 1e-30);
+        assert_true(fabs(a.se[i] - b.se[i]) <= 1e-3 * fabs(b.se[i]) + 1e-30);
+    }
+    image_drop(&a);
+    image_drop(&b);
+    vdbs_volume_free(&volume);
+}
+
+/* Analytic HG CDF in mu (probability that the cosine is <= mu); it divides by g, so
+ * below |g| = 1e-9 the isotropic CDF stands in (off by O(g)). */
+static double hg_cdf(double g, double mu)
+{
+    if (fabs(g) < 1e-9)
+        return 0.5 * (1.0 + mu);
+    return (1.0 - g * g) / (2.0 * g) * (1.0 / sqrt(1.0 + g * g - 2.0 * g * mu) - 1.0 / (1.0 + g));
+}
+
+static int cmp_double(const void *a, const void *b)
+{
+    double x = *(const double *)a, y = *(const double *)b;
+    return (x > y) - (x < y);
+}
+
+static void test_hg_sampling(void **state)
+{
+    (void)state;
+    const double gs[] = {0.0, 0.5, -0.7, 0.99};
+    const int n = 200000;
+    double *mu = malloc(sizeof(double) * n);
+    uint64_t x = 88172645463325252ull;
+    for (size_t k = 0; k < sizeof gs / sizeof *gs; ++k) {
+        double g = gs[k];
+        /* The sampler inverts the CDF: F(sample(u)) = u. */
+        for (int i = 0; i <= 1000; ++i) {
+            double u = i < 1000 ? i / 1000.0 : 1.0 - 1e-12;
+            double m = vdbs_reference_hg_sample(g, u);
+            assert_true(m >= -1.0 && m <= 1.0);
+            assert_true(fabs(hg_cdf(g, m) - u) < 1e-9);
+        }
+        /* Kolmogorov-Smirnov on random draws (xorshift64*). */
+        for (int i = 0; i < n; ++i) {
+            x ^= x >> 12;
+            x ^= x << 25;
+            x ^= x >> 27;
+            double u = (double)((x * 2685821657736338717ull) >> 11) * 0x1.0p-53;
+            mu[i] = vdbs_reference_hg_sample(g, u);
+        }
+        qsort(mu, n, sizeof *mu, cmp_double);
+        double d = 0.0;
+        for (int i = 0; i < n; ++i) {
+            double f = hg_cdf(g, mu[i]);
+            d = fmax(d, fmax(fabs(f - (double)i / n), fabs(f - (double)(i + 1) / n)));
+        }
+        print_message("HG g %g: KS D = %.5f (1%% critical %.5f)\n", g, d, 1.63 / sqrt(n));
+        assert_true(d < 1.63 / sqrt(n));
+    }
+    /* Extremes stay finite and in range. */
+    const double extreme[] = {0.999, -0.999, 1e-12, -1e-12};
+    for (size_t k = 0; k < sizeof extreme / sizeof *extreme; ++k)
+        for (int i = 0; i <= 20; ++i) {
+            double u = i < 20 ? i / 20.0 : 1.0 - 1e-16;
+            double m = vdbs_reference_hg_sample(extreme[k], u);
+            assert_true(isfinite(m) && m >= -1.0 && m <= 1.0);
+            assert_true(fabs(hg_cdf(extreme[k], m) - u) < 1e-6);
+        }
+    free(mu);
+}
+
+static void check_finite(const vdbs_image *image, const char *what)
+{
+    for (int i = 0; i < 3 * image->width * image->height; ++i)
+        if (!(isfinite(image->rgb[i]) && image->rgb[i] >= 0.0f && isfinite(image->se[i]) &&
+              image->se[i] >= 0.0f))
+            fail_msg("%s: pixel value %d is %g (se %g)", what, i, image->rgb[i], image->se[i]);
+}
+
+static void test_extremes(void **state)
+{
+    (void)state;
+    const int n = 6;
+    float values[6 * 6 * 6];
+    for (int i = 0; i < n * n * n; ++i)
+        values[i] = 1.0f;
+    int dims[3] = {n, n, n};
+    double m[3][4] = {{0.1, 0.0, 0.0, 0.0}, {0.0, 0.1, 0.0, 0.0}, {0.0, 0.0, 0.1, 0.0}};
+    vdbs_volume volume;
+    make_volume(values, dims, m, &volume);
+    /* Optical thickness per voxel 1e-6 and 1e4 (voxel size 0.1). */
+    const double scales[] = {1e-5, 1e5};
+    const double albedos[] = {0.0, 1.0};
+    const double gs[] = {0.0, 0.999, -0.999};
+    for (int a = 0; a < 2; ++a)
+        for (int b = 0; b < 2; ++b)
+            for (int c = 0; c < 3; ++c) {
+                vdbs_scene scene;
+                medium(&scene, scales[a], albedos[b], gs[c]);
+                add_sun(&scene, 0.3, -1.0, 0.2, 1e6);
+                add_point(&scene, 0.25, 0.25, 0.25, 1e-6);
+                add_point(&scene, 1.0, 0.9, 0.3, 1e6);
+                add_env(&scene, 1e-6, 1.0, 1e6);
+                vdbs_image image;
+                render(&volume, &scene, 8, 4, 64, 3, &image);
+                char what[128];
+                snprintf(what, sizeof what, "scale %g albedo %g g %g", scales[a], albedos[b],
+                         gs[c]);
+                check_finite(&image, what);
+                image_drop(&image);
+                vdbs_reference_tally tally;
+                vdbs_error err;
+                const double centre[3] = {0.25, 0.25, 0.25};
+                assert_int_equal(vdbs_reference_tally_sun(&volume, &scene, centre, 0.3, 2000, 64, 9,
+                                                          &tally, &err),
+                                 VDBS_OK);
+                assert_true(isfinite(tally.reflected) && isfinite(tally.transmitted) &&
+                            isfinite(tally.absorbed));
+                assert_true(tally.reflected >= 0.0 && tally.transmitted >= 0.0 &&
+                            tally.absorbed >= 0.0);
+            }
+    vdbs_volume_free(&volume);
+
+    /* An empty grid shows the sky only, with no noise. */
+    float zero[8] = {0};
+    int dims2[3] = {2, 2, 2};
+    make_volume(zero, dims2, m, &volume);
+    vdbs_scene scene;
+    medium(&scene, 1.0, 0.5, 0.0);
+    add_sun(&scene, 0.0, -1.0, 0.0, 1.0);
+    add_env(&scene, 0.25, 0.5, 1.0);
+    vdbs_image image;
+    render(&volume, &scene, 4, 3, 8, 1, &image);
+    for (int i = 0; i < 3 * 16; ++i) {
+        assert_true(image.rgb[i] == (float)(0.25 * (1 << (i % 3))));
+        assert_true(image.se[i] == 0.0f);
+    }
+    image_drop(&image);
+    vdbs_volume_free(&volume);
+}
+
+static void test_errors(void **state)
+{
+    (void)state;
+    vdbs_volume volume;
+    make_sample("sphere", 8, &volume);
+    vdbs_scene scene;
+    medium(&scene, 1.0, 0.5, 0.0);
+    add_env(&scene, 1.0, 1.0, 1.0);
+    snprintf(scene.lights[0].env_file, sizeof scene.lights[0].env_file, "/tmp/sky.exr");
+    vdbs_camera camera;
+    vdbs_camera_frame_volume(&volume, 4, 4, &camera);
+    vdbs_camera_frame frame;
+    vdbs_error err;
+    assert_int_equal(vdbs_camera_frame_init(&camera, &frame, &err), VDBS_OK);
+    vdbs_image image;
+    image_make(&image, 4, 4);
+    vdbs_reference_options options = {0};
+    options.spp = 1;
+    options.max_bounces = 1;
+    assert_int_equal(vdbs_reference_render(&volume, &scene, &frame, &options, &image, NULL, &err),
+                     VDBS_ERR_INPUT);
+    assert_non_null(strstr(err.message, "environment maps not supported yet"));
+    scene.lights[0].env_file[0] = '\0';
+    options.max_bounces = 0;
+    assert_int_equal(vdbs_reference_render(&volume, &scene, &frame, &options, &image, NULL, &err),
+                     VDBS_ERR_INPUT);
+    const double centre[3] = {0.0, 0.0, 0.0};
+    vdbs_reference_tally tally;
+    assert_int_equal(vdbs_reference_tally_sun(&volume, &scene, centre, 0.5, 10, 4, 1, &tally, &err),
+                     VDBS_ERR_INPUT);
+    image_drop(&image);
+    vdbs_volume_free(&volume);
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_hg_sampling),   cmocka_unit_test(test_errors),
+        cmocka_unit_test(test_extremes),      cmocka_unit_test(test_deterministic_threads),
+        cmocka_unit_test(test_time_limit),    cmocka_unit_test(test_adding_doubling_checks),
+        cmocka_unit_test(test_energy_sphere), cmocka_unit_test(test_noise_falls),
+        cmocka_unit_test(test_slab),          cmocka_unit_test(test_slab_radiance),
+        cmocka_unit_test(test_point_single),
+    };
+    return cmocka_run_group_tests(tests, NULL, NULL);
+}
