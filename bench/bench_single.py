@@ -40,8 +40,8 @@ def main():
         ("openvdb_smoke1", os.path.join(DATA, "openvdb_smoke1.vdb"), ["--density-scale", "2", "--sun", "0.3,-1,0.2:3,3,3"]),
         ("wdas + sky, quality low (16 dirs)", os.path.join(DATA, "wdas_cloud_sixteenth.vdb"),
          ["--sun", "0.3,-1,0.2", "--env", "0.2,0.3,0.5", "--quality", "low"]),
-        ("wdas + sky, quality medium (64 dirs)", os.path.join(DATA, "wdas_cloud_sixteenth.vdb"),
-         ["--sun", "0.3,-1,0.2", "--env", "0.2,0.3,0.5", "--quality", "medium"]),
+        ("sample cloud 128^3 + sky, quality medium (64 dirs)", cloud,
+         ["--density-scale", "20", "--sun", "0.3,-1,0.2", "--env", "0.2,0.3,0.5", "--quality", "medium"]),
     ]
     rows = []
     renderer = ""
