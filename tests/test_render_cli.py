@@ -5,7 +5,6 @@ the metadata, flags on top), and baked mode of a single-scattering bake against 
 mode of its input. Images are tiny (at most 64x64) and read back here by small PNG and
 EXR-header parsers."""
 import json
-import math
 import os
 import shutil
 import struct
@@ -16,7 +15,6 @@ import zlib
 
 EXE = os.environ["VDBSCATTER"]
 SAMPLES = os.environ["VDBSCATTER_SAMPLES_DIR"]
-DATA = os.environ["VDBSCATTER_DATA_DIR"]
 
 
 def run(*args, check=None):
