@@ -22,20 +22,32 @@
 #define VS_LIGHT_SUN 0
 #define VS_LIGHT_POINT 1
 
-VS_FUNC pnanovdb_vec3_t vs_single_average(VS_DATA_PARAM(vs_vec4, light_data) pnanovdb_buf_t buf,
-                                          PNANOVDB_INOUT(pnanovdb_readaccessor_t) acc,
-                                          pnanovdb_coord_t ijk)
+/* Adds the contributions of marches [first, first + count) to sum, in march order, so that
+ * any split of the marches into passes (the GPU needs passes: llvmpipe ends every loop of
+ * an invocation after 65535 iterations) sums in the same order as one pass. */
+VS_FUNC pnanovdb_vec3_t vs_single_accumulate(VS_DATA_PARAM(vs_vec4, light_data)
+                                                 pnanovdb_buf_t buf,
+                                             PNANOVDB_INOUT(pnanovdb_readaccessor_t) acc,
+                                             pnanovdb_coord_t ijk, pnanovdb_vec3_t sum,
+                                             int first, int count)
 {
     int light_count = VS_INT(light_data[0].x);
-    int sky_count = VS_INT(light_data[0].y);
+    int total = light_count + VS_INT(light_data[0].y);
     float density_scale = light_data[0].z;
     float r_min = light_data[0].w;
     pnanovdb_vec3_t box_lo = vs_vec3_from_vec4(light_data[4]);
     pnanovdb_vec3_t box_hi = vs_vec3_from_vec4(light_data[5]);
     pnanovdb_vec3_t p = vs_vec3(VS_FLOAT(ijk.x), VS_FLOAT(ijk.y), VS_FLOAT(ijk.z));
-    pnanovdb_vec3_t sum = vs_vec3(0.0f, 0.0f, 0.0f);
+    int last = first + count < total ? first + count : total;
 
-    for (int i = 0; i < light_count; ++i) {
+    for (int i = first; i < last; ++i) {
+        if (i >= light_count) {
+            float transmittance = vs_transmittance(
+                buf, acc, p, vs_vec3_from_vec4(light_data[VS_SINGLE_HEADER + light_count + i]),
+                VS_T_INFINITE, box_lo, box_hi, density_scale);
+            sum = vs_vec3_madd(sum, vs_vec3_from_vec4(light_data[6]), transmittance);
+            continue;
+        }
         vs_vec4 head = light_data[VS_SINGLE_HEADER + 2 * i];
         pnanovdb_vec3_t color = vs_vec3_from_vec4(light_data[VS_SINGLE_HEADER + 2 * i + 1]);
         float weight;
@@ -58,18 +70,15 @@ VS_FUNC pnanovdb_vec3_t vs_single_average(VS_DATA_PARAM(vs_vec4, light_data) pna
         }
         sum = vs_vec3_madd(sum, color, weight * transmittance);
     }
-
-    if (sky_count > 0) {
-        float sky_transmittance_sum = 0.0f;
-        int first = VS_SINGLE_HEADER + 2 * light_count;
-        for (int k = 0; k < sky_count; ++k) {
-            sky_transmittance_sum +=
-                vs_transmittance(buf, acc, p, vs_vec3_from_vec4(light_data[first + k]),
-                                 VS_T_INFINITE, box_lo, box_hi, density_scale);
-        }
-        sum = vs_vec3_madd(sum, vs_vec3_from_vec4(light_data[6]), sky_transmittance_sum);
-    }
     return sum;
+}
+
+VS_FUNC pnanovdb_vec3_t vs_single_average(VS_DATA_PARAM(vs_vec4, light_data) pnanovdb_buf_t buf,
+                                          PNANOVDB_INOUT(pnanovdb_readaccessor_t) acc,
+                                          pnanovdb_coord_t ijk)
+{
+    return vs_single_accumulate(VS_DATA_ARG(light_data) buf, acc, ijk, vs_vec3(0.0f, 0.0f, 0.0f),
+                                0, VS_INT(light_data[0].x) + VS_INT(light_data[0].y));
 }
 
 #endif

@@ -102,6 +102,25 @@ static void test_cloud(void **state)
     vdbs_volume_free(&volume);
 }
 
+/* 1 + 2 + 1024 marches per voxel are far beyond llvmpipe's 65535 loop iterations per
+ * invocation: the shader must split them into passes and still agree with C. */
+static void test_many_sky_directions(void **state)
+{
+    (void)state;
+    vdbio_density *density = NULL;
+    vdbs_error err;
+    assert_int_equal(vdbs_sample_create("cloud", 20, 5, &density, &err), VDBS_OK);
+    vdbs_volume volume;
+    assert_int_equal(vdbs_volume_from_density(density, &volume, &err), VDBS_OK);
+    vdbs_scene scene;
+    vdbs_scene_init(&scene);
+    scene.density_scale = 20.0;
+    add_lights(&scene);
+    assert_int_equal(vdbs_scene_validate(&scene, &err), VDBS_OK);
+    compare(&volume, &scene, 1024);
+    vdbs_volume_free(&volume);
+}
+
 static void test_real_rotated_file(void **state)
 {
     (void)state;
@@ -124,6 +143,7 @@ int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_cloud),
+        cmocka_unit_test(test_many_sky_directions),
         cmocka_unit_test(test_real_rotated_file),
     };
     return cmocka_run_group_tests(tests, setup, teardown);

@@ -336,19 +336,6 @@ enum {
     CONTROL_WORDS
 };
 
-/* Units per dispatch that keep an invocation well below llvmpipe's 65535 loop iterations:
- * a march crosses at most sum(hi - lo) + 3 cell planes of the support box and takes at most
- * one iteration per plane plus two; half the limit is left for PNanoVDB's root-tile loops
- * and the per-unit loop itself. */
-static int auto_units(const vdbs_volume *volume)
-{
-    float lo[3], hi[3];
-    vdbs_volume_support_box(volume, lo, hi);
-    double cells = (double)(hi[0] - lo[0]) + (double)(hi[1] - lo[1]) + (double)(hi[2] - lo[2]);
-    double units = 32000.0 / (cells + 10.0);
-    return units < 1.0 ? 1 : (int)units;
-}
-
 vdbs_status vdbs_render_march_gpu(vdbs_gpu *gpu, const vdbs_volume *volume, const vdbs_ms_grids *ms,
                                   const vdbs_scene *scene, const vdbs_camera_frame *frame,
                                   const vdbs_march_options *options, vdbs_image *image,
@@ -397,7 +384,7 @@ vdbs_status vdbs_render_march_gpu(vdbs_gpu *gpu, const vdbs_volume *volume, cons
         vdbs_gpu_buffer_bind(gpu, lights, 1);
         vdbs_gpu_buffer_bind(gpu, out, 2);
     }
-    int64_t units = options->gpu_units > 0 ? options->gpu_units : auto_units(volume);
+    int64_t units = options->gpu_units > 0 ? options->gpu_units : vdbs_volume_gpu_marches_per_pass(volume);
     int first = 1, in = 0;
     while (st == VDBS_OK) {
         uint32_t control[CONTROL_WORDS] = {0};

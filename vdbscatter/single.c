@@ -156,12 +156,6 @@ vdbs_status vdbs_single_scatter_cpu(const vdbs_volume *volume, const vdbs_scene 
     return VDBS_OK;
 }
 
-static void report_gpu_progress(void *user, uint64_t done, uint64_t total)
-{
-    (void)total;
-    vdbs_progress_update(user, done);
-}
-
 vdbs_status vdbs_single_scatter_gpu(vdbs_gpu *gpu, const vdbs_volume *volume,
                                     const vdbs_scene *scene, int sky_directions,
                                     float *radiance, vdbs_progress *progress,
@@ -176,31 +170,62 @@ vdbs_status vdbs_single_scatter_gpu(vdbs_gpu *gpu, const vdbs_volume *volume,
         vdbs_single_light_table(volume, scene, sky_directions, &table, &entries, err);
     if (st != VDBS_OK)
         return st;
+    const uint64_t count = volume->coord_count;
+    const size_t items = count ? count : 1;
+    const int marches = (int)table[0] + (int)table[1];
 
-    unsigned int program = 0, nano = 0, lights = 0, coords = 0, out = 0;
-    size_t out_size = 3 * sizeof(float) * (volume->coord_count ? volume->coord_count : 1);
+    unsigned int program = 0, nano = 0, lights = 0, coords = 0, sums[2] = {0, 0};
     st = vdbs_gpu_program_create(gpu, source, NULL, &program, err);
     if (st == VDBS_OK)
         st = vdbs_gpu_buffer_create(gpu, volume->nano_size, volume->nano, &nano, err);
     if (st == VDBS_OK)
         st = vdbs_gpu_buffer_create(gpu, entries * 4 * sizeof(float), table, &lights, err);
     if (st == VDBS_OK)
-        st = vdbs_gpu_buffer_create(gpu, 3 * sizeof(int32_t) * (volume->coord_count ? volume->coord_count : 1),
-                                    volume->coords, &coords, err);
-    if (st == VDBS_OK)
-        st = vdbs_gpu_buffer_create(gpu, out_size, NULL, &out, err);
+        st = vdbs_gpu_buffer_create(gpu, 3 * sizeof(int32_t) * items, volume->coords, &coords,
+                                    err);
+    for (int i = 0; i < 2 && st == VDBS_OK; ++i)
+        st = vdbs_gpu_buffer_create(gpu, 3 * sizeof(float) * items, NULL, &sums[i], err);
     if (st == VDBS_OK) {
         vdbs_gpu_buffer_bind(gpu, nano, 0);
         vdbs_gpu_buffer_bind(gpu, lights, 1);
         vdbs_gpu_buffer_bind(gpu, coords, 2);
-        vdbs_gpu_buffer_bind(gpu, out, 3);
-        st = vdbs_gpu_dispatch_items(gpu, program, volume->coord_count, 64, 1u << 16,
-                                     report_gpu_progress, progress, err);
     }
-    if (st == VDBS_OK && volume->coord_count)
-        st = vdbs_gpu_buffer_read(gpu, out, 0, 3 * sizeof(float) * volume->coord_count, radiance,
-                                  err);
-    vdbs_gpu_buffer_destroy(gpu, out);
+    int per_pass = vdbs_volume_gpu_marches_per_pass(volume);
+    int first = 0, in = 0;
+    while (st == VDBS_OK && first < marches && count > 0) {
+        /* [0] first march, [1] march count, [2] canary trips, [3] canary step, [4] failed */
+        uint32_t control[5] = {(uint32_t)first, (uint32_t)per_pass, 2u, 1u, 0u};
+        unsigned int control_buffer = 0;
+        st = vdbs_gpu_buffer_create(gpu, sizeof control, control, &control_buffer, err);
+        if (st != VDBS_OK)
+            break;
+        vdbs_gpu_buffer_bind(gpu, sums[in], 3);
+        vdbs_gpu_buffer_bind(gpu, sums[1 - in], 4);
+        vdbs_gpu_buffer_bind(gpu, control_buffer, 5);
+        st = vdbs_gpu_dispatch_items(gpu, program, count, 64, 1u << 16, NULL, NULL, err);
+        if (st == VDBS_OK)
+            st = vdbs_gpu_buffer_read(gpu, control_buffer, 0, sizeof control, control, err);
+        vdbs_gpu_buffer_destroy(gpu, control_buffer);
+        if (st != VDBS_OK)
+            break;
+        if (control[4]) {
+            /* The input sums are untouched: repeat the pass with fewer marches. */
+            if (per_pass == 1)
+                st = vdbs_error_set(err, VDBS_ERR_GPU,
+                                    "a single march exceeds the GPU driver's loop limit; use "
+                                    "--backend cpu");
+            per_pass = per_pass / 2 > 0 ? per_pass / 2 : 1;
+            continue;
+        }
+        first += per_pass;
+        in = 1 - in;
+        vdbs_progress_update(progress, count * (uint64_t)(first < marches ? first : marches) /
+                                           (uint64_t)marches);
+    }
+    if (st == VDBS_OK && count > 0)
+        st = vdbs_gpu_buffer_read(gpu, sums[in], 0, 3 * sizeof(float) * count, radiance, err);
+    for (int i = 0; i < 2; ++i)
+        vdbs_gpu_buffer_destroy(gpu, sums[i]);
     vdbs_gpu_buffer_destroy(gpu, coords);
     vdbs_gpu_buffer_destroy(gpu, lights);
     vdbs_gpu_buffer_destroy(gpu, nano);

@@ -109,6 +109,15 @@ void vdbs_volume_support_box(const vdbs_volume *volume, float lo[3], float hi[3]
     }
 }
 
+int vdbs_volume_gpu_marches_per_pass(const vdbs_volume *volume)
+{
+    float lo[3], hi[3];
+    vdbs_volume_support_box(volume, lo, hi);
+    double cells = (double)(hi[0] - lo[0]) + (double)(hi[1] - lo[1]) + (double)(hi[2] - lo[2]);
+    double marches = 32000.0 / (cells + 10.0);
+    return marches < 1.0 ? 1 : (int)marches;
+}
+
 #define PNANOVDB_C
 #include <nanovdb/PNanoVDB.h>
 

@@ -47,6 +47,12 @@ void vdbs_volume_world_point(const vdbs_volume *volume, const double index[3],
  * box grown by one voxel (the trilinear ramp beyond the outermost centres). */
 void vdbs_volume_support_box(const vdbs_volume *volume, float lo[3], float hi[3]);
 
+/* Marches one compute-shader invocation may run in one dispatch: llvmpipe ends every
+ * loop of an invocation after 65535 iterations in total, silently. A march crosses at most
+ * sum(hi - lo) + 3 cell planes of the support box, one iteration per plane plus two; half
+ * the limit is left for PNanoVDB's root-tile loops and the caller's own loops. */
+int vdbs_volume_gpu_marches_per_pass(const vdbs_volume *volume);
+
 #ifdef __cplusplus
 }
 #endif
