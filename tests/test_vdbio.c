@@ -523,10 +523,14 @@ static void test_write_refusals(void **state)
     const char *out = test_tmp_path("vdbio_other.vdb");
     assert_int_equal(vdbio_write(out, test_tmp_path("does_not_exist.vdb"), &req, &err), VDBS_OK);
     assert_true(file_exists(out));
-    /* Unwritable destination: an I/O error, no temp file left. */
+    /* A destination folder that does not exist is the user's error, found before writing;
+     * so is a directory as the output path. No temp file is left. */
     assert_int_equal(vdbio_write(test_tmp_path("no/such/dir/x.vdb"), NULL, &req, &err),
-                     VDBS_ERR_IO);
+                     VDBS_ERR_INPUT);
     assert_non_null(strstr(err.message, "x.vdb"));
+    assert_non_null(strstr(err.message, "does not exist"));
+    assert_int_equal(vdbio_write(test_tmp_path(""), NULL, &req, &err), VDBS_ERR_INPUT);
+    assert_non_null(strstr(err.message, "directory"));
     /* Bad requests. */
     vdbio_vec3_grid dup = {"density", v};
     int32_t c[3] = {0, 0, 0};
