@@ -6,11 +6,12 @@ usage: bench/bench_reference.py BUILD_DIR [--out bench/reference.md] [--size 256
 
 Renders samples/cloud.vdb with samples/cloud.json through
 `vdbscatter render --mode reference` and measures
-- throughput: two renders at different spp; the slope of wall time against spp gives
-  spp/s and paths/s (so loading the volume and writing the image do not count);
+- throughput: the least-squares slope of wall time against spp over all the runs below
+  gives spp/s and paths/s (loading the volume and writing the image do not count);
 - time to 5% and 2% image standard error: spp doubles until `vdbscatter compare --json`
   of the image with itself reports an image standard error (se_a: rms of the per-pixel
-  standard errors over the rms of the image) at or below the target;
+  standard errors over the rms of the image) at or below the target, then a run at the
+  spp predicted inside the last doubling step (10% more until it is met) is timed;
 - time to 1%, extrapolated from the 2% run with noise proportional to 1/sqrt(time).
 Writes a markdown table."""
 import argparse
@@ -65,28 +66,48 @@ def main():
     pixels = width * height
     tmp = tempfile.mkdtemp(prefix="bench-reference-")
     img = os.path.join(tmp, "ref.exr")
+    load = os.getloadavg()[0]
 
-    # Throughput from the slope between a short and a longer render.
-    t_lo = render(exe, img, 4, args)
-    t_hi = render(exe, img, 64, args)
-    per_spp = max(t_hi - t_lo, 1e-9) / 60.0
-    spp_per_s = 1.0 / per_spp
-    paths_per_s = pixels / per_spp
-    print(f"throughput: {spp_per_s:.2f} spp/s, {paths_per_s / 1e6:.3f} Mpaths/s "
-          f"(4 spp {t_lo:.2f}s, 64 spp {t_hi:.2f}s)", flush=True)
-
-    # Doubling spp until each target is reached; every run is timed on its own.
+    # Doubling spp until the smallest target is reached; every run is timed on its own.
     targets = [0.05, 0.02]
-    reached = {}
-    spp = 4
-    while len(reached) < len(targets):
+    runs = []
+
+    def run(spp):
         seconds = render(exe, img, spp, args)
         se = image_se(exe, img)
         print(f"{spp:6d} spp: {seconds:8.2f}s  image se {100 * se:.3f}%", flush=True)
-        for target in targets:
-            if target not in reached and se <= target:
-                reached[target] = (spp, seconds, se)
+        runs.append((spp, seconds, se))
+        return spp, seconds, se
+
+    spp = 4
+    while run(spp)[2] > min(targets):
         spp *= 2
+    doubling = list(runs)
+    reached = {}
+    for target in targets:
+        i = next(k for k, r in enumerate(doubling) if r[2] <= target)
+        reached[target] = doubling[i]
+        if i == 0:
+            continue
+        # Refine inside the doubling bracket: the spp predicted from the run before
+        # (se proportional to 1/sqrt(spp)), then 10% steps until the target is met.
+        prev_spp, _, prev_se = doubling[i - 1]
+        est = int(prev_spp * (prev_se / target) ** 2 * 1.03) + 1
+        while prev_spp < est < doubling[i][0]:
+            r = run(est)
+            if r[2] <= target:
+                reached[target] = r
+                break
+            est = int(est * 1.1) + 1
+    # Throughput: least-squares slope of wall time against spp over every run, so that
+    # loading the volume and writing the image do not count.
+    n = len(runs)
+    mx = sum(r[0] for r in runs) / n
+    my = sum(r[1] for r in runs) / n
+    per_spp = sum((r[0] - mx) * (r[1] - my) for r in runs) / sum((r[0] - mx) ** 2 for r in runs)
+    spp_per_s = 1.0 / per_spp
+    paths_per_s = pixels / per_spp
+    print(f"throughput: {spp_per_s:.2f} spp/s, {paths_per_s / 1e6:.3f} Mpaths/s", flush=True)
     spp2, sec2, se2 = reached[0.02]
     sec1 = sec2 * (se2 / 0.01) ** 2
     spp1 = spp2 * (se2 / 0.01) ** 2
@@ -104,7 +125,8 @@ def main():
         f.write(f"# Monte-Carlo reference: samples/cloud.vdb ({args.size})\n\n")
         f.write(f"Scene samples/cloud.json; seed {args.seed}; max bounces "
                 f"{args.max_bounces if args.max_bounces is not None else 'CLI default'}; "
-                f"{os.cpu_count()} threads on {cpu}.\n\n")
+                f"{os.cpu_count()} threads on {cpu}; load average {load:.1f} at the start "
+                f"(other work on the machine slows every figure).\n\n")
         f.write("| measure | value |\n|---|---|\n")
         f.write(f"| paths per second | {paths_per_s:,.0f} |\n")
         f.write(f"| spp per second | {spp_per_s:.2f} |\n")
@@ -115,8 +137,9 @@ def main():
         f.write(f"| time to 1% image se (extrapolated from the 2% run) | {sec1:.0f} s "
                 f"(~{spp1:.0f} spp) |\n")
         f.write("\nImage se = rms of the per-pixel standard errors / rms of the image "
-                "(`vdbscatter compare --json`, se_a). Throughput is the slope of wall time "
-                "between 4 and 64 spp; the times to a target are whole-command wall times.\n")
+                "(`vdbscatter compare --json`, se_a). Throughput is the least-squares slope of "
+                "wall time against spp over all runs; the times to a target are "
+                "whole-command wall times.\n")
     print(open(args.out).read())
 
 
