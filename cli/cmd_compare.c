@@ -18,11 +18,13 @@ static const char help[] =
     "  mean_rel     mean of |A-B| / (|B| + 1e-3 mean(|B|))\n"
     "  p99_rel      99th percentile of the same\n"
     "  samples      pixel-channel values compared\n"
-    "When both EXRs carry se.R, se.G, se.B (standard errors of Monte-Carlo pixels):\n"
+    "When either EXR carries se.R, se.G, se.B (standard errors of Monte-Carlo pixels;\n"
+    "an image without them counts as exact, se = 0):\n"
     "  noise_share  mean(se_A^2 + se_B^2) / mean((A-B)^2): about 1 when the difference\n"
     "               is noise alone, much below 1 when it is bias\n"
     "  z_mean       mean of z = (A-B) / sqrt(se_A^2 + se_B^2) (about 0 without bias)\n"
     "  z_rms        rms of z (about 1 without bias)\n"
+    "  z_samples    values that entered z (those with a non-zero se)\n"
     "and for each image with se channels:\n"
     "  se_a, se_b   sqrt(mean(se^2)) / sqrt(mean(image^2)), its own relative noise\n"
     "\n"
@@ -100,6 +102,7 @@ int cmd_compare(int argc, char **argv)
         {"noise_share", m.noise_share, m.has_se, 0},
         {"z_mean", m.z_mean, m.has_se, 0},
         {"z_rms", m.z_rms, m.has_se, 0},
+        {"z_samples", (double)m.z_samples, m.has_se, 1},
         {"se_a", m.se_image_a, se_a, 0},
         {"se_b", m.se_image_b, se_b, 0},
     };

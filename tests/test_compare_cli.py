@@ -169,7 +169,8 @@ class Compare(Base):
         a = self.random_exr("a.exr", se=True, scale=1.25)
         p = run("compare", a, b, "--json", check=0)
         j = json.loads(p.stdout)
-        keys = ["relrmse", "mean_rel", "p99_rel", "samples", "noise_share", "z_mean", "z_rms", "se_a", "se_b"]
+        keys = ["relrmse", "mean_rel", "p99_rel", "samples", "noise_share", "z_mean", "z_rms",
+                "z_samples", "se_a", "se_b"]
         self.assertEqual(list(j), keys)
         for k in keys:
             self.assertIsInstance(j[k], (int, float), k)
@@ -179,10 +180,11 @@ class Compare(Base):
         self.assertEqual([k for k, _ in text], keys)
         for k, v in text:
             self.assertAlmostEqual(float(v), j[k], delta=1e-8 * max(1.0, abs(j[k])), msg=k)
-        # Without se on both sides only the image's own noise of A is reported.
+        # A reference without se counts as exact: z statistics use A's noise alone.
         plain = self.random_exr("plain.exr")
         j = json.loads(run("compare", a, plain, "--json", check=0).stdout)
-        self.assertEqual(list(j), ["relrmse", "mean_rel", "p99_rel", "samples", "se_a"])
+        self.assertEqual(list(j), ["relrmse", "mean_rel", "p99_rel", "samples", "noise_share",
+                                   "z_mean", "z_rms", "z_samples", "se_a"])
 
     def test_noise_statistics(self):
         """A = B + sqrt(se_A^2 + se_B^2) N(0,1): z ~ N(0,1) and the noise explains the

@@ -354,13 +354,19 @@ static void test_compare_noise_statistics(void **state)
     m = compare_ok(&a, &b, 0.0);
     assert_true(fabs(m.se_image_b - 0.05) < 1e-7);
 
-    /* Only one image with se: no z statistics. */
+    /* Only one image with se: the other is exact, z = (a - b) / se_b. */
     free(a.se);
     a.se = NULL;
+    for (size_t i = 0; i < n; ++i)
+        a.rgb[i] = i % 2 ? 2.1f : 1.8f;
     m = compare_ok(&a, &b, 0.0);
-    assert_false(m.has_se);
+    assert_true(m.has_se);
     assert_true(m.se_image_a == 0.0);
     assert_true(fabs(m.se_image_b - 0.05) < 1e-7);
+    assert_true(fabs(m.z_mean - (-0.5)) < 1e-5);            /* (1 - 2) / 2 */
+    assert_true(fabs(m.z_rms - sqrt(2.5)) < 1e-5);          /* sqrt((1 + 4) / 2) */
+    assert_true(fabs(m.noise_share - 0.01 / 0.025) < 1e-5); /* se^2 / mean(d^2) */
+    assert_int_equal(m.z_samples, (long long)n);
     vdbs_image_free(&a);
     vdbs_image_free(&b);
 }

@@ -565,7 +565,9 @@ vdbs_status vdbs_image_compare(const vdbs_image *a, const vdbs_image *b, double 
     }
     /* mean(|b|) rather than mean(b): the same for radiance, and never a negative floor. */
     const double floor_b = 1e-3 * sum_b / (double)n;
-    const int has_se = a->se && b->se;
+    /* An image without se channels is deterministic: its standard error is 0, so z is
+     * still defined (a reference against a ray-marched image, say). */
+    const int has_se = a->se || b->se;
     double sum_d2 = 0.0, sum_b2 = 0.0, sum_a2 = 0.0, sum_rel = 0.0;
     double sum_sa2 = 0.0, sum_sb2 = 0.0, sum_z = 0.0, sum_z2 = 0.0;
     size_t m = 0, nz = 0;
@@ -605,6 +607,7 @@ vdbs_status vdbs_image_compare(const vdbs_image *a, const vdbs_image *b, double 
         metrics->noise_share = ratio(sum_sa2 + sum_sb2, sum_d2);
         metrics->z_mean = nz ? sum_z / (double)nz : NAN;
         metrics->z_rms = nz ? sqrt(sum_z2 / (double)nz) : NAN;
+        metrics->z_samples = (long long)nz;
     }
     if (a->se)
         metrics->se_image_a = sqrt(ratio(sum_sa2, sum_a2));

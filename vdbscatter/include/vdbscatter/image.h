@@ -36,10 +36,11 @@ typedef struct vdbs_image_metrics {
     double mean_rel;    /* mean of |a-b| / (|b| + 1e-3 mean(b)) */
     double p99_rel;     /* 99th percentile of the same */
     long long samples;  /* pixel-channel values used (after masking) */
-    int has_se;         /* both images carry se.* channels */
+    int has_se;         /* either image carries se.* channels (a missing one counts as 0) */
     double noise_share; /* mean(se_a^2 + se_b^2) / mean((a-b)^2) */
     double z_mean;      /* mean of z = (a-b) / sqrt(se_a^2 + se_b^2) */
     double z_rms;       /* rms of z */
+    long long z_samples; /* values that entered z (se_a^2 + se_b^2 > 0) */
     double se_image_a;  /* sqrt(mean(se_a^2)) / sqrt(mean(a^2)) when a has se, else 0 */
     double se_image_b;
 } vdbs_image_metrics;
