@@ -28,8 +28,9 @@ static const char help[] =
     "  --json              print JSON on stdout\n";
 
 static const cli_option options[] = {
-    {"--density-scale", CLI_VALUE}, {"--grid", CLI_VALUE}, {"--json", CLI_FLAG},
-    {"--gpu", CLI_FLAG},            {"--from-levelset", CLI_FLAG}, {NULL, CLI_FLAG},
+    {"--density-scale", CLI_VALUE}, {"--grid", CLI_VALUE},
+    {"--json", CLI_FLAG},           {"--gpu", CLI_FLAG},
+    {"--from-levelset", CLI_FLAG},  {NULL, CLI_FLAG},
 };
 
 static cJSON *ints3(const int v[3])
@@ -177,7 +178,8 @@ int cmd_info(int argc, char **argv)
                        cJSON_GetObjectItem(g, "name")->valuestring,
                        cJSON_GetObjectItem(g, "type")->valuestring,
                        cJSON_GetObjectItem(g, "class")->valuestring,
-                       cJSON_GetArrayItem(vs, 0)->valuedouble, cJSON_GetArrayItem(vs, 1)->valuedouble,
+                       cJSON_GetArrayItem(vs, 0)->valuedouble,
+                       cJSON_GetArrayItem(vs, 1)->valuedouble,
                        cJSON_GetArrayItem(vs, 2)->valuedouble,
                        cJSON_IsTrue(cJSON_GetObjectItem(g, "affine")) ? "" : " (frustum map)");
                 if (cJSON_GetObjectItem(g, "active_voxels")->valuedouble > 0)

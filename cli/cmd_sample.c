@@ -25,8 +25,8 @@ static const char help[] =
     "  -q                 no warnings\n";
 
 static const cli_option options[] = {
-    {"-o", CLI_VALUE}, {"--output", CLI_VALUE}, {"--res", CLI_VALUE},
-    {"--seed", CLI_VALUE}, {"-q", CLI_FLAG},     {NULL, CLI_FLAG},
+    {"-o", CLI_VALUE},     {"--output", CLI_VALUE}, {"--res", CLI_VALUE},
+    {"--seed", CLI_VALUE}, {"-q", CLI_FLAG},        {NULL, CLI_FLAG},
 };
 
 int cmd_sample(int argc, char **argv)

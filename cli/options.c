@@ -8,9 +8,9 @@
 #include <string.h>
 
 const cli_option cli_scene_options[] = {
-    {"--scene", CLI_VALUE},  {"--grid", CLI_VALUE},    {"--density-scale", CLI_VALUE},
-    {"--albedo", CLI_VALUE}, {"--g", CLI_VALUE},       {"--sun", CLI_VALUE},
-    {"--point", CLI_VALUE},  {"--env", CLI_VALUE},     {"--method", CLI_VALUE},
+    {"--scene", CLI_VALUE},   {"--grid", CLI_VALUE}, {"--density-scale", CLI_VALUE},
+    {"--albedo", CLI_VALUE},  {"--g", CLI_VALUE},    {"--sun", CLI_VALUE},
+    {"--point", CLI_VALUE},   {"--env", CLI_VALUE},  {"--method", CLI_VALUE},
     {"--quality", CLI_VALUE}, {NULL, CLI_FLAG},
 };
 
@@ -102,8 +102,9 @@ vdbs_status cli_integer(const char *flag, const char *text, long lo, long hi, lo
     errno = 0;
     long v = strtol(text, &end, 10);
     if (end == text || *end != '\0' || errno == ERANGE || v < lo || v > hi)
-        return vdbs_error_set(err, VDBS_ERR_INPUT, "%s: expected an integer in [%ld, %ld], got '%s'",
-                              flag, lo, hi, text);
+        return vdbs_error_set(err, VDBS_ERR_INPUT,
+                              "%s: expected an integer in [%ld, %ld], got '%s'", flag, lo, hi,
+                              text);
     *out = v;
     return VDBS_OK;
 }

@@ -76,11 +76,11 @@ VS_FUNC float vs_cell_eval(vs_cell cell, pnanovdb_vec3_t f)
 VS_FUNC float vs_density_at(pnanovdb_buf_t buf, PNANOVDB_INOUT(pnanovdb_readaccessor_t) acc,
                             pnanovdb_vec3_t p)
 {
-    pnanovdb_coord_t c = vs_coord(VS_INT(vs_floor(p.x)), VS_INT(vs_floor(p.y)),
-                                  VS_INT(vs_floor(p.z)));
+    pnanovdb_coord_t c =
+        vs_coord(VS_INT(vs_floor(p.x)), VS_INT(vs_floor(p.y)), VS_INT(vs_floor(p.z)));
     vs_cell cell = vs_cell_fetch(buf, acc, c);
-    return vs_cell_eval(cell, vs_vec3(p.x - VS_FLOAT(c.x), p.y - VS_FLOAT(c.y),
-                                      p.z - VS_FLOAT(c.z)));
+    return vs_cell_eval(cell,
+                        vs_vec3(p.x - VS_FLOAT(c.x), p.y - VS_FLOAT(c.y), p.z - VS_FLOAT(c.z)));
 }
 
 /* Parameter where the ray leaves the box [lo, hi] along axis component (o, d). */
@@ -145,8 +145,8 @@ VS_FUNC vs_accum vs_march(pnanovdb_buf_t buf, PNANOVDB_INOUT(pnanovdb_readaccess
             next.z = vs_max(t, vs_axis_exit(origin.z, dir.z, VS_FLOAT(c.z), VS_FLOAT(c.z + 1)));
             locate = PNANOVDB_FALSE;
         }
-        int dim = VS_INT(pnanovdb_readaccessor_get_dim(PNANOVDB_GRID_TYPE_FLOAT, buf, acc,
-                                                       PNANOVDB_REF(c)));
+        int dim = VS_INT(
+            pnanovdb_readaccessor_get_dim(PNANOVDB_GRID_TYPE_FLOAT, buf, acc, PNANOVDB_REF(c)));
         int last = dim - 1;
         /* Skippable only when the whole cell (corners c and c+1) lies in the empty tile. */
         if (dim > 1 && (c.x & last) != last && (c.y & last) != last && (c.z & last) != last &&
@@ -166,8 +166,8 @@ VS_FUNC vs_accum vs_march(pnanovdb_buf_t buf, PNANOVDB_INOUT(pnanovdb_readaccess
         float t_exit = vs_min(t1, vs_min(next.x, vs_min(next.y, next.z)));
         if (t_exit > t) {
             vs_cell cell = vs_cell_fetch(buf, acc, c);
-            pnanovdb_vec3_t local =
-                vs_vec3(origin.x - VS_FLOAT(c.x), origin.y - VS_FLOAT(c.y), origin.z - VS_FLOAT(c.z));
+            pnanovdb_vec3_t local = vs_vec3(origin.x - VS_FLOAT(c.x), origin.y - VS_FLOAT(c.y),
+                                            origin.z - VS_FLOAT(c.z));
             float fa = vs_cell_eval(cell, vs_vec3_madd(local, dir, t));
             float fm = vs_cell_eval(cell, vs_vec3_madd(local, dir, 0.5f * (t + t_exit)));
             float fb = vs_cell_eval(cell, vs_vec3_madd(local, dir, t_exit));
@@ -194,8 +194,7 @@ VS_FUNC vs_accum vs_march(pnanovdb_buf_t buf, PNANOVDB_INOUT(pnanovdb_readaccess
 
 VS_FUNC float vs_optical_depth(pnanovdb_buf_t buf, PNANOVDB_INOUT(pnanovdb_readaccessor_t) acc,
                                pnanovdb_vec3_t origin, pnanovdb_vec3_t dir, float tmax,
-                               pnanovdb_vec3_t box_lo, pnanovdb_vec3_t box_hi,
-                               float density_scale)
+                               pnanovdb_vec3_t box_lo, pnanovdb_vec3_t box_hi, float density_scale)
 {
     return vs_accum_value(vs_march(buf, acc, origin, dir, tmax, box_lo, box_hi, density_scale));
 }
@@ -203,8 +202,7 @@ VS_FUNC float vs_optical_depth(pnanovdb_buf_t buf, PNANOVDB_INOUT(pnanovdb_reada
 /* exp(-optical depth) along the same ray. */
 VS_FUNC float vs_transmittance(pnanovdb_buf_t buf, PNANOVDB_INOUT(pnanovdb_readaccessor_t) acc,
                                pnanovdb_vec3_t origin, pnanovdb_vec3_t dir, float tmax,
-                               pnanovdb_vec3_t box_lo, pnanovdb_vec3_t box_hi,
-                               float density_scale)
+                               pnanovdb_vec3_t box_lo, pnanovdb_vec3_t box_hi, float density_scale)
 {
     return vs_accum_exp_neg(vs_march(buf, acc, origin, dir, tmax, box_lo, box_hi, density_scale));
 }

@@ -25,11 +25,10 @@
 /* Adds the contributions of marches [first, first + count) to sum, in march order, so that
  * any split of the marches into passes (the GPU needs passes: llvmpipe ends every loop of
  * an invocation after 65535 iterations) sums in the same order as one pass. */
-VS_FUNC pnanovdb_vec3_t vs_single_accumulate(VS_DATA_PARAM(vs_vec4, light_data)
-                                                 pnanovdb_buf_t buf,
+VS_FUNC pnanovdb_vec3_t vs_single_accumulate(VS_DATA_PARAM(vs_vec4, light_data) pnanovdb_buf_t buf,
                                              PNANOVDB_INOUT(pnanovdb_readaccessor_t) acc,
-                                             pnanovdb_coord_t ijk, pnanovdb_vec3_t sum,
-                                             int first, int count)
+                                             pnanovdb_coord_t ijk, pnanovdb_vec3_t sum, int first,
+                                             int count)
 {
     int light_count = VS_INT(light_data[0].x);
     int total = light_count + VS_INT(light_data[0].y);
@@ -64,8 +63,8 @@ VS_FUNC pnanovdb_vec3_t vs_single_accumulate(VS_DATA_PARAM(vs_vec4, light_data)
             float r = vs_sqrt(vs_vec3_dot(w, w));
             float rc = vs_max(r, r_min);
             weight = 1.0f / (rc * rc);
-            transmittance = r > 0.0f ? vs_transmittance(buf, acc, p, vs_vec3_scale(d, 1.0f / r),
-                                                        r, box_lo, box_hi, density_scale)
+            transmittance = r > 0.0f ? vs_transmittance(buf, acc, p, vs_vec3_scale(d, 1.0f / r), r,
+                                                        box_lo, box_hi, density_scale)
                                      : 1.0f;
         }
         sum = vs_vec3_madd(sum, color, weight * transmittance);
@@ -77,8 +76,8 @@ VS_FUNC pnanovdb_vec3_t vs_single_average(VS_DATA_PARAM(vs_vec4, light_data) pna
                                           PNANOVDB_INOUT(pnanovdb_readaccessor_t) acc,
                                           pnanovdb_coord_t ijk)
 {
-    return vs_single_accumulate(VS_DATA_ARG(light_data) buf, acc, ijk, vs_vec3(0.0f, 0.0f, 0.0f),
-                                0, VS_INT(light_data[0].x) + VS_INT(light_data[0].y));
+    return vs_single_accumulate(VS_DATA_ARG(light_data) buf, acc, ijk, vs_vec3(0.0f, 0.0f, 0.0f), 0,
+                                VS_INT(light_data[0].x) + VS_INT(light_data[0].y));
 }
 
 #endif

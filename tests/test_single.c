@@ -88,8 +88,8 @@ static int check_block(const vdbs_volume *volume, const float *radiance, int n, 
             continue;
         double got = radiance[3 * v];
         if (fabs(got - expected) > tol * expected)
-            fail_msg("voxel (%d,%d,%d) sigma_t %g tau %g: got %.9g expected %.9g", c[0], c[1],
-                     c[2], sigma_t, tau, got, expected);
+            fail_msg("voxel (%d,%d,%d) sigma_t %g tau %g: got %.9g expected %.9g", c[0], c[1], c[2],
+                     sigma_t, tau, got, expected);
         assert_true(fabs(radiance[3 * v + 1] - 2.0 * got) <= 1e-6 * got);
         ++checked;
     }
@@ -186,8 +186,8 @@ static void test_point_light_homogeneous(void **state)
         double rc = fmax(r, 0.5 * h);
         double expected = 7.0 * exp(-4.0 * r) / (4.0 * PI * rc * rc);
         if (test_rel_diff(radiance[3 * v], expected) > 1e-4)
-            fail_msg("voxel (%d,%d,%d): got %.9g expected %.9g", c[0], c[1], c[2],
-                     radiance[3 * v], expected);
+            fail_msg("voxel (%d,%d,%d): got %.9g expected %.9g", c[0], c[1], c[2], radiance[3 * v],
+                     expected);
         ++checked;
     }
     assert_true(checked == (n - 2) * (n - 2) * (n - 2));
@@ -277,9 +277,9 @@ static void test_march_matches_quadrature(void **state)
         for (int a = 0; a < 3; ++a)
             d[a] = (float)(d[a] / sqrt(len) / 0.05);
         float tmax = 3.0f;
-        float tau = vs_optical_depth(buf, &acc, vs_vec3(o[0], o[1], o[2]), vs_vec3(d[0], d[1], d[2]),
-                                     tmax, vs_vec3(lo[0], lo[1], lo[2]), vs_vec3(hi[0], hi[1], hi[2]),
-                                     1.0f);
+        float tau =
+            vs_optical_depth(buf, &acc, vs_vec3(o[0], o[1], o[2]), vs_vec3(d[0], d[1], d[2]), tmax,
+                             vs_vec3(lo[0], lo[1], lo[2]), vs_vec3(hi[0], hi[1], hi[2]), 1.0f);
         const int steps = 20000;
         double sum = 0.0;
         for (int i = 0; i <= steps; ++i) {

@@ -25,8 +25,8 @@ vdbs_status vdbs_backend_parse(const char *text, vdbs_backend *backend, vdbs_err
     else if (strcmp(text, "gpu") == 0)
         *backend = VDBS_BACKEND_GPU;
     else
-        return vdbs_error_set(err, VDBS_ERR_INPUT,
-                              "--backend: expected auto, cpu or gpu, got '%s'", text);
+        return vdbs_error_set(err, VDBS_ERR_INPUT, "--backend: expected auto, cpu or gpu, got '%s'",
+                              text);
     return VDBS_OK;
 }
 
@@ -39,9 +39,8 @@ static void warn(const vdbs_bake_options *o, const char *fmt, const char *arg)
 }
 
 /* Solves S1 into radiance (3 floats per output voxel) on the chosen backend. */
-static vdbs_status solve_single(const vdbs_bake_options *o, const vdbs_volume *volume,
-                                int sky, float *radiance, vdbs_bake_report *report,
-                                vdbs_error *err)
+static vdbs_status solve_single(const vdbs_bake_options *o, const vdbs_volume *volume, int sky,
+                                float *radiance, vdbs_bake_report *report, vdbs_error *err)
 {
     vdbs_backend backend = o->backend;
     if (backend == VDBS_BACKEND_AUTO)
@@ -97,8 +96,9 @@ vdbs_status vdbs_bake(const vdbs_bake_options *o, vdbs_bake_report *report, vdbs
         return vdbs_error_set(err, VDBS_ERR_INPUT, "unknown quality '%s'", scene->quality);
     for (int i = 0; i < scene->light_count; ++i)
         if (scene->lights[i].type == VDBS_LIGHT_SUN && scene->lights[i].angular_diameter_deg > 0)
-            warn(o, "%s", "sun angular_diameter_deg is treated as 0 (a delta light) by --method "
-                          "single");
+            warn(o, "%s",
+                 "sun angular_diameter_deg is treated as 0 (a delta light) by --method "
+                 "single");
 
     vdbio_read_options read = {0};
     read.grid_name = scene->grid[0] ? scene->grid : NULL;

@@ -48,15 +48,14 @@ vdbs_status vdbs_camera_frame_init(const vdbs_camera *camera, vdbs_camera_frame 
     return VDBS_OK;
 }
 
-void vdbs_camera_frame_volume(const vdbs_volume *volume, int width, int height,
-                              vdbs_camera *camera)
+void vdbs_camera_frame_volume(const vdbs_volume *volume, int width, int height, vdbs_camera *camera)
 {
     double lo[3] = {1e300, 1e300, 1e300}, hi[3] = {-1e300, -1e300, -1e300};
     for (int corner = 0; corner < 8; ++corner) {
         double ijk[3], w[3];
         for (int a = 0; a < 3; ++a)
-            ijk[a] = (corner >> a & 1) ? volume->info.bbox_max[a] + 1.0
-                                        : volume->info.bbox_min[a] - 1.0;
+            ijk[a] =
+                (corner >> a & 1) ? volume->info.bbox_max[a] + 1.0 : volume->info.bbox_min[a] - 1.0;
         vdbs_volume_world_point(volume, ijk, w);
         for (int a = 0; a < 3; ++a) {
             lo[a] = fmin(lo[a], w[a]);

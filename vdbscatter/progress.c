@@ -11,8 +11,7 @@ double vdbs_now(void)
     return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
 }
 
-void vdbs_progress_begin(vdbs_progress *progress, int enabled, const char *label,
-                         uint64_t total)
+void vdbs_progress_begin(vdbs_progress *progress, int enabled, const char *label, uint64_t total)
 {
     progress->enabled = enabled;
     progress->label = label;

@@ -119,13 +119,12 @@ vdbs_status vdbs_single_light_table(const vdbs_volume *volume, const vdbs_scene 
 }
 
 vdbs_status vdbs_single_scatter_cpu(const vdbs_volume *volume, const vdbs_scene *scene,
-                                    int sky_directions, float *radiance,
-                                    vdbs_progress *progress, vdbs_error *err)
+                                    int sky_directions, float *radiance, vdbs_progress *progress,
+                                    vdbs_error *err)
 {
     float *table = NULL;
     size_t entries = 0;
-    vdbs_status st =
-        vdbs_single_light_table(volume, scene, sky_directions, &table, &entries, err);
+    vdbs_status st = vdbs_single_light_table(volume, scene, sky_directions, &table, &entries, err);
     if (st != VDBS_OK)
         return st;
     const vs_vec4 *light_data = (const vs_vec4 *)table;
@@ -139,7 +138,8 @@ vdbs_status vdbs_single_scatter_cpu(const vdbs_volume *volume, const vdbs_scene 
 #pragma omp for schedule(dynamic, 256)
         for (int64_t n = 0; n < count; ++n) {
             const int32_t *c = volume->coords + 3 * n;
-            pnanovdb_vec3_t s = vs_single_average(light_data, buf, &acc, vs_coord(c[0], c[1], c[2]));
+            pnanovdb_vec3_t s =
+                vs_single_average(light_data, buf, &acc, vs_coord(c[0], c[1], c[2]));
             radiance[3 * n] = s.x;
             radiance[3 * n + 1] = s.y;
             radiance[3 * n + 2] = s.z;
@@ -157,17 +157,15 @@ vdbs_status vdbs_single_scatter_cpu(const vdbs_volume *volume, const vdbs_scene 
 }
 
 vdbs_status vdbs_single_scatter_gpu(vdbs_gpu *gpu, const vdbs_volume *volume,
-                                    const vdbs_scene *scene, int sky_directions,
-                                    float *radiance, vdbs_progress *progress,
-                                    vdbs_error *err)
+                                    const vdbs_scene *scene, int sky_directions, float *radiance,
+                                    vdbs_progress *progress, vdbs_error *err)
 {
     const vdbs_shader_source *source = vdbs_shader_find("single_scatter.comp");
     if (!source)
         return vdbs_error_set(err, VDBS_ERR_INTERNAL, "shader single_scatter.comp not embedded");
     float *table = NULL;
     size_t entries = 0;
-    vdbs_status st =
-        vdbs_single_light_table(volume, scene, sky_directions, &table, &entries, err);
+    vdbs_status st = vdbs_single_light_table(volume, scene, sky_directions, &table, &entries, err);
     if (st != VDBS_OK)
         return st;
     const uint64_t count = volume->coord_count;
@@ -181,8 +179,7 @@ vdbs_status vdbs_single_scatter_gpu(vdbs_gpu *gpu, const vdbs_volume *volume,
     if (st == VDBS_OK)
         st = vdbs_gpu_buffer_create(gpu, entries * 4 * sizeof(float), table, &lights, err);
     if (st == VDBS_OK)
-        st = vdbs_gpu_buffer_create(gpu, 3 * sizeof(int32_t) * items, volume->coords, &coords,
-                                    err);
+        st = vdbs_gpu_buffer_create(gpu, 3 * sizeof(int32_t) * items, volume->coords, &coords, err);
     for (int i = 0; i < 2 && st == VDBS_OK; ++i)
         st = vdbs_gpu_buffer_create(gpu, 3 * sizeof(float) * items, NULL, &sums[i], err);
     if (st == VDBS_OK) {

@@ -27,8 +27,7 @@ static int invert_affine(const double m[3][4], double inv[3][4])
     return 1;
 }
 
-vdbs_status vdbs_volume_from_density(vdbio_density *density, vdbs_volume *volume,
-                                     vdbs_error *err)
+vdbs_status vdbs_volume_from_density(vdbio_density *density, vdbs_volume *volume, vdbs_error *err)
 {
     memset(volume, 0, sizeof *volume);
     volume->density = density;
