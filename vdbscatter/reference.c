@@ -418,12 +418,12 @@ static vdbs_status ctx_init(const vdbs_volume *volume, const vdbs_scene *scene, 
     if (max_bounces < 1)
         return vdbs_error_set(err, VDBS_ERR_INPUT, "reference: max_bounces must be >= 1 (got %d)",
                               max_bounces);
-    for (int i = 0; i < scene->light_count; ++i)
-        if (scene->lights[i].type == VDBS_LIGHT_ENV && scene->lights[i].env_file[0])
-            return vdbs_error_set(err, VDBS_ERR_INPUT,
-                                  "environment maps not supported yet (%s); use a constant "
-                                  "sky colour",
-                                  scene->lights[i].env_file);
+    double sky[3];
+    int direct_lights;
+    vdbs_status st = vdbs_scene_light_summary(scene, sky, &ctx->has_env, &direct_lights, err);
+    if (st != VDBS_OK)
+        return st;
+    memcpy(ctx->env, sky, sizeof ctx->env);
     ctx->volume = volume;
     ctx->buf = pnanovdb_make_buf(volume->nano, volume->nano_size / 4);
     ctx->density_scale = scene->density_scale;
@@ -437,12 +437,8 @@ static vdbs_status ctx_init(const vdbs_volume *volume, const vdbs_scene *scene, 
         return vdbs_error_set(err, VDBS_ERR_NOMEM, "out of memory for lights");
     for (int i = 0; i < scene->light_count; ++i) {
         const vdbs_light *light = &scene->lights[i];
-        if (light->type == VDBS_LIGHT_ENV) {
-            for (int c = 0; c < 3; ++c)
-                ctx->env[c] += light->color[c] * light->env_scale;
-            ctx->has_env = 1;
+        if (light->type == VDBS_LIGHT_ENV)
             continue;
-        }
         ref_light *l = &ctx->lights[ctx->light_count];
         memcpy(l->color, light->color, sizeof l->color);
         if (light->type == VDBS_LIGHT_SUN) {
@@ -460,7 +456,7 @@ static vdbs_status ctx_init(const vdbs_volume *volume, const vdbs_scene *scene, 
         }
         ++ctx->light_count;
     }
-    vdbs_status st = grid_build(volume, scene->density_scale, &ctx->grid, err);
+    st = grid_build(volume, scene->density_scale, &ctx->grid, err);
     if (st != VDBS_OK)
         ctx_free(ctx);
     return st;

@@ -123,22 +123,10 @@ vdbs_status vdbs_render_table(const vdbs_volume *volume, const vdbs_ms_grids *ms
                               "render: bad march options (step %g voxels, %d sky directions)",
                               (double)options->step_voxels, options->sky_directions);
     int lights = 0, has_sky = 0;
-    double sky[3] = {0.0, 0.0, 0.0};
-    for (int i = 0; i < scene->light_count; ++i) {
-        const vdbs_light *light = &scene->lights[i];
-        if (light->type == VDBS_LIGHT_ENV) {
-            if (light->env_file[0])
-                return vdbs_error_set(err, VDBS_ERR_INPUT,
-                                      "environment maps (%s) are not supported yet; use a "
-                                      "constant sky colour (--env R,G,B)",
-                                      light->env_file);
-            for (int c = 0; c < 3; ++c)
-                sky[c] += light->color[c];
-            has_sky = 1;
-        } else {
-            ++lights;
-        }
-    }
+    double sky[3];
+    vdbs_status st = vdbs_scene_light_summary(scene, sky, &has_sky, &lights, err);
+    if (st != VDBS_OK)
+        return st;
     int k = has_sky ? options->sky_directions : 0;
     size_t n = VS_RENDER_HEADER + 3 * (size_t)lights + 2 * (size_t)k;
     float *t = calloc(n, 4 * sizeof *t);

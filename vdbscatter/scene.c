@@ -907,3 +907,27 @@ int vdbs_quality_sky_directions(const char *quality)
         return 1024;
     return 0;
 }
+
+vdbs_status vdbs_scene_light_summary(const vdbs_scene *scene, double sky[3], int *has_sky,
+                                     int *direct_lights, vdbs_error *err)
+{
+    sky[0] = sky[1] = sky[2] = 0.0;
+    *has_sky = 0;
+    *direct_lights = 0;
+    for (int i = 0; i < scene->light_count; ++i) {
+        const vdbs_light *light = &scene->lights[i];
+        if (light->type != VDBS_LIGHT_ENV) {
+            ++*direct_lights;
+            continue;
+        }
+        if (light->env_file[0])
+            return vdbs_error_set(err, VDBS_ERR_INPUT,
+                                  "environment maps (%s) are not supported yet; use a constant "
+                                  "sky colour (--env R,G,B)",
+                                  light->env_file);
+        for (int c = 0; c < 3; ++c)
+            sky[c] += light->color[c];
+        *has_sky = 1;
+    }
+    return VDBS_OK;
+}
