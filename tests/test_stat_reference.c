@@ -946,7 +946,8 @@ static void test_errors(void **state)
     options.max_bounces = 1;
     assert_int_equal(vdbs_reference_render(&volume, &scene, &frame, &options, &image, NULL, &err),
                      VDBS_ERR_INPUT);
-    assert_non_null(strstr(err.message, "environment maps (") && strstr(err.message, "are not supported yet"));
+    assert_non_null(strstr(err.message, "environment maps ("));
+    assert_non_null(strstr(err.message, "are not supported yet"));
     scene.lights[0].env_file[0] = '\0';
     options.max_bounces = 0;
     assert_int_equal(vdbs_reference_render(&volume, &scene, &frame, &options, &image, NULL, &err),
