@@ -442,14 +442,10 @@ static vdbs_status ctx_init(const vdbs_volume *volume, const vdbs_scene *scene, 
         ref_light *l = &ctx->lights[ctx->light_count];
         memcpy(l->color, light->color, sizeof l->color);
         if (light->type == VDBS_LIGHT_SUN) {
-            memcpy(l->dir, light->direction, sizeof l->dir);
-            normalize3(l->dir);
-            if (!(l->dir[0] * l->dir[0] + l->dir[1] * l->dir[1] + l->dir[2] * l->dir[2] > 0.0)) {
+            if (!vdbs_volume_sun_step(volume, light->direction, l->dir, l->towards)) {
                 ctx_free(ctx);
                 return vdbs_error_set(err, VDBS_ERR_INPUT, "sun %d has a zero direction", i);
             }
-            double towards[3] = {-l->dir[0], -l->dir[1], -l->dir[2]};
-            vdbs_volume_index_vector(volume, towards, l->towards);
         } else {
             l->point = 1;
             memcpy(l->pos, light->position, sizeof l->pos);

@@ -185,17 +185,14 @@ vdbs_status vdbs_render_table(const vdbs_volume *volume, const vdbs_ms_grids *ms
         const vdbs_light *light = &scene->lights[i];
         double v[3];
         if (light->type == VDBS_LIGHT_SUN) {
-            const double *d = light->direction;
-            double len = sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
-            if (!(len > 0.0)) {
+            double u[3];
+            if (!vdbs_volume_sun_step(volume, light->direction, u, v)) {
                 free(t);
                 free(dirs);
                 return vdbs_error_set(err, VDBS_ERR_INPUT, "sun %d has a zero direction", i);
             }
-            double towards[3] = {-d[0] / len, -d[1] / len, -d[2] / len};
-            vdbs_volume_index_vector(volume, towards, v);
             set_entry(e, VS_RENDER_LIGHT_SUN, v[0], v[1], v[2]);
-            set_entry(e + 4, d[0] / len, d[1] / len, d[2] / len, 0.0);
+            set_entry(e + 4, u[0], u[1], u[2], 0.0);
         } else if (light->type == VDBS_LIGHT_POINT) {
             vdbs_volume_index_point(volume, light->position, v);
             set_entry(e, VS_RENDER_LIGHT_POINT, v[0], v[1], v[2]);

@@ -66,15 +66,10 @@ vdbs_status vdbs_single_light_table(const vdbs_volume *volume, const vdbs_scene 
         const vdbs_light *light = &scene->lights[i];
         double v[3];
         if (light->type == VDBS_LIGHT_SUN) {
-            const double *d = light->direction;
-            double len = sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
-            if (!(len > 0.0)) {
+            if (!vdbs_volume_sun_step(volume, light->direction, NULL, v)) {
                 free(t);
                 return vdbs_error_set(err, VDBS_ERR_INPUT, "sun %d has a zero direction", i);
             }
-            /* t is measured in world units, so the step must be a unit world vector. */
-            double towards[3] = {-d[0] / len, -d[1] / len, -d[2] / len};
-            vdbs_volume_index_vector(volume, towards, v);
             set_entry(e, VS_LIGHT_SUN, v[0], v[1], v[2]);
         } else if (light->type == VDBS_LIGHT_POINT) {
             vdbs_volume_index_point(volume, light->position, v);

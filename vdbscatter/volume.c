@@ -100,6 +100,21 @@ void vdbs_volume_world_point(const vdbs_volume *volume, const double index[3], d
                    volume->index_to_world[r][2] * index[2] + volume->index_to_world[r][3];
 }
 
+int vdbs_volume_sun_step(const vdbs_volume *volume, const double direction[3], double unit[3],
+                         double towards[3])
+{
+    const double *d = direction;
+    double len = sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
+    if (!(len > 0.0) || !isfinite(len))
+        return 0;
+    double u[3] = {d[0] / len, d[1] / len, d[2] / len};
+    double back[3] = {-u[0], -u[1], -u[2]};
+    vdbs_volume_index_vector(volume, back, towards);
+    if (unit)
+        memcpy(unit, u, sizeof u);
+    return 1;
+}
+
 void vdbs_volume_support_box(const vdbs_volume *volume, float lo[3], float hi[3])
 {
     for (int a = 0; a < 3; ++a) {

@@ -43,6 +43,12 @@ void vdbs_volume_index_point(const vdbs_volume *volume, const double world[3],
 void vdbs_volume_world_point(const vdbs_volume *volume, const double index[3],
                              double world[3]);
 
+/* For a sun travelling along `direction` (any length): its unit travel direction
+ * (`unit`, may be NULL) and the index-space image of a unit world step towards it
+ * (`towards`), as marches measure t in world units. Returns 0 for a zero direction. */
+int vdbs_volume_sun_step(const vdbs_volume *volume, const double direction[3], double unit[3],
+                         double towards[3]);
+
 /* Index-space box outside which the interpolated density is 0: the active bounding
  * box grown by one voxel (the trilinear ramp beyond the outermost centres). */
 void vdbs_volume_support_box(const vdbs_volume *volume, float lo[3], float hi[3]);
