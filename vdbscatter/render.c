@@ -369,7 +369,8 @@ vdbs_status vdbs_render_march_gpu(vdbs_gpu *gpu, const vdbs_volume *volume, cons
         vdbs_gpu_buffer_bind(gpu, lights, 1);
         vdbs_gpu_buffer_bind(gpu, out, 2);
     }
-    int64_t units = options->gpu_units > 0 ? options->gpu_units : vdbs_volume_gpu_marches_per_pass(volume);
+    int64_t units =
+        options->gpu_units > 0 ? options->gpu_units : vdbs_volume_gpu_marches_per_pass(volume);
     int first = 1, in = 0;
     while (st == VDBS_OK) {
         uint32_t control[CONTROL_WORDS] = {0};
