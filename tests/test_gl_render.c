@@ -89,27 +89,6 @@ static void compare(const vdbs_volume *volume, const vdbs_ms_grids *ms, const vd
     free(gl.rgb);
 }
 
-static void add_lights(vdbs_scene *scene)
-{
-    scene->light_count = 3;
-    scene->lights[0].type = VDBS_LIGHT_SUN;
-    scene->lights[0].direction[0] = 0.3;
-    scene->lights[0].direction[1] = -1.0;
-    scene->lights[0].direction[2] = 0.2;
-    scene->lights[0].color[0] = scene->lights[0].color[1] = scene->lights[0].color[2] = 3.0;
-    scene->lights[1].type = VDBS_LIGHT_POINT;
-    scene->lights[1].position[0] = 0.5;
-    scene->lights[1].position[1] = 1.2;
-    scene->lights[1].position[2] = -0.3;
-    scene->lights[1].color[0] = 2.0;
-    scene->lights[1].color[1] = 1.0;
-    scene->lights[1].color[2] = 0.5;
-    scene->lights[2].type = VDBS_LIGHT_ENV;
-    scene->lights[2].color[0] = 0.2;
-    scene->lights[2].color[1] = 0.3;
-    scene->lights[2].color[2] = 0.5;
-}
-
 static void cloud(vdbs_volume *volume)
 {
     vdbio_density *density = NULL;
@@ -129,7 +108,7 @@ static void test_single_cloud(void **state)
     scene.density_scale = 12.0;
     scene.g = 0.7;
     scene.albedo[1] = 0.9;
-    add_lights(&scene);
+    test_add_sun_point_sky(&scene);
     assert_int_equal(vdbs_scene_validate(&scene, &err), VDBS_OK);
     vdbs_march_options options = {16, 1.0f, NULL, 0};
     compare(&volume, NULL, &scene, &options);
@@ -152,7 +131,7 @@ static void test_single_real_rotated_file(void **state)
     vdbs_scene_init(&scene);
     scene.density_scale = 5.0;
     scene.g = 0.5;
-    add_lights(&scene);
+    test_add_sun_point_sky(&scene);
     assert_int_equal(vdbs_scene_validate(&scene, &err), VDBS_OK);
     vdbs_march_options options = {4, 2.0f, NULL, 0};
     compare(&volume, NULL, &scene, &options);
@@ -174,7 +153,7 @@ static void test_gpu_passes(void **state)
     vdbs_scene_init(&scene);
     scene.density_scale = 12.0;
     scene.g = 0.7;
-    add_lights(&scene);
+    test_add_sun_point_sky(&scene);
     assert_int_equal(vdbs_scene_validate(&scene, &err), VDBS_OK);
     vdbs_camera camera;
     vdbs_camera_frame frame;
@@ -240,21 +219,15 @@ static void test_baked_synthetic(void **state)
     cloud(&volume);
     const char *path = test_tmp_path("gl_render_lit.vdb");
     write_synthetic_lit(&volume, path);
-    vdbio_lit *lit = NULL;
     vdbs_error err;
-    if (vdbio_lit_open(path, &lit, &err) != VDBS_OK)
-        fail_msg("%s", err.message);
     vdbs_ms_grids ms;
-    if (vdbs_ms_grids_load(lit, volume.index_to_world, &ms, &err) != VDBS_OK)
-        fail_msg("%s", err.message);
-    vdbio_lit_close(lit);
-    remove(path);
+    test_load_ms_grids(path, volume.index_to_world, &ms);
 
     vdbs_scene scene;
     vdbs_scene_init(&scene);
     scene.density_scale = 8.0;
     scene.g = 0.85;
-    add_lights(&scene);
+    test_add_sun_point_sky(&scene);
     assert_int_equal(vdbs_scene_validate(&scene, &err), VDBS_OK);
     vdbs_march_options options = {16, 1.0f, NULL, 0};
     compare(&volume, &ms, &scene, &options);

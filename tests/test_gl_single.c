@@ -62,27 +62,6 @@ static void compare(const vdbs_volume *volume, const vdbs_scene *scene, int sky)
     free(gl);
 }
 
-static void add_lights(vdbs_scene *scene)
-{
-    scene->light_count = 3;
-    scene->lights[0].type = VDBS_LIGHT_SUN;
-    scene->lights[0].direction[0] = 0.3;
-    scene->lights[0].direction[1] = -1.0;
-    scene->lights[0].direction[2] = 0.2;
-    scene->lights[0].color[0] = scene->lights[0].color[1] = scene->lights[0].color[2] = 3.0;
-    scene->lights[1].type = VDBS_LIGHT_POINT;
-    scene->lights[1].position[0] = 0.5;
-    scene->lights[1].position[1] = 1.2;
-    scene->lights[1].position[2] = -0.3;
-    scene->lights[1].color[0] = 2.0;
-    scene->lights[1].color[1] = 1.0;
-    scene->lights[1].color[2] = 0.5;
-    scene->lights[2].type = VDBS_LIGHT_ENV;
-    scene->lights[2].color[0] = 0.2;
-    scene->lights[2].color[1] = 0.3;
-    scene->lights[2].color[2] = 0.5;
-}
-
 static void test_cloud(void **state)
 {
     (void)state;
@@ -94,7 +73,7 @@ static void test_cloud(void **state)
     vdbs_scene scene;
     vdbs_scene_init(&scene);
     scene.density_scale = 12.0;
-    add_lights(&scene);
+    test_add_sun_point_sky(&scene);
     assert_int_equal(vdbs_scene_validate(&scene, &err), VDBS_OK);
     compare(&volume, &scene, 16);
     scene.density_scale = 400.0; /* deep shadows: values down to the 1e-30 cut */
@@ -115,7 +94,7 @@ static void test_many_sky_directions(void **state)
     vdbs_scene scene;
     vdbs_scene_init(&scene);
     scene.density_scale = 20.0;
-    add_lights(&scene);
+    test_add_sun_point_sky(&scene);
     assert_int_equal(vdbs_scene_validate(&scene, &err), VDBS_OK);
     compare(&volume, &scene, 1024);
     vdbs_volume_free(&volume);
@@ -133,7 +112,7 @@ static void test_real_rotated_file(void **state)
     vdbs_scene scene;
     vdbs_scene_init(&scene);
     scene.density_scale = 5.0;
-    add_lights(&scene);
+    test_add_sun_point_sky(&scene);
     assert_int_equal(vdbs_scene_validate(&scene, &err), VDBS_OK);
     compare(&volume, &scene, 4);
     vdbs_volume_free(&volume);

@@ -187,15 +187,9 @@ static void test_ms_reconstruction(void **state)
     vdbs_volume volume;
     const char *path = test_tmp_path("render_constant_lit.vdb");
     write_constant_lit(path, ms, l1, &volume);
-    vdbio_lit *lit = NULL;
     vdbs_error err;
-    if (vdbio_lit_open(path, &lit, &err) != VDBS_OK)
-        fail_msg("%s", err.message);
     vdbs_ms_grids grids;
-    if (vdbs_ms_grids_load(lit, volume.index_to_world, &grids, &err) != VDBS_OK)
-        fail_msg("%s", err.message);
-    vdbio_lit_close(lit);
-    remove(path);
+    test_load_ms_grids(path, volume.index_to_world, &grids);
 
     vdbs_scene scene;
     vdbs_scene_init(&scene);
@@ -415,13 +409,8 @@ static void test_baked_single_bake_equals_single(void **state)
     assert_int_equal(vdbs_volume_load(input, &read, &source, &err), VDBS_OK);
     read.grid_name = "density";
     assert_int_equal(vdbs_volume_load(lit_path, &read, &baked, &err), VDBS_OK);
-    vdbio_lit *lit = NULL;
-    assert_int_equal(vdbio_lit_open(lit_path, &lit, &err), VDBS_OK);
     vdbs_ms_grids grids;
-    if (vdbs_ms_grids_load(lit, baked.index_to_world, &grids, &err) != VDBS_OK)
-        fail_msg("%s", err.message);
-    vdbio_lit_close(lit);
-    remove(lit_path);
+    test_load_ms_grids(lit_path, baked.index_to_world, &grids);
 
     const int w = 32, h = 24;
     vdbs_camera camera;
