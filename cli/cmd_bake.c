@@ -110,9 +110,7 @@ int cmd_bake(int argc, char **argv)
     }
     if (args.positional_count > 1)
         return cli_fail("bake", 2, "expected one input VDB");
-    const char *out = cli_value(&args, "-o");
-    if (!out)
-        out = cli_value(&args, "--output");
+    const char *out = cli_output(&args);
     if (!out)
         return cli_fail("bake", 2, "missing -o OUT.vdb");
     static vdbs_scene scene;

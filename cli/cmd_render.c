@@ -180,9 +180,7 @@ static vdbs_status parse_args(const cli_args *args, render_args *r, vdbs_error *
 {
     vdbs_status st;
     memset(r, 0, sizeof *r);
-    r->output = cli_value(args, "-o");
-    if (!r->output)
-        r->output = cli_value(args, "--output");
+    r->output = cli_output(args);
     if (!r->output)
         return vdbs_error_set(err, VDBS_ERR_INPUT, "missing -o IMAGE.exr or IMAGE.png");
     if (!has_suffix(r->output, ".exr") && !has_suffix(r->output, ".png"))

@@ -41,9 +41,7 @@ int cmd_sample(int argc, char **argv)
     }
     if (args.positional_count != 1)
         return cli_fail("sample", 2, "expected one sample NAME (cloud, smoke, sphere, slab, cube)");
-    const char *out = cli_value(&args, "-o");
-    if (!out)
-        out = cli_value(&args, "--output");
+    const char *out = cli_output(&args);
     if (!out)
         return cli_fail("sample", 2, "missing -o OUT.vdb");
     long res = 64, seed = 1;

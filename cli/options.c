@@ -83,6 +83,17 @@ int cli_flag(const cli_args *args, const char *name)
     return 0;
 }
 
+const char *cli_output(const cli_args *args)
+{
+    const char *v = NULL;
+    for (int i = 0; i < args->count; ++i) {
+        const char *name = args->args[i].option->name;
+        if (strcmp(name, "-o") == 0 || strcmp(name, "--output") == 0)
+            v = args->args[i].value;
+    }
+    return v;
+}
+
 vdbs_status cli_number(const char *flag, const char *text, double *out, vdbs_error *err)
 {
     char *end = NULL;

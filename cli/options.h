@@ -44,6 +44,8 @@ vdbs_status cli_parse(int argc, char **argv, const cli_option *options, cli_args
 /* Last value given for an option name, or NULL. */
 const char *cli_value(const cli_args *args, const char *name);
 int cli_flag(const cli_args *args, const char *name);
+/* The value of -o or --output (the last one given), or NULL. */
+const char *cli_output(const cli_args *args);
 
 /* Whole-string numbers: finite doubles, integers within [lo, hi]. */
 vdbs_status cli_number(const char *flag, const char *text, double *out, vdbs_error *err);

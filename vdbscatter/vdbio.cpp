@@ -968,6 +968,21 @@ typename GridT::ValueType lit_lookup(const vdbio_lit *lit, const GridT &grid, co
     return cache.acc->isValueOn(c) ? cache.acc->getValue(c) : typename GridT::ValueType(0);
 }
 
+/* A NanoVDB grid as the C side and the GPU take it: 32-byte aligned malloc'd memory whose
+ * size is a multiple of 32 bytes (zero padded). */
+template <typename Handle> void copy_nanovdb(const Handle &handle, void **buffer, size_t *size)
+{
+    const size_t n = handle.size();
+    const size_t padded = (n + 31) / 32 * 32;
+    void *mem = aligned_alloc(32, padded ? padded : 32);
+    if (!mem)
+        throw std::bad_alloc();
+    memcpy(mem, handle.data(), n);
+    memset(static_cast<char *>(mem) + n, 0, padded - n);
+    *buffer = mem;
+    *size = padded;
+}
+
 } // namespace
 
 extern "C" {
@@ -1045,16 +1060,7 @@ vdbs_status vdbio_density_to_nanovdb(const vdbio_density *density, void **buffer
     return guarded(err, [&] {
         if (!density || !buffer || !size)
             fail(VDBS_ERR_INTERNAL, "vdbio_density_to_nanovdb: NULL argument");
-        auto handle = nanovdb::openToNanoVDB(*density->grid);
-        const size_t n = handle.size();
-        const size_t padded = (n + 31) / 32 * 32;
-        void *mem = aligned_alloc(32, padded ? padded : 32);
-        if (!mem)
-            throw std::bad_alloc();
-        memcpy(mem, handle.data(), n);
-        memset(static_cast<char *>(mem) + n, 0, padded - n);
-        *buffer = mem;
-        *size = padded;
+        copy_nanovdb(nanovdb::openToNanoVDB(*density->grid), buffer, size);
     });
 }
 
@@ -1181,16 +1187,7 @@ vdbs_status vdbio_lit_vec3_nanovdb(const vdbio_lit *lit, const char *grid, void 
         if (!buffer || !size)
             fail(VDBS_ERR_INTERNAL, "vdbio_lit_vec3_nanovdb: NULL argument");
         const Vec3SGrid &g = lit_typed<Vec3SGrid>(lit, grid, "vec3s");
-        auto handle = nanovdb::openToNanoVDB(g);
-        const size_t n = handle.size();
-        const size_t padded = (n + 31) / 32 * 32;
-        void *mem = aligned_alloc(32, padded ? padded : 32);
-        if (!mem)
-            throw std::bad_alloc();
-        memcpy(mem, handle.data(), n);
-        memset(static_cast<char *>(mem) + n, 0, padded - n);
-        *buffer = mem;
-        *size = padded;
+        copy_nanovdb(nanovdb::openToNanoVDB(g), buffer, size);
     });
 }
 
