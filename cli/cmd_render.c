@@ -1,8 +1,6 @@
 /* vdbscatter render IN.vdb -o IMAGE.exr|IMAGE.png: a picture of a density or lit VDB. */
 #define _POSIX_C_SOURCE 200809L
 #include <errno.h>
-#include <math.h>
-#include <omp.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -13,16 +11,9 @@
 
 #include "commands.h"
 #include "options.h"
-#include "vdbscatter/bake.h"
-#include "vdbscatter/camera.h"
-#include "vdbscatter/gpu.h"
-#include "vdbscatter/image.h"
-#include "vdbscatter/progress.h"
-#include "vdbscatter/reference.h"
+#include "vdbscatter/kernel.h"
 #include "vdbscatter/render.h"
 #include "vdbscatter/scene.h"
-#include "vdbscatter/vdbio.h"
-#include "vdbscatter/volume.h"
 
 static const char help[] =
     "usage: vdbscatter render IN.vdb -o IMAGE.exr|IMAGE.png [options]\n"
@@ -88,15 +79,10 @@ static const cli_option options[] = {
     {NULL, CLI_FLAG},
 };
 
-typedef enum render_mode { MODE_SINGLE, MODE_BAKED, MODE_REFERENCE } render_mode;
-static const char *const mode_names[] = {"single", "baked", "reference"};
-
 typedef struct render_args {
     const char *output;
-    render_mode mode;
-    int mode_given;
+    vdbs_render_mode mode; /* VDBS_RENDER_DEFAULT unless --mode */
     vdbs_backend backend;
-    int backend_given;
     double exposure;
     int width, height, size_given;
     vdbs_camera camera; /* present when --camera was given */
@@ -188,21 +174,16 @@ static vdbs_status parse_args(const cli_args *args, render_args *r, vdbs_error *
                               "-o: unsupported image type '%s' (use .exr or .png)", r->output);
     const char *v;
     if ((v = cli_value(args, "--mode"))) {
-        int found = 0;
-        for (int m = 0; m < 3; ++m)
-            if (strcmp(v, mode_names[m]) == 0) {
-                r->mode = (render_mode)m;
-                found = 1;
-            }
-        if (!found)
+        for (int m = VDBS_RENDER_SINGLE; m <= VDBS_RENDER_REFERENCE; ++m)
+            if (strcmp(v, vdbs_render_mode_name((vdbs_render_mode)m)) == 0)
+                r->mode = (vdbs_render_mode)m;
+        if (r->mode == VDBS_RENDER_DEFAULT)
             return vdbs_error_set(err, VDBS_ERR_INPUT,
                                   "--mode: expected single, baked or reference, got '%s'", v);
-        r->mode_given = 1;
     }
     if ((v = cli_value(args, "--backend"))) {
         if ((st = vdbs_backend_parse(v, &r->backend, err)) != VDBS_OK)
             return st;
-        r->backend_given = 1;
     }
     if ((v = cli_value(args, "--exposure")) &&
         (st = cli_number("--exposure", v, &r->exposure, err)) != VDBS_OK)
@@ -245,32 +226,6 @@ static vdbs_status parse_args(const cli_args *args, render_args *r, vdbs_error *
     return VDBS_OK;
 }
 
-static int light_flag_given(const cli_args *args)
-{
-    return cli_value(args, "--sun") || cli_value(args, "--point") || cli_value(args, "--env");
-}
-
-/* The scene of a lit VDB: its baked scene with the medium and light flags on top. */
-static void apply_flags(const cli_args *args, const vdbs_scene *flags, vdbs_scene *scene)
-{
-    if (cli_value(args, "--density-scale"))
-        scene->density_scale = flags->density_scale;
-    if (cli_value(args, "--albedo"))
-        memcpy(scene->albedo, flags->albedo, sizeof scene->albedo);
-    if (cli_value(args, "--g"))
-        scene->g = flags->g;
-    if (cli_value(args, "--quality"))
-        strcpy(scene->quality, flags->quality);
-    if (light_flag_given(args)) {
-        memcpy(scene->lights, flags->lights, sizeof scene->lights);
-        scene->light_count = flags->light_count;
-    }
-    if (cli_value(args, "--grid")) {
-        strcpy(scene->grid, flags->grid);
-        scene->grid_index = flags->grid_index;
-    }
-}
-
 static void warn_line(int quiet, const char *fmt, const char *arg)
 {
     char line[512];
@@ -283,12 +238,70 @@ static cJSON *triple(const double v[3])
     return cJSON_CreateDoubleArray(v, 3);
 }
 
+/* Which scene fields the flags set: for a lit VDB they go on top of its baked scene. */
+static unsigned scene_flags_given(const cli_args *args)
+{
+    unsigned set = 0;
+    if (cli_value(args, "--density-scale"))
+        set |= VDBS_SCENE_SET_DENSITY_SCALE;
+    if (cli_value(args, "--albedo"))
+        set |= VDBS_SCENE_SET_ALBEDO;
+    if (cli_value(args, "--g"))
+        set |= VDBS_SCENE_SET_G;
+    if (cli_value(args, "--quality"))
+        set |= VDBS_SCENE_SET_QUALITY;
+    if (cli_value(args, "--sun") || cli_value(args, "--point") || cli_value(args, "--env"))
+        set |= VDBS_SCENE_SET_LIGHTS;
+    if (cli_value(args, "--grid"))
+        set |= VDBS_SCENE_SET_GRID;
+    if (cli_value(args, "--scene"))
+        set |= VDBS_SCENE_FROM_FILE;
+    return set;
+}
+
+static void print_json(const char *input, const render_args *r, const vdbs_render_report *rep)
+{
+    cJSON *j = cJSON_CreateObject();
+    cJSON_AddStringToObject(j, "input", input);
+    cJSON_AddStringToObject(j, "output", r->output);
+    cJSON_AddStringToObject(j, "grid", rep->grid);
+    cJSON_AddStringToObject(j, "mode", rep->mode);
+    cJSON_AddStringToObject(j, "backend", rep->backend);
+    cJSON_AddStringToObject(j, "renderer", rep->renderer);
+    cJSON_AddNumberToObject(j, "width", rep->width);
+    cJSON_AddNumberToObject(j, "height", rep->height);
+    if (r->mode == VDBS_RENDER_REFERENCE) {
+        cJSON_AddNumberToObject(j, "spp", rep->spp);
+        cJSON_AddNumberToObject(j, "max_bounces", (double)r->max_bounces);
+        cJSON_AddNumberToObject(j, "seed", (double)r->seed);
+    } else {
+        cJSON_AddNumberToObject(j, "spp", 1);
+        cJSON_AddStringToObject(j, "quality", rep->quality);
+        cJSON_AddNumberToObject(j, "sky_directions", rep->sky_directions);
+        cJSON_AddNumberToObject(j, "step_voxels", rep->step_voxels);
+    }
+    cJSON_AddNumberToObject(j, "exposure", r->exposure);
+    cJSON *c = cJSON_AddObjectToObject(j, "camera");
+    cJSON_AddItemToObject(c, "position", triple(rep->camera.position));
+    cJSON_AddItemToObject(c, "target", triple(rep->camera.target));
+    cJSON_AddItemToObject(c, "up", triple(rep->camera_up));
+    cJSON_AddNumberToObject(c, "fov_deg", rep->camera.fov_deg);
+    cJSON *t = cJSON_AddObjectToObject(j, "seconds");
+    cJSON_AddNumberToObject(t, "load", rep->seconds_load);
+    cJSON_AddNumberToObject(t, "render", rep->seconds_render);
+    cJSON_AddNumberToObject(t, "write", rep->seconds_write);
+    cJSON_AddNumberToObject(t, "total", rep->seconds_total);
+    char *text = cJSON_Print(j);
+    puts(text);
+    free(text);
+    cJSON_Delete(j);
+}
+
 int cmd_render(int argc, char **argv)
 {
     cli_args args;
     vdbs_error err;
     vdbs_status st;
-    double t_start = vdbs_now();
     if (cli_parse(argc, argv, options, &args, &err) != VDBS_OK)
         return cli_fail("render", 2, err.message);
     if (args.help) {
@@ -301,217 +314,55 @@ int cmd_render(int argc, char **argv)
     if ((st = parse_args(&args, &r, &err)) != VDBS_OK)
         return cli_fail("render", st, err.message);
     int quiet = cli_flag(&args, "-q");
-    static vdbs_scene flags, scene;
-    if ((st = cli_build_scene(&args, &flags, 1, &err)) != VDBS_OK)
-        return cli_fail("render", st, err.message);
-    const char *input = args.positional_count ? args.positional[0] : flags.volume_file;
-    if (!input[0])
-        return cli_fail("render", 2, "no input VDB (give IN.vdb or volume.file in --scene)");
-    if ((st = vdbio_check_output(r.output, input, &err)) != VDBS_OK)
-        return cli_fail("render", st, err.message);
-
-    /* A lit VDB (written by bake) brings its scene and, for baked mode, the ms grids. */
-    vdbio_lit *lit = NULL;
-    if ((st = vdbio_lit_open(input, &lit, &err)) != VDBS_OK)
-        return cli_fail("render", st, err.message);
-    const char *meta = vdbio_lit_meta(lit, "vdbscatter_scene");
-    int is_lit = meta && vdbio_lit_has_grid(lit, "radiance") && vdbio_lit_has_grid(lit, "density");
-    static vdbs_scene baked_scene;
-    if (is_lit && (st = vdbs_scene_parse(meta, NULL, &baked_scene, &err)) != VDBS_OK) {
-        vdbio_lit_close(lit);
-        vdbs_error line;
-        vdbs_error_set(&line, VDBS_ERR_INPUT, "%s: vdbscatter_scene metadata: %s", input,
-                       err.message);
-        return cli_fail("render", 2, line.message);
-    }
-    if (!r.mode_given)
-        r.mode = is_lit ? MODE_BAKED : MODE_SINGLE;
-    if (r.mode == MODE_BAKED && !is_lit) {
-        vdbio_lit_close(lit);
-        vdbs_error_set(&err, VDBS_ERR_INPUT,
-                       "--mode baked needs a lit VDB written by vdbscatter bake ('%s' has no "
-                       "radiance grid and vdbscatter_scene metadata)",
-                       input);
-        return cli_fail("render", 2, err.message);
-    }
-
-    /* Scene: --scene and the flags; for a lit VDB without --scene, its baked scene with the
-     * flags on top (a --scene file replaces the baked scene). */
-    if (is_lit && !cli_value(&args, "--scene")) {
-        scene = baked_scene;
-        apply_flags(&args, &flags, &scene);
-    } else {
-        scene = flags;
-        if (is_lit && scene.light_count == 0) {
-            memcpy(scene.lights, baked_scene.lights, sizeof scene.lights);
-            scene.light_count = baked_scene.light_count;
-        }
-    }
-    if (scene.light_count == 0) {
-        vdbio_lit_close(lit);
-        return cli_fail("render", 2, "no lights: give --sun, --point or --env (or a --scene)");
-    }
-    if ((st = vdbs_scene_validate(&scene, &err)) != VDBS_OK) {
-        vdbio_lit_close(lit);
+    vdbs_scene *scene = malloc(sizeof *scene);
+    if (!scene)
+        return cli_fail("render", 1, "out of memory");
+    if ((st = cli_build_scene(&args, scene, 1, &err)) != VDBS_OK) {
+        free(scene);
         return cli_fail("render", st, err.message);
     }
-    for (int i = 0; i < scene.light_count; ++i)
-        if (scene.lights[i].type == VDBS_LIGHT_SUN && scene.lights[i].angular_diameter_deg > 0) {
-            warn_line(quiet, "%s", "sun angular_diameter_deg is treated as 0 (a delta light)");
-            break;
-        }
-    if (r.mode == MODE_REFERENCE && r.backend == VDBS_BACKEND_GPU)
-        warn_line(quiet, "%s", "--mode reference runs on the C path; --backend gpu is ignored");
-    if (r.mode != MODE_REFERENCE) {
+    const char *input = args.positional_count ? args.positional[0] : scene->volume_file;
+    if (r.mode != VDBS_RENDER_REFERENCE) {
         static const char *const ref_only[] = {"--spp", "--time", "--max-bounces", "--seed"};
         for (int i = 0; i < 4; ++i)
             if (cli_value(&args, ref_only[i]))
                 warn_line(quiet, "%s applies to --mode reference only; ignored", ref_only[i]);
     }
-    vdbs_march_options march = {0};
-    if (!vdbs_render_quality(scene.quality, &march)) {
-        vdbio_lit_close(lit);
-        return cli_fail("render", 2, "unknown quality");
-    }
 
-    /* The density: a lit VDB's own `density` grid unless --grid says otherwise. */
-    vdbio_read_options read = {0};
-    const char *grid = cli_value(&args, "--grid") || !is_lit ? scene.grid : "density";
-    read.grid_name = grid[0] ? grid : NULL;
-    read.grid_index = is_lit && !cli_value(&args, "--grid") ? 0 : scene.grid_index;
-    read.warn = cli_warn;
-    read.warn_user = &quiet;
-    vdbs_volume volume;
-    vdbs_ms_grids ms;
-    memset(&ms, 0, sizeof ms);
-    st = vdbs_volume_load(input, &read, &volume, &err);
-    if (st == VDBS_OK && r.mode == MODE_BAKED)
-        st = vdbs_ms_grids_load(lit, volume.index_to_world, &ms, &err);
-    vdbio_lit_close(lit);
-    if (st != VDBS_OK) {
-        vdbs_volume_free(&volume); /* zeroed by a failed load */
+    vdbs_render_desc desc = {0};
+    desc.input = input;
+    desc.output = r.output;
+    desc.scene = scene;
+    desc.scene_set = scene_flags_given(&args);
+    desc.mode = r.mode;
+    desc.backend = r.backend;
+    desc.camera = r.camera.present ? &r.camera : NULL;
+    desc.width = r.size_given ? r.width : 0;
+    desc.height = r.size_given ? r.height : 0;
+    desc.exposure = r.exposure;
+    desc.spp = (int)r.spp;
+    desc.time_limit = r.time_limit;
+    desc.max_bounces = (int)r.max_bounces;
+    desc.seed = r.seed;
+    desc.progress = !quiet && isatty(STDERR_FILENO);
+    desc.warn = cli_warn;
+    desc.warn_user = &quiet;
+    vdbs_render_report rep;
+    st = vdbs_render(&desc, &rep, &err);
+    free(scene);
+    if (st != VDBS_OK)
         return cli_fail("render", st, err.message);
-    }
-    double t_loaded = vdbs_now();
-
-    /* Camera: --camera, else the scene's, else a view of the whole volume. */
-    vdbs_camera camera;
-    int width = r.size_given ? r.width : 640, height = r.size_given ? r.height : 480;
-    if (r.camera.present) {
-        camera = r.camera;
-    } else if (scene.camera.present) {
-        camera = scene.camera;
-        if (!r.size_given) {
-            width = camera.width;
-            height = camera.height;
-        }
-    } else {
-        vdbs_camera_frame_volume(&volume, width, height, &camera);
-    }
-    camera.width = width;
-    camera.height = height;
-    vdbs_camera_frame frame;
-    vdbs_image image;
-    memset(&image, 0, sizeof image);
-    st = vdbs_camera_frame_init(&camera, &frame, &err);
-    if (st == VDBS_OK)
-        st = vdbs_image_alloc(&image, width, height, r.mode == MODE_REFERENCE, &err);
-
-    vdbs_progress progress;
-    int show_progress = !quiet && isatty(STDERR_FILENO);
-    char backend[16] = "cpu", renderer[256];
-    snprintf(renderer, sizeof renderer, "C (OpenMP, %d threads)", omp_get_max_threads());
-    int spp_done = 1;
-    double t_render = vdbs_now();
-    if (st == VDBS_OK && r.mode == MODE_REFERENCE) {
-        vdbs_reference_options ro = {0};
-        ro.spp = (int)r.spp;
-        ro.time_limit = r.time_limit;
-        ro.max_bounces = (int)r.max_bounces;
-        ro.seed = r.seed;
-        ro.progress = &progress;
-        vdbs_progress_begin(&progress, show_progress, "render (reference)",
-                            (uint64_t)width * height * (uint64_t)r.spp);
-        st = vdbs_reference_render(&volume, &scene, &frame, &ro, &image, &spp_done, &err);
-    } else if (st == VDBS_OK) {
-        vdbs_backend b = r.backend;
-        if (b == VDBS_BACKEND_AUTO)
-            b = vdbs_gpu_hardware_available() ? VDBS_BACKEND_GPU : VDBS_BACKEND_CPU;
-        march.progress = &progress;
-        vdbs_progress_begin(&progress, show_progress, "render", (uint64_t)width * height);
-        if (b == VDBS_BACKEND_GPU) {
-            vdbs_gpu *gpu = NULL;
-            st = vdbs_gpu_create(&gpu, &err);
-            if (st == VDBS_OK) {
-                snprintf(backend, sizeof backend, "gpu");
-                snprintf(renderer, sizeof renderer, "%s", vdbs_gpu_get_info(gpu)->renderer);
-                st = vdbs_render_march_gpu(gpu, &volume, r.mode == MODE_BAKED ? &ms : NULL, &scene,
-                                           &frame, &march, &image, &err);
-                vdbs_gpu_destroy(gpu);
-            }
-        } else {
-            st = vdbs_render_march_cpu(&volume, r.mode == MODE_BAKED ? &ms : NULL, &scene, &frame,
-                                       &march, &image, &err);
-        }
-    }
-    if (st == VDBS_OK)
-        vdbs_progress_end(&progress);
-    double t_rendered = vdbs_now();
-    if (st == VDBS_OK)
-        st = vdbs_image_write(r.output, &image, r.exposure, &err);
-    double t_written = vdbs_now();
-    vdbs_ms_grids_free(&ms);
-    vdbs_image_free(&image);
-    if (st != VDBS_OK) {
-        vdbs_volume_free(&volume);
-        return cli_fail("render", st, err.message);
-    }
 
     if (cli_flag(&args, "--json")) {
-        cJSON *j = cJSON_CreateObject();
-        cJSON_AddStringToObject(j, "input", input);
-        cJSON_AddStringToObject(j, "output", r.output);
-        cJSON_AddStringToObject(j, "grid", volume.info.name);
-        cJSON_AddStringToObject(j, "mode", mode_names[r.mode]);
-        cJSON_AddStringToObject(j, "backend", backend);
-        cJSON_AddStringToObject(j, "renderer", renderer);
-        cJSON_AddNumberToObject(j, "width", width);
-        cJSON_AddNumberToObject(j, "height", height);
-        if (r.mode == MODE_REFERENCE) {
-            cJSON_AddNumberToObject(j, "spp", spp_done);
-            cJSON_AddNumberToObject(j, "max_bounces", (double)r.max_bounces);
-            cJSON_AddNumberToObject(j, "seed", (double)r.seed);
-        } else {
-            cJSON_AddNumberToObject(j, "spp", 1);
-            cJSON_AddStringToObject(j, "quality", scene.quality);
-            cJSON_AddNumberToObject(j, "sky_directions", march.sky_directions);
-            cJSON_AddNumberToObject(j, "step_voxels", march.step_voxels);
-        }
-        cJSON_AddNumberToObject(j, "exposure", r.exposure);
-        cJSON *c = cJSON_AddObjectToObject(j, "camera");
-        cJSON_AddItemToObject(c, "position", triple(camera.position));
-        cJSON_AddItemToObject(c, "target", triple(camera.target));
-        cJSON_AddItemToObject(c, "up", triple(frame.up));
-        cJSON_AddNumberToObject(c, "fov_deg", camera.fov_deg);
-        cJSON *t = cJSON_AddObjectToObject(j, "seconds");
-        cJSON_AddNumberToObject(t, "load", t_loaded - t_start);
-        cJSON_AddNumberToObject(t, "render", t_rendered - t_render);
-        cJSON_AddNumberToObject(t, "write", t_written - t_rendered);
-        cJSON_AddNumberToObject(t, "total", vdbs_now() - t_start);
-        char *text = cJSON_Print(j);
-        puts(text);
-        free(text);
-        cJSON_Delete(j);
+        print_json(input, &r, &rep);
     } else if (!quiet) {
         char detail[64];
-        if (r.mode == MODE_REFERENCE)
-            snprintf(detail, sizeof detail, "%d spp", spp_done);
+        if (r.mode == VDBS_RENDER_REFERENCE)
+            snprintf(detail, sizeof detail, "%d spp", rep.spp);
         else
-            snprintf(detail, sizeof detail, "quality %s", scene.quality);
-        fprintf(stderr, "rendered %dx%d of '%s' (%s, %s) on %s in %.2fs -> %s\n", width, height,
-                volume.info.name, mode_names[r.mode], detail, backend, t_rendered - t_render,
-                r.output);
+            snprintf(detail, sizeof detail, "quality %s", rep.quality);
+        fprintf(stderr, "rendered %dx%d of '%s' (%s, %s) on %s in %.2fs -> %s\n", rep.width,
+                rep.height, rep.grid, rep.mode, detail, rep.backend, rep.seconds_render, r.output);
     }
-    vdbs_volume_free(&volume);
     return CLI_EXIT_OK;
 }

@@ -15,6 +15,8 @@
 #define vs_vec4 vec4
 #define VS_DATA_PARAM(T, name)
 #define VS_DATA_ARG(name)
+#define VS_DATA_ONLY(T, name)
+#define VS_DATA_ONLY_ARG(name)
 #define vs_floor floor
 #define vs_exp exp
 #define vs_sqrt sqrt
@@ -37,6 +39,9 @@ typedef struct vs_vec4 {
 } vs_vec4;
 #define VS_DATA_PARAM(T, name) const T *name,
 #define VS_DATA_ARG(name) name,
+/* A table as a function's only parameter (no trailing comma). */
+#define VS_DATA_ONLY(T, name) const T *name
+#define VS_DATA_ONLY_ARG(name) name
 #define vs_floor floorf
 #define vs_exp expf
 #define vs_sqrt sqrtf

@@ -1,5 +1,6 @@
 /* Deterministic ray-marched rendering (`render --mode single|baked`, later the viewer),
- * shared by C and GLSL. Include after vs_common.h, vs_march.h and vs_phase.h.
+ * shared by C and GLSL. Include after vs_common.h, vs_march.h, vs_phase.h, vs_medium.h and
+ * vs_lights.h.
  *
  * Along a camera ray, L = integral T(0,t) sigma_s(x) S(x, wo) dt + T_total L_background,
  * with S = S1 (+ Sms in baked mode). The ray is cut into segments of step_voxels voxels
@@ -20,38 +21,38 @@
  * the iterations of a unit by the march's cell count, whatever the SIMD lanes do.
  *
  * All grids live in one buffer (GLSL has a single pnanovdb_buf_data): the density grid at
- * byte 0, the four vec3 grids at the byte offsets stored in the table. PNanoVDB handles
- * are addresses, so a grid at a non-zero offset reads like one at 0.
+ * byte 0, the four vec3 grids at the byte offsets stored in the render table. PNanoVDB
+ * handles are addresses, so a grid at a non-zero offset reads like one at 0.
  *
- * render_data layout (vec4 each), written by vdbscatter/render.c:
- *   [0]  (light count, sky direction count K, density_scale, minimum point-light distance)
- *   [1..3] index-to-world linear rows (xyz): world vectors from index vectors
- *   [4]  box_lo (xyz), step in voxels (w);  [5] box_hi (xyz), 1 when ms grids are present (w)
- *   [6]  albedo (rgb), HG g (w)
- *   [7]  background radiance seen by rays that leave the volume (rgb)
- *   [8]  sky radiance times the quadrature weight 4 pi / K (rgb)
- *   [9]  grid offsets in units of 32 bytes, split as (hi, lo) = (offset >> 16, offset & 0xffff)
- *        so that floats hold them exactly: (ms hi, ms lo, l1x hi, l1x lo)
- *   [10] (l1y hi, l1y lo, l1z hi, l1z lo)
- *   [11..13] world-to-index linear rows (xyz): index vectors from world vectors
- *   [14] camera origin in index space (xyz), image width (w)
- *   [15] camera forward, world (xyz), image height (w)
- *   [16] camera right * tan(half horizontal fov) (xyz)
- *   [17] camera up * tan(half vertical fov) (xyz)
- *   then per light three entries:
- *     (type, x, y, z): sun: index-space image of a unit world step towards the sun;
- *                      point: index-space position
- *     (x, y, z, 0): sun: world direction of travel (unit); point: world position
- *     (r, g, b, 0): sun irradiance or point intensity
- *   then per sky direction two entries: index-space image of a unit world step towards
- *   the sky, and the unit world direction towards the sky.
+ * Three tables: the medium (vs_medium.h), the lights (vs_lights.h) and this render table
+ * (camera, step, grid offsets; written by vdbscatter/render.c). The sky's S1 sums the light
+ * table's ordinates, each with its own radiance, so that non-uniform skies need no change.
  */
 #ifndef VS_RENDER_H
 #define VS_RENDER_H
 
-#define VS_RENDER_HEADER 18
-#define VS_RENDER_LIGHT_SUN 0
-#define VS_RENDER_LIGHT_POINT 1
+/* (step in voxels, 1 when the ms grids are present, 0, 0) */
+#define VS_RENDER_OFF_MARCH 0
+/* Grid offsets in units of 32 bytes, split as (hi, lo) = (offset >> 16, offset & 0xffff) so
+ * that floats hold them exactly: (ms hi, ms lo, l1x hi, l1x lo), (l1y hi, lo, l1z hi, lo). */
+#define VS_RENDER_OFF_GRIDS 1
+#define VS_RENDER_OFF_GRIDS_L1YZ 2
+/* Camera origin in index space (xyz), image width (w). */
+#define VS_RENDER_OFF_ORIGIN 3
+/* Camera forward, world (xyz), image height (w). */
+#define VS_RENDER_OFF_FORWARD 4
+/* Camera right * tan(half horizontal fov), up * tan(half vertical fov), world (xyz). */
+#define VS_RENDER_OFF_RIGHT 5
+#define VS_RENDER_OFF_UP 6
+#define VS_RENDER_SIZE 7
+
+/* The three tables every render function reads: parameters in C, SSBOs in GLSL. */
+#define VS_RENDER_TABLES                                                                           \
+    VS_DATA_PARAM(vs_vec4, medium_data)                                                            \
+    VS_DATA_PARAM(vs_vec4, light_data) VS_DATA_PARAM(vs_vec4, render_data)
+#define VS_RENDER_TABLES_ARG                                                                       \
+    VS_DATA_ARG(medium_data) VS_DATA_ARG(light_data) VS_DATA_ARG(render_data)
+
 /* Guard on segments per camera ray (a step of 1/8 voxel across a 2^17-voxel grid). */
 #define VS_RENDER_MAX_SEGMENTS 1048576
 
@@ -93,11 +94,13 @@ VS_FUNC vs_render_accessors vs_render_accessors_init(VS_DATA_PARAM(vs_vec4, rend
 {
     vs_render_accessors a;
     a.density = vs_density_accessor(buf);
-    if (render_data[5].w != 0.0f) {
-        a.ms = vs_grid_accessor(buf, vs_render_grid_address(render_data[9].x, render_data[9].y));
-        a.l1x = vs_grid_accessor(buf, vs_render_grid_address(render_data[9].z, render_data[9].w));
-        a.l1y = vs_grid_accessor(buf, vs_render_grid_address(render_data[10].x, render_data[10].y));
-        a.l1z = vs_grid_accessor(buf, vs_render_grid_address(render_data[10].z, render_data[10].w));
+    if (render_data[VS_RENDER_OFF_MARCH].y != 0.0f) {
+        vs_vec4 g = render_data[VS_RENDER_OFF_GRIDS];
+        vs_vec4 h = render_data[VS_RENDER_OFF_GRIDS_L1YZ];
+        a.ms = vs_grid_accessor(buf, vs_render_grid_address(g.x, g.y));
+        a.l1x = vs_grid_accessor(buf, vs_render_grid_address(g.z, g.w));
+        a.l1y = vs_grid_accessor(buf, vs_render_grid_address(h.x, h.y));
+        a.l1z = vs_grid_accessor(buf, vs_render_grid_address(h.z, h.w));
     } else {
         a.ms = a.density;
         a.l1x = a.density;
@@ -216,23 +219,35 @@ PNANOVDB_STRUCT_TYPEDEF(vs_render_ray_info)
 /* Progress of one ray, so that the work can stop after any unit and resume later. */
 struct vs_render_state {
     int seg;      /* current segment */
-    int unit;     /* 0: march the segment; then 1 + light index; then 1 + lights + sky index */
+    int unit;     /* 0: march the segment; then 1 + light index; then 1 + lights + ordinate */
     int stop;     /* 0 running; 1 last segment (the optical depth limit was passed); 2 done */
     vs_accum tau; /* optical depth from the camera to the end of the current segment */
     float transmittance;      /* exp(-tau) */
     float weight;             /* T_a - T_b of the current segment */
-    float sky_sum;            /* sum over sky directions of T_k p(k) so far */
-    pnanovdb_vec3_t source;   /* S so far at the current segment's midpoint (without the sky) */
+    pnanovdb_vec3_t source;   /* S so far at the current segment's midpoint */
     pnanovdb_vec3_t radiance; /* integral so far, background not included */
 };
 PNANOVDB_STRUCT_TYPEDEF(vs_render_state)
 
-VS_FUNC vs_render_ray_info vs_render_ray_begin(VS_DATA_PARAM(vs_vec4, render_data)
-                                                   pnanovdb_vec3_t origin,
+/* A ray's state between dispatches: 32-bit words at these offsets (floats as bits). */
+#define VS_RENDER_STATE_SEG 0
+#define VS_RENDER_STATE_UNIT 1
+#define VS_RENDER_STATE_STOP 2
+#define VS_RENDER_STATE_TAU_SUM 3
+#define VS_RENDER_STATE_TAU_CARRY 4
+#define VS_RENDER_STATE_TRANSMITTANCE 5
+#define VS_RENDER_STATE_WEIGHT 6
+#define VS_RENDER_STATE_SOURCE 7    /* 3 words */
+#define VS_RENDER_STATE_RADIANCE 10 /* 3 words */
+#define VS_RENDER_STATE_WORDS 13
+
+VS_FUNC vs_render_ray_info vs_render_ray_begin(VS_DATA_PARAM(vs_vec4, medium_data)
+                                                   VS_DATA_PARAM(vs_vec4, render_data)
+                                                       pnanovdb_vec3_t origin,
                                                pnanovdb_vec3_t dir, pnanovdb_vec3_t wo)
 {
-    pnanovdb_vec3_t box_lo = vs_vec3_from_vec4(render_data[4]);
-    pnanovdb_vec3_t box_hi = vs_vec3_from_vec4(render_data[5]);
+    pnanovdb_vec3_t box_lo = vs_medium_box_lo(VS_DATA_ONLY_ARG(medium_data));
+    pnanovdb_vec3_t box_hi = vs_medium_box_hi(VS_DATA_ONLY_ARG(medium_data));
     vs_render_ray_info ray;
     ray.origin = origin;
     ray.dir = dir;
@@ -246,9 +261,9 @@ VS_FUNC vs_render_ray_info vs_render_ray_begin(VS_DATA_PARAM(vs_vec4, render_dat
     ray.span = t1 - ray.t0;
     ray.n = 0;
     ray.inv_n = 1.0f;
-    if (ray.t0 < t1 && render_data[0].z > 0.0f) {
+    if (ray.t0 < t1 && vs_medium_density_scale(VS_DATA_ONLY_ARG(medium_data)) > 0.0f) {
         /* World length of step_voxels voxels along this ray. */
-        float h = render_data[4].w / vs_sqrt(vs_vec3_dot(dir, dir));
+        float h = render_data[VS_RENDER_OFF_MARCH].x / vs_sqrt(vs_vec3_dot(dir, dir));
         float steps = ray.span / h;
         ray.n = steps < VS_FLOAT(VS_RENDER_MAX_SEGMENTS) ? VS_INT(vs_floor(steps)) + 1
                                                          : VS_RENDER_MAX_SEGMENTS;
@@ -257,22 +272,29 @@ VS_FUNC vs_render_ray_info vs_render_ray_begin(VS_DATA_PARAM(vs_vec4, render_dat
     return ray;
 }
 
-/* The camera ray through the centre of pixel (px, py), row 0 on top. */
-VS_FUNC vs_render_ray_info vs_render_camera_ray(VS_DATA_PARAM(vs_vec4, render_data) int px, int py)
+VS_FUNC int vs_render_width(VS_DATA_ONLY(vs_vec4, render_data))
 {
-    float width = render_data[14].w;
-    float height = render_data[15].w;
+    return VS_INT(render_data[VS_RENDER_OFF_ORIGIN].w);
+}
+
+/* The camera ray through the centre of pixel (px, py), row 0 on top. */
+VS_FUNC vs_render_ray_info vs_render_camera_ray(VS_DATA_PARAM(vs_vec4, medium_data)
+                                                    VS_DATA_PARAM(vs_vec4, render_data) int px,
+                                                int py)
+{
+    float width = render_data[VS_RENDER_OFF_ORIGIN].w;
+    float height = render_data[VS_RENDER_OFF_FORWARD].w;
     VS_PRECISE float sx = 2.0f * (VS_FLOAT(px) + 0.5f) / width - 1.0f;
     VS_PRECISE float sy = 1.0f - 2.0f * (VS_FLOAT(py) + 0.5f) / height;
-    pnanovdb_vec3_t d = vs_vec3_madd(
-        vs_vec3_madd(vs_vec3_from_vec4(render_data[15]), vs_vec3_from_vec4(render_data[16]), sx),
-        vs_vec3_from_vec4(render_data[17]), sy);
+    pnanovdb_vec3_t d =
+        vs_vec3_madd(vs_vec3_madd(vs_vec3_from_vec4(render_data[VS_RENDER_OFF_FORWARD]),
+                                  vs_vec3_from_vec4(render_data[VS_RENDER_OFF_RIGHT]), sx),
+                     vs_vec3_from_vec4(render_data[VS_RENDER_OFF_UP]), sy);
     pnanovdb_vec3_t world = vs_vec3_scale(d, 1.0f / vs_sqrt(vs_vec3_dot(d, d)));
-    pnanovdb_vec3_t dir = vs_vec3(vs_vec3_dot(vs_vec3_from_vec4(render_data[11]), world),
-                                  vs_vec3_dot(vs_vec3_from_vec4(render_data[12]), world),
-                                  vs_vec3_dot(vs_vec3_from_vec4(render_data[13]), world));
-    return vs_render_ray_begin(VS_DATA_ARG(render_data) vs_vec3_from_vec4(render_data[14]), dir,
-                               vs_vec3_scale(world, -1.0f));
+    pnanovdb_vec3_t dir = vs_medium_to_index(VS_DATA_ARG(medium_data) world);
+    return vs_render_ray_begin(VS_DATA_ARG(medium_data) VS_DATA_ARG(render_data)
+                                   vs_vec3_from_vec4(render_data[VS_RENDER_OFF_ORIGIN]),
+                               dir, vs_vec3_scale(world, -1.0f));
 }
 
 VS_FUNC vs_render_state vs_render_state_init(vs_render_ray_info ray)
@@ -284,7 +306,6 @@ VS_FUNC vs_render_state vs_render_state_init(vs_render_ray_info ray)
     vs_accum_init(PNANOVDB_REF(st.tau));
     st.transmittance = 1.0f;
     st.weight = 0.0f;
-    st.sky_sum = 0.0f;
     st.source = vs_vec3(0.0f, 0.0f, 0.0f);
     st.radiance = vs_vec3(0.0f, 0.0f, 0.0f);
     return st;
@@ -300,18 +321,18 @@ VS_FUNC void vs_render_next_segment(vs_render_ray_info ray, PNANOVDB_INOUT(vs_re
 
 /* One unit of work, which always marches exactly once through one call site: the camera
  * segment (unit 0; it also samples Sms), or the transmittance toward one light or sky
- * direction from the segment's midpoint. Keeping one march per unit bounds the loop
- * iterations a unit can take (see render_march.comp). */
-VS_FUNC void vs_render_unit(VS_DATA_PARAM(vs_vec4, render_data) pnanovdb_buf_t buf,
+ * ordinate from the segment's midpoint. Keeping one march per unit bounds the loop
+ * iterations a unit can take (vs_pass.h). */
+VS_FUNC void vs_render_unit(VS_RENDER_TABLES pnanovdb_buf_t buf,
                             PNANOVDB_INOUT(vs_render_accessors) accs, vs_render_ray_info ray,
                             PNANOVDB_INOUT(vs_render_state) st)
 {
-    int light_count = VS_INT(render_data[0].x);
-    int sky_count = VS_INT(render_data[0].y);
-    float density_scale = render_data[0].z;
-    pnanovdb_vec3_t box_lo = vs_vec3_from_vec4(render_data[4]);
-    pnanovdb_vec3_t box_hi = vs_vec3_from_vec4(render_data[5]);
-    float g = render_data[6].w;
+    int light_count = vs_lights_direct_count(VS_DATA_ONLY_ARG(light_data));
+    int sky_count = vs_lights_ordinate_count(VS_DATA_ONLY_ARG(light_data));
+    float density_scale = vs_medium_density_scale(VS_DATA_ONLY_ARG(medium_data));
+    pnanovdb_vec3_t box_lo = vs_medium_box_lo(VS_DATA_ONLY_ARG(medium_data));
+    pnanovdb_vec3_t box_hi = vs_medium_box_hi(VS_DATA_ONLY_ARG(medium_data));
+    float g = vs_medium_g(VS_DATA_ONLY_ARG(medium_data));
     int seg = PNANOVDB_DEREF(st).seg;
     int unit = PNANOVDB_DEREF(st).unit;
     VS_PRECISE float a = ray.t0 + ray.span * (VS_FLOAT(seg) * ray.inv_n);
@@ -332,19 +353,17 @@ VS_FUNC void vs_render_unit(VS_DATA_PARAM(vs_vec4, render_data) pnanovdb_buf_t b
         origin = vs_vec3_madd(ray.origin, ray.dir, a);
         tmax = b - a;
     } else if (light < light_count) {
-        vs_vec4 head = render_data[VS_RENDER_HEADER + 3 * light];
-        pnanovdb_vec3_t world = vs_vec3_from_vec4(render_data[VS_RENDER_HEADER + 3 * light + 1]);
-        color = vs_vec3_from_vec4(render_data[VS_RENDER_HEADER + 3 * light + 2]);
-        if (VS_INT(head.x) == VS_RENDER_LIGHT_SUN) {
-            dir = vs_vec3(head.y, head.z, head.w);
+        pnanovdb_vec3_t at = vs_light_index(VS_DATA_ARG(light_data) light);
+        pnanovdb_vec3_t world = vs_light_world(VS_DATA_ARG(light_data) light);
+        color = vs_light_color(VS_DATA_ARG(light_data) light);
+        if (vs_light_type(VS_DATA_ARG(light_data) light) == VS_LIGHT_SUN) {
+            dir = at;
             phase = vs_hg_dirs(g, world, ray.wo);
         } else {
-            pnanovdb_vec3_t d = vs_vec3(head.y - mid.x, head.z - mid.y, head.w - mid.z);
-            pnanovdb_vec3_t w = vs_vec3(vs_vec3_dot(vs_vec3_from_vec4(render_data[1]), d),
-                                        vs_vec3_dot(vs_vec3_from_vec4(render_data[2]), d),
-                                        vs_vec3_dot(vs_vec3_from_vec4(render_data[3]), d));
+            pnanovdb_vec3_t d = vs_vec3(at.x - mid.x, at.y - mid.y, at.z - mid.z);
+            pnanovdb_vec3_t w = vs_medium_to_world(VS_DATA_ARG(medium_data) d);
             float r = vs_sqrt(vs_vec3_dot(w, w));
-            float rc = vs_max(r, render_data[0].w);
+            float rc = vs_max(r, vs_lights_min_distance(VS_DATA_ONLY_ARG(light_data)));
             falloff = 1.0f / (rc * rc);
             /* A light exactly at the midpoint has no direction: isotropic, unshadowed. */
             dir = vs_vec3(1.0f, 0.0f, 0.0f);
@@ -357,10 +376,10 @@ VS_FUNC void vs_render_unit(VS_DATA_PARAM(vs_vec4, render_data) pnanovdb_buf_t b
             }
         }
     } else {
-        int entry = VS_RENDER_HEADER + 3 * light_count + 2 * sky;
-        dir = vs_vec3_from_vec4(render_data[entry]);
-        phase =
-            vs_hg_dirs(g, vs_vec3_scale(vs_vec3_from_vec4(render_data[entry + 1]), -1.0f), ray.wo);
+        dir = vs_ordinate_index(VS_DATA_ARG(light_data) sky);
+        color = vs_ordinate_weighted(VS_DATA_ARG(light_data) sky);
+        phase = vs_hg_dirs(g, vs_vec3_scale(vs_ordinate_world(VS_DATA_ARG(light_data) sky), -1.0f),
+                           ray.wo);
     }
 
     vs_accum depth = vs_march(buf, PNANOVDB_REF(PNANOVDB_DEREF(accs).density), origin, dir, tmax,
@@ -386,23 +405,19 @@ VS_FUNC void vs_render_unit(VS_DATA_PARAM(vs_vec4, render_data) pnanovdb_buf_t b
             return;
         }
         PNANOVDB_DEREF(st).weight = w;
-        PNANOVDB_DEREF(st).sky_sum = 0.0f;
-        PNANOVDB_DEREF(st).source = render_data[5].w != 0.0f ? vs_render_ms(buf, accs, mid, ray.wo)
-                                                             : vs_vec3(0.0f, 0.0f, 0.0f);
-    } else if (light < light_count) {
+        PNANOVDB_DEREF(st).source = render_data[VS_RENDER_OFF_MARCH].y != 0.0f
+                                        ? vs_render_ms(buf, accs, mid, ray.wo)
+                                        : vs_vec3(0.0f, 0.0f, 0.0f);
+    } else {
         float transmittance = vs_accum_exp_neg(depth);
         PNANOVDB_DEREF(st).source =
             vs_vec3_madd(PNANOVDB_DEREF(st).source, color, transmittance * phase * falloff);
-    } else {
-        PNANOVDB_DEREF(st).sky_sum += vs_accum_exp_neg(depth) * phase;
     }
 
     PNANOVDB_DEREF(st).unit = unit + 1;
     if (unit + 1 > light_count + sky_count) {
-        pnanovdb_vec3_t s =
-            vs_vec3_madd(PNANOVDB_DEREF(st).source, vs_vec3_from_vec4(render_data[8]),
-                         PNANOVDB_DEREF(st).sky_sum);
-        pnanovdb_vec3_t albedo = vs_vec3_from_vec4(render_data[6]);
+        pnanovdb_vec3_t s = PNANOVDB_DEREF(st).source;
+        pnanovdb_vec3_t albedo = vs_medium_albedo(VS_DATA_ONLY_ARG(medium_data));
         float w = PNANOVDB_DEREF(st).weight;
         PNANOVDB_DEREF(st).radiance = vs_vec3(PNANOVDB_DEREF(st).radiance.x + albedo.x * s.x * w,
                                               PNANOVDB_DEREF(st).radiance.y + albedo.y * s.y * w,
@@ -412,42 +427,82 @@ VS_FUNC void vs_render_unit(VS_DATA_PARAM(vs_vec4, render_data) pnanovdb_buf_t b
 }
 
 /* Runs up to max_units units (fewer when the ray is done). */
-VS_FUNC void vs_render_advance(VS_DATA_PARAM(vs_vec4, render_data) pnanovdb_buf_t buf,
+VS_FUNC void vs_render_advance(VS_RENDER_TABLES pnanovdb_buf_t buf,
                                PNANOVDB_INOUT(vs_render_accessors) accs, vs_render_ray_info ray,
                                PNANOVDB_INOUT(vs_render_state) st, int max_units)
 {
     for (int u = 0; u < max_units; ++u) {
         if (PNANOVDB_DEREF(st).stop == 2)
             break;
-        vs_render_unit(VS_DATA_ARG(render_data) buf, accs, ray, st);
+        vs_render_unit(VS_RENDER_TABLES_ARG buf, accs, ray, st);
     }
 }
 
 /* The ray's radiance: the in-scattered integral plus the background seen through it. */
-VS_FUNC pnanovdb_vec3_t vs_render_result(VS_DATA_PARAM(vs_vec4, render_data) vs_render_state st)
+VS_FUNC pnanovdb_vec3_t vs_render_result(VS_DATA_PARAM(vs_vec4, light_data) vs_render_state st)
 {
-    return vs_vec3_madd(st.radiance, vs_vec3_from_vec4(render_data[7]), st.transmittance);
+    return vs_vec3_madd(st.radiance, vs_lights_background(VS_DATA_ONLY_ARG(light_data)),
+                        st.transmittance);
 }
 
 /* Whole-ray and whole-pixel forms (C path, viewer): all units in one go. */
-VS_FUNC pnanovdb_vec3_t vs_render_ray(VS_DATA_PARAM(vs_vec4, render_data) pnanovdb_buf_t buf,
+VS_FUNC pnanovdb_vec3_t vs_render_ray(VS_RENDER_TABLES pnanovdb_buf_t buf,
                                       PNANOVDB_INOUT(vs_render_accessors) accs,
                                       pnanovdb_vec3_t origin, pnanovdb_vec3_t dir,
                                       pnanovdb_vec3_t wo)
 {
-    vs_render_ray_info ray = vs_render_ray_begin(VS_DATA_ARG(render_data) origin, dir, wo);
+    vs_render_ray_info ray =
+        vs_render_ray_begin(VS_DATA_ARG(medium_data) VS_DATA_ARG(render_data) origin, dir, wo);
     vs_render_state st = vs_render_state_init(ray);
-    vs_render_advance(VS_DATA_ARG(render_data) buf, accs, ray, PNANOVDB_REF(st), 2147483647);
-    return vs_render_result(VS_DATA_ARG(render_data) st);
+    vs_render_advance(VS_RENDER_TABLES_ARG buf, accs, ray, PNANOVDB_REF(st), 2147483647);
+    return vs_render_result(VS_DATA_ARG(light_data) st);
 }
 
-VS_FUNC pnanovdb_vec3_t vs_render_pixel(VS_DATA_PARAM(vs_vec4, render_data) pnanovdb_buf_t buf,
+VS_FUNC pnanovdb_vec3_t vs_render_pixel(VS_RENDER_TABLES pnanovdb_buf_t buf,
                                         PNANOVDB_INOUT(vs_render_accessors) accs, int px, int py)
 {
-    vs_render_ray_info ray = vs_render_camera_ray(VS_DATA_ARG(render_data) px, py);
+    vs_render_ray_info ray =
+        vs_render_camera_ray(VS_DATA_ARG(medium_data) VS_DATA_ARG(render_data) px, py);
     vs_render_state st = vs_render_state_init(ray);
-    vs_render_advance(VS_DATA_ARG(render_data) buf, accs, ray, PNANOVDB_REF(st), 2147483647);
-    return vs_render_result(VS_DATA_ARG(render_data) st);
+    vs_render_advance(VS_RENDER_TABLES_ARG buf, accs, ray, PNANOVDB_REF(st), 2147483647);
+    return vs_render_result(VS_DATA_ARG(light_data) st);
 }
+
+#if defined(PNANOVDB_GLSL)
+/* The state buffers of render_march.comp (vs_pass.h ping-pong): state_in / state_out. */
+vs_render_state vs_render_state_load(uint item)
+{
+    uint s = VS_RENDER_STATE_WORDS * item;
+    vs_render_state st;
+    st.seg = int(state_in[s + VS_RENDER_STATE_SEG]);
+    st.unit = int(state_in[s + VS_RENDER_STATE_UNIT]);
+    st.stop = int(state_in[s + VS_RENDER_STATE_STOP]);
+    st.tau.sum = uintBitsToFloat(state_in[s + VS_RENDER_STATE_TAU_SUM]);
+    st.tau.carry = uintBitsToFloat(state_in[s + VS_RENDER_STATE_TAU_CARRY]);
+    st.transmittance = uintBitsToFloat(state_in[s + VS_RENDER_STATE_TRANSMITTANCE]);
+    st.weight = uintBitsToFloat(state_in[s + VS_RENDER_STATE_WEIGHT]);
+    for (uint c = 0u; c < 3u; ++c) {
+        st.source[c] = uintBitsToFloat(state_in[s + VS_RENDER_STATE_SOURCE + c]);
+        st.radiance[c] = uintBitsToFloat(state_in[s + VS_RENDER_STATE_RADIANCE + c]);
+    }
+    return st;
+}
+
+void vs_render_state_store(uint item, vs_render_state st)
+{
+    uint s = VS_RENDER_STATE_WORDS * item;
+    state_out[s + VS_RENDER_STATE_SEG] = uint(st.seg);
+    state_out[s + VS_RENDER_STATE_UNIT] = uint(st.unit);
+    state_out[s + VS_RENDER_STATE_STOP] = uint(st.stop);
+    state_out[s + VS_RENDER_STATE_TAU_SUM] = floatBitsToUint(st.tau.sum);
+    state_out[s + VS_RENDER_STATE_TAU_CARRY] = floatBitsToUint(st.tau.carry);
+    state_out[s + VS_RENDER_STATE_TRANSMITTANCE] = floatBitsToUint(st.transmittance);
+    state_out[s + VS_RENDER_STATE_WEIGHT] = floatBitsToUint(st.weight);
+    for (uint c = 0u; c < 3u; ++c) {
+        state_out[s + VS_RENDER_STATE_SOURCE + c] = floatBitsToUint(st.source[c]);
+        state_out[s + VS_RENDER_STATE_RADIANCE + c] = floatBitsToUint(st.radiance[c]);
+    }
+}
+#endif
 
 #endif

@@ -1,65 +1,62 @@
-/* Single scattering per voxel (the exact S1 pass), shared by C and GLSL.
+/* Single scattering per voxel (the exact S1 pass), shared by C and GLSL. Include after
+ * vs_common.h, vs_march.h, vs_medium.h and vs_lights.h.
  *
- * Output: the direction average of S1 at a voxel centre,
- *   (1/4pi) sum_lights E_i T_i  +  (1/K) sum_k L_sky T_k,
- * with T the transmittance to the light (DESIGN.md: a collimated beam of irradiance E
- * attenuated to T has fluence E T, and the HG phase integrates to 1).
+ * Output: the direction average of S1 at a voxel centre, (1/4pi) times the fluence of the
+ * unscattered light: sum over suns E T, over points I T / r^2, over sky ordinates
+ * L_k w_k T_k, with T the marched transmittance to the light (DESIGN.md: a collimated beam
+ * of irradiance E attenuated to T has fluence E T, and the HG phase integrates to 1).
  *
- * light_data layout (vec4 each), written by single.c:
- *   [0] (light count, sky direction count, density_scale, minimum point-light distance)
- *   [1..3] index-to-world linear rows (xyz) for world distances
- *   [4] box_lo (xyz), [5] box_hi (xyz): index-space support of the interpolant
- *   [6] sky radiance already divided by K (rgb)
- *   then per light two entries: (type, x, y, z), (r, g, b, 0) with colour / 4pi;
- *     type 0 = sun, xyz = index-space image of a unit world step towards the sun;
- *     type 1 = point, xyz = index-space position of the light
- *   then K sky directions (index-space image of a unit world step towards the sky).
- */
+ * The work of a voxel is one unit per light: the direct lights in table order, then the
+ * sky ordinates. A pass may run any range of units (the GPU runs them in passes, see
+ * vs_pass.h); ranges add to the fluence in unit order, so any split sums like one pass. */
 #ifndef VS_SINGLE_H
 #define VS_SINGLE_H
 
-#define VS_SINGLE_HEADER 7
-#define VS_LIGHT_SUN 0
-#define VS_LIGHT_POINT 1
-
-/* Adds the contributions of marches [first, first + count) to sum, in march order, so that
- * any split of the marches into passes (the GPU needs passes: llvmpipe ends every loop of
- * an invocation after 65535 iterations) sums in the same order as one pass. */
-VS_FUNC pnanovdb_vec3_t vs_single_accumulate(VS_DATA_PARAM(vs_vec4, light_data) pnanovdb_buf_t buf,
-                                             PNANOVDB_INOUT(pnanovdb_readaccessor_t) acc,
-                                             pnanovdb_coord_t ijk, pnanovdb_vec3_t sum, int first,
-                                             int count)
+/* Units of work per voxel: one march per direct light and per sky ordinate. */
+VS_FUNC int vs_single_units(VS_DATA_ONLY(vs_vec4, light_data))
 {
-    int light_count = VS_INT(light_data[0].x);
-    int total = light_count + VS_INT(light_data[0].y);
-    float density_scale = light_data[0].z;
-    float r_min = light_data[0].w;
-    pnanovdb_vec3_t box_lo = vs_vec3_from_vec4(light_data[4]);
-    pnanovdb_vec3_t box_hi = vs_vec3_from_vec4(light_data[5]);
+    return vs_lights_direct_count(VS_DATA_ONLY_ARG(light_data)) +
+           vs_lights_ordinate_count(VS_DATA_ONLY_ARG(light_data));
+}
+
+/* Adds the fluence of units [first, first + count) to `fluence`. */
+VS_FUNC pnanovdb_vec3_t vs_single_accumulate(VS_DATA_PARAM(vs_vec4, medium_data)
+                                                 VS_DATA_PARAM(vs_vec4, light_data)
+                                                     pnanovdb_buf_t buf,
+                                             PNANOVDB_INOUT(pnanovdb_readaccessor_t) acc,
+                                             pnanovdb_coord_t ijk, pnanovdb_vec3_t fluence,
+                                             int first, int count)
+{
+    int direct = vs_lights_direct_count(VS_DATA_ONLY_ARG(light_data));
+    int total = vs_single_units(VS_DATA_ONLY_ARG(light_data));
+    float density_scale = vs_medium_density_scale(VS_DATA_ONLY_ARG(medium_data));
+    float r_min = vs_lights_min_distance(VS_DATA_ONLY_ARG(light_data));
+    pnanovdb_vec3_t box_lo = vs_medium_box_lo(VS_DATA_ONLY_ARG(medium_data));
+    pnanovdb_vec3_t box_hi = vs_medium_box_hi(VS_DATA_ONLY_ARG(medium_data));
     pnanovdb_vec3_t p = vs_vec3(VS_FLOAT(ijk.x), VS_FLOAT(ijk.y), VS_FLOAT(ijk.z));
-    int last = first + count < total ? first + count : total;
+    /* count may be huge (one pass for everything): compare without overflowing. */
+    int last = total - first > count ? first + count : total;
 
     for (int i = first; i < last; ++i) {
-        if (i >= light_count) {
-            float transmittance = vs_transmittance(
-                buf, acc, p, vs_vec3_from_vec4(light_data[VS_SINGLE_HEADER + light_count + i]),
-                VS_T_INFINITE, box_lo, box_hi, density_scale);
-            sum = vs_vec3_madd(sum, vs_vec3_from_vec4(light_data[6]), transmittance);
+        if (i >= direct) {
+            int k = i - direct;
+            float transmittance =
+                vs_transmittance(buf, acc, p, vs_ordinate_index(VS_DATA_ARG(light_data) k),
+                                 VS_T_INFINITE, box_lo, box_hi, density_scale);
+            fluence = vs_vec3_madd(fluence, vs_ordinate_weighted(VS_DATA_ARG(light_data) k),
+                                   transmittance);
             continue;
         }
-        vs_vec4 head = light_data[VS_SINGLE_HEADER + 2 * i];
-        pnanovdb_vec3_t color = vs_vec3_from_vec4(light_data[VS_SINGLE_HEADER + 2 * i + 1]);
+        pnanovdb_vec3_t at = vs_light_index(VS_DATA_ARG(light_data) i);
         float weight;
         float transmittance;
-        if (VS_INT(head.x) == VS_LIGHT_SUN) {
+        if (vs_light_type(VS_DATA_ARG(light_data) i) == VS_LIGHT_SUN) {
             weight = 1.0f;
-            transmittance = vs_transmittance(buf, acc, p, vs_vec3(head.y, head.z, head.w),
-                                             VS_T_INFINITE, box_lo, box_hi, density_scale);
+            transmittance =
+                vs_transmittance(buf, acc, p, at, VS_T_INFINITE, box_lo, box_hi, density_scale);
         } else {
-            pnanovdb_vec3_t d = vs_vec3(head.y - p.x, head.z - p.y, head.w - p.z);
-            pnanovdb_vec3_t w = vs_vec3(vs_vec3_dot(vs_vec3_from_vec4(light_data[1]), d),
-                                        vs_vec3_dot(vs_vec3_from_vec4(light_data[2]), d),
-                                        vs_vec3_dot(vs_vec3_from_vec4(light_data[3]), d));
+            pnanovdb_vec3_t d = vs_vec3(at.x - p.x, at.y - p.y, at.z - p.z);
+            pnanovdb_vec3_t w = vs_medium_to_world(VS_DATA_ARG(medium_data) d);
             float r = vs_sqrt(vs_vec3_dot(w, w));
             float rc = vs_max(r, r_min);
             weight = 1.0f / (rc * rc);
@@ -67,17 +64,22 @@ VS_FUNC pnanovdb_vec3_t vs_single_accumulate(VS_DATA_PARAM(vs_vec4, light_data) 
                                                         box_lo, box_hi, density_scale)
                                      : 1.0f;
         }
-        sum = vs_vec3_madd(sum, color, weight * transmittance);
+        fluence = vs_vec3_madd(fluence, vs_light_color(VS_DATA_ARG(light_data) i),
+                               weight * transmittance);
     }
-    return sum;
+    return fluence;
 }
 
-VS_FUNC pnanovdb_vec3_t vs_single_average(VS_DATA_PARAM(vs_vec4, light_data) pnanovdb_buf_t buf,
+/* The direction average of S1: fluence / 4pi. */
+VS_FUNC pnanovdb_vec3_t vs_single_average(VS_DATA_PARAM(vs_vec4, medium_data)
+                                              VS_DATA_PARAM(vs_vec4, light_data) pnanovdb_buf_t buf,
                                           PNANOVDB_INOUT(pnanovdb_readaccessor_t) acc,
                                           pnanovdb_coord_t ijk)
 {
-    return vs_single_accumulate(VS_DATA_ARG(light_data) buf, acc, ijk, vs_vec3(0.0f, 0.0f, 0.0f), 0,
-                                VS_INT(light_data[0].x) + VS_INT(light_data[0].y));
+    pnanovdb_vec3_t fluence = vs_single_accumulate(
+        VS_DATA_ARG(medium_data) VS_DATA_ARG(light_data) buf, acc, ijk, vs_vec3(0.0f, 0.0f, 0.0f),
+        0, vs_single_units(VS_DATA_ONLY_ARG(light_data)));
+    return vs_vec3_scale(fluence, VS_INV_4PI);
 }
 
 #endif

@@ -121,12 +121,12 @@ static void run_items(vdbs_gpu *gpu, uint64_t count, unsigned local_size, uint64
     snprintf(defines, sizeof defines, "#define LOCAL_SIZE %u\n#define SENTINEL 0x%Xu\n", local_size,
              SENTINEL);
     vdbs_error err = {{0}};
-    unsigned program = 0;
+    vdbs_gpu_program program = {0};
     vdbs_status st = vdbs_gpu_program_create(gpu, &src, defines, &program, &err);
     if (st != VDBS_OK)
         fprintf(stderr, "%s\n", err.message);
     assert_int_equal(st, VDBS_OK);
-    assert_true(program != 0);
+    assert_true(program.id != 0);
 
     const size_t pad = 1000;
     size_t n = (size_t)count + pad;
@@ -134,7 +134,7 @@ static void run_items(vdbs_gpu *gpu, uint64_t count, unsigned local_size, uint64
     assert_non_null(data);
     for (size_t i = 0; i < n; i++)
         data[i] = SENTINEL;
-    unsigned buffer = 0;
+    vdbs_gpu_buffer buffer = {0};
     st = vdbs_gpu_buffer_create(gpu, n * sizeof *data, data, &buffer, &err);
     assert_int_equal(st, VDBS_OK);
     vdbs_gpu_buffer_bind(gpu, buffer, 0);
@@ -208,9 +208,9 @@ static void test_dispatch_errors(void **state)
                     "void main() { values[gl_GlobalInvocationID.x] = 7u; }\n",
                     files, 1);
     vdbs_error err = {{0}};
-    unsigned program = 0;
+    vdbs_gpu_program program = {0};
     assert_int_equal(vdbs_gpu_program_create(gpu, &src, NULL, &program, &err), VDBS_OK);
-    unsigned buffer = 0;
+    vdbs_gpu_buffer buffer = {0};
     assert_int_equal(vdbs_gpu_buffer_create(gpu, 1024 * 4, NULL, &buffer, &err), VDBS_OK);
     vdbs_gpu_buffer_bind(gpu, buffer, 0);
 
@@ -251,11 +251,11 @@ static void test_dispatch_errors(void **state)
 static const char *build_failure(vdbs_gpu *gpu, const vdbs_shader_source *src, const char *defines)
 {
     static vdbs_error err;
-    unsigned program = 123;
+    vdbs_gpu_program program = {123};
     err.message[0] = '\0';
     vdbs_status st = vdbs_gpu_program_create(gpu, src, defines, &program, &err);
     assert_int_equal(st, VDBS_ERR_GPU);
-    assert_int_equal(program, 0);
+    assert_int_equal(program.id, 0);
     printf("-- expected build failure:\n%s\n", err.message);
     return err.message;
 }
@@ -366,18 +366,18 @@ static void test_buffer_limits(void **state)
     vdbs_gpu *gpu = *state;
     const vdbs_gpu_info *info = vdbs_gpu_get_info(gpu);
     vdbs_error err = {{0}};
-    unsigned buffer = 77;
+    vdbs_gpu_buffer buffer = {77};
     vdbs_status st =
         vdbs_gpu_buffer_create(gpu, (size_t)info->max_ssbo_bytes + 1, NULL, &buffer, &err);
     assert_int_equal(st, VDBS_ERR_GPU);
-    assert_int_equal(buffer, 0);
+    assert_int_equal(buffer.id, 0);
     assert_non_null(strstr(err.message, "--backend cpu"));
     printf("-- expected buffer failure: %s\n", err.message);
 
     /* An empty buffer is legitimate (an empty grid). */
     st = vdbs_gpu_buffer_create(gpu, 0, NULL, &buffer, &err);
     assert_int_equal(st, VDBS_OK);
-    assert_true(buffer != 0);
+    assert_true(buffer.id != 0);
     vdbs_gpu_buffer_destroy(gpu, buffer);
 }
 

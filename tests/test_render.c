@@ -24,6 +24,8 @@
 #include "vs_common.h"
 #include "vs_march.h"
 #include "vs_phase.h"
+#include "vs_medium.h"
+#include "vs_lights.h"
 #include "vs_render.h"
 
 #define PI 3.14159265358979323846
@@ -206,9 +208,8 @@ static void test_ms_reconstruction(void **state)
     uint32_t *buffer = NULL;
     size_t size = 0;
     int owned = 0;
-    assert_int_equal(
-        vdbs_render_table(&volume, &grids, &scene, &frame, &options, &table, &entries, &err),
-        VDBS_OK);
+    assert_int_equal(vdbs_render_table(&volume, &grids, &frame, &options, &table, &entries, &err),
+                     VDBS_OK);
     assert_int_equal(vdbs_render_buffer(&volume, &grids, &buffer, &size, &owned, &err), VDBS_OK);
     assert_true(owned);
     const vs_vec4 *render_data = (const vs_vec4 *)table;
@@ -295,7 +296,8 @@ static void test_empty_medium_shows_env(void **state)
     vdbs_image image;
     image_init(&image, 16, 12);
     vdbs_march_options options = {16, 0.5f, NULL, 0};
-    assert_int_equal(vdbs_render_march_cpu(&volume, NULL, &scene, &frame, &options, &image, &err),
+    assert_int_equal(vdbs_render_march(test_runner(VDBS_BACKEND_CPU), &volume, NULL, &scene, &frame,
+                                       &options, &image, &err),
                      VDBS_OK);
     for (int i = 0; i < 16 * 12; ++i)
         for (int c = 0; c < 3; ++c)
@@ -303,7 +305,8 @@ static void test_empty_medium_shows_env(void **state)
     /* Without an env light the background is black. */
     scene.light_count = 1;
     scene.density_scale = 3.0;
-    assert_int_equal(vdbs_render_march_cpu(&volume, NULL, &scene, &frame, &options, &image, &err),
+    assert_int_equal(vdbs_render_march(test_runner(VDBS_BACKEND_CPU), &volume, NULL, &scene, &frame,
+                                       &options, &image, &err),
                      VDBS_OK);
     for (int c = 0; c < 3; ++c)
         assert_true(image.rgb[c] == 0.0f); /* a corner ray misses the volume */
@@ -351,9 +354,9 @@ static void test_slab_closed_form(void **state)
             vdbs_march_options options = {16, step, NULL, 0};
             vdbs_image image;
             image_init(&image, 1, 1);
-            assert_int_equal(
-                vdbs_render_march_cpu(&volume, NULL, &scene, &frame, &options, &image, &err),
-                VDBS_OK);
+            assert_int_equal(vdbs_render_march(test_runner(VDBS_BACKEND_CPU), &volume, NULL, &scene,
+                                               &frame, &options, &image, &err),
+                             VDBS_OK);
             double rel = fabs(image.rgb[0] - want) / want;
             double d = sigma * step * (2.0 / res); /* optical depth of a full segment */
             print_message("g %.1f step %.3f voxel: L %.9g, closed form %.9g, relative error "
@@ -424,9 +427,11 @@ static void test_baked_single_bake_equals_single(void **state)
     vdbs_image a, b;
     image_init(&a, w, h);
     image_init(&b, w, h);
-    assert_int_equal(vdbs_render_march_cpu(&source, NULL, &scene, &frame, &options, &a, &err),
+    assert_int_equal(vdbs_render_march(test_runner(VDBS_BACKEND_CPU), &source, NULL, &scene, &frame,
+                                       &options, &a, &err),
                      VDBS_OK);
-    assert_int_equal(vdbs_render_march_cpu(&baked, &grids, &scene, &frame, &options, &b, &err),
+    assert_int_equal(vdbs_render_march(test_runner(VDBS_BACKEND_CPU), &baked, &grids, &scene,
+                                       &frame, &options, &b, &err),
                      VDBS_OK);
     double num = 0.0, den = 0.0;
     for (int i = 0; i < 3 * w * h; ++i) {

@@ -8,6 +8,7 @@
 #include <string.h>
 
 #include "vdbscatter/scene.h"
+#include "vdbscatter/solver.h"
 
 /* The DESIGN.md sketch, extended with every light type and every optional key. */
 static const char *const sketch =

@@ -49,7 +49,8 @@ static float *solve(const vdbs_volume *volume, const vdbs_scene *scene, int sky)
 {
     float *radiance = malloc(sizeof(float) * 3 * volume->coord_count);
     vdbs_error err;
-    vdbs_status st = vdbs_single_scatter_cpu(volume, scene, sky, radiance, NULL, &err);
+    vdbs_status st =
+        test_single_scatter(test_runner(VDBS_BACKEND_CPU), volume, scene, sky, radiance, &err);
     if (st != VDBS_OK)
         fail_msg("%s", err.message);
     return radiance;

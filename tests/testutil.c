@@ -2,6 +2,7 @@
 
 #include <math.h>
 #include <stdio.h>
+#include <stdlib.h>
 #include <string.h>
 
 const char *test_data_path(const char *file)
@@ -54,4 +55,72 @@ void test_load_ms_grids(const char *path, const double index_to_world[3][4], vdb
         fail_msg("%s", err.message);
     vdbio_lit_close(lit);
     remove(path);
+}
+
+/* One runner per backend for the whole test program (a GL context is slow to create). */
+static vdbs_runner *runners[3];
+
+vdbs_runner *test_runner(vdbs_backend backend)
+{
+    if (!runners[backend]) {
+        vdbs_runner_desc desc = {backend};
+        vdbs_error err;
+        if (vdbs_runner_create(&desc, &runners[backend], &err) != VDBS_OK)
+            fail_msg("no %s runner: %s", backend == VDBS_BACKEND_GPU ? "GPU" : "C", err.message);
+    }
+    return runners[backend];
+}
+
+void test_runners_free(void)
+{
+    for (int b = 0; b < 3; ++b) {
+        vdbs_runner_destroy(runners[b]);
+        runners[b] = NULL;
+    }
+}
+
+vdbs_status test_single_scatter(vdbs_runner *runner, const vdbs_volume *volume,
+                                const vdbs_scene *scene, int sky, float *radiance, vdbs_error *err)
+{
+    vdbs_lights_desc desc = {sky};
+    vdbs_light_table lights;
+    vdbs_status st = vdbs_lights_build(volume, scene, &desc, &lights, err);
+    if (st != VDBS_OK)
+        return st;
+    st = vdbs_single_scatter(runner, volume, scene, &lights, radiance, NULL, err);
+    vdbs_lights_free(&lights);
+    return st;
+}
+
+float *test_twin(const char *label, test_twin_fn run, const void *scenario, size_t n)
+{
+    float *out[2];
+    const vdbs_backend backends[2] = {VDBS_BACKEND_CPU, VDBS_BACKEND_GPU};
+    for (int b = 0; b < 2; ++b) {
+        out[b] = calloc(n ? n : 1, sizeof(float));
+        assert_non_null(out[b]);
+        vdbs_error err;
+        if (run(test_runner(backends[b]), scenario, out[b], &err) != VDBS_OK)
+            fail_msg("%s (%s): %s", label, b ? "GPU" : "C", err.message);
+    }
+    size_t compared = 0;
+    double worst = 0.0;
+    for (size_t i = 0; i < n; ++i) {
+        for (int b = 0; b < 2; ++b)
+            if (!(isfinite(out[b][i]) && out[b][i] >= 0.0f))
+                fail_msg("%s: value %zu is %g on the %s path", label, i, out[b][i],
+                         b ? "GPU" : "C");
+        if (fabs(out[0][i]) < 1e-30 && fabs(out[1][i]) < 1e-30)
+            continue;
+        double d = test_rel_diff(out[0][i], out[1][i]);
+        worst = fmax(worst, d);
+        if (d > 1e-5)
+            fail_msg("%s: value %zu: C %.9g GLSL %.9g", label, i, out[0][i], out[1][i]);
+        ++compared;
+    }
+    print_message("%s: compared %zu of %zu values, worst relative difference %.3g\n", label,
+                  compared, n, worst);
+    assert_true(compared > n / 2);
+    free(out[1]);
+    return out[0];
 }

@@ -9,8 +9,11 @@
 
 #include <cmocka.h>
 
+#include "vdbscatter/kernel.h"
+#include "vdbscatter/lights.h"
 #include "vdbscatter/render.h"
 #include "vdbscatter/scene.h"
+#include "vdbscatter/single.h"
 
 /* Path inside the shared data folder / the test temp folder (static buffer per call slot). */
 const char *test_data_path(const char *file);
@@ -26,5 +29,23 @@ void test_add_sun_point_sky(vdbs_scene *scene);
 /* Loads the ms / ms_l1* grids of a lit VDB written by a test, then removes the file;
  * fails the test on any error. */
 void test_load_ms_grids(const char *path, const double index_to_world[3][4], vdbs_ms_grids *ms);
+
+/* The runner of a backend, created on first use and kept for the test program; fails the
+ * test when it cannot be created. */
+vdbs_runner *test_runner(vdbs_backend backend);
+void test_runners_free(void);
+
+/* The single-scattering pass of a scene with `sky` sky ordinates on a runner. */
+vdbs_status test_single_scatter(vdbs_runner *runner, const vdbs_volume *volume,
+                                const vdbs_scene *scene, int sky, float *radiance, vdbs_error *err);
+
+/* The CPU/GPU twin harness (one test text, two implementations): a scenario writes n
+ * floats on the runner it is given. test_twin runs it on the C path and on the GPU and
+ * asserts that both are finite and non-negative and agree to 1e-5 relative wherever
+ * either |v| >= 1e-30 (DESIGN.md: llvmpipe's exp/pow, FMA and denormals differ from gcc's),
+ * with more than half the values compared. Returns the C output (the caller frees it). */
+typedef vdbs_status (*test_twin_fn)(vdbs_runner *runner, const void *scenario, float *out,
+                                    vdbs_error *err);
+float *test_twin(const char *label, test_twin_fn run, const void *scenario, size_t n);
 
 #endif

@@ -1,34 +1,20 @@
 #include "vdbscatter/bake.h"
 
 #include <math.h>
-#include <omp.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
-#include "vdbscatter/gpu.h"
+#include "vdbscatter/kernel.h"
+#include "vdbscatter/lights.h"
 #include "vdbscatter/progress.h"
-#include "vdbscatter/single.h"
+#include "vdbscatter/solver.h"
 #include "vdbscatter/vdbio.h"
 #include "vdbscatter/volume.h"
 
 #ifndef VDBSCATTER_VERSION
 #define VDBSCATTER_VERSION "0"
 #endif
-
-vdbs_status vdbs_backend_parse(const char *text, vdbs_backend *backend, vdbs_error *err)
-{
-    if (strcmp(text, "auto") == 0)
-        *backend = VDBS_BACKEND_AUTO;
-    else if (strcmp(text, "cpu") == 0)
-        *backend = VDBS_BACKEND_CPU;
-    else if (strcmp(text, "gpu") == 0)
-        *backend = VDBS_BACKEND_GPU;
-    else
-        return vdbs_error_set(err, VDBS_ERR_INPUT, "--backend: expected auto, cpu or gpu, got '%s'",
-                              text);
-    return VDBS_OK;
-}
 
 static void warn(const vdbs_bake_options *o, const char *fmt, const char *arg)
 {
@@ -38,33 +24,40 @@ static void warn(const vdbs_bake_options *o, const char *fmt, const char *arg)
         o->warn(o->warn_user, line);
 }
 
-/* Solves S1 into radiance (3 floats per output voxel) on the chosen backend. */
-static vdbs_status solve_single(const vdbs_bake_options *o, const vdbs_volume *volume, int sky,
-                                float *radiance, vdbs_bake_report *report, vdbs_error *err)
+/* Runs the scene's solver on the chosen backend; the lights are resolved here, once. */
+static vdbs_status solve(const vdbs_bake_options *o, const vdbs_solver *solver,
+                         const vdbs_quality *quality, const vdbs_volume *volume, vdbs_solve *s,
+                         vdbs_bake_report *report, vdbs_error *err)
 {
-    vdbs_backend backend = o->backend;
-    if (backend == VDBS_BACKEND_AUTO)
-        backend = vdbs_gpu_hardware_available() ? VDBS_BACKEND_GPU : VDBS_BACKEND_CPU;
-    vdbs_progress progress;
-    vdbs_progress_begin(&progress, o->progress, "single scattering", volume->coord_count);
-    vdbs_status st;
-    if (backend == VDBS_BACKEND_GPU) {
-        vdbs_gpu *gpu = NULL;
-        st = vdbs_gpu_create(&gpu, err);
-        if (st != VDBS_OK)
-            return st;
-        snprintf(report->backend, sizeof report->backend, "gpu");
-        snprintf(report->renderer, sizeof report->renderer, "%s", vdbs_gpu_get_info(gpu)->renderer);
-        st = vdbs_single_scatter_gpu(gpu, volume, o->scene, sky, radiance, &progress, err);
-        vdbs_gpu_destroy(gpu);
-    } else {
-        snprintf(report->backend, sizeof report->backend, "cpu");
-        snprintf(report->renderer, sizeof report->renderer, "C (OpenMP, %d threads)",
-                 omp_get_max_threads());
-        st = vdbs_single_scatter_cpu(volume, o->scene, sky, radiance, &progress, err);
+    vdbs_lights_desc lights_desc = {0};
+    lights_desc.sky_ordinates = quality->sky_directions;
+    vdbs_light_table lights;
+    vdbs_status st = vdbs_lights_build(volume, o->scene, &lights_desc, &lights, err);
+    if (st != VDBS_OK)
+        return st;
+    vdbs_runner_desc runner_desc = {0};
+    runner_desc.backend = o->backend;
+    vdbs_runner *runner = NULL;
+    st = vdbs_runner_create(&runner_desc, &runner, err);
+    if (st != VDBS_OK) {
+        vdbs_lights_free(&lights);
+        return st;
     }
+    snprintf(report->backend, sizeof report->backend, "%s", vdbs_runner_backend_name(runner));
+    snprintf(report->renderer, sizeof report->renderer, "%s", vdbs_runner_device(runner));
+    vdbs_progress progress;
+    vdbs_progress_begin(&progress, o->progress, solver->name, volume->coord_count);
+    s->runner = runner;
+    s->volume = volume;
+    s->scene = o->scene;
+    s->lights = &lights;
+    s->quality = quality;
+    s->progress = &progress;
+    st = solver->run(s, err);
     if (st == VDBS_OK)
         vdbs_progress_end(&progress);
+    vdbs_runner_destroy(runner);
+    vdbs_lights_free(&lights);
     return st;
 }
 
@@ -84,16 +77,21 @@ vdbs_status vdbs_bake(const vdbs_bake_options *o, vdbs_bake_report *report, vdbs
     const char *input = o->input ? o->input : scene->volume_file;
     if (!input || !input[0])
         return vdbs_error_set(err, VDBS_ERR_INPUT, "no input volume given");
-    if (strcmp(scene->method, "single") != 0)
+    const vdbs_solver *solver = vdbs_solver_find(scene->method);
+    if (!solver) {
+        char names[256];
+        vdbs_solver_names(names, sizeof names);
         return vdbs_error_set(err, VDBS_ERR_INPUT,
-                              "--method %s is not implemented yet (available: single)",
-                              scene->method);
+                              "--method %s is not implemented yet (available: %s)", scene->method,
+                              names);
+    }
     vdbs_status st = vdbio_check_output(o->output, input, err);
     if (st != VDBS_OK)
         return st;
-    int sky = vdbs_quality_sky_directions(scene->quality);
-    if (sky <= 0)
+    const vdbs_quality *quality = vdbs_quality_find(scene->quality);
+    if (!quality)
         return vdbs_error_set(err, VDBS_ERR_INPUT, "unknown quality '%s'", scene->quality);
+    const int sky = quality->sky_directions;
     for (int i = 0; i < scene->light_count; ++i)
         if (scene->lights[i].type == VDBS_LIGHT_SUN && scene->lights[i].angular_diameter_deg > 0)
             warn(o, "%s",
@@ -117,15 +115,19 @@ vdbs_status vdbs_bake(const vdbs_bake_options *o, vdbs_bake_report *report, vdbs
     report->sky_directions = sky;
 
     size_t n = volume.coord_count ? volume.coord_count : 1;
-    float *radiance = calloc(3 * n, sizeof(float));
-    float *zero = calloc(3 * n, sizeof(float));
+    vdbs_solve outputs = {0};
+    float *radiance = outputs.radiance = calloc(3 * n, sizeof(float));
+    outputs.ms = calloc(3 * n, sizeof(float));
+    for (int a = 0; a < 3; ++a)
+        outputs.ms_l1[a] = calloc(3 * n, sizeof(float));
     char *scene_json = vdbs_scene_to_json(scene);
-    if (!radiance || !zero || !scene_json) {
+    if (!radiance || !outputs.ms || !outputs.ms_l1[0] || !outputs.ms_l1[1] || !outputs.ms_l1[2] ||
+        !scene_json) {
         st = vdbs_error_set(err, VDBS_ERR_NOMEM, "out of memory for %zu output voxels", n);
         goto done;
     }
     double t_solve = vdbs_now();
-    st = solve_single(o, &volume, sky, radiance, report, err);
+    st = solve(o, solver, quality, &volume, &outputs, report, err);
     report->seconds_solve = vdbs_now() - t_solve;
     if (st != VDBS_OK)
         goto done;
@@ -154,7 +156,8 @@ vdbs_status vdbs_bake(const vdbs_bake_options *o, vdbs_bake_report *report, vdbs
         {"vdbscatter_scene", scene_json},
     };
     vdbio_vec3_grid grids[] = {
-        {"radiance", radiance}, {"ms", zero}, {"ms_l1x", zero}, {"ms_l1y", zero}, {"ms_l1z", zero},
+        {"radiance", radiance},       {"ms", outputs.ms},           {"ms_l1x", outputs.ms_l1[0]},
+        {"ms_l1y", outputs.ms_l1[1]}, {"ms_l1z", outputs.ms_l1[2]},
     };
     vdbio_write_request request = {0};
     request.density = volume.density;
@@ -175,7 +178,9 @@ vdbs_status vdbs_bake(const vdbs_bake_options *o, vdbs_bake_report *report, vdbs
 done:
     report->seconds_total = vdbs_now() - t_start;
     free(scene_json);
-    free(zero);
+    free(outputs.ms);
+    for (int a = 0; a < 3; ++a)
+        free(outputs.ms_l1[a]);
     free(radiance);
     vdbs_volume_free(&volume);
     return st;

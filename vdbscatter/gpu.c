@@ -619,10 +619,10 @@ static vdbs_status build_failed(vdbs_error *err, const char *what, const char *n
 }
 
 vdbs_status vdbs_gpu_program_create(vdbs_gpu *gpu, const vdbs_shader_source *source,
-                                    const char *defines, unsigned int *program, vdbs_error *err)
+                                    const char *defines, vdbs_gpu_program *program, vdbs_error *err)
 {
     (void)gpu;
-    *program = 0;
+    program->id = 0;
     if (!source || !source->text)
         return vdbs_error_set(err, VDBS_ERR_INTERNAL, "no shader source");
     const char *name = source->name ? source->name : "shader";
@@ -666,7 +666,7 @@ vdbs_status vdbs_gpu_program_create(vdbs_gpu *gpu, const vdbs_shader_source *sou
                             gl_error_name(gl_err));
         goto done;
     }
-    *program = prog;
+    program->id = prog;
 
 done:
     if (st != VDBS_OK && prog)
@@ -677,19 +677,19 @@ done:
     return st;
 }
 
-void vdbs_gpu_program_destroy(vdbs_gpu *gpu, unsigned int program)
+void vdbs_gpu_program_destroy(vdbs_gpu *gpu, vdbs_gpu_program program)
 {
     (void)gpu;
-    if (program)
-        glDeleteProgram(program);
+    if (program.id)
+        glDeleteProgram(program.id);
 }
 
 /* ---- buffers ---- */
 
 vdbs_status vdbs_gpu_buffer_create(vdbs_gpu *gpu, size_t size, const void *data,
-                                   unsigned int *buffer, vdbs_error *err)
+                                   vdbs_gpu_buffer *buffer, vdbs_error *err)
 {
-    *buffer = 0;
+    buffer->id = 0;
     if ((uint64_t)size > (uint64_t)gpu->info.max_ssbo_bytes)
         return vdbs_error_set(err, VDBS_ERR_GPU,
                               "a GPU buffer of %zu bytes exceeds this GPU's shader storage "
@@ -711,11 +711,11 @@ vdbs_status vdbs_gpu_buffer_create(vdbs_gpu *gpu, size_t size, const void *data,
                               "creating a GPU buffer of %zu bytes failed (%s)", size,
                               gl_error_name(gl_err));
     }
-    *buffer = buf;
+    buffer->id = buf;
     return VDBS_OK;
 }
 
-vdbs_status vdbs_gpu_buffer_read(vdbs_gpu *gpu, unsigned int buffer, size_t offset, size_t size,
+vdbs_status vdbs_gpu_buffer_read(vdbs_gpu *gpu, vdbs_gpu_buffer buffer, size_t offset, size_t size,
                                  void *dst, vdbs_error *err)
 {
     (void)gpu;
@@ -723,38 +723,38 @@ vdbs_status vdbs_gpu_buffer_read(vdbs_gpu *gpu, unsigned int buffer, size_t offs
         return VDBS_OK;
     clear_gl_errors();
     GLint64 buffer_size = 0;
-    glGetNamedBufferParameteri64v(buffer, GL_BUFFER_SIZE, &buffer_size);
+    glGetNamedBufferParameteri64v(buffer.id, GL_BUFFER_SIZE, &buffer_size);
     if (offset > (uint64_t)buffer_size || size > (uint64_t)buffer_size - offset)
         return vdbs_error_set(err, VDBS_ERR_INTERNAL,
                               "reading %zu bytes at offset %zu of GPU buffer %u (%" PRId64
                               " bytes) is out of range",
-                              size, offset, buffer, (int64_t)buffer_size);
+                              size, offset, buffer.id, (int64_t)buffer_size);
     /* Shader writes become visible to glGetBufferSubData only after this barrier. */
     glMemoryBarrier(GL_BUFFER_UPDATE_BARRIER_BIT);
-    glGetNamedBufferSubData(buffer, (GLintptr)offset, (GLsizeiptr)size, dst);
+    glGetNamedBufferSubData(buffer.id, (GLintptr)offset, (GLsizeiptr)size, dst);
     GLenum gl_err = glGetError();
     if (gl_err != GL_NO_ERROR)
-        return vdbs_error_set(err, VDBS_ERR_GPU, "reading GPU buffer %u failed (%s)", buffer,
+        return vdbs_error_set(err, VDBS_ERR_GPU, "reading GPU buffer %u failed (%s)", buffer.id,
                               gl_error_name(gl_err));
     return VDBS_OK;
 }
 
-void vdbs_gpu_buffer_destroy(vdbs_gpu *gpu, unsigned int buffer)
+void vdbs_gpu_buffer_destroy(vdbs_gpu *gpu, vdbs_gpu_buffer buffer)
 {
     (void)gpu;
-    if (buffer)
-        glDeleteBuffers(1, &buffer);
+    if (buffer.id)
+        glDeleteBuffers(1, &buffer.id);
 }
 
-void vdbs_gpu_buffer_bind(vdbs_gpu *gpu, unsigned int buffer, unsigned int binding)
+void vdbs_gpu_buffer_bind(vdbs_gpu *gpu, vdbs_gpu_buffer buffer, unsigned int binding)
 {
     (void)gpu;
-    glBindBufferBase(GL_SHADER_STORAGE_BUFFER, binding, buffer);
+    glBindBufferBase(GL_SHADER_STORAGE_BUFFER, binding, buffer.id);
 }
 
 /* ---- dispatch ---- */
 
-vdbs_status vdbs_gpu_dispatch_items(vdbs_gpu *gpu, unsigned int program, uint64_t count,
+vdbs_status vdbs_gpu_dispatch_items(vdbs_gpu *gpu, vdbs_gpu_program program, uint64_t count,
                                     unsigned int local_size, uint64_t chunk_items,
                                     void (*progress)(void *user, uint64_t done, uint64_t total),
                                     void *user, vdbs_error *err)
@@ -771,10 +771,10 @@ vdbs_status vdbs_gpu_dispatch_items(vdbs_gpu *gpu, unsigned int program, uint64_
     clear_gl_errors();
 
     GLint group_size[3] = {0, 0, 0};
-    glGetProgramiv(program, GL_COMPUTE_WORK_GROUP_SIZE, group_size);
+    glGetProgramiv(program.id, GL_COMPUTE_WORK_GROUP_SIZE, group_size);
     if (glGetError() != GL_NO_ERROR)
         return vdbs_error_set(err, VDBS_ERR_INTERNAL, "program %u is not a linked compute program",
-                              program);
+                              program.id);
     if ((unsigned)group_size[0] != local_size || group_size[1] != 1 || group_size[2] != 1)
         return vdbs_error_set(err, VDBS_ERR_INTERNAL,
                               "dispatch with local size %u, but the shader declares %dx%dx%d",
@@ -790,21 +790,21 @@ vdbs_status vdbs_gpu_dispatch_items(vdbs_gpu *gpu, unsigned int program, uint64_
         groups_per_chunk = max_groups;
     uint64_t chunk = groups_per_chunk * local_size;
 
-    GLint loc_offset = glGetUniformLocation(program, "u_item_offset");
-    GLint loc_count = glGetUniformLocation(program, "u_item_count");
+    GLint loc_offset = glGetUniformLocation(program.id, "u_item_offset");
+    GLint loc_count = glGetUniformLocation(program.id, "u_item_count");
     if (loc_offset < 0 && count > chunk)
         return vdbs_error_set(err, VDBS_ERR_INTERNAL,
                               "%" PRIu64 " items need several dispatches of %" PRIu64
                               ", but the shader has no uniform uint u_item_offset",
                               count, chunk);
     if (loc_count >= 0)
-        glProgramUniform1ui(program, loc_count, (GLuint)count);
-    glUseProgram(program);
+        glProgramUniform1ui(program.id, loc_count, (GLuint)count);
+    glUseProgram(program.id);
 
     for (uint64_t done = 0; done < count;) {
         uint64_t n = count - done < chunk ? count - done : chunk;
         if (loc_offset >= 0)
-            glProgramUniform1ui(program, loc_offset, (GLuint)done);
+            glProgramUniform1ui(program.id, loc_offset, (GLuint)done);
         glDispatchCompute((GLuint)((n + local_size - 1) / local_size), 1, 1);
         done += n;
         if (done < count)

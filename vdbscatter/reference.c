@@ -1,5 +1,7 @@
 #include "vdbscatter/reference.h"
 
+#include "vdbscatter/lights.h"
+
 #include <limits.h>
 #include <math.h>
 #include <omp.h>
@@ -381,14 +383,6 @@ static double ratio_track(ref_tracker *tr, ref_rng *rng, const double o[3], cons
 
 /* ---- scene setup ---- */
 
-typedef struct ref_light {
-    int point;         /* 0: sun, 1: point */
-    double dir[3];     /* sun: unit world travel direction */
-    double towards[3]; /* sun: index image of a unit world step towards the sun */
-    double pos[3];     /* point: world position */
-    double color[3];
-} ref_light;
-
 typedef struct ref_ctx {
     const vdbs_volume *volume;
     ref_grid grid;
@@ -396,18 +390,14 @@ typedef struct ref_ctx {
     double density_scale;
     double albedo[3];
     double g;
-    ref_light *lights;
-    int light_count;
-    double env[3];
-    int has_env;
-    double r_min; /* point lights: 1/r^2 is clamped at this distance */
+    vdbs_light_table lights; /* suns and points; the sky is sampled here, not by ordinates */
     int max_bounces;
 } ref_ctx;
 
 static void ctx_free(ref_ctx *ctx)
 {
     free(ctx->grid.maj);
-    free(ctx->lights);
+    vdbs_lights_free(&ctx->lights);
     memset(ctx, 0, sizeof *ctx);
 }
 
@@ -418,40 +408,15 @@ static vdbs_status ctx_init(const vdbs_volume *volume, const vdbs_scene *scene, 
     if (max_bounces < 1)
         return vdbs_error_set(err, VDBS_ERR_INPUT, "reference: max_bounces must be >= 1 (got %d)",
                               max_bounces);
-    double sky[3];
-    int direct_lights;
-    vdbs_status st = vdbs_scene_light_summary(scene, sky, &ctx->has_env, &direct_lights, err);
+    vdbs_status st = vdbs_lights_build(volume, scene, NULL, &ctx->lights, err);
     if (st != VDBS_OK)
         return st;
-    memcpy(ctx->env, sky, sizeof ctx->env);
     ctx->volume = volume;
     ctx->buf = pnanovdb_make_buf(volume->nano, volume->nano_size / 4);
     ctx->density_scale = scene->density_scale;
     memcpy(ctx->albedo, scene->albedo, sizeof ctx->albedo);
     ctx->g = scene->g;
-    ctx->r_min = 0.5 * volume->mean_voxel_size;
     ctx->max_bounces = max_bounces;
-    ctx->lights =
-        calloc((size_t)(scene->light_count > 0 ? scene->light_count : 1), sizeof *ctx->lights);
-    if (!ctx->lights)
-        return vdbs_error_set(err, VDBS_ERR_NOMEM, "out of memory for lights");
-    for (int i = 0; i < scene->light_count; ++i) {
-        const vdbs_light *light = &scene->lights[i];
-        if (light->type == VDBS_LIGHT_ENV)
-            continue;
-        ref_light *l = &ctx->lights[ctx->light_count];
-        memcpy(l->color, light->color, sizeof l->color);
-        if (light->type == VDBS_LIGHT_SUN) {
-            if (!vdbs_volume_sun_step(volume, light->direction, l->dir, l->towards)) {
-                ctx_free(ctx);
-                return vdbs_error_set(err, VDBS_ERR_INPUT, "sun %d has a zero direction", i);
-            }
-        } else {
-            l->point = 1;
-            memcpy(l->pos, light->position, sizeof l->pos);
-        }
-        ++ctx->light_count;
-    }
     st = grid_build(volume, scene->density_scale, &ctx->grid, err);
     if (st != VDBS_OK)
         ctx_free(ctx);
@@ -476,18 +441,18 @@ static void next_event(const ref_ctx *ctx, ref_tracker *tr, ref_rng *rng, const 
                        const double xi[3], const double w[3], double out[3])
 {
     out[0] = out[1] = out[2] = 0.0;
-    for (int i = 0; i < ctx->light_count; ++i) {
-        const ref_light *l = &ctx->lights[i];
+    for (int i = 0; i < ctx->lights.direct_count; ++i) {
+        const vdbs_direct_light *l = &ctx->lights.direct[i];
         double weight, transmittance;
-        if (!l->point) {
+        if (l->type == VDBS_LIGHT_SUN) {
             /* Incident propagation s, outgoing -w: 1 - mu = |s + w|^2 / 2. */
             double neg_w[3] = {-w[0], -w[1], -w[2]};
-            weight = hg_eval(ctx->g, one_minus_dot(l->dir, neg_w));
-            transmittance = ratio_track(tr, rng, xi, l->towards, HUGE_VAL);
+            weight = hg_eval(ctx->g, one_minus_dot(l->world, neg_w));
+            transmittance = ratio_track(tr, rng, xi, l->index, HUGE_VAL);
         } else {
-            double v[3] = {l->pos[0] - xw[0], l->pos[1] - xw[1], l->pos[2] - xw[2]};
+            double v[3] = {l->world[0] - xw[0], l->world[1] - xw[1], l->world[2] - xw[2]};
             double r = sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
-            double rc = fmax(r, ctx->r_min);
+            double rc = fmax(r, ctx->lights.min_distance);
             if (r > 0.0) {
                 for (int a = 0; a < 3; ++a)
                     v[a] /= r;
@@ -525,7 +490,7 @@ static void trace_camera(const ref_ctx *ctx, ref_tracker *tr, ref_rng *rng, cons
         int r = delta_track(tr, rng, xi, d, HUGE_VAL, &t, &axis);
         if (r == TRACK_ESCAPED) {
             for (int c = 0; c < 3; ++c)
-                radiance[c] += beta[c] * ctx->env[c];
+                radiance[c] += beta[c] * ctx->lights.sky[c];
             return;
         }
         if (r == TRACK_GAVE_UP)
@@ -551,10 +516,10 @@ static void trace_camera(const ref_ctx *ctx, ref_tracker *tr, ref_rng *rng, cons
         vdbs_volume_index_vector(ctx->volume, w, d);
         if (bounce >= ctx->max_bounces) {
             /* No further scattering: the sky through the remaining transmittance. */
-            if (ctx->has_env) {
+            if (ctx->lights.has_sky) {
                 double tr_env = ratio_track(tr, rng, xi, d, HUGE_VAL);
                 for (int c = 0; c < 3; ++c)
-                    radiance[c] += beta[c] * ctx->env[c] * tr_env;
+                    radiance[c] += beta[c] * ctx->lights.sky[c] * tr_env;
             }
             return;
         }

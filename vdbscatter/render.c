@@ -2,95 +2,43 @@
 
 #include <math.h>
 #include <omp.h>
+#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
-#include "vdbscatter/single.h"
+#include "vdbscatter/lights.h"
+#include "vdbscatter/medium.h"
+#include "vdbscatter/reference.h"
+#include "vdbscatter/solver.h"
+#include "vdbscatter/vdbio.h"
 
 #define PNANOVDB_C
 #include <nanovdb/PNanoVDB.h>
 
 #include "vs_common.h"
+#include "vs_lights.h"
 #include "vs_march.h"
+#include "vs_medium.h"
 #include "vs_phase.h"
 #include "vs_render.h"
-
-#define VDBS_PI 3.14159265358979323846
 
 /* Pixels per GPU dispatch chunk: short enough for a display driver's watchdog on real
  * GPUs, large enough to keep llvmpipe's threads busy. */
 #define RENDER_GPU_CHUNK 4096u
-
-static const char *const ms_grid_names[4] = {"ms", "ms_l1x", "ms_l1y", "ms_l1z"};
-
-static int ms_present(const vdbs_ms_grids *ms)
-{
-    return ms && ms->ms && ms->l1x && ms->l1y && ms->l1z;
-}
-
-void vdbs_ms_grids_free(vdbs_ms_grids *grids)
-{
-    if (!grids)
-        return;
-    free(grids->ms);
-    free(grids->l1x);
-    free(grids->l1y);
-    free(grids->l1z);
-    memset(grids, 0, sizeof *grids);
-}
-
-static int same_transform(const vdbio_transform *a, const double b[3][4])
-{
-    double scale = 0.0;
-    for (int r = 0; r < 3; ++r)
-        for (int c = 0; c < 4; ++c)
-            scale = fmax(scale, fabs(b[r][c]));
-    for (int r = 0; r < 3; ++r)
-        for (int c = 0; c < 4; ++c)
-            if (!(fabs(a->m[r][c] - b[r][c]) <= 1e-9 * scale))
-                return 0;
-    return 1;
-}
-
-vdbs_status vdbs_ms_grids_load(const vdbio_lit *lit, const double index_to_world[3][4],
-                               vdbs_ms_grids *out, vdbs_error *err)
-{
-    memset(out, 0, sizeof *out);
-    uint32_t **bufs[4] = {&out->ms, &out->l1x, &out->l1y, &out->l1z};
-    size_t *sizes[4] = {&out->ms_size, &out->l1x_size, &out->l1y_size, &out->l1z_size};
-    for (int i = 0; i < 4; ++i) {
-        vdbio_transform t;
-        vdbs_status st = vdbio_lit_transform(lit, ms_grid_names[i], &t, err);
-        if (st == VDBS_OK && !same_transform(&t, index_to_world))
-            st = vdbs_error_set(err, VDBS_ERR_INPUT,
-                                "grid '%s' is not on the density grid's transform",
-                                ms_grid_names[i]);
-        void *buffer = NULL;
-        if (st == VDBS_OK)
-            st = vdbio_lit_vec3_nanovdb(lit, ms_grid_names[i], &buffer, sizes[i], err);
-        if (st != VDBS_OK) {
-            vdbs_ms_grids_free(out);
-            return st;
-        }
-        *bufs[i] = buffer;
-    }
-    return VDBS_OK;
-}
+/* Pixels per C task: rays differ a lot in cost. */
+#define RENDER_CPU_CHUNK 16u
 
 int vdbs_render_quality(const char *quality, vdbs_march_options *options)
 {
-    static const char *const names[] = {"low", "medium", "high", "ultra"};
-    for (int q = 0; q < 4; ++q) {
-        if (quality && strcmp(quality, names[q]) == 0) {
-            options->sky_directions = 16 << (2 * q);
-            options->step_voxels = 1.0f / (float)(1 << q);
-            return 1;
-        }
-    }
-    return 0;
+    const vdbs_quality *q = vdbs_quality_find(quality);
+    if (!q)
+        return 0;
+    options->sky_directions = q->sky_directions;
+    options->step_voxels = q->render_step_voxels;
+    return 1;
 }
 
-static void set_entry(float *e, double x, double y, double z, double w)
+static void put(float *e, double x, double y, double z, double w)
 {
     e[0] = (float)x;
     e[1] = (float)y;
@@ -111,9 +59,8 @@ static void ms_offsets(const vdbs_volume *volume, const vdbs_ms_grids *ms, uint6
 }
 
 vdbs_status vdbs_render_table(const vdbs_volume *volume, const vdbs_ms_grids *ms,
-                              const vdbs_scene *scene, const vdbs_camera_frame *frame,
-                              const vdbs_march_options *options, float **data, size_t *entries,
-                              vdbs_error *err)
+                              const vdbs_camera_frame *frame, const vdbs_march_options *options,
+                              float **data, size_t *entries, vdbs_error *err)
 {
     *data = NULL;
     *entries = 0;
@@ -122,39 +69,12 @@ vdbs_status vdbs_render_table(const vdbs_volume *volume, const vdbs_ms_grids *ms
         return vdbs_error_set(err, VDBS_ERR_INTERNAL,
                               "render: bad march options (step %g voxels, %d sky directions)",
                               (double)options->step_voxels, options->sky_directions);
-    int lights = 0, has_sky = 0;
-    double sky[3];
-    vdbs_status st = vdbs_scene_light_summary(scene, sky, &has_sky, &lights, err);
-    if (st != VDBS_OK)
-        return st;
-    int k = has_sky ? options->sky_directions : 0;
-    size_t n = VS_RENDER_HEADER + 3 * (size_t)lights + 2 * (size_t)k;
-    float *t = calloc(n, 4 * sizeof *t);
-    double *dirs = k ? malloc(3 * sizeof *dirs * (size_t)k) : NULL;
-    if (!t || (k && !dirs)) {
-        free(t);
-        free(dirs);
+    float *t = calloc(VS_RENDER_SIZE, 4 * sizeof *t);
+    if (!t)
         return vdbs_error_set(err, VDBS_ERR_NOMEM, "out of memory for the render table");
-    }
-
-    float lo[3], hi[3];
-    vdbs_volume_support_box(volume, lo, hi);
-    const double(*m)[4] = volume->index_to_world;
-    const double(*inv)[4] = volume->world_to_index;
-    set_entry(t, lights, k, scene->density_scale, 0.5 * volume->mean_voxel_size);
-    for (int r = 0; r < 3; ++r) {
-        set_entry(t + 4 * (1 + r), m[r][0], m[r][1], m[r][2], 0.0);
-        set_entry(t + 4 * (11 + r), inv[r][0], inv[r][1], inv[r][2], 0.0);
-    }
-    set_entry(t + 4 * 4, lo[0], lo[1], lo[2], options->step_voxels);
-    set_entry(t + 4 * 5, hi[0], hi[1], hi[2], ms_present(ms) ? 1.0 : 0.0);
-    set_entry(t + 4 * 6, scene->albedo[0], scene->albedo[1], scene->albedo[2], scene->g);
-    set_entry(t + 4 * 7, sky[0], sky[1], sky[2], 0.0);
-    if (k > 0) {
-        double w = 4.0 * VDBS_PI / k;
-        set_entry(t + 4 * 8, sky[0] * w, sky[1] * w, sky[2] * w, 0.0);
-    }
-    if (ms_present(ms)) {
+    int with_ms = vdbs_ms_grids_present(ms);
+    put(t + 4 * VS_RENDER_OFF_MARCH, options->step_voxels, with_ms ? 1.0 : 0.0, 0.0, 0.0);
+    if (with_ms) {
         uint64_t offsets[4];
         ms_offsets(volume, ms, offsets);
         uint64_t units[4];
@@ -162,66 +82,32 @@ vdbs_status vdbs_render_table(const vdbs_volume *volume, const vdbs_ms_grids *ms
             units[i] = offsets[i] / 32u;
             if (units[i] >> 40) {
                 free(t);
-                free(dirs);
                 return vdbs_error_set(err, VDBS_ERR_INPUT, "lit grids too large to address");
             }
         }
-        set_entry(t + 4 * 9, (double)(units[0] >> 16), (double)(units[0] & 0xffffu),
-                  (double)(units[1] >> 16), (double)(units[1] & 0xffffu));
-        set_entry(t + 4 * 10, (double)(units[2] >> 16), (double)(units[2] & 0xffffu),
-                  (double)(units[3] >> 16), (double)(units[3] & 0xffffu));
+        put(t + 4 * VS_RENDER_OFF_GRIDS, (double)(units[0] >> 16), (double)(units[0] & 0xffffu),
+            (double)(units[1] >> 16), (double)(units[1] & 0xffffu));
+        put(t + 4 * VS_RENDER_OFF_GRIDS_L1YZ, (double)(units[2] >> 16),
+            (double)(units[2] & 0xffffu), (double)(units[3] >> 16), (double)(units[3] & 0xffffu));
     }
     double origin[3];
     vdbs_volume_index_point(volume, frame->origin, origin);
-    set_entry(t + 4 * 14, origin[0], origin[1], origin[2], frame->width);
-    set_entry(t + 4 * 15, frame->forward[0], frame->forward[1], frame->forward[2], frame->height);
-    set_entry(t + 4 * 16, frame->right[0] * frame->tan_half_x, frame->right[1] * frame->tan_half_x,
-              frame->right[2] * frame->tan_half_x, 0.0);
-    set_entry(t + 4 * 17, frame->up[0] * frame->tan_half_y, frame->up[1] * frame->tan_half_y,
-              frame->up[2] * frame->tan_half_y, 0.0);
-
-    float *e = t + 4 * VS_RENDER_HEADER;
-    for (int i = 0; i < scene->light_count; ++i) {
-        const vdbs_light *light = &scene->lights[i];
-        double v[3];
-        if (light->type == VDBS_LIGHT_SUN) {
-            double u[3];
-            if (!vdbs_volume_sun_step(volume, light->direction, u, v)) {
-                free(t);
-                free(dirs);
-                return vdbs_error_set(err, VDBS_ERR_INPUT, "sun %d has a zero direction", i);
-            }
-            set_entry(e, VS_RENDER_LIGHT_SUN, v[0], v[1], v[2]);
-            set_entry(e + 4, u[0], u[1], u[2], 0.0);
-        } else if (light->type == VDBS_LIGHT_POINT) {
-            vdbs_volume_index_point(volume, light->position, v);
-            set_entry(e, VS_RENDER_LIGHT_POINT, v[0], v[1], v[2]);
-            set_entry(e + 4, light->position[0], light->position[1], light->position[2], 0.0);
-        } else {
-            continue;
-        }
-        set_entry(e + 8, light->color[0], light->color[1], light->color[2], 0.0);
-        e += 12;
-    }
-    if (k > 0) {
-        vdbs_sphere_directions(k, dirs);
-        for (int d = 0; d < k; ++d) {
-            double v[3];
-            vdbs_volume_index_vector(volume, dirs + 3 * d, v);
-            set_entry(e + 8 * d, v[0], v[1], v[2], 0.0);
-            set_entry(e + 8 * d + 4, dirs[3 * d], dirs[3 * d + 1], dirs[3 * d + 2], 0.0);
-        }
-    }
-    free(dirs);
+    put(t + 4 * VS_RENDER_OFF_ORIGIN, origin[0], origin[1], origin[2], frame->width);
+    put(t + 4 * VS_RENDER_OFF_FORWARD, frame->forward[0], frame->forward[1], frame->forward[2],
+        frame->height);
+    put(t + 4 * VS_RENDER_OFF_RIGHT, frame->right[0] * frame->tan_half_x,
+        frame->right[1] * frame->tan_half_x, frame->right[2] * frame->tan_half_x, 0.0);
+    put(t + 4 * VS_RENDER_OFF_UP, frame->up[0] * frame->tan_half_y,
+        frame->up[1] * frame->tan_half_y, frame->up[2] * frame->tan_half_y, 0.0);
     *data = t;
-    *entries = n;
+    *entries = VS_RENDER_SIZE;
     return VDBS_OK;
 }
 
 vdbs_status vdbs_render_buffer(const vdbs_volume *volume, const vdbs_ms_grids *ms,
                                uint32_t **buffer, size_t *size, int *owned, vdbs_error *err)
 {
-    if (!ms_present(ms)) {
+    if (!vdbs_ms_grids_present(ms)) {
         *buffer = volume->nano;
         *size = volume->nano_size;
         *owned = 0;
@@ -256,168 +142,332 @@ static vdbs_status check_image(const vdbs_camera_frame *frame, const vdbs_image 
     return VDBS_OK;
 }
 
-vdbs_status vdbs_render_march_cpu(const vdbs_volume *volume, const vdbs_ms_grids *ms,
-                                  const vdbs_scene *scene, const vdbs_camera_frame *frame,
-                                  const vdbs_march_options *options, vdbs_image *image,
-                                  vdbs_error *err)
+typedef struct march_job {
+    const vs_vec4 *medium_data;
+    const vs_vec4 *light_data;
+    const vs_vec4 *render_data;
+    pnanovdb_buf_t buf;
+    int width;
+    float *rgb;
+} march_job;
+
+static void march_items(void *user, uint64_t begin, uint64_t end)
+{
+    const march_job *job = user;
+    vs_render_accessors accs = vs_render_accessors_init(job->render_data, job->buf);
+    for (uint64_t n = begin; n < end; ++n) {
+        pnanovdb_vec3_t L =
+            vs_render_pixel(job->medium_data, job->light_data, job->render_data, job->buf, &accs,
+                            (int)(n % (uint64_t)job->width), (int)(n / (uint64_t)job->width));
+        job->rgb[3 * n] = L.x;
+        job->rgb[3 * n + 1] = L.y;
+        job->rgb[3 * n + 2] = L.z;
+    }
+}
+
+vdbs_status vdbs_render_march(vdbs_runner *runner, const vdbs_volume *volume,
+                              const vdbs_ms_grids *ms, const vdbs_scene *scene,
+                              const vdbs_camera_frame *frame, const vdbs_march_options *options,
+                              vdbs_image *image, vdbs_error *err)
 {
     vdbs_status st = check_image(frame, image, err);
     if (st != VDBS_OK)
         return st;
     float *table = NULL;
     size_t entries = 0;
-    if ((st = vdbs_render_table(volume, ms, scene, frame, options, &table, &entries, err)) !=
-        VDBS_OK)
+    if ((st = vdbs_render_table(volume, ms, frame, options, &table, &entries, err)) != VDBS_OK)
         return st;
-    uint32_t *grids = NULL;
-    size_t grids_size = 0;
-    int owned = 0;
-    if ((st = vdbs_render_buffer(volume, ms, &grids, &grids_size, &owned, err)) != VDBS_OK) {
+    vdbs_lights_desc lights_desc = {0};
+    lights_desc.sky_ordinates = options->sky_directions;
+    vdbs_light_table lights;
+    if ((st = vdbs_lights_build(volume, scene, &lights_desc, &lights, err)) != VDBS_OK) {
         free(table);
         return st;
     }
-    const vs_vec4 *render_data = (const vs_vec4 *)table;
-    pnanovdb_buf_t buf = pnanovdb_make_buf(grids, grids_size / 4);
-    const int width = frame->width;
-    const int64_t count = (int64_t)frame->width * frame->height;
-    float *rgb = image->rgb;
-    vdbs_progress *progress = options->progress;
-    int64_t done = 0;
-
-#pragma omp parallel
-    {
-        vs_render_accessors accs = vs_render_accessors_init(render_data, buf);
-#pragma omp for schedule(dynamic, 16)
-        for (int64_t n = 0; n < count; ++n) {
-            pnanovdb_vec3_t L =
-                vs_render_pixel(render_data, buf, &accs, (int)(n % width), (int)(n / width));
-            rgb[3 * n] = L.x;
-            rgb[3 * n + 1] = L.y;
-            rgb[3 * n + 2] = L.z;
-            int64_t now_done;
-#pragma omp atomic capture
-            now_done = ++done;
-            if (progress && omp_get_thread_num() == 0)
-                vdbs_progress_update(progress, (uint64_t)now_done);
-        }
-    }
-    if (owned)
-        free(grids);
-    free(table);
-    return VDBS_OK;
-}
-
-/* Words of ray state per pixel in render_march.comp. */
-#define STATE_WORDS 16u
-/* Canary trip count and the control words of render_march.comp. */
-#define CANARY_TRIPS 2u
-enum {
-    CONTROL_UNITS,
-    CONTROL_FIRST,
-    CONTROL_CANARY,
-    CONTROL_STEP,
-    CONTROL_LEFT,
-    CONTROL_FAILED,
-    CONTROL_WORDS
-};
-
-vdbs_status vdbs_render_march_gpu(vdbs_gpu *gpu, const vdbs_volume *volume, const vdbs_ms_grids *ms,
-                                  const vdbs_scene *scene, const vdbs_camera_frame *frame,
-                                  const vdbs_march_options *options, vdbs_image *image,
-                                  vdbs_error *err)
-{
-    vdbs_status st = check_image(frame, image, err);
-    if (st != VDBS_OK)
-        return st;
-    const vdbs_shader_source *source = vdbs_shader_find("render_march.comp");
-    if (!source)
-        return vdbs_error_set(err, VDBS_ERR_INTERNAL, "shader render_march.comp not embedded");
-    float *table = NULL;
-    size_t entries = 0;
-    if ((st = vdbs_render_table(volume, ms, scene, frame, options, &table, &entries, err)) !=
-        VDBS_OK)
-        return st;
     uint32_t *grids = NULL;
     size_t grids_size = 0;
     int owned = 0;
     if ((st = vdbs_render_buffer(volume, ms, &grids, &grids_size, &owned, err)) != VDBS_OK) {
+        vdbs_lights_free(&lights);
         free(table);
         return st;
     }
     /* GLSL addresses bytes with 32-bit unsigned integers. */
-    if (grids_size > 0xffffffffu)
+    if (vdbs_runner_backend(runner) == VDBS_BACKEND_GPU && grids_size > 0xffffffffu)
         st = vdbs_error_set(err, VDBS_ERR_GPU,
                             "%zu bytes of grids exceed the 4 GiB a shader can address; use "
                             "--backend cpu",
                             grids_size);
+    float medium[4 * VDBS_MEDIUM_TABLE_ENTRIES];
+    vdbs_medium_pack(volume, scene, medium);
+    march_job job = {(const vs_vec4 *)medium,
+                     (const vs_vec4 *)lights.packed,
+                     (const vs_vec4 *)table,
+                     pnanovdb_make_buf(grids, grids_size / 4),
+                     frame->width,
+                     image->rgb};
 
-    const uint64_t count = (uint64_t)frame->width * (uint64_t)frame->height;
-    unsigned int program = 0, nano = 0, lights = 0, out = 0, states[2] = {0, 0};
-    if (st == VDBS_OK)
-        st = vdbs_gpu_program_create(gpu, source, NULL, &program, err);
-    if (st == VDBS_OK)
-        st = vdbs_gpu_buffer_create(gpu, grids_size, grids, &nano, err);
-    if (st == VDBS_OK)
-        st = vdbs_gpu_buffer_create(gpu, entries * 4 * sizeof(float), table, &lights, err);
-    if (st == VDBS_OK)
-        st = vdbs_gpu_buffer_create(gpu, 3 * sizeof(float) * count, NULL, &out, err);
-    for (int i = 0; i < 2 && st == VDBS_OK; ++i)
-        st = vdbs_gpu_buffer_create(gpu, STATE_WORDS * sizeof(uint32_t) * count, NULL, &states[i],
-                                    err);
-    if (st == VDBS_OK) {
-        vdbs_gpu_buffer_bind(gpu, nano, 0);
-        vdbs_gpu_buffer_bind(gpu, lights, 1);
-        vdbs_gpu_buffer_bind(gpu, out, 2);
-    }
-    int64_t units =
+    vdbs_kernel_desc desc = {0};
+    desc.items = (uint64_t)frame->width * (uint64_t)frame->height;
+    desc.user = &job;
+    desc.cpu_items = march_items;
+    desc.cpu_chunk = RENDER_CPU_CHUNK;
+    desc.shader = "render_march.comp";
+    desc.inputs[0] = (vdbs_kernel_input){grids, grids_size};
+    desc.inputs[1] = (vdbs_kernel_input){medium, sizeof medium};
+    desc.inputs[2] = (vdbs_kernel_input){lights.packed, lights.packed_entries * 4 * sizeof(float)};
+    desc.inputs[3] = (vdbs_kernel_input){table, entries * 4 * sizeof(float)};
+    desc.state_words = VS_RENDER_STATE_WORDS;
+    desc.output_words = 3;
+    desc.output = image->rgb;
+    desc.units_per_dispatch =
         options->gpu_units > 0 ? options->gpu_units : vdbs_volume_gpu_marches_per_pass(volume);
-    int first = 1, in = 0;
-    while (st == VDBS_OK) {
-        uint32_t control[CONTROL_WORDS] = {0};
-        control[CONTROL_UNITS] = (uint32_t)(units < 0x7fffffff ? units : 0x7fffffff);
-        control[CONTROL_FIRST] = (uint32_t)first;
-        control[CONTROL_CANARY] = CANARY_TRIPS;
-        control[CONTROL_STEP] = 1u;
-        unsigned int control_buffer = 0;
-        st = vdbs_gpu_buffer_create(gpu, sizeof control, control, &control_buffer, err);
-        if (st != VDBS_OK)
-            break;
-        vdbs_gpu_buffer_bind(gpu, states[in], 3);
-        vdbs_gpu_buffer_bind(gpu, states[1 - in], 4);
-        vdbs_gpu_buffer_bind(gpu, control_buffer, 5);
-        st = vdbs_gpu_dispatch_items(gpu, program, count, 64, RENDER_GPU_CHUNK, NULL, NULL, err);
-        if (st == VDBS_OK)
-            st = vdbs_gpu_buffer_read(gpu, control_buffer, 0, sizeof control, control, err);
-        vdbs_gpu_buffer_destroy(gpu, control_buffer);
-        if (st != VDBS_OK)
-            break;
-        if (control[CONTROL_FAILED]) {
-            /* The states in `in` are untouched: run the same pass with fewer units. */
-            if (units == 1)
-                st = vdbs_error_set(err, VDBS_ERR_GPU,
-                                    "a single march exceeds the GPU driver's loop limit; use "
-                                    "--backend cpu");
-            units = units / 2 > 0 ? units / 2 : 1;
-            continue;
-        }
-        first = 0;
-        in = 1 - in;
-        if (options->progress)
-            vdbs_progress_update(options->progress, count - control[CONTROL_LEFT]);
-        if (control[CONTROL_LEFT] == 0)
-            break;
-    }
+    desc.gpu_chunk = RENDER_GPU_CHUNK;
+    desc.progress = options->progress;
     if (st == VDBS_OK)
-        st = vdbs_gpu_buffer_read(gpu, out, 0, 3 * sizeof(float) * count, image->rgb, err);
-    for (int i = 0; i < 2; ++i)
-        vdbs_gpu_buffer_destroy(gpu, states[i]);
-    vdbs_gpu_buffer_destroy(gpu, out);
-    vdbs_gpu_buffer_destroy(gpu, lights);
-    vdbs_gpu_buffer_destroy(gpu, nano);
-    if (program)
-        vdbs_gpu_program_destroy(gpu, program);
+        st = vdbs_kernel_run(runner, &desc, NULL, err);
     if (owned)
         free(grids);
+    vdbs_lights_free(&lights);
     free(table);
+    return st;
+}
+
+/* ---- the render job ---- */
+
+static const char *const mode_names[] = {NULL, "single", "baked", "reference"};
+
+const char *vdbs_render_mode_name(vdbs_render_mode mode)
+{
+    return mode >= VDBS_RENDER_SINGLE && mode <= VDBS_RENDER_REFERENCE ? mode_names[mode] : NULL;
+}
+
+static void warn(const vdbs_render_desc *d, const char *message)
+{
+    if (d->warn)
+        d->warn(d->warn_user, message);
+}
+
+/* The scene of a lit VDB: its baked scene with the caller's explicit settings on top. */
+static void apply_overrides(unsigned set, const vdbs_scene *given, vdbs_scene *scene)
+{
+    if (set & VDBS_SCENE_SET_DENSITY_SCALE)
+        scene->density_scale = given->density_scale;
+    if (set & VDBS_SCENE_SET_ALBEDO)
+        memcpy(scene->albedo, given->albedo, sizeof scene->albedo);
+    if (set & VDBS_SCENE_SET_G)
+        scene->g = given->g;
+    if (set & VDBS_SCENE_SET_QUALITY)
+        memcpy(scene->quality, given->quality, sizeof scene->quality);
+    if (set & VDBS_SCENE_SET_LIGHTS) {
+        memcpy(scene->lights, given->lights, sizeof scene->lights);
+        scene->light_count = given->light_count;
+    }
+    if (set & VDBS_SCENE_SET_GRID) {
+        memcpy(scene->grid, given->grid, sizeof scene->grid);
+        scene->grid_index = given->grid_index;
+    }
+}
+
+/* Opens the input: a lit VDB brings its baked scene (*is_lit), and the render scene is
+ * resolved from it and the caller's. On success *lit is open (the caller closes it). */
+static vdbs_status resolve_scene(const vdbs_render_desc *d, const char *input, vdbio_lit **lit,
+                                 vdbs_render_mode *mode, int *is_lit, vdbs_scene *scene,
+                                 vdbs_error *err)
+{
+    vdbs_status st = vdbio_lit_open(input, lit, err);
+    if (st != VDBS_OK)
+        return st;
+    const char *meta = vdbio_lit_meta(*lit, "vdbscatter_scene");
+    *is_lit = meta && vdbio_lit_has_grid(*lit, "radiance") && vdbio_lit_has_grid(*lit, "density");
+    vdbs_scene *baked = malloc(sizeof *baked);
+    if (!baked)
+        return vdbs_error_set(err, VDBS_ERR_NOMEM, "out of memory for a scene");
+    if (*is_lit && (st = vdbs_scene_parse(meta, NULL, baked, err)) != VDBS_OK) {
+        vdbs_error inner = *err;
+        free(baked);
+        return vdbs_error_set(err, VDBS_ERR_INPUT, "%s: vdbscatter_scene metadata: %s", input,
+                              inner.message);
+    }
+    *mode = d->mode != VDBS_RENDER_DEFAULT ? d->mode
+            : *is_lit                      ? VDBS_RENDER_BAKED
+                                           : VDBS_RENDER_SINGLE;
+    if (*mode == VDBS_RENDER_BAKED && !*is_lit) {
+        free(baked);
+        return vdbs_error_set(err, VDBS_ERR_INPUT,
+                              "--mode baked needs a lit VDB written by vdbscatter bake ('%s' has "
+                              "no radiance grid and vdbscatter_scene metadata)",
+                              input);
+    }
+    /* A scene file replaces the baked scene; flags alone go on top of it. */
+    if (*is_lit && !(d->scene_set & VDBS_SCENE_FROM_FILE)) {
+        *scene = *baked;
+        apply_overrides(d->scene_set, d->scene, scene);
+    } else {
+        *scene = *d->scene;
+        if (*is_lit && scene->light_count == 0) {
+            memcpy(scene->lights, baked->lights, sizeof scene->lights);
+            scene->light_count = baked->light_count;
+        }
+    }
+    free(baked);
+    if (scene->light_count == 0)
+        return vdbs_error_set(err, VDBS_ERR_INPUT,
+                              "no lights: give --sun, --point or --env (or a --scene)");
+    return vdbs_scene_validate(scene, err);
+}
+
+/* Camera: the caller's, else the scene's, else a view of the whole volume. */
+static void choose_camera(const vdbs_render_desc *d, const vdbs_scene *scene,
+                          const vdbs_volume *volume, vdbs_camera *camera)
+{
+    int width = d->width > 0 ? d->width : 640, height = d->height > 0 ? d->height : 480;
+    if (d->camera && d->camera->present) {
+        *camera = *d->camera;
+    } else if (scene->camera.present) {
+        *camera = scene->camera;
+        if (!(d->width > 0)) {
+            width = camera->width;
+            height = camera->height;
+        }
+    } else {
+        vdbs_camera_frame_volume(volume, width, height, camera);
+    }
+    camera->width = width;
+    camera->height = height;
+}
+
+static vdbs_status render_image(const vdbs_render_desc *d, vdbs_render_mode mode,
+                                const vdbs_volume *volume, const vdbs_ms_grids *ms,
+                                const vdbs_scene *scene, const vdbs_camera_frame *frame,
+                                vdbs_march_options *march, vdbs_image *image,
+                                vdbs_render_report *report, vdbs_error *err)
+{
+    vdbs_progress progress;
+    uint64_t pixels = (uint64_t)frame->width * (uint64_t)frame->height;
+    vdbs_status st;
+    if (mode == VDBS_RENDER_REFERENCE) {
+        vdbs_reference_options ro = {0};
+        ro.spp = d->spp > 0 ? d->spp : d->time_limit > 0.0 ? 4 : 64;
+        ro.time_limit = d->time_limit;
+        ro.max_bounces = d->max_bounces > 0 ? d->max_bounces : 1000;
+        ro.seed = d->seed;
+        ro.progress = &progress;
+        snprintf(report->backend, sizeof report->backend, "cpu");
+        snprintf(report->renderer, sizeof report->renderer, "C (OpenMP, %d threads)",
+                 omp_get_max_threads());
+        vdbs_progress_begin(&progress, d->progress, "render (reference)",
+                            pixels * (uint64_t)ro.spp);
+        st = vdbs_reference_render(volume, scene, frame, &ro, image, &report->spp, err);
+    } else {
+        vdbs_runner_desc rd = {d->backend};
+        vdbs_runner *runner = NULL;
+        if ((st = vdbs_runner_create(&rd, &runner, err)) != VDBS_OK)
+            return st;
+        snprintf(report->backend, sizeof report->backend, "%s", vdbs_runner_backend_name(runner));
+        snprintf(report->renderer, sizeof report->renderer, "%s", vdbs_runner_device(runner));
+        march->progress = &progress;
+        march->gpu_units = d->gpu_units;
+        report->spp = 1;
+        vdbs_progress_begin(&progress, d->progress, "render", pixels);
+        st = vdbs_render_march(runner, volume, mode == VDBS_RENDER_BAKED ? ms : NULL, scene, frame,
+                               march, image, err);
+        vdbs_runner_destroy(runner);
+    }
+    if (st == VDBS_OK)
+        vdbs_progress_end(&progress);
+    return st;
+}
+
+vdbs_status vdbs_render(const vdbs_render_desc *d, vdbs_render_report *report, vdbs_error *err)
+{
+    memset(report, 0, sizeof *report);
+    double t_start = vdbs_now();
+    const char *input = d->input ? d->input : d->scene->volume_file;
+    if (!input || !input[0])
+        return vdbs_error_set(err, VDBS_ERR_INPUT,
+                              "no input VDB (give IN.vdb or volume.file in --scene)");
+    vdbs_status st = vdbio_check_output(d->output, input, err);
+    if (st != VDBS_OK)
+        return st;
+
+    vdbio_lit *lit = NULL;
+    vdbs_render_mode mode = VDBS_RENDER_DEFAULT;
+    int is_lit = 0;
+    vdbs_scene *scene = malloc(sizeof *scene);
+    if (!scene)
+        return vdbs_error_set(err, VDBS_ERR_NOMEM, "out of memory for a scene");
+    st = resolve_scene(d, input, &lit, &mode, &is_lit, scene, err);
+    vdbs_march_options march = {0};
+    if (st == VDBS_OK) {
+        report->mode = vdbs_render_mode_name(mode);
+        for (int i = 0; i < scene->light_count; ++i)
+            if (scene->lights[i].type == VDBS_LIGHT_SUN &&
+                scene->lights[i].angular_diameter_deg > 0) {
+                warn(d, "sun angular_diameter_deg is treated as 0 (a delta light)");
+                break;
+            }
+        if (mode == VDBS_RENDER_REFERENCE && d->backend == VDBS_BACKEND_GPU)
+            warn(d, "--mode reference runs on the C path; --backend gpu is ignored");
+        if (!vdbs_render_quality(scene->quality, &march))
+            st = vdbs_error_set(err, VDBS_ERR_INPUT, "unknown quality");
+    }
+
+    /* The density: a lit VDB's own `density` grid unless the caller names one. */
+    vdbs_volume volume;
+    memset(&volume, 0, sizeof volume);
+    vdbs_ms_grids ms;
+    memset(&ms, 0, sizeof ms);
+    if (st == VDBS_OK) {
+        int own_grid = is_lit && !(d->scene_set & VDBS_SCENE_SET_GRID);
+        const char *grid = own_grid ? "density" : scene->grid;
+        vdbio_read_options read = {0};
+        read.grid_name = grid[0] ? grid : NULL;
+        read.grid_index = own_grid ? 0 : scene->grid_index;
+        read.warn = d->warn;
+        read.warn_user = d->warn_user;
+        st = vdbs_volume_load(input, &read, &volume, err);
+        if (st == VDBS_OK && mode == VDBS_RENDER_BAKED)
+            st = vdbs_ms_grids_load(lit, volume.index_to_world, &ms, err);
+    }
+    if (lit)
+        vdbio_lit_close(lit);
+    double t_loaded = vdbs_now();
+
+    vdbs_camera_frame frame;
+    vdbs_image image;
+    memset(&image, 0, sizeof image);
+    if (st == VDBS_OK) {
+        choose_camera(d, scene, &volume, &report->camera);
+        st = vdbs_camera_frame_init(&report->camera, &frame, err);
+    }
+    if (st == VDBS_OK)
+        st = vdbs_image_alloc(&image, report->camera.width, report->camera.height,
+                              mode == VDBS_RENDER_REFERENCE, err);
+    double t_render = vdbs_now();
+    if (st == VDBS_OK)
+        st = render_image(d, mode, &volume, &ms, scene, &frame, &march, &image, report, err);
+    double t_rendered = vdbs_now();
+    if (st == VDBS_OK)
+        st = vdbs_image_write(d->output, &image, d->exposure, err);
+    double t_written = vdbs_now();
+
+    if (st == VDBS_OK) {
+        snprintf(report->grid, sizeof report->grid, "%s", volume.info.name);
+        snprintf(report->quality, sizeof report->quality, "%s", scene->quality);
+        report->width = report->camera.width;
+        report->height = report->camera.height;
+        report->sky_directions = march.sky_directions;
+        report->step_voxels = march.step_voxels;
+        memcpy(report->camera_up, frame.up, sizeof report->camera_up);
+        report->seconds_load = t_loaded - t_start;
+        report->seconds_render = t_rendered - t_render;
+        report->seconds_write = t_written - t_rendered;
+        report->seconds_total = vdbs_now() - t_start;
+    }
+    vdbs_ms_grids_free(&ms);
+    vdbs_image_free(&image);
+    vdbs_volume_free(&volume);
+    free(scene);
     return st;
 }

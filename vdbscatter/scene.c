@@ -2,6 +2,8 @@
  * an error naming its key path), range validation, and serialisation that round-trips. */
 #include "vdbscatter/scene.h"
 
+#include "vdbscatter/solver.h"
+
 #include <cjson/cJSON.h>
 
 #include <errno.h>
@@ -18,7 +20,6 @@
 #define SCENE_FILE_MAX (64L * 1024 * 1024)
 
 static const char *const method_names[] = {"single", "pop", "svd", "inet", NULL};
-static const char *const quality_names[] = {"low", "medium", "high", "ultra", NULL};
 
 typedef struct parse_ctx {
     const char *prefix; /* "scene" or "scene FILE" */
@@ -460,7 +461,7 @@ static vdbs_status parse_solver(const parse_ctx *ctx, const cJSON *sol, vdbs_sce
     if ((st = get_string(ctx, sol, "solver", "quality", s->quality, sizeof s->quality, &found)) !=
         VDBS_OK)
         return st;
-    if (found && !in_list(s->quality, quality_names))
+    if (found && !vdbs_quality_find(s->quality))
         return fail(ctx, "solver.quality",
                     "unknown quality \"%s\" (expected low, medium, high or ultra)", s->quality);
     return VDBS_OK;
@@ -882,7 +883,7 @@ vdbs_status vdbs_scene_validate(vdbs_scene *s, vdbs_error *err)
     if (!in_list(s->method, method_names))
         return fail(&ctx, "solver.method",
                     "unknown method \"%s\" (expected single, pop, svd or inet)", s->method);
-    if (!in_list(s->quality, quality_names))
+    if (!vdbs_quality_find(s->quality))
         return fail(&ctx, "solver.quality",
                     "unknown quality \"%s\" (expected low, medium, high or ultra)", s->quality);
     /* Normalise only once everything is known to be valid: a failed validation leaves
@@ -890,44 +891,5 @@ vdbs_status vdbs_scene_validate(vdbs_scene *s, vdbs_error *err)
     for (int i = 0; i < s->light_count; ++i)
         if (s->lights[i].type == VDBS_LIGHT_SUN)
             normalise3(s->lights[i].direction);
-    return VDBS_OK;
-}
-
-int vdbs_quality_sky_directions(const char *quality)
-{
-    if (!quality)
-        return 0;
-    if (strcmp(quality, "low") == 0)
-        return 16;
-    if (strcmp(quality, "medium") == 0)
-        return 64;
-    if (strcmp(quality, "high") == 0)
-        return 256;
-    if (strcmp(quality, "ultra") == 0)
-        return 1024;
-    return 0;
-}
-
-vdbs_status vdbs_scene_light_summary(const vdbs_scene *scene, double sky[3], int *has_sky,
-                                     int *direct_lights, vdbs_error *err)
-{
-    sky[0] = sky[1] = sky[2] = 0.0;
-    *has_sky = 0;
-    *direct_lights = 0;
-    for (int i = 0; i < scene->light_count; ++i) {
-        const vdbs_light *light = &scene->lights[i];
-        if (light->type != VDBS_LIGHT_ENV) {
-            ++*direct_lights;
-            continue;
-        }
-        if (light->env_file[0])
-            return vdbs_error_set(err, VDBS_ERR_INPUT,
-                                  "environment maps (%s) are not supported yet; use a constant "
-                                  "sky colour (--env R,G,B)",
-                                  light->env_file);
-        for (int c = 0; c < 3; ++c)
-            sky[c] += light->color[c];
-        *has_sky = 1;
-    }
     return VDBS_OK;
 }

@@ -2,6 +2,7 @@
 #ifndef VDBSCATTER_BAKE_H
 #define VDBSCATTER_BAKE_H
 
+#include "vdbscatter/kernel.h"
 #include "vdbscatter/scene.h"
 #include "vdbscatter/status.h"
 
@@ -9,15 +10,9 @@
 extern "C" {
 #endif
 
-typedef enum vdbs_backend {
-    VDBS_BACKEND_AUTO = 0, /* a hardware GPU if EGL finds one, else the C path */
-    VDBS_BACKEND_CPU = 1,
-    VDBS_BACKEND_GPU = 2
-} vdbs_backend;
-
 typedef struct vdbs_bake_options {
-    const char *input;  /* density VDB; scene->volume_file when NULL */
-    const char *output; /* lit VDB */
+    const char *input;       /* density VDB; scene->volume_file when NULL */
+    const char *output;      /* lit VDB */
     const vdbs_scene *scene; /* validated */
     vdbs_backend backend;
     int from_levelset;
@@ -41,11 +36,7 @@ typedef struct vdbs_bake_report {
     float radiance_max[3]; /* per channel, over output voxels */
 } vdbs_bake_report;
 
-vdbs_status vdbs_bake(const vdbs_bake_options *options, vdbs_bake_report *report,
-                      vdbs_error *err);
-
-/* Parses "auto", "cpu" or "gpu". */
-vdbs_status vdbs_backend_parse(const char *text, vdbs_backend *backend, vdbs_error *err);
+vdbs_status vdbs_bake(const vdbs_bake_options *options, vdbs_bake_report *report, vdbs_error *err);
 
 #ifdef __cplusplus
 }

@@ -13,18 +13,27 @@ extern "C" {
 #endif
 
 typedef struct vdbs_gpu_info {
-    char platform[32];   /* "device", "surfaceless" or "default": the EGL platform that worked */
-    char vendor[128];    /* GL_VENDOR */
-    char renderer[256];  /* GL_RENDERER */
-    char version[128];   /* GL_VERSION */
+    char platform[32];  /* "device", "surfaceless" or "default": the EGL platform that worked */
+    char vendor[128];   /* GL_VENDOR */
+    char renderer[256]; /* GL_RENDERER */
+    char version[128];  /* GL_VERSION */
     char glsl_version[64];
-    int is_software;     /* llvmpipe, softpipe, swrast or an EGL_MESA_device_software device */
-    int64_t max_ssbo_bytes;          /* GL_MAX_SHADER_STORAGE_BLOCK_SIZE */
-    int max_work_group_invocations;  /* GL_MAX_COMPUTE_WORK_GROUP_INVOCATIONS */
+    int is_software;        /* llvmpipe, softpipe, swrast or an EGL_MESA_device_software device */
+    int64_t max_ssbo_bytes; /* GL_MAX_SHADER_STORAGE_BLOCK_SIZE */
+    int max_work_group_invocations; /* GL_MAX_COMPUTE_WORK_GROUP_INVOCATIONS */
     int max_work_group_count[3];
 } vdbs_gpu_info;
 
 typedef struct vdbs_gpu vdbs_gpu;
+
+/* GL object names, typed so that a buffer cannot be passed where a program is expected;
+ * id 0 is "none". */
+typedef struct vdbs_gpu_program {
+    unsigned id;
+} vdbs_gpu_program;
+typedef struct vdbs_gpu_buffer {
+    unsigned id;
+} vdbs_gpu_buffer;
 
 /* Creates an OpenGL 4.3+ core context without any surface: EGL device platform
  * first (hardware devices before software ones), then surfaceless Mesa, then the
@@ -62,9 +71,9 @@ const vdbs_shader_source *vdbs_shader_find(const char *name);
  * The `#line` directives are interpreted here, not by the driver: Mesa drops their
  * file numbers from most messages. */
 vdbs_status vdbs_gpu_program_create(vdbs_gpu *gpu, const vdbs_shader_source *source,
-                                    const char *defines, unsigned int *program,
+                                    const char *defines, vdbs_gpu_program *program,
                                     vdbs_error *err);
-void vdbs_gpu_program_destroy(vdbs_gpu *gpu, unsigned int program);
+void vdbs_gpu_program_destroy(vdbs_gpu *gpu, vdbs_gpu_program program);
 
 /* Shader storage buffers (immutable storage, updatable with glNamedBufferSubData).
  * `data` may be NULL (contents zeroed); size 0 makes a 4-byte buffer. Sizes above
@@ -72,11 +81,11 @@ void vdbs_gpu_program_destroy(vdbs_gpu *gpu, unsigned int program);
  * tolerates more) are refused with VDBS_ERR_GPU and a message suggesting --backend cpu.
  * buffer_read waits for earlier shader writes; reads beyond the end fail. */
 vdbs_status vdbs_gpu_buffer_create(vdbs_gpu *gpu, size_t size, const void *data,
-                                   unsigned int *buffer, vdbs_error *err);
-vdbs_status vdbs_gpu_buffer_read(vdbs_gpu *gpu, unsigned int buffer, size_t offset,
-                                 size_t size, void *dst, vdbs_error *err);
-void vdbs_gpu_buffer_destroy(vdbs_gpu *gpu, unsigned int buffer);
-void vdbs_gpu_buffer_bind(vdbs_gpu *gpu, unsigned int buffer, unsigned int binding);
+                                   vdbs_gpu_buffer *buffer, vdbs_error *err);
+vdbs_status vdbs_gpu_buffer_read(vdbs_gpu *gpu, vdbs_gpu_buffer buffer, size_t offset, size_t size,
+                                 void *dst, vdbs_error *err);
+void vdbs_gpu_buffer_destroy(vdbs_gpu *gpu, vdbs_gpu_buffer buffer);
+void vdbs_gpu_buffer_bind(vdbs_gpu *gpu, vdbs_gpu_buffer buffer, unsigned int binding);
 
 /* Runs `program` over `count` work items with work groups of `local_size` invocations
  * (the shader's local_size_x), in chunks that respect the work-group count limit:
@@ -92,7 +101,7 @@ void vdbs_gpu_buffer_bind(vdbs_gpu *gpu, unsigned int buffer, unsigned int bindi
  * Both uniforms are GLSL uints, so count must stay below 2^32 - local_size. Chunks
  * are separated by shader-storage and image barriers; with a progress callback each
  * chunk is finished (glFinish) before the callback, so the progress is real. */
-vdbs_status vdbs_gpu_dispatch_items(vdbs_gpu *gpu, unsigned int program, uint64_t count,
+vdbs_status vdbs_gpu_dispatch_items(vdbs_gpu *gpu, vdbs_gpu_program program, uint64_t count,
                                     unsigned int local_size, uint64_t chunk_items,
                                     void (*progress)(void *user, uint64_t done, uint64_t total),
                                     void *user, vdbs_error *err);

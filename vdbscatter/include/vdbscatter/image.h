@@ -32,16 +32,16 @@ vdbs_status vdbs_image_write(const char *path, const vdbs_image *image, double e
 vdbs_status vdbs_image_read(const char *path, vdbs_image *image, vdbs_error *err);
 
 typedef struct vdbs_image_metrics {
-    double relrmse;     /* sqrt(mean((a-b)^2)) / sqrt(mean(b^2)), all pixels and channels */
-    double mean_rel;    /* mean of |a-b| / (|b| + 1e-3 mean(b)) */
-    double p99_rel;     /* 99th percentile of the same */
-    long long samples;  /* pixel-channel values used (after masking) */
-    int has_se;         /* either image carries se.* channels (a missing one counts as 0) */
-    double noise_share; /* mean(se_a^2 + se_b^2) / mean((a-b)^2) */
-    double z_mean;      /* mean of z = (a-b) / sqrt(se_a^2 + se_b^2) */
-    double z_rms;       /* rms of z */
+    double relrmse;      /* sqrt(mean((a-b)^2)) / sqrt(mean(b^2)), all pixels and channels */
+    double mean_rel;     /* mean of |a-b| / (|b| + 1e-3 mean(b)) */
+    double p99_rel;      /* 99th percentile of the same */
+    long long samples;   /* pixel-channel values used (after masking) */
+    int has_se;          /* either image carries se.* channels (a missing one counts as 0) */
+    double noise_share;  /* mean(se_a^2 + se_b^2) / mean((a-b)^2) */
+    double z_mean;       /* mean of z = (a-b) / sqrt(se_a^2 + se_b^2) */
+    double z_rms;        /* rms of z */
     long long z_samples; /* values that entered z (se_a^2 + se_b^2 > 0) */
-    double se_image_a;  /* sqrt(mean(se_a^2)) / sqrt(mean(a^2)) when a has se, else 0 */
+    double se_image_a;   /* sqrt(mean(se_a^2)) / sqrt(mean(a^2)) when a has se, else 0 */
     double se_image_b;
 } vdbs_image_metrics;
 

@@ -20,8 +20,7 @@ typedef struct vdbs_progress {
 /* Monotonic wall-clock seconds. */
 double vdbs_now(void);
 
-void vdbs_progress_begin(vdbs_progress *progress, int enabled, const char *label,
-                         uint64_t total);
+void vdbs_progress_begin(vdbs_progress *progress, int enabled, const char *label, uint64_t total);
 /* Rate-limited to a few updates a second; safe to call often from one thread. */
 void vdbs_progress_update(vdbs_progress *progress, uint64_t done);
 void vdbs_progress_end(vdbs_progress *progress);

@@ -1,11 +1,12 @@
-/* Deterministic ray-marched pictures: `--mode single` (S1 of the density volume) and
- * `--mode baked` (S1 exactly toward the camera plus Sms from a lit VDB's ms and ms_l1*
- * grids). One kernel source (shaders/vs_render.h) for the compute shader
- * (shaders/render_march.comp) and the C path, reused later by the viewer.
+/* Pictures of a volume: `vdbs_render()` is the whole `render` job (open the input, merge a
+ * lit VDB's scene with the caller's overrides, choose mode, grid and backend, render, write
+ * the image, time the stages), beside `vdbs_bake()`. Its deterministic modes use the
+ * ray-march kernel (shaders/vs_render.h, one text for C and GLSL): `single` (S1 of the
+ * density volume) and `baked` (S1 exactly toward the camera plus Sms from a lit VDB's ms
+ * and ms_l1* grids); `reference` is the Monte-Carlo path tracer (reference.h).
  *
  * Per pixel: L = integral T(0,t) sigma_s S(x, wo) dt + T_total L_background, the constant
- * env colour as background (black without env). See shaders/vs_render.h for the
- * integration rule and the kernel's table layout. */
+ * env colour as background (black without env). */
 #ifndef VDBSCATTER_RENDER_H
 #define VDBSCATTER_RENDER_H
 
@@ -13,33 +14,17 @@
 #include <stdint.h>
 
 #include "vdbscatter/camera.h"
-#include "vdbscatter/gpu.h"
 #include "vdbscatter/image.h"
+#include "vdbscatter/kernel.h"
+#include "vdbscatter/litvdb.h"
 #include "vdbscatter/progress.h"
 #include "vdbscatter/scene.h"
 #include "vdbscatter/status.h"
-#include "vdbscatter/vdbio.h"
 #include "vdbscatter/volume.h"
 
 #ifdef __cplusplus
 extern "C" {
 #endif
-
-/* Multiple-scattering grids of a lit VDB as NanoVDB Vec3f buffers (32-byte aligned, sizes
- * multiples of 32), on the density's index space. All four are set or all are NULL
- * (Sms is then 0: single mode). */
-typedef struct vdbs_ms_grids {
-    uint32_t *ms, *l1x, *l1y, *l1z;
-    size_t ms_size, l1x_size, l1y_size, l1z_size;
-} vdbs_ms_grids;
-
-/* Converts the lit VDB's `ms`, `ms_l1x`, `ms_l1y`, `ms_l1z` grids. `index_to_world` is the
- * density grid's transform (vdbs_volume.index_to_world), which every grid must share: the
- * kernel samples them in the density's index space. Errors (VDBS_ERR_INPUT): a grid
- * missing or not vec3s, or on another transform. */
-vdbs_status vdbs_ms_grids_load(const vdbio_lit *lit, const double index_to_world[3][4],
-                               vdbs_ms_grids *out, vdbs_error *err);
-void vdbs_ms_grids_free(vdbs_ms_grids *grids);
 
 typedef struct vdbs_march_options {
     int sky_directions;      /* quadrature directions for the sky's S1 (>= 1) */
@@ -51,17 +36,15 @@ typedef struct vdbs_march_options {
     int gpu_units;
 } vdbs_march_options;
 
-/* The presets of --quality: sky directions 16 / 64 / 256 / 1024 and steps of 1, 1/2, 1/4,
- * 1/8 voxel for low / medium / high / ultra. Returns 0 for an unknown name. */
+/* The presets of --quality (solver.h): sky directions 16 / 64 / 256 / 1024 and steps of
+ * 1, 1/2, 1/4, 1/8 voxel for low / medium / high / ultra. Returns 0 for an unknown name. */
 int vdbs_render_quality(const char *quality, vdbs_march_options *options);
 
-/* The kernel's table (4 floats per entry, layout in shaders/vs_render.h), *data malloc'd.
- * ms may be NULL. Errors: an environment map (only a constant env colour is supported),
- * a zero sun direction, bad options, grids beyond the 2^36-byte offset range. */
+/* The kernel's render table (4 floats per entry, layout in shaders/vs_render.h), *data
+ * malloc'd. ms may be NULL. Errors: bad options, grids beyond the 2^36-byte offset range. */
 vdbs_status vdbs_render_table(const vdbs_volume *volume, const vdbs_ms_grids *ms,
-                              const vdbs_scene *scene, const vdbs_camera_frame *frame,
-                              const vdbs_march_options *options, float **data, size_t *entries,
-                              vdbs_error *err);
+                              const vdbs_camera_frame *frame, const vdbs_march_options *options,
+                              float **data, size_t *entries, vdbs_error *err);
 
 /* The buffer both paths read: the density grid at byte 0 followed by ms, l1x, l1y, l1z
  * (when ms is not NULL and set). When there are no ms grids, *buffer is volume->nano and
@@ -69,20 +52,76 @@ vdbs_status vdbs_render_table(const vdbs_volume *volume, const vdbs_ms_grids *ms
 vdbs_status vdbs_render_buffer(const vdbs_volume *volume, const vdbs_ms_grids *ms,
                                uint32_t **buffer, size_t *size, int *owned, vdbs_error *err);
 
-/* Renders frame->width x frame->height pixels into image->rgb, which the caller has
- * allocated with that size (image->se is left alone). ms NULL or empty: single mode. */
-vdbs_status vdbs_render_march_cpu(const vdbs_volume *volume, const vdbs_ms_grids *ms,
-                                  const vdbs_scene *scene, const vdbs_camera_frame *frame,
-                                  const vdbs_march_options *options, vdbs_image *image,
-                                  vdbs_error *err);
-/* The GPU path runs the rays in passes of options->gpu_units marches per pixel, keeping
- * each ray's state between passes (llvmpipe ends all loops of an invocation after 65535
- * iterations in total; see shaders/render_march.comp); a pass that reached the limit
- * anyway is detected and repeated with half the units. */
-vdbs_status vdbs_render_march_gpu(vdbs_gpu *gpu, const vdbs_volume *volume, const vdbs_ms_grids *ms,
-                                  const vdbs_scene *scene, const vdbs_camera_frame *frame,
-                                  const vdbs_march_options *options, vdbs_image *image,
-                                  vdbs_error *err);
+/* Ray-marches frame->width x frame->height pixels into image->rgb, which the caller has
+ * allocated with that size (image->se is left alone), on the runner's backend. ms NULL or
+ * empty: single mode. The scene's lights are resolved once per call. On the GPU the rays
+ * run in passes of options->gpu_units marches per pixel (vs_pass.h). Errors: an
+ * environment map (only a constant env colour is supported), a zero sun direction. */
+vdbs_status vdbs_render_march(vdbs_runner *runner, const vdbs_volume *volume,
+                              const vdbs_ms_grids *ms, const vdbs_scene *scene,
+                              const vdbs_camera_frame *frame, const vdbs_march_options *options,
+                              vdbs_image *image, vdbs_error *err);
+
+typedef enum vdbs_render_mode {
+    VDBS_RENDER_DEFAULT = 0, /* baked for a lit VDB, single otherwise */
+    VDBS_RENDER_SINGLE,
+    VDBS_RENDER_BAKED,
+    VDBS_RENDER_REFERENCE
+} vdbs_render_mode;
+
+/* "single", "baked" or "reference" (NULL for the default). */
+const char *vdbs_render_mode_name(vdbs_render_mode mode);
+
+/* Which scene fields the caller set explicitly (command-line flags): for a lit VDB they
+ * go on top of the scene it was baked with. */
+enum {
+    VDBS_SCENE_SET_DENSITY_SCALE = 1 << 0,
+    VDBS_SCENE_SET_ALBEDO = 1 << 1,
+    VDBS_SCENE_SET_G = 1 << 2,
+    VDBS_SCENE_SET_QUALITY = 1 << 3,
+    VDBS_SCENE_SET_LIGHTS = 1 << 4,
+    VDBS_SCENE_SET_GRID = 1 << 5,
+    VDBS_SCENE_FROM_FILE = 1 << 6 /* a scene file was given: it replaces a baked scene */
+};
+
+/* Zero-initialise; 0 means "choose the default". */
+typedef struct vdbs_render_desc {
+    const char *input;       /* density or lit VDB; scene->volume_file when NULL */
+    const char *output;      /* .exr or .png */
+    const vdbs_scene *scene; /* the caller's scene (may have no lights for a lit VDB) */
+    unsigned scene_set;      /* VDBS_SCENE_SET_* bits */
+    vdbs_render_mode mode;
+    vdbs_backend backend;      /* single/baked; reference always runs on the C path */
+    const vdbs_camera *camera; /* NULL: the scene's camera, else a view of the whole volume */
+    int width, height;         /* 0: the scene camera's size, else 640x480 */
+    double exposure;           /* PNG only, EV */
+    int gpu_units;             /* see vdbs_march_options */
+    /* reference mode */
+    int spp;           /* default 64 (4 with time_limit) */
+    double time_limit; /* seconds; 0 = one round of spp */
+    int max_bounces;   /* default 1000 */
+    uint64_t seed;     /* 0 is a seed like any other */
+    int progress;      /* show progress on stderr */
+    vdbs_warn_fn warn;
+    void *warn_user;
+} vdbs_render_desc;
+
+typedef struct vdbs_render_report {
+    const char *mode; /* "single", "baked" or "reference" */
+    char backend[16];
+    char renderer[256];
+    char grid[256];
+    char quality[32];
+    int width, height;
+    int spp; /* samples per pixel taken (1 for the march) */
+    int sky_directions;
+    float step_voxels;
+    vdbs_camera camera;  /* as used */
+    double camera_up[3]; /* the frame's up */
+    double seconds_load, seconds_render, seconds_write, seconds_total;
+} vdbs_render_report;
+
+vdbs_status vdbs_render(const vdbs_render_desc *desc, vdbs_render_report *report, vdbs_error *err);
 
 #ifdef __cplusplus
 }

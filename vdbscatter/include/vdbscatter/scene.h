@@ -89,15 +89,6 @@ vdbs_status vdbs_scene_validate(vdbs_scene *scene, vdbs_error *err);
  * scene->grid / scene->grid_index. A bad spec leaves the scene unchanged. */
 vdbs_status vdbs_scene_set_grid(vdbs_scene *scene, const char *spec, vdbs_error *err);
 
-/* What the solvers need to know of the lights: the constant sky radiance (the sum of
- * every env light's colour), whether there is one, and how many suns and point lights
- * there are. Errors: an environment map file (not supported by the solvers yet). */
-vdbs_status vdbs_scene_light_summary(const vdbs_scene *scene, double sky[3], int *has_sky,
-                                     int *direct_lights, vdbs_error *err);
-
-/* Number of sky quadrature directions for a quality name, or 0 if unknown. */
-int vdbs_quality_sky_directions(const char *quality);
-
 #ifdef __cplusplus
 }
 #endif

@@ -25,10 +25,10 @@ typedef struct vdbio_grid_summary {
     char grid_class[32]; /* "fog volume", "level set", "unknown", ... */
     int is_affine;       /* 0 for frustum or other non-linear maps */
     vdbio_transform transform;
-    double voxel_size[3];    /* world length of the three index axes */
-    int bbox_min[3];         /* active bounding box in index space (inclusive); */
-    int bbox_max[3];         /* min 0 and max -1 when the grid is empty */
-    uint64_t active_voxels;  /* active voxels, counting voxels inside active tiles */
+    double voxel_size[3];   /* world length of the three index axes */
+    int bbox_min[3];        /* active bounding box in index space (inclusive); */
+    int bbox_max[3];        /* min 0 and max -1 when the grid is empty */
+    uint64_t active_voxels; /* active voxels, counting voxels inside active tiles */
     uint64_t active_tiles;
     double background; /* scalar grids (float, double, int32, int64, bool); 0 otherwise */
     double value_min;  /* over active values of float/double grids; 0 when empty or otherwise */
@@ -62,8 +62,8 @@ typedef struct vdbio_density_info {
     char source_type[32]; /* type in the file: "float" or "double" */
     vdbio_transform transform;
     double voxel_size[3];
-    int bbox_min[3]; /* active bounding box, index space, inclusive; */
-    int bbox_max[3]; /* min 0 and max -1 for an empty grid (only from_dense makes one) */
+    int bbox_min[3];        /* active bounding box, index space, inclusive; */
+    int bbox_max[3];        /* min 0 and max -1 for an empty grid (only from_dense makes one) */
     uint64_t active_voxels; /* including voxels inside active tiles */
     uint64_t active_tiles;
     float value_min; /* over active values */
@@ -87,9 +87,9 @@ vdbs_status vdbio_density_read(const char *path, const vdbio_read_options *optio
  * origin NULL means (0,0,0), transform NULL the identity, name NULL "density".
  * All values <= 0 give an empty grid (not an error). NaN/Inf values and a
  * singular transform are VDBS_ERR_INPUT. */
-vdbs_status vdbio_density_from_dense(const float *values, const int dims[3],
-                                     const int origin[3], const vdbio_transform *transform,
-                                     const char *name, vdbio_density **out, vdbs_error *err);
+vdbs_status vdbio_density_from_dense(const float *values, const int dims[3], const int origin[3],
+                                     const vdbio_transform *transform, const char *name,
+                                     vdbio_density **out, vdbs_error *err);
 
 void vdbio_density_free(vdbio_density *density);
 
@@ -101,8 +101,8 @@ float vdbio_density_value(const vdbio_density *density, const int ijk[3]);
 
 /* NanoVDB float grid of the density (one grid in the buffer), malloc'd; free with free().
  * The buffer is 32-byte aligned; *size is rounded up to a multiple of 32 (zero padding). */
-vdbs_status vdbio_density_to_nanovdb(const vdbio_density *density, void **buffer,
-                                     size_t *size, vdbs_error *err);
+vdbs_status vdbio_density_to_nanovdb(const vdbio_density *density, void **buffer, size_t *size,
+                                     vdbs_error *err);
 
 /* Index coordinates of the output voxels: the active region (tiles voxelised)
  * dilated by `dilation` voxels in all 26 directions; xyz triples, malloc'd,
@@ -158,11 +158,11 @@ typedef struct vdbio_lit vdbio_lit;
 vdbs_status vdbio_lit_open(const char *path, vdbio_lit **out, vdbs_error *err);
 int vdbio_lit_has_grid(const vdbio_lit *lit, const char *name);
 /* Value of a vec3s grid at index coordinates ((0,0,0) where inactive). */
-vdbs_status vdbio_lit_vec3(const vdbio_lit *lit, const char *grid, const int ijk[3],
-                           float out[3], vdbs_error *err);
+vdbs_status vdbio_lit_vec3(const vdbio_lit *lit, const char *grid, const int ijk[3], float out[3],
+                           vdbs_error *err);
 /* Value of a float grid at index coordinates (0 where inactive). */
-vdbs_status vdbio_lit_float(const vdbio_lit *lit, const char *grid, const int ijk[3],
-                            float *out, vdbs_error *err);
+vdbs_status vdbio_lit_float(const vdbio_lit *lit, const char *grid, const int ijk[3], float *out,
+                            vdbs_error *err);
 /* NanoVDB Vec3f grid of a vec3s grid of the file (one grid in the buffer), with the same
  * allocation convention as vdbio_density_to_nanovdb (32-byte aligned, free with free()).
  * Errors: no such grid, not a vec3s grid (VDBS_ERR_INPUT). */

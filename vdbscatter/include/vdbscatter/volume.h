@@ -30,18 +30,14 @@ vdbs_status vdbs_volume_load(const char *path, const vdbio_read_options *options
                              vdbs_volume *volume, vdbs_error *err);
 
 /* Prepares an already built density grid; takes ownership of it (also on failure). */
-vdbs_status vdbs_volume_from_density(vdbio_density *density, vdbs_volume *volume,
-                                     vdbs_error *err);
+vdbs_status vdbs_volume_from_density(vdbio_density *density, vdbs_volume *volume, vdbs_error *err);
 
 void vdbs_volume_free(vdbs_volume *volume);
 
 /* Index-space image of a world-space vector (linear part of the inverse map). */
-void vdbs_volume_index_vector(const vdbs_volume *volume, const double world[3],
-                              double index[3]);
-void vdbs_volume_index_point(const vdbs_volume *volume, const double world[3],
-                             double index[3]);
-void vdbs_volume_world_point(const vdbs_volume *volume, const double index[3],
-                             double world[3]);
+void vdbs_volume_index_vector(const vdbs_volume *volume, const double world[3], double index[3]);
+void vdbs_volume_index_point(const vdbs_volume *volume, const double world[3], double index[3]);
+void vdbs_volume_world_point(const vdbs_volume *volume, const double index[3], double world[3]);
 
 /* For a sun travelling along `direction` (any length): its unit travel direction
  * (`unit`, may be NULL) and the index-space image of a unit world step towards it
@@ -82,8 +78,7 @@ typedef struct vdbs_thickness {
     int axis_rays_hit[3];
 } vdbs_thickness;
 
-void vdbs_volume_thickness(const vdbs_volume *volume, double density_scale,
-                           vdbs_thickness *out);
+void vdbs_volume_thickness(const vdbs_volume *volume, double density_scale, vdbs_thickness *out);
 
 #ifdef __cplusplus
 }

@@ -1,0 +1,69 @@
+/* The light table: a scene's lights resolved once against a volume. Suns and point lights
+ * get their world and index-space geometry; a sky gets its ordinates (directions and
+ * solid-angle weights), one per propagation grid of the solvers that need them. The single
+ * pass, the render march and the reference all read this one table: the kernels its packed
+ * float layout (shaders/vs_lights.h), the C-only reference its double fields. */
+#ifndef VDBSCATTER_LIGHTS_H
+#define VDBSCATTER_LIGHTS_H
+
+#include <stddef.h>
+
+#include "vdbscatter/scene.h"
+#include "vdbscatter/status.h"
+#include "vdbscatter/volume.h"
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+/* A sun or point light, resolved. */
+typedef struct vdbs_direct_light {
+    vdbs_light_type type; /* VDBS_LIGHT_SUN or VDBS_LIGHT_POINT */
+    double world[3];      /* sun: unit direction of travel; point: world position */
+    double index[3];      /* sun: index image of a unit world step towards it; point: index
+                             position */
+    double color[3];      /* sun: irradiance W/m^2; point: intensity W/sr */
+} vdbs_direct_light;
+
+/* A sky direction of the quadrature: the sky seen towards `world` with `weight` sr. */
+typedef struct vdbs_sky_ordinate {
+    double world[3]; /* unit, towards the sky */
+    double index[3]; /* index image of a unit world step towards the sky */
+    double weight;   /* solid angle; the weights sum to 4 pi */
+    double radiance[3];
+} vdbs_sky_ordinate;
+
+typedef struct vdbs_light_table {
+    vdbs_direct_light *direct; /* suns and points, in scene order */
+    int direct_count;
+    vdbs_sky_ordinate *ordinates; /* empty without a sky or when none were asked for */
+    int ordinate_count;
+    int has_sky;
+    double sky[3];       /* constant sky radiance: the sum of the env colours (background) */
+    double min_distance; /* point lights' 1/r^2 is clamped at this world distance */
+    float *packed;       /* the kernels' layout (shaders/vs_lights.h), 4 floats an entry */
+    size_t packed_entries;
+} vdbs_light_table;
+
+typedef struct vdbs_lights_desc {
+    int sky_ordinates; /* quadrature directions for a sky; 0: none (the reference samples
+                          the sky itself) */
+} vdbs_lights_desc;
+
+/* Resolves the scene's lights for the volume. Errors: an environment map file (only a
+ * constant sky is supported yet, VDBS_ERR_INPUT), a zero sun direction (VDBS_ERR_INPUT),
+ * out of memory. On error the table is empty. */
+vdbs_status vdbs_lights_build(const vdbs_volume *volume, const vdbs_scene *scene,
+                              const vdbs_lights_desc *desc, vdbs_light_table *table,
+                              vdbs_error *err);
+void vdbs_lights_free(vdbs_light_table *table);
+
+/* K unit directions spread evenly over the sphere (spherical Fibonacci lattice), equal
+ * weights 4 pi / K; `dirs` holds 3 K doubles. */
+void vdbs_sphere_directions(int count, double *dirs);
+
+#ifdef __cplusplus
+}
+#endif
+
+#endif

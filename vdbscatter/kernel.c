@@ -1,0 +1,387 @@
+#include "vdbscatter/kernel.h"
+
+#include <omp.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "vs_pass.h"
+
+#define DEFAULT_CPU_CHUNK 256u
+/* The canary loop's trip count: any count > 1 shows a cut-short loop (it then runs once). */
+#define CANARY_TRIPS 2u
+#define MAX_UNITS 0x7fffffff
+
+struct vdbs_runner {
+    vdbs_backend backend;
+    vdbs_gpu *gpu;
+    char device[256];
+};
+
+vdbs_status vdbs_backend_parse(const char *text, vdbs_backend *backend, vdbs_error *err)
+{
+    if (strcmp(text, "auto") == 0)
+        *backend = VDBS_BACKEND_AUTO;
+    else if (strcmp(text, "cpu") == 0)
+        *backend = VDBS_BACKEND_CPU;
+    else if (strcmp(text, "gpu") == 0)
+        *backend = VDBS_BACKEND_GPU;
+    else
+        return vdbs_error_set(err, VDBS_ERR_INPUT, "--backend: expected auto, cpu or gpu, got '%s'",
+                              text);
+    return VDBS_OK;
+}
+
+vdbs_status vdbs_runner_create(const vdbs_runner_desc *desc, vdbs_runner **out, vdbs_error *err)
+{
+    *out = NULL;
+    vdbs_runner *r = calloc(1, sizeof *r);
+    if (!r)
+        return vdbs_error_set(err, VDBS_ERR_NOMEM, "out of memory for the kernel runner");
+    r->backend = desc ? desc->backend : VDBS_BACKEND_AUTO;
+    /* llvmpipe runs the same kernels 3-5x slower than the C path: auto takes real GPUs only. */
+    if (r->backend == VDBS_BACKEND_AUTO)
+        r->backend = vdbs_gpu_hardware_available() ? VDBS_BACKEND_GPU : VDBS_BACKEND_CPU;
+    if (r->backend == VDBS_BACKEND_GPU) {
+        vdbs_status st = vdbs_gpu_create(&r->gpu, err);
+        if (st != VDBS_OK) {
+            free(r);
+            return st;
+        }
+        snprintf(r->device, sizeof r->device, "%s", vdbs_gpu_get_info(r->gpu)->renderer);
+    } else {
+        snprintf(r->device, sizeof r->device, "C (OpenMP, %d threads)", omp_get_max_threads());
+    }
+    *out = r;
+    return VDBS_OK;
+}
+
+void vdbs_runner_destroy(vdbs_runner *runner)
+{
+    if (!runner)
+        return;
+    if (runner->gpu)
+        vdbs_gpu_destroy(runner->gpu);
+    free(runner);
+}
+
+vdbs_backend vdbs_runner_backend(const vdbs_runner *runner)
+{
+    return runner->backend;
+}
+
+const char *vdbs_runner_backend_name(const vdbs_runner *runner)
+{
+    return runner->backend == VDBS_BACKEND_GPU ? "gpu" : "cpu";
+}
+
+const char *vdbs_runner_device(const vdbs_runner *runner)
+{
+    return runner->device;
+}
+
+vdbs_gpu *vdbs_runner_gpu(vdbs_runner *runner)
+{
+    return runner->gpu;
+}
+
+/* ---- C path ---- */
+
+static uint64_t cpu_chunk(const vdbs_kernel_desc *d)
+{
+    return d->cpu_chunk ? d->cpu_chunk : DEFAULT_CPU_CHUNK;
+}
+
+static void cpu_run(const vdbs_kernel_desc *d)
+{
+    const uint64_t chunk = cpu_chunk(d);
+    const int64_t chunks = (int64_t)((d->items + chunk - 1) / chunk);
+    uint64_t done = 0;
+#pragma omp parallel for schedule(dynamic, 1)
+    for (int64_t c = 0; c < chunks; ++c) {
+        uint64_t begin = (uint64_t)c * chunk;
+        uint64_t end = begin + chunk < d->items ? begin + chunk : d->items;
+        d->cpu_items(d->user, begin, end);
+        uint64_t now;
+#pragma omp atomic capture
+        now = done += end - begin;
+        if (d->progress && omp_get_thread_num() == 0)
+            vdbs_progress_update(d->progress, now);
+    }
+}
+
+static double combine(vdbs_reduce reduce, double a, double b)
+{
+    return reduce == VDBS_REDUCE_MAX ? (a > b ? a : b) : a + b;
+}
+
+static vdbs_status cpu_iterate(const vdbs_kernel_desc *d, int max_iterations,
+                               vdbs_kernel_result *result, vdbs_error *err)
+{
+    const uint64_t chunk = cpu_chunk(d);
+    const int64_t chunks = (int64_t)((d->items + chunk - 1) / chunk);
+    const size_t bytes = (d->state_words ? d->state_words : 1) * 4u * (size_t)d->items;
+    void *other = malloc(bytes ? bytes : 1);
+    double *partials = malloc(sizeof *partials * (size_t)(chunks > 0 ? chunks : 1));
+    if (!other || !partials) {
+        free(other);
+        free(partials);
+        return vdbs_error_set(err, VDBS_ERR_NOMEM, "out of memory for %zu bytes of state", bytes);
+    }
+    void *in = d->state, *out = other;
+    for (int it = 0; it < max_iterations; ++it) {
+#pragma omp parallel for schedule(dynamic, 1)
+        for (int64_t c = 0; c < chunks; ++c) {
+            uint64_t begin = (uint64_t)c * chunk;
+            uint64_t end = begin + chunk < d->items ? begin + chunk : d->items;
+            partials[c] = d->cpu_step(d->user, in, out, begin, end);
+        }
+        /* In chunk order, so that the reduction does not depend on the thread count. */
+        double reduction = 0.0;
+        for (int64_t c = 0; c < chunks; ++c)
+            reduction = combine(d->reduce, reduction, partials[c]);
+        void *t = in;
+        in = out;
+        out = t;
+        result->iterations = it + 1;
+        result->reduction = reduction;
+        if (d->progress)
+            vdbs_progress_update(d->progress, (uint64_t)it + 1);
+        if (reduction <= d->tolerance)
+            break;
+    }
+    if (in != d->state)
+        memcpy(d->state, in, bytes);
+    free(other);
+    free(partials);
+    return VDBS_OK;
+}
+
+/* ---- GPU path ---- */
+
+typedef struct gpu_job {
+    vdbs_gpu *gpu;
+    vdbs_gpu_program program;
+    vdbs_gpu_buffer inputs[VDBS_KERNEL_MAX_INPUTS];
+    vdbs_gpu_buffer states[2];
+    vdbs_gpu_buffer output;
+    vdbs_gpu_buffer partials;
+} gpu_job;
+
+static void job_free(gpu_job *job)
+{
+    for (int i = 0; i < VDBS_KERNEL_MAX_INPUTS; ++i)
+        vdbs_gpu_buffer_destroy(job->gpu, job->inputs[i]);
+    for (int i = 0; i < 2; ++i)
+        vdbs_gpu_buffer_destroy(job->gpu, job->states[i]);
+    vdbs_gpu_buffer_destroy(job->gpu, job->output);
+    vdbs_gpu_buffer_destroy(job->gpu, job->partials);
+    vdbs_gpu_program_destroy(job->gpu, job->program);
+}
+
+/* Builds the program and uploads the inputs; the state buffers start with `state`
+ * (may be NULL: zeroed). */
+static vdbs_status job_init(gpu_job *job, vdbs_runner *runner, const vdbs_kernel_desc *d,
+                            const void *state, vdbs_error *err)
+{
+    memset(job, 0, sizeof *job);
+    job->gpu = runner->gpu;
+    const vdbs_shader_source *source = d->shader ? vdbs_shader_find(d->shader) : NULL;
+    if (!source)
+        return vdbs_error_set(err, VDBS_ERR_INTERNAL, "shader %s not embedded",
+                              d->shader ? d->shader : "(none)");
+    vdbs_status st = vdbs_gpu_program_create(job->gpu, source, NULL, &job->program, err);
+    for (int i = 0; i < VDBS_KERNEL_MAX_INPUTS && st == VDBS_OK; ++i) {
+        if (d->inputs[i].size == 0)
+            continue;
+        st = vdbs_gpu_buffer_create(job->gpu, d->inputs[i].size, d->inputs[i].data, &job->inputs[i],
+                                    err);
+        if (st == VDBS_OK)
+            vdbs_gpu_buffer_bind(job->gpu, job->inputs[i], (unsigned)i);
+    }
+    const size_t state_bytes = (d->state_words ? d->state_words : 1) * 4u * (size_t)d->items;
+    for (int i = 0; i < 2 && st == VDBS_OK; ++i)
+        st = vdbs_gpu_buffer_create(job->gpu, state_bytes, i == 0 ? state : NULL, &job->states[i],
+                                    err);
+    if (st == VDBS_OK)
+        st = vdbs_gpu_buffer_create(job->gpu, d->output_words * 4u * (size_t)d->items, NULL,
+                                    &job->output, err);
+    uint64_t groups = (d->items + VS_PASS_LOCAL_SIZE - 1) / VS_PASS_LOCAL_SIZE;
+    if (st == VDBS_OK)
+        st = vdbs_gpu_buffer_create(job->gpu, sizeof(float) * (size_t)groups, NULL, &job->partials,
+                                    err);
+    if (st == VDBS_OK) {
+        vdbs_gpu_buffer_bind(job->gpu, job->output, VS_PASS_BINDING_OUTPUT);
+        vdbs_gpu_buffer_bind(job->gpu, job->partials, VS_PASS_BINDING_REDUCE);
+    } else {
+        job_free(job);
+    }
+    return st;
+}
+
+/* One dispatch over all items from states[in] to states[1 - in]; control is updated with
+ * what the shader reported. */
+static vdbs_status job_dispatch(gpu_job *job, const vdbs_kernel_desc *d, int in,
+                                uint32_t control[VS_PASS_WORDS], vdbs_error *err)
+{
+    vdbs_gpu_buffer control_buffer = {0};
+    vdbs_status st = vdbs_gpu_buffer_create(job->gpu, sizeof(uint32_t) * VS_PASS_WORDS, control,
+                                            &control_buffer, err);
+    if (st != VDBS_OK)
+        return st;
+    vdbs_gpu_buffer_bind(job->gpu, control_buffer, VS_PASS_BINDING_CONTROL);
+    vdbs_gpu_buffer_bind(job->gpu, job->states[in], VS_PASS_BINDING_STATE_IN);
+    vdbs_gpu_buffer_bind(job->gpu, job->states[1 - in], VS_PASS_BINDING_STATE_OUT);
+    st = vdbs_gpu_dispatch_items(job->gpu, job->program, d->items, VS_PASS_LOCAL_SIZE, d->gpu_chunk,
+                                 NULL, NULL, err);
+    if (st == VDBS_OK)
+        st = vdbs_gpu_buffer_read(job->gpu, control_buffer, 0, sizeof(uint32_t) * VS_PASS_WORDS,
+                                  control, err);
+    vdbs_gpu_buffer_destroy(job->gpu, control_buffer);
+    return st;
+}
+
+static void control_init(uint32_t control[VS_PASS_WORDS], int64_t units, int64_t done)
+{
+    memset(control, 0, sizeof(uint32_t) * VS_PASS_WORDS);
+    control[VS_PASS_UNITS] = (uint32_t)(units < MAX_UNITS ? units : MAX_UNITS);
+    control[VS_PASS_DONE] = (uint32_t)(done < MAX_UNITS ? done : MAX_UNITS);
+    control[VS_PASS_CANARY_TRIPS] = CANARY_TRIPS;
+    control[VS_PASS_CANARY_STEP] = 1u;
+}
+
+static vdbs_status gpu_run(vdbs_runner *runner, const vdbs_kernel_desc *d,
+                           vdbs_kernel_result *result, vdbs_error *err)
+{
+    gpu_job job;
+    vdbs_status st = job_init(&job, runner, d, NULL, err);
+    if (st != VDBS_OK)
+        return st;
+    int64_t units = d->units_per_dispatch > 0 ? d->units_per_dispatch : MAX_UNITS;
+    int64_t done = 0;
+    int in = 0;
+    while (st == VDBS_OK) {
+        uint32_t control[VS_PASS_WORDS];
+        control_init(control, units, done);
+        st = job_dispatch(&job, d, in, control, err);
+        ++result->dispatches;
+        if (st != VDBS_OK)
+            break;
+        if (control[VS_PASS_FAILED]) {
+            /* The input states are untouched: the same pass again with fewer units. */
+            if (units == 1) {
+                st = vdbs_error_set(err, VDBS_ERR_GPU,
+                                    "%s: a single unit of work exceeds the GPU driver's loop "
+                                    "limit; use --backend cpu",
+                                    d->shader);
+                break;
+            }
+            units = units / 2;
+            ++result->retries;
+            continue;
+        }
+        done += units;
+        in = 1 - in;
+        uint64_t left = control[VS_PASS_LEFT];
+        if (d->progress) {
+            uint64_t finished = d->items - left;
+            if (d->total_units > 0 && left > 0)
+                finished = d->items * (uint64_t)(done < d->total_units ? done : d->total_units) /
+                           (uint64_t)d->total_units;
+            vdbs_progress_update(d->progress, finished);
+        }
+        if (left == 0)
+            break;
+    }
+    if (st == VDBS_OK && d->output)
+        st = vdbs_gpu_buffer_read(job.gpu, job.output, 0, d->output_words * 4u * (size_t)d->items,
+                                  d->output, err);
+    job_free(&job);
+    return st;
+}
+
+static vdbs_status gpu_iterate(vdbs_runner *runner, const vdbs_kernel_desc *d, int max_iterations,
+                               vdbs_kernel_result *result, vdbs_error *err)
+{
+    const size_t state_bytes = (d->state_words ? d->state_words : 1) * 4u * (size_t)d->items;
+    const size_t groups = (size_t)((d->items + VS_PASS_LOCAL_SIZE - 1) / VS_PASS_LOCAL_SIZE);
+    float *partials = malloc(sizeof *partials * (groups ? groups : 1));
+    if (!partials)
+        return vdbs_error_set(err, VDBS_ERR_NOMEM, "out of memory for %zu partial sums", groups);
+    gpu_job job;
+    vdbs_status st = job_init(&job, runner, d, d->state, err);
+    if (st != VDBS_OK) {
+        free(partials);
+        return st;
+    }
+    int in = 0;
+    for (int it = 0; it < max_iterations && st == VDBS_OK; ++it) {
+        uint32_t control[VS_PASS_WORDS];
+        control_init(control, 1, it);
+        st = job_dispatch(&job, d, in, control, err);
+        ++result->dispatches;
+        if (st == VDBS_OK && control[VS_PASS_FAILED])
+            st = vdbs_error_set(err, VDBS_ERR_GPU,
+                                "%s: one step exceeds the GPU driver's loop limit; use "
+                                "--backend cpu",
+                                d->shader);
+        if (st == VDBS_OK)
+            st = vdbs_gpu_buffer_read(job.gpu, job.partials, 0, sizeof(float) * groups, partials,
+                                      err);
+        if (st != VDBS_OK)
+            break;
+        double reduction = 0.0;
+        for (size_t g = 0; g < groups; ++g)
+            reduction = combine(d->reduce, reduction, (double)partials[g]);
+        in = 1 - in;
+        result->iterations = it + 1;
+        result->reduction = reduction;
+        if (d->progress)
+            vdbs_progress_update(d->progress, (uint64_t)it + 1);
+        if (reduction <= d->tolerance)
+            break;
+    }
+    if (st == VDBS_OK)
+        st = vdbs_gpu_buffer_read(job.gpu, job.states[in], 0, state_bytes, d->state, err);
+    job_free(&job);
+    free(partials);
+    return st;
+}
+
+/* ---- entry points ---- */
+
+vdbs_status vdbs_kernel_run(vdbs_runner *runner, const vdbs_kernel_desc *desc,
+                            vdbs_kernel_result *result, vdbs_error *err)
+{
+    vdbs_kernel_result local;
+    result = result ? result : &local;
+    memset(result, 0, sizeof *result);
+    if (desc->items == 0)
+        return VDBS_OK;
+    if (runner->backend == VDBS_BACKEND_GPU)
+        return gpu_run(runner, desc, result, err);
+    if (!desc->cpu_items)
+        return vdbs_error_set(err, VDBS_ERR_INTERNAL, "kernel %s has no C path",
+                              desc->shader ? desc->shader : "(unnamed)");
+    cpu_run(desc);
+    return VDBS_OK;
+}
+
+vdbs_status vdbs_kernel_iterate(vdbs_runner *runner, const vdbs_kernel_desc *desc,
+                                vdbs_kernel_result *result, vdbs_error *err)
+{
+    vdbs_kernel_result local;
+    result = result ? result : &local;
+    memset(result, 0, sizeof *result);
+    if (desc->items == 0)
+        return VDBS_OK;
+    if (!desc->state)
+        return vdbs_error_set(err, VDBS_ERR_INTERNAL, "iterate: no state");
+    int max_iterations = desc->max_iterations > 0 ? desc->max_iterations : 1;
+    if (runner->backend == VDBS_BACKEND_GPU)
+        return gpu_iterate(runner, desc, max_iterations, result, err);
+    if (!desc->cpu_step)
+        return vdbs_error_set(err, VDBS_ERR_INTERNAL, "kernel %s has no C step",
+                              desc->shader ? desc->shader : "(unnamed)");
+    return cpu_iterate(desc, max_iterations, result, err);
+}

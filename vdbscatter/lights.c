@@ -1,0 +1,148 @@
+#include "vdbscatter/lights.h"
+
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+#define PNANOVDB_C
+#include <nanovdb/PNanoVDB.h>
+
+#include "vdbs_math.h"
+#include "vs_common.h"
+#include "vs_lights.h"
+
+/* The kernels compare light types with the shader constants. */
+_Static_assert(VS_LIGHT_SUN == (int)VDBS_LIGHT_SUN, "sun type");
+_Static_assert(VS_LIGHT_POINT == (int)VDBS_LIGHT_POINT, "point type");
+_Static_assert(VS_LIGHT_ENV == (int)VDBS_LIGHT_ENV, "env type");
+
+void vdbs_sphere_directions(int count, double *dirs)
+{
+    const double golden_angle = VDBS_PI * (3.0 - sqrt(5.0));
+    for (int k = 0; k < count; ++k) {
+        double z = 1.0 - (2.0 * k + 1.0) / count;
+        double r = sqrt(fmax(0.0, 1.0 - z * z));
+        double phi = golden_angle * k;
+        dirs[3 * k] = r * cos(phi);
+        dirs[3 * k + 1] = z;
+        dirs[3 * k + 2] = r * sin(phi);
+    }
+}
+
+void vdbs_lights_free(vdbs_light_table *table)
+{
+    if (!table)
+        return;
+    free(table->direct);
+    free(table->ordinates);
+    free(table->packed);
+    memset(table, 0, sizeof *table);
+}
+
+static void put(float *entry, const double xyz[3], double w)
+{
+    entry[0] = (float)xyz[0];
+    entry[1] = (float)xyz[1];
+    entry[2] = (float)xyz[2];
+    entry[3] = (float)w;
+}
+
+static vdbs_status pack(vdbs_light_table *t, vdbs_error *err)
+{
+    size_t n = VS_LIGHTS_HEADER_SIZE + VS_LIGHT_STRIDE * (size_t)t->direct_count +
+               VS_ORDINATE_STRIDE * (size_t)t->ordinate_count;
+    float *p = calloc(n, 4 * sizeof *p);
+    if (!p)
+        return vdbs_error_set(err, VDBS_ERR_NOMEM, "out of memory for the light table");
+    const double counts[3] = {t->direct_count, t->ordinate_count, t->min_distance};
+    put(p + 4 * VS_LIGHTS_OFF_COUNTS, counts, 0.0);
+    put(p + 4 * VS_LIGHTS_OFF_BACKGROUND, t->sky, 0.0);
+    for (int i = 0; i < t->direct_count; ++i) {
+        const vdbs_direct_light *l = &t->direct[i];
+        float *e = p + 4 * (VS_LIGHTS_HEADER_SIZE + VS_LIGHT_STRIDE * (size_t)i);
+        e[4 * VS_LIGHT_OFF_INDEX] = (float)l->type;
+        for (int a = 0; a < 3; ++a)
+            e[4 * VS_LIGHT_OFF_INDEX + 1 + a] = (float)l->index[a];
+        put(e + 4 * VS_LIGHT_OFF_WORLD, l->world, 0.0);
+        put(e + 4 * VS_LIGHT_OFF_COLOR, l->color, 0.0);
+    }
+    for (int k = 0; k < t->ordinate_count; ++k) {
+        const vdbs_sky_ordinate *o = &t->ordinates[k];
+        float *e = p + 4 * (VS_LIGHTS_HEADER_SIZE + VS_LIGHT_STRIDE * (size_t)t->direct_count +
+                            VS_ORDINATE_STRIDE * (size_t)k);
+        const double weighted[3] = {o->radiance[0] * o->weight, o->radiance[1] * o->weight,
+                                    o->radiance[2] * o->weight};
+        put(e + 4 * VS_ORDINATE_OFF_INDEX, o->index, 0.0);
+        put(e + 4 * VS_ORDINATE_OFF_WORLD, o->world, o->weight);
+        put(e + 4 * VS_ORDINATE_OFF_WEIGHTED, weighted, 0.0);
+    }
+    t->packed = p;
+    t->packed_entries = n;
+    return VDBS_OK;
+}
+
+vdbs_status vdbs_lights_build(const vdbs_volume *volume, const vdbs_scene *scene,
+                              const vdbs_lights_desc *desc, vdbs_light_table *table,
+                              vdbs_error *err)
+{
+    memset(table, 0, sizeof *table);
+    int direct = 0;
+    for (int i = 0; i < scene->light_count; ++i) {
+        const vdbs_light *light = &scene->lights[i];
+        if (light->type != VDBS_LIGHT_ENV) {
+            ++direct;
+            continue;
+        }
+        if (light->env_file[0])
+            return vdbs_error_set(err, VDBS_ERR_INPUT,
+                                  "environment maps (%s) are not supported yet; use a constant "
+                                  "sky colour (--env R,G,B)",
+                                  light->env_file);
+        for (int c = 0; c < 3; ++c)
+            table->sky[c] += light->color[c];
+        table->has_sky = 1;
+    }
+    table->min_distance = 0.5 * volume->mean_voxel_size;
+    int k = table->has_sky && desc && desc->sky_ordinates > 0 ? desc->sky_ordinates : 0;
+    table->direct = calloc(direct > 0 ? (size_t)direct : 1, sizeof *table->direct);
+    table->ordinates = calloc(k > 0 ? (size_t)k : 1, sizeof *table->ordinates);
+    double *dirs = calloc(k > 0 ? 3 * (size_t)k : 1, sizeof *dirs);
+    if (!table->direct || !table->ordinates || !dirs) {
+        free(dirs);
+        vdbs_lights_free(table);
+        return vdbs_error_set(err, VDBS_ERR_NOMEM, "out of memory for the light table");
+    }
+    for (int i = 0; i < scene->light_count; ++i) {
+        const vdbs_light *light = &scene->lights[i];
+        if (light->type == VDBS_LIGHT_ENV)
+            continue;
+        vdbs_direct_light *l = &table->direct[table->direct_count];
+        l->type = light->type;
+        memcpy(l->color, light->color, sizeof l->color);
+        if (light->type == VDBS_LIGHT_SUN) {
+            if (!vdbs_volume_sun_step(volume, light->direction, l->world, l->index)) {
+                free(dirs);
+                vdbs_lights_free(table);
+                return vdbs_error_set(err, VDBS_ERR_INPUT, "sun %d has a zero direction", i);
+            }
+        } else {
+            memcpy(l->world, light->position, sizeof l->world);
+            vdbs_volume_index_point(volume, light->position, l->index);
+        }
+        ++table->direct_count;
+    }
+    vdbs_sphere_directions(k, dirs);
+    for (int d = 0; d < k; ++d) {
+        vdbs_sky_ordinate *o = &table->ordinates[d];
+        memcpy(o->world, dirs + 3 * d, sizeof o->world);
+        vdbs_volume_index_vector(volume, o->world, o->index);
+        o->weight = 4.0 * VDBS_PI / k;
+        memcpy(o->radiance, table->sky, sizeof o->radiance);
+    }
+    table->ordinate_count = k;
+    free(dirs);
+    vdbs_status st = pack(table, err);
+    if (st != VDBS_OK)
+        vdbs_lights_free(table);
+    return st;
+}
