@@ -197,7 +197,7 @@ vdbs_status cli_build_scene(const cli_args *args, vdbs_scene *scene, int allow_n
         } else if (strcmp(name, "--sun") == 0 || strcmp(name, "--point") == 0 ||
                    strcmp(name, "--env") == 0) {
             if (!lights_replaced) {
-                scene->light_count = 0;
+                vdbs_scene_clear_lights(scene); /* the scene file's env-map paths too */
                 lights_replaced = 1;
             }
             if (scene->light_count == VDBS_MAX_LIGHTS)
