@@ -281,8 +281,8 @@ vdbs_status vdbs_scene_set_grid(vdbs_scene *scene, const char *spec, vdbs_error 
     const char *why = NULL;
     char name[256];
     int index = 0;
-    if (!spec)
-        return vdbs_error_set(err, VDBS_ERR_INPUT, "scene: grid: no grid name given");
+    if (!spec) /* a caller's mistake: the CLI always has a value */
+        return vdbs_error_set(err, VDBS_ERR_INTERNAL, "scene: grid: no grid name given");
     if (!split_grid_spec(spec, name, &index, &why))
         return vdbs_error_set(err, VDBS_ERR_INPUT,
                               "scene: grid \"%s\": %s (expected NAME or NAME@INDEX)", spec, why);
@@ -574,8 +574,8 @@ static vdbs_status parse_scene(const parse_ctx *ctx, const char *json_text, vdbs
     vdbs_scene *s;
     cJSON *root;
 
-    if (!json_text)
-        return fail(ctx, NULL, "no scene text");
+    if (!json_text) /* a caller's mistake, not the user's */
+        return vdbs_error_set(ctx->err, VDBS_ERR_INTERNAL, "%s: no scene text", ctx->prefix);
     root = cJSON_ParseWithOpts(json_text, &end, 1);
     if (!root) {
         int line, col;
@@ -668,8 +668,8 @@ vdbs_status vdbs_scene_load(const char *path, vdbs_scene *scene, vdbs_error *err
     vdbs_status st;
     FILE *f;
 
-    if (!path)
-        return vdbs_error_set(err, VDBS_ERR_INPUT, "scene: no file given");
+    if (!path) /* a caller's mistake; a missing file is VDBS_ERR_INPUT below */
+        return vdbs_error_set(err, VDBS_ERR_INTERNAL, "scene: no file given");
     snprintf(prefix, sizeof prefix, "scene %s", path);
     errno = 0;
     f = fopen(path, "rb");
