@@ -113,7 +113,7 @@ int cmd_bake(int argc, char **argv)
     const char *out = cli_output(&args);
     if (!out)
         return cli_fail("bake", 2, "missing -o OUT.vdb");
-    static vdbs_scene scene;
+    vdbs_scene scene;
     if ((st = cli_build_scene(&args, &scene, 0, &err)) != VDBS_OK)
         return cli_fail("bake", st, err.message);
     const char *input = args.positional_count ? args.positional[0] : scene.volume_file;

@@ -85,7 +85,7 @@ int cmd_info(int argc, char **argv)
         return cli_fail("info", st, err.message);
     if (scale < 0.0)
         return cli_fail("info", 2, "--density-scale must be >= 0");
-    static vdbs_scene scene;
+    vdbs_scene scene;
     vdbs_scene_init(&scene);
     if ((v = cli_value(&args, "--grid")) && (st = vdbs_scene_set_grid(&scene, v, &err)) != VDBS_OK)
         return cli_fail("info", st, err.message);

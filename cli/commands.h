@@ -8,7 +8,4 @@ int cmd_bake(int argc, char **argv);
 int cmd_render(int argc, char **argv);
 int cmd_compare(int argc, char **argv);
 
-/* Prints "vdbscatter CMD: message" on stderr and returns the exit status for st. */
-int cli_fail(const char *command, int status, const char *message);
-
 #endif

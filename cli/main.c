@@ -22,12 +22,6 @@ static const char usage[] =
     "Run 'vdbscatter COMMAND --help' for the options of a command.\n"
     "Exit status: 0 success, 1 failure while working, 2 bad input or usage.\n";
 
-int cli_fail(const char *command, int status, const char *message)
-{
-    fprintf(stderr, "vdbscatter %s: %s\n", command, message);
-    return status == 2 ? CLI_EXIT_USAGE : CLI_EXIT_FAILURE;
-}
-
 int main(int argc, char **argv)
 {
     if (argc < 2) {

@@ -7,21 +7,11 @@
 #include <stdlib.h>
 #include <string.h>
 
-const cli_option cli_scene_options[] = {
-    {"--scene", CLI_VALUE},   {"--grid", CLI_VALUE}, {"--density-scale", CLI_VALUE},
-    {"--albedo", CLI_VALUE},  {"--g", CLI_VALUE},    {"--sun", CLI_VALUE},
-    {"--point", CLI_VALUE},   {"--env", CLI_VALUE},  {"--method", CLI_VALUE},
-    {"--quality", CLI_VALUE}, {NULL, CLI_FLAG},
-};
-
 static const cli_option *find_option(const cli_option *options, const char *name, size_t len)
 {
     for (const cli_option *o = options; o->name; ++o)
         if (strlen(o->name) == len && strncmp(o->name, name, len) == 0)
             return o;
-    for (const cli_option *o = cli_scene_options; o->name; ++o)
-        if (strlen(o->name) == len && strncmp(o->name, name, len) == 0)
-            return options == cli_scene_options ? o : NULL;
     return NULL;
 }
 
@@ -197,7 +187,7 @@ vdbs_status cli_build_scene(const cli_args *args, vdbs_scene *scene, int allow_n
         } else if (strcmp(name, "--sun") == 0 || strcmp(name, "--point") == 0 ||
                    strcmp(name, "--env") == 0) {
             if (!lights_replaced) {
-                scene->light_count = 0;
+                vdbs_scene_clear_lights(scene); /* the scene file's env-map paths too */
                 lights_replaced = 1;
             }
             if (scene->light_count == VDBS_MAX_LIGHTS)
@@ -230,6 +220,12 @@ vdbs_status cli_build_scene(const cli_args *args, vdbs_scene *scene, int allow_n
     if (scene->light_count == 0 && allow_no_lights)
         return VDBS_OK;
     return vdbs_scene_validate(scene, err);
+}
+
+int cli_fail(const char *command, int status, const char *message)
+{
+    fprintf(stderr, "vdbscatter %s: %s\n", command, message);
+    return status == 2 ? CLI_EXIT_USAGE : CLI_EXIT_FAILURE;
 }
 
 void cli_warn(void *quiet, const char *message)

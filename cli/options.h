@@ -55,13 +55,17 @@ vdbs_status cli_integer(const char *flag, const char *text, long lo, long hi, lo
 vdbs_status cli_triple(const char *flag, const char *text, int allow_scalar, double out[3],
                        vdbs_error *err);
 
-/* The scene options shared by bake, render and tradeoff: --scene, --grid,
- * --density-scale, --albedo, --g, --sun, --point, --env, --method, --quality.
+/* The scene options shared by bake and render (and the later tradeoff): --scene, --grid,
+ * --density-scale, --albedo, --g, --sun, --point, --env, --method, --quality; a
+ * command's option table lists those it takes (render all but --method).
  * Loads --scene first, then applies the flags in order; light flags replace the scene's
  * lights. Validates the result (at least one light unless allow_no_lights). */
-extern const cli_option cli_scene_options[];
 vdbs_status cli_build_scene(const cli_args *args, vdbs_scene *scene, int allow_no_lights,
                             vdbs_error *err);
+
+/* Prints "vdbscatter CMD: message" on stderr and returns the exit status for status
+ * (a vdbs_status or an exit status: 2, VDBS_ERR_INPUT, is a usage error). */
+int cli_fail(const char *command, int status, const char *message);
 
 /* Prints a warning line on stderr ("vdbscatter: warning: ..."); user = quiet flag ptr. */
 void cli_warn(void *quiet, const char *message);

@@ -65,10 +65,10 @@ static void test_design_sketch(void **state)
     assert_vec3(s->lights[1].position, 0.0, 1.0, 0.0);
     assert_vec3(s->lights[1].color, 5.0, 5.0, 5.0);
     assert_int_equal(s->lights[2].type, VDBS_LIGHT_ENV);
-    assert_string_equal(s->lights[2].env_file, "");
+    assert_string_equal(vdbs_light_env_file(s, &s->lights[2]), "");
     assert_vec3(s->lights[2].color, 0.2, 0.3, 0.5);
     assert_int_equal(s->lights[3].type, VDBS_LIGHT_ENV);
-    assert_string_equal(s->lights[3].env_file, "/data/scenes/sky.exr");
+    assert_string_equal(vdbs_light_env_file(s, &s->lights[3]), "/data/scenes/sky.exr");
     assert_true(s->lights[3].env_scale == 1.0);
 
     assert_int_equal(s->camera.present, 1);
@@ -141,7 +141,7 @@ static void test_relative_paths(void **state)
                        "\"env\", \"file\": \"sky.exr\", \"scale\": 2}]}";
     assert_int_equal(vdbs_scene_parse(json, "scenes", s, &err), VDBS_OK);
     assert_string_equal(s->volume_file, "scenes/vols/cloud.vdb");
-    assert_string_equal(s->lights[0].env_file, "scenes/sky.exr");
+    assert_string_equal(vdbs_light_env_file(s, &s->lights[0]), "scenes/sky.exr");
     assert_true(s->lights[0].env_scale == 2.0);
     assert_int_equal(vdbs_scene_parse(json, "/a/b/", s, &err), VDBS_OK);
     assert_string_equal(s->volume_file, "/a/b/vols/cloud.vdb");
@@ -400,7 +400,7 @@ static void assert_scene_equal(const vdbs_scene *a, const vdbs_scene *b)
             assert_true(la->color[c] == lb->color[c]);
         }
         assert_true(la->angular_diameter_deg == lb->angular_diameter_deg);
-        assert_string_equal(la->env_file, lb->env_file);
+        assert_string_equal(vdbs_light_env_file(a, la), vdbs_light_env_file(b, lb));
         assert_true(la->env_scale == lb->env_scale);
     }
     assert_int_equal(a->camera.present, b->camera.present);
@@ -477,7 +477,7 @@ static void test_round_trip(void **state)
     s->light_count = VDBS_MAX_LIGHTS;
     for (int i = 4; i < VDBS_MAX_LIGHTS; ++i) {
         s->lights[i] = s->lights[i % 4];
-        if (s->lights[i].env_file[0])
+        if (s->lights[i].env_map)
             s->lights[i].env_scale = i * 0.1; /* a map's colour is not stored */
         else
             s->lights[i].color[0] = i * 0.1;
@@ -529,6 +529,89 @@ static void test_quality(void **state)
     assert_int_equal(vdbs_quality_sky_directions(NULL), 0);
 }
 
+/* Env-map paths live once in the scene, not in every light: the scene stays small enough
+ * to copy by value, and lights refer to their paths by env_map. */
+static void test_env_paths(void **state)
+{
+    (void)state;
+    assert_true(sizeof(vdbs_scene) <= 32 * 1024);
+
+    vdbs_scene *s = new_scene();
+    vdbs_error err = {{0}};
+    const char *json =
+        "{\"lights\": [{\"type\": \"env\", \"file\": \"/maps/day.exr\", \"scale\": 2},"
+        " {\"type\": \"sun\", \"direction\": [0,-1,0]},"
+        " {\"type\": \"env\", \"file\": \"night.exr\", \"scale\": 0.5},"
+        " {\"type\": \"env\", \"file\": \"/maps/day.exr\"},"
+        " {\"type\": \"env\", \"color\": 0.1}]}";
+    assert_int_equal(vdbs_scene_parse(json, "/scenes", s, &err), VDBS_OK);
+    assert_string_equal(vdbs_light_env_file(s, &s->lights[0]), "/maps/day.exr");
+    assert_string_equal(vdbs_light_env_file(s, &s->lights[1]), "");
+    assert_string_equal(vdbs_light_env_file(s, &s->lights[2]), "/scenes/night.exr");
+    assert_string_equal(vdbs_light_env_file(s, &s->lights[3]), "/maps/day.exr");
+    assert_string_equal(vdbs_light_env_file(s, &s->lights[4]), "");
+    assert_int_equal(s->lights[3].env_map, s->lights[0].env_map); /* stored once */
+    assert_int_equal(s->lights[4].env_map, 0);
+
+    /* both maps survive to_json and parse, and a copy by value */
+    round_trip(s);
+    vdbs_scene *copy = new_scene();
+    *copy = *s;
+    assert_string_equal(vdbs_light_env_file(copy, &copy->lights[2]), "/scenes/night.exr");
+
+    /* copying lights between scenes brings their paths; a bare copy of a light does not */
+    vdbs_scene *other = new_scene();
+    vdbs_scene_copy_lights(other, s);
+    assert_int_equal(other->light_count, 5);
+    assert_scene_equal(other, s);
+    vdbs_scene_clear_lights(other);
+    assert_int_equal(other->light_count, 0);
+    other->lights[0] = s->lights[2];
+    other->light_count = 1;
+    assert_string_equal(vdbs_light_env_file(other, &other->lights[0]), "");
+    assert_int_equal(vdbs_scene_validate(other, &err), VDBS_ERR_INTERNAL);
+    assert_contains(err.message, "lights[0]");
+
+    /* the setter: "" is a constant env; two paths of the longest length fit, a third not */
+    assert_int_equal(vdbs_light_set_env_file(other, &other->lights[0], "", &err), VDBS_OK);
+    assert_int_equal(other->lights[0].env_map, 0);
+    assert_int_equal(vdbs_scene_validate(other, &err), VDBS_OK);
+    char *long_path = malloc(VDBS_PATH_MAX + 1);
+    assert_non_null(long_path);
+    memset(long_path, 'a', VDBS_PATH_MAX);
+    long_path[VDBS_PATH_MAX] = '\0';
+    assert_int_equal(vdbs_light_set_env_file(other, &other->lights[0], long_path, &err),
+                     VDBS_ERR_INPUT);
+    for (int i = 0; i < 3; ++i) {
+        long_path[VDBS_PATH_MAX - 1] = '\0';
+        long_path[0] = (char)('a' + i);
+        vdbs_status st = vdbs_light_set_env_file(other, &other->lights[i], long_path, &err);
+        assert_int_equal(st, i < 2 ? VDBS_OK : VDBS_ERR_INPUT);
+    }
+    assert_int_equal(other->lights[2].env_map, 0); /* unchanged on error */
+    assert_int_equal(strlen(vdbs_light_env_file(other, &other->lights[1])), VDBS_PATH_MAX - 1);
+    assert_true(vdbs_light_env_file(other, &other->lights[1])[0] == 'b');
+
+    /* a scene file whose paths do not fit names the light */
+    char *big = malloc(3 * VDBS_PATH_MAX + 256);
+    assert_non_null(big);
+    int n = sprintf(big, "{\"lights\": [");
+    for (int i = 0; i < 3; ++i) {
+        long_path[1] = (char)('a' + i);
+        n += sprintf(big + n, "%s{\"type\": \"env\", \"file\": \"/%s\"}", i ? ", " : "",
+                     long_path + 1);
+    }
+    sprintf(big + n, "]}");
+    assert_int_equal(vdbs_scene_parse(big, NULL, copy, &err), VDBS_ERR_INPUT);
+    assert_contains(err.message, "lights[2].file");
+    assert_string_equal(vdbs_light_env_file(copy, &copy->lights[2]), "/scenes/night.exr");
+    free(big);
+    free(long_path);
+    free(other);
+    free(copy);
+    free(s);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -536,7 +619,7 @@ int main(void)
         cmocka_unit_test(test_relative_paths), cmocka_unit_test(test_load),
         cmocka_unit_test(test_parse_errors),   cmocka_unit_test(test_validate_errors),
         cmocka_unit_test(test_round_trip),     cmocka_unit_test(test_grid_spec),
-        cmocka_unit_test(test_quality),
+        cmocka_unit_test(test_quality),        cmocka_unit_test(test_env_paths),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

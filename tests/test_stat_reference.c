@@ -933,11 +933,12 @@ static void test_errors(void **state)
     vdbs_scene scene;
     medium(&scene, 1.0, 0.5, 0.0);
     add_env(&scene, 1.0, 1.0, 1.0);
-    snprintf(scene.lights[0].env_file, sizeof scene.lights[0].env_file, "/tmp/sky.exr");
+    vdbs_error err;
+    assert_int_equal(vdbs_light_set_env_file(&scene, &scene.lights[0], "/tmp/sky.exr", &err),
+                     VDBS_OK);
     vdbs_camera camera;
     vdbs_camera_frame_volume(&volume, 4, 4, &camera);
     vdbs_camera_frame frame;
-    vdbs_error err;
     assert_int_equal(vdbs_camera_frame_init(&camera, &frame, &err), VDBS_OK);
     vdbs_image image;
     image_make(&image, 4, 4);
@@ -948,7 +949,7 @@ static void test_errors(void **state)
                      VDBS_ERR_INPUT);
     assert_non_null(strstr(err.message, "environment maps ("));
     assert_non_null(strstr(err.message, "are not supported yet"));
-    scene.lights[0].env_file[0] = '\0';
+    scene.lights[0].env_map = 0; /* a constant env again */
     options.max_bounces = 0;
     assert_int_equal(vdbs_reference_render(&volume, &scene, &frame, &options, &image, NULL, &err),
                      VDBS_ERR_INPUT);

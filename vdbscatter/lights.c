@@ -93,11 +93,16 @@ vdbs_status vdbs_lights_build(const vdbs_volume *volume, const vdbs_scene *scene
             ++direct;
             continue;
         }
-        if (light->env_file[0])
+        const char *file = vdbs_light_env_file(scene, light);
+        if (light->env_map != 0 && !file[0])
+            return vdbs_error_set(err, VDBS_ERR_INTERNAL,
+                                  "lights[%d]: env_map %d is not a path of this scene", i,
+                                  light->env_map);
+        if (file[0])
             return vdbs_error_set(err, VDBS_ERR_INPUT,
                                   "environment maps (%s) are not supported yet; use a constant "
                                   "sky colour (--env R,G,B)",
-                                  light->env_file);
+                                  file);
         for (int c = 0; c < 3; ++c)
             table->sky[c] += light->color[c];
         table->has_sky = 1;

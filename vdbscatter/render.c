@@ -259,10 +259,8 @@ static void apply_overrides(unsigned set, const vdbs_scene *given, vdbs_scene *s
         scene->g = given->g;
     if (set & VDBS_SCENE_SET_QUALITY)
         memcpy(scene->quality, given->quality, sizeof scene->quality);
-    if (set & VDBS_SCENE_SET_LIGHTS) {
-        memcpy(scene->lights, given->lights, sizeof scene->lights);
-        scene->light_count = given->light_count;
-    }
+    if (set & VDBS_SCENE_SET_LIGHTS)
+        vdbs_scene_copy_lights(scene, given);
     if (set & VDBS_SCENE_SET_GRID) {
         memcpy(scene->grid, given->grid, sizeof scene->grid);
         scene->grid_index = given->grid_index;
@@ -305,10 +303,8 @@ static vdbs_status resolve_scene(const vdbs_render_desc *d, const char *input, v
         apply_overrides(d->scene_set, d->scene, scene);
     } else {
         *scene = *d->scene;
-        if (*is_lit && scene->light_count == 0) {
-            memcpy(scene->lights, baked->lights, sizeof scene->lights);
-            scene->light_count = baked->light_count;
-        }
+        if (*is_lit && scene->light_count == 0)
+            vdbs_scene_copy_lights(scene, baked);
     }
     free(baked);
     if (scene->light_count == 0)

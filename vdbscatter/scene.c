@@ -282,8 +282,8 @@ vdbs_status vdbs_scene_set_grid(vdbs_scene *scene, const char *spec, vdbs_error 
     const char *why = NULL;
     char name[256];
     int index = 0;
-    if (!spec)
-        return vdbs_error_set(err, VDBS_ERR_INPUT, "scene: grid: no grid name given");
+    if (!spec) /* a caller's mistake: the CLI always has a value */
+        return vdbs_error_set(err, VDBS_ERR_INTERNAL, "scene: grid: no grid name given");
     if (!split_grid_spec(spec, name, &index, &why))
         return vdbs_error_set(err, VDBS_ERR_INPUT,
                               "scene: grid \"%s\": %s (expected NAME or NAME@INDEX)", spec, why);
@@ -305,6 +305,82 @@ void vdbs_scene_init(vdbs_scene *scene)
     scene->camera.height = 480;
     snprintf(scene->method, sizeof scene->method, "%s", "single");
     snprintf(scene->quality, sizeof scene->quality, "%s", "medium");
+}
+
+/* ---- env-map paths ---- */
+
+/* The path env_map refers to, or NULL unless it is the start of a NUL-terminated
+ * non-empty string of the scene's env_paths. */
+static const char *env_path_at(const vdbs_scene *s, int env_map)
+{
+    if (env_map < 1 || env_map > VDBS_ENV_PATHS_MAX)
+        return NULL;
+    size_t off = (size_t)env_map - 1;
+    const char *p = s->env_paths + off;
+    if (!p[0] || (off > 0 && p[-1] != '\0') || !memchr(p, '\0', sizeof s->env_paths - off))
+        return NULL;
+    return p;
+}
+
+/* env_map of path in s->env_paths, added if new; 0 when there is no room. */
+static int env_path_add(vdbs_scene *s, const char *path)
+{
+    size_t len = strlen(path), off = 0, cap = sizeof s->env_paths;
+    while (off < cap && s->env_paths[off]) {
+        const char *p = s->env_paths + off;
+        const char *end = memchr(p, '\0', cap - off);
+        if (!end)
+            return 0; /* unterminated: nothing can be appended */
+        size_t n = (size_t)(end - p);
+        if (n == len && memcmp(p, path, len) == 0)
+            return (int)off + 1;
+        off += n + 1;
+    }
+    if (off >= cap || len + 1 > cap - off)
+        return 0;
+    memcpy(s->env_paths + off, path, len + 1);
+    return (int)off + 1;
+}
+
+const char *vdbs_light_env_file(const vdbs_scene *scene, const vdbs_light *light)
+{
+    const char *p = env_path_at(scene, light->env_map);
+    return p ? p : "";
+}
+
+vdbs_status vdbs_light_set_env_file(vdbs_scene *scene, vdbs_light *light, const char *path,
+                                    vdbs_error *err)
+{
+    if (!path || !path[0]) {
+        light->env_map = 0;
+        return VDBS_OK;
+    }
+    if (strlen(path) >= VDBS_PATH_MAX)
+        return vdbs_error_set(err, VDBS_ERR_INPUT,
+                              "scene: env map path too long (at most %d bytes)", VDBS_PATH_MAX - 1);
+    int ref = env_path_add(scene, path);
+    if (!ref)
+        return vdbs_error_set(err, VDBS_ERR_INPUT,
+                              "scene: env map paths take more than %d bytes together",
+                              VDBS_ENV_PATHS_MAX);
+    light->env_map = ref;
+    return VDBS_OK;
+}
+
+void vdbs_scene_copy_lights(vdbs_scene *dst, const vdbs_scene *src)
+{
+    if (dst == src)
+        return;
+    memcpy(dst->lights, src->lights, sizeof dst->lights);
+    dst->light_count = src->light_count;
+    memcpy(dst->env_paths, src->env_paths, sizeof dst->env_paths);
+}
+
+void vdbs_scene_clear_lights(vdbs_scene *scene)
+{
+    memset(scene->lights, 0, sizeof scene->lights);
+    scene->light_count = 0;
+    memset(scene->env_paths, 0, sizeof scene->env_paths);
 }
 
 static vdbs_status parse_volume(const parse_ctx *ctx, const cJSON *vol, vdbs_scene *s)
@@ -329,8 +405,9 @@ static vdbs_status parse_volume(const parse_ctx *ctx, const cJSON *vol, vdbs_sce
     return VDBS_OK;
 }
 
+/* Parses one light into l, a light of s (whose env_paths receive a map's path). */
 static vdbs_status parse_light(const parse_ctx *ctx, const cJSON *obj, const char *path,
-                               vdbs_light *l)
+                               vdbs_scene *s, vdbs_light *l)
 {
     static const char *const sun_keys[] = {"type", "direction", "irradiance",
                                            "angular_diameter_deg", NULL};
@@ -377,13 +454,14 @@ static vdbs_status parse_light(const parse_ctx *ctx, const cJSON *obj, const cha
             return st;
     } else if (strcmp(type->valuestring, "env") == 0) {
         bool has_file = false;
+        char file[VDBS_PATH_MAX];
         l->type = VDBS_LIGHT_ENV;
         if ((st = check_keys(ctx, obj, path, env_keys,
                              " (an env light takes type, color, or file and scale)")) != VDBS_OK)
             return st;
         bool has_color = cJSON_GetObjectItemCaseSensitive(obj, "color") != NULL;
         bool has_scale = cJSON_GetObjectItemCaseSensitive(obj, "scale") != NULL;
-        if ((st = get_path(ctx, obj, path, "file", l->env_file, &has_file)) != VDBS_OK ||
+        if ((st = get_path(ctx, obj, path, "file", file, &has_file)) != VDBS_OK ||
             (st = get_vec3(ctx, obj, path, "color", true, l->color)) != VDBS_OK ||
             (st = get_number(ctx, obj, path, "scale", &l->env_scale)) != VDBS_OK)
             return st;
@@ -394,6 +472,12 @@ static vdbs_status parse_light(const parse_ctx *ctx, const cJSON *obj, const cha
             return fail(ctx, path, "an env light needs \"file\" or \"color\"");
         if (has_scale && !has_file)
             return fail(ctx, path, "\"scale\" applies to an env \"file\" only");
+        if (has_file && !(l->env_map = env_path_add(s, file))) {
+            char fpath[PATH_LEN];
+            join_path(fpath, path, "file");
+            return fail(ctx, fpath, "the env map paths of a scene take at most %d bytes together",
+                        VDBS_ENV_PATHS_MAX);
+        }
     } else {
         return fail(ctx, tpath, "unknown light type \"%s\" (expected sun, point or env)",
                     type->valuestring);
@@ -414,7 +498,7 @@ static vdbs_status parse_lights(const parse_ctx *ctx, const cJSON *arr, vdbs_sce
     for (const cJSON *c = arr->child; c; c = c->next, ++i) {
         char path[PATH_LEN];
         fmt_path(path, "lights[%d]", i);
-        if ((st = parse_light(ctx, c, path, &s->lights[i])) != VDBS_OK)
+        if ((st = parse_light(ctx, c, path, s, &s->lights[i])) != VDBS_OK)
             return st;
     }
     s->light_count = n;
@@ -491,16 +575,16 @@ static vdbs_status parse_scene(const parse_ctx *ctx, const char *json_text, vdbs
     vdbs_scene *s;
     cJSON *root;
 
-    if (!json_text)
-        return fail(ctx, NULL, "no scene text");
+    if (!json_text) /* a caller's mistake, not the user's */
+        return vdbs_error_set(ctx->err, VDBS_ERR_INTERNAL, "%s: no scene text", ctx->prefix);
     root = cJSON_ParseWithOpts(json_text, &end, 1);
     if (!root) {
         int line, col;
         text_position(json_text, end ? end : json_text, &line, &col);
         return fail(ctx, NULL, "invalid JSON at line %d, column %d", line, col);
     }
-    /* Parse into a scratch scene so that `out` is untouched on error; the scene is too
-     * large (hundreds of KiB) for the stack. */
+    /* Parse into a scratch scene so that `out` is untouched on error; on the heap, as
+     * a scene is tens of KiB. */
     s = malloc(sizeof *s);
     if (!s) {
         cJSON_Delete(root);
@@ -585,8 +669,8 @@ vdbs_status vdbs_scene_load(const char *path, vdbs_scene *scene, vdbs_error *err
     vdbs_status st;
     FILE *f;
 
-    if (!path)
-        return vdbs_error_set(err, VDBS_ERR_INPUT, "scene: no file given");
+    if (!path) /* a caller's mistake; a missing file is VDBS_ERR_INPUT below */
+        return vdbs_error_set(err, VDBS_ERR_INTERNAL, "scene: no file given");
     snprintf(prefix, sizeof prefix, "scene %s", path);
     errno = 0;
     f = fopen(path, "rb");
@@ -675,7 +759,7 @@ static bool add_string(cJSON *obj, const char *key, const char *v)
     return cJSON_AddStringToObject(obj, key, v) != NULL;
 }
 
-static bool add_light(cJSON *arr, const vdbs_light *l)
+static bool add_light(cJSON *arr, const vdbs_scene *s, const vdbs_light *l)
 {
     cJSON *o = cJSON_CreateObject();
     bool ok = o && cJSON_AddItemToArray(arr, o);
@@ -693,8 +777,9 @@ static bool add_light(cJSON *arr, const vdbs_light *l)
         break;
     case VDBS_LIGHT_ENV:
         ok = add_string(o, "type", "env");
-        if (l->env_file[0])
-            ok = ok && add_string(o, "file", l->env_file) && add_number(o, "scale", l->env_scale);
+        if (vdbs_light_env_file(s, l)[0])
+            ok = ok && add_string(o, "file", vdbs_light_env_file(s, l)) &&
+                 add_number(o, "scale", l->env_scale);
         else
             ok = ok && add_vec3(o, "color", l->color);
         break;
@@ -730,7 +815,7 @@ char *vdbs_scene_to_json(const vdbs_scene *s)
 
     ok = ok && (lights = cJSON_AddArrayToObject(root, "lights")) != NULL;
     for (int i = 0; ok && i < s->light_count && i < VDBS_MAX_LIGHTS; ++i)
-        ok = add_light(lights, &s->lights[i]);
+        ok = add_light(lights, s, &s->lights[i]);
 
     if (ok && s->camera.present) {
         const vdbs_camera *c = &s->camera;
@@ -783,7 +868,8 @@ static vdbs_status check_colour(const parse_ctx *ctx, const char *path, const do
     return VDBS_OK;
 }
 
-static vdbs_status validate_light(const parse_ctx *ctx, int i, const vdbs_light *l)
+static vdbs_status validate_light(const parse_ctx *ctx, const vdbs_scene *s, int i,
+                                  const vdbs_light *l)
 {
     char path[PATH_LEN];
     vdbs_status st;
@@ -808,7 +894,12 @@ static vdbs_status validate_light(const parse_ctx *ctx, int i, const vdbs_light 
         fmt_path(path, "lights[%d].intensity", i);
         return check_colour(ctx, path, l->color);
     case VDBS_LIGHT_ENV:
-        if (l->env_file[0]) {
+        if (l->env_map != 0 && !env_path_at(s, l->env_map))
+            return vdbs_error_set(ctx->err, VDBS_ERR_INTERNAL,
+                                  "%s: lights[%d]: env_map %d is not a path of this scene (copy "
+                                  "lights between scenes with vdbs_scene_copy_lights)",
+                                  ctx->prefix, i, l->env_map);
+        if (l->env_map != 0) {
             fmt_path(path, "lights[%d].scale", i);
             if (!(isfinite(l->env_scale) && l->env_scale >= 0.0))
                 return fail(ctx, path, "must be finite and >= 0, got %g", l->env_scale);
@@ -876,7 +967,7 @@ vdbs_status vdbs_scene_validate(vdbs_scene *s, vdbs_error *err)
     if (s->light_count == 0)
         return fail(&ctx, "lights", "no light at all (add a sun, point or env light)");
     for (int i = 0; i < s->light_count; ++i)
-        if ((st = validate_light(&ctx, i, &s->lights[i])) != VDBS_OK)
+        if ((st = validate_light(&ctx, s, i, &s->lights[i])) != VDBS_OK)
             return st;
     if (s->camera.present && (st = validate_camera(&ctx, &s->camera)) != VDBS_OK)
         return st;

@@ -636,9 +636,9 @@ void density_from_dense(const float *values, const int dims[3], const int origin
     if (!values || !dims || !out)
         fail(VDBS_ERR_INTERNAL, "vdbio_density_from_dense: NULL argument");
     for (int a = 0; a < 3; ++a) {
-        if (dims[a] <= 0)
-            fail(VDBS_ERR_INPUT, format("dense grid dimensions %d x %d x %d are not positive",
-                                        dims[0], dims[1], dims[2]));
+        if (dims[a] <= 0) /* the shape of the caller's own array: a caller's mistake */
+            fail(VDBS_ERR_INTERNAL, format("dense grid dimensions %d x %d x %d are not positive",
+                                           dims[0], dims[1], dims[2]));
     }
     const std::string gname = name ? name : "density";
     const Coord o = origin ? Coord(origin[0], origin[1], origin[2]) : Coord(0);
@@ -698,7 +698,9 @@ bool same_file(const char *out, const char *in)
 /* Refuses outputs that can never be written, before any work is done. */
 void check_output(const char *path, const char *input_path)
 {
-    if (!path || !path[0])
+    if (!path) /* a caller's mistake, like the NULL arguments elsewhere; "" is the user's */
+        fail(VDBS_ERR_INTERNAL, "no output path");
+    if (!path[0])
         fail(VDBS_ERR_INPUT, "no output path");
     if (same_file(path, input_path))
         fail(VDBS_ERR_INPUT,

@@ -11,6 +11,10 @@ extern "C" {
 
 #define VDBS_MAX_LIGHTS 64
 #define VDBS_PATH_MAX 4096
+/* Bytes of env-map paths a scene holds, all lights together (each distinct path once):
+ * room for two of the longest paths, or many ordinary ones. Keeping paths out of the
+ * lights keeps a scene small enough to copy by value (and to mirror from ctypes). */
+#define VDBS_ENV_PATHS_MAX (2 * VDBS_PATH_MAX)
 
 typedef enum vdbs_light_type {
     VDBS_LIGHT_SUN = 0,
@@ -23,9 +27,12 @@ typedef struct vdbs_light {
     double direction[3]; /* sun: unit direction in which the light travels */
     double position[3];  /* point: world position */
     double color[3];     /* sun: irradiance W/m^2; point: intensity W/sr; env: constant radiance */
-    double angular_diameter_deg;  /* sun; 0 = delta light */
-    char env_file[VDBS_PATH_MAX]; /* env: lat-long OpenEXR (resolved path), "" for constant */
-    double env_scale;             /* env: multiplier of the map (1 for a constant env) */
+    double angular_diameter_deg; /* sun; 0 = delta light */
+    /* env: lat-long OpenEXR map, as 1 + the byte offset of its resolved path in the
+     * scene's env_paths; 0 for a constant env. Read it with vdbs_light_env_file and set
+     * it with vdbs_light_set_env_file: it means something only next to its own scene. */
+    int env_map;
+    double env_scale; /* env: multiplier of the map (1 for a constant env) */
     /* Fields a light type does not use are 0, except color = 1 for an env map. */
 } vdbs_light;
 
@@ -48,6 +55,9 @@ typedef struct vdbs_scene {
     double g;
     vdbs_light lights[VDBS_MAX_LIGHTS];
     int light_count;
+    /* The lights' env-map paths, NUL-terminated one after the other (an empty string
+     * ends the list); copy lights between scenes with vdbs_scene_copy_lights. */
+    char env_paths[VDBS_ENV_PATHS_MAX];
     vdbs_camera camera;
     char method[32];  /* "single", later "pop", "svd", "inet" */
     char quality[32]; /* "low", "medium", "high", "ultra" */
@@ -74,7 +84,8 @@ vdbs_status vdbs_scene_load(const char *path, vdbs_scene *scene, vdbs_error *err
 
 /* Serialises the resolved scene as JSON (malloc'd string; free with free(); NULL when
  * out of memory). vdbs_scene_parse of the result with base_dir NULL gives back the same
- * scene, bit for bit (paths are already resolved; an absent camera is not written). */
+ * scene, bit for bit (paths are already resolved; an absent camera is not written), up
+ * to where in env_paths each map's path lies. */
 char *vdbs_scene_to_json(const vdbs_scene *scene);
 
 /* Checks ranges: finite values, density_scale >= 0, albedo in [0,1], g in (-1,1)
@@ -82,12 +93,32 @@ char *vdbs_scene_to_json(const vdbs_scene *scene);
  * at least one light, camera fov in (0,180) and positive size. Also: width and height
  * at most 16384, target != position, up not parallel to the view direction, sun
  * angular_diameter_deg in [0,180), env scale >= 0, a known method and quality. Errors
- * name the key path ("scene: volume.g: ..."); on error nothing is normalised. */
+ * name the key path ("scene: volume.g: ..."); on error nothing is normalised. An env
+ * light whose env_map is not a path of this scene (a light copied from another scene
+ * without its paths) is a VDBS_ERR_INTERNAL error. */
 vdbs_status vdbs_scene_validate(vdbs_scene *scene, vdbs_error *err);
 
 /* Parses "NAME" or "NAME@INDEX" (split at the last '@'; INDEX decimal digits) into
  * scene->grid / scene->grid_index. A bad spec leaves the scene unchanged. */
 vdbs_status vdbs_scene_set_grid(vdbs_scene *scene, const char *spec, vdbs_error *err);
+
+/* The resolved env-map path of an env light of `scene`: "" for a constant env, and also
+ * for an env_map that is not a path of this scene (vdbs_scene_validate reports that). */
+const char *vdbs_light_env_file(const vdbs_scene *scene, const vdbs_light *light);
+
+/* Points `light` (one of scene's lights, or one about to be stored there) at `path`,
+ * adding the path to scene->env_paths unless it is there already; NULL or "" makes it a
+ * constant env. Errors (VDBS_ERR_INPUT, light unchanged): a path of VDBS_PATH_MAX bytes
+ * or more, or no room left in env_paths. */
+vdbs_status vdbs_light_set_env_file(vdbs_scene *scene, vdbs_light *light, const char *path,
+                                    vdbs_error *err);
+
+/* Replaces dst's lights by src's, with their env-map paths (a plain copy of the lights
+ * array would leave their env_map pointing into dst's paths). */
+void vdbs_scene_copy_lights(vdbs_scene *dst, const vdbs_scene *src);
+
+/* Removes every light and every env-map path. */
+void vdbs_scene_clear_lights(vdbs_scene *scene);
 
 #ifdef __cplusplus
 }

@@ -86,7 +86,8 @@ vdbs_status vdbio_density_read(const char *path, const vdbio_read_options *optio
  * are inactive (stored as 0). Used by the procedural samples and the tests.
  * origin NULL means (0,0,0), transform NULL the identity, name NULL "density".
  * All values <= 0 give an empty grid (not an error). NaN/Inf values and a
- * singular transform are VDBS_ERR_INPUT. */
+ * singular transform are VDBS_ERR_INPUT; NULL arguments and dims <= 0 are
+ * VDBS_ERR_INTERNAL. */
 vdbs_status vdbio_density_from_dense(const float *values, const int dims[3], const int origin[3],
                                      const vdbio_transform *transform, const char *name,
                                      vdbio_density **out, vdbs_error *err);
@@ -136,8 +137,8 @@ typedef struct vdbio_write_request {
 } vdbio_write_request;
 
 /* The output checks vdbio_write makes first, for callers that want to fail before long
- * work: VDBS_ERR_INPUT when path is the input file, a directory, or in a folder that does
- * not exist or is not writable. */
+ * work: VDBS_ERR_INPUT when path is empty, the input file, a directory, or in a folder
+ * that does not exist or is not writable (VDBS_ERR_INTERNAL when it is NULL). */
 vdbs_status vdbio_check_output(const char *path, const char *input_path, vdbs_error *err);
 
 /* Writes all grids to `path` through a temporary file in the same directory

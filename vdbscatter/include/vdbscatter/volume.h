@@ -55,18 +55,6 @@ void vdbs_volume_support_box(const vdbs_volume *volume, float lo[3], float hi[3]
  * the limit is left for PNanoVDB's root-tile loops and the caller's own loops. */
 int vdbs_volume_gpu_marches_per_pass(const vdbs_volume *volume);
 
-#ifdef __cplusplus
-}
-#endif
-
-#endif
-
-#ifndef VDBSCATTER_VOLUME_THICKNESS
-#define VDBSCATTER_VOLUME_THICKNESS
-#ifdef __cplusplus
-extern "C" {
-#endif
-
 /* Optical thickness of a volume for a density scale, for `info`: the largest per-voxel
  * depth (max density * scale * mean voxel size) and the depth of straight rays along
  * each index axis through a lattice of up to 64 x 64 positions across the bounding box
@@ -83,4 +71,5 @@ void vdbs_volume_thickness(const vdbs_volume *volume, double density_scale, vdbs
 #ifdef __cplusplus
 }
 #endif
+
 #endif
