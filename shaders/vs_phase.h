@@ -54,4 +54,66 @@ VS_FUNC float vs_hg_dirs(float g, pnanovdb_vec3_t wi, pnanovdb_vec3_t wo)
     return vs_hg_forward(-g, vs_half_dist2(wi, vs_vec3_scale(wo, -1.0f)));
 }
 
+/* Draws a scattering direction from HG(g) for a uniform u in [0, 1): the exact inverse of
+ * the CDF, returned as (mu, sin_theta, 1 - mu), mu the cosine between the incident and
+ * scattered propagation directions. The textbook inverse divides by g and cancels near
+ * both peaks; with D = 1 - g + 2 g u it is
+ *   1 - mu = 2 (1-g)^2 (1-u) (1+g u) / D^2,   1 + mu = 2 (1+g)^2 u (1-g+g u) / D^2,
+ * both products of non-negative factors, so neither cancels (finite for g = 0 exactly and
+ * |g| <= 0.999). mu is taken from the smaller of the two, sin_theta = sqrt((1-mu)(1+mu)),
+ * and z keeps 1 - mu to full relative precision near the forward peak. mu(u) increases
+ * with u. */
+VS_FUNC pnanovdb_vec3_t vs_hg_sample(float g, float u)
+{
+    VS_PRECISE float d = 1.0f - g + 2.0f * g * u;
+    VS_PRECISE float inv_d2 = 1.0f / (d * d);
+    VS_PRECISE float omm = 2.0f * (1.0f - g) * (1.0f - g) * (1.0f - u) * (1.0f + g * u) * inv_d2;
+    VS_PRECISE float opm = 2.0f * (1.0f + g) * (1.0f + g) * u * (1.0f - g + g * u) * inv_d2;
+    omm = vs_min(vs_max(omm, 0.0f), 2.0f);
+    opm = vs_min(vs_max(opm, 0.0f), 2.0f);
+    float mu = omm <= 1.0f ? 1.0f - omm : opm - 1.0f;
+    return vs_vec3(mu, vs_sqrt(omm * opm), omm);
+}
+
+/* HG lobes. A radiance lobe L f_hg(w . d, a) (w the propagation direction, d a unit axis,
+ * |a| < 1) scattered by HG(g) gives the source S(wo) = L f_hg(wo . d, a g): HG's Legendre
+ * coefficients are g^l, so convolving two HG phases multiplies them, giving HG(a g). Its
+ * direction average is L / 4pi and its linear term 3 L a g d / 4pi (the first moment of
+ * f_hg(., b) is b d), which is how a lobe maps onto the lit VDB's ms and ms_l1
+ * (DESIGN.md "The lit VDB"). Returns the anisotropy of the scattered lobe. */
+VS_FUNC float vs_hg_lobe_scatter(float a, float g)
+{
+    return a * g;
+}
+
+#if !defined(PNANOVDB_GLSL)
+/* Double-precision variants for the C-only Monte-Carlo reference (the float ones above are
+ * the same formulas). VDBS_PI comes from the library's private vdbs_math.h; the include is
+ * in angle brackets so that the shader embedder leaves it to the C preprocessor. */
+#include <vdbs_math.h>
+
+/* vs_hg_sample in double: *mu and *sin_theta for a uniform u in [0, 1). */
+VS_FUNC void vs_hg_sample_d(double g, double u, double *mu, double *sin_theta)
+{
+    double d = 1.0 - g + 2.0 * g * u;
+    double inv_d2 = 1.0 / (d * d);
+    double omm = 2.0 * (1.0 - g) * (1.0 - g) * (1.0 - u) * (1.0 + g * u) * inv_d2;
+    double opm = 2.0 * (1.0 + g) * (1.0 + g) * u * (1.0 - g + g * u) * inv_d2;
+    omm = fmin(fmax(omm, 0.0), 2.0);
+    opm = fmin(fmax(opm, 0.0), 2.0);
+    *mu = omm <= 1.0 ? 1.0 - omm : opm - 1.0;
+    *sin_theta = sqrt(omm * opm);
+}
+
+/* HG in double as a function of 1 - mu (clamped to [0, 2]), in the form of
+ * vs_hg_forward for any g: cancellation-free for g >= 0; for g < 0 it loses relative
+ * precision only at the backward peak, which double precision absorbs for |g| <= 0.999. */
+VS_FUNC double vs_hg_eval_d(double g, double one_minus_mu)
+{
+    double a = 1.0 - g;
+    double d = a * a + 2.0 * g * fmin(fmax(one_minus_mu, 0.0), 2.0);
+    return a * (1.0 + g) / (4.0 * VDBS_PI * d * sqrt(d));
+}
+#endif
+
 #endif

@@ -11,14 +11,12 @@
 #define PNANOVDB_C
 #include <nanovdb/PNanoVDB.h>
 
+#include "vdbscatter/medium.h"
+#include "vdbs_math.h"
 #include "vs_common.h"
 #include "vs_march.h"
+#include "vs_phase.h"
 
-#define REF_PI 3.14159265358979323846
-/* Voxels per majorant cell edge; doubled for huge grids. 4 beat 8 (a NanoVDB leaf) by
- * 15-25% on the Disney cloud and the OpenVDB smoke: fewer null collisions near edges. */
-#define REF_BLOCK 4
-#define REF_MAX_CELLS (1 << 24)
 /* Tracking steps one path may take in total (see the header's note on guards). */
 #define REF_PATH_STEPS (1 << 22)
 /* Russian roulette starts after this many scattering events. */
@@ -67,36 +65,13 @@ static double rng_exp(ref_rng *r)
     return -log(1.0 - rng_next(r));
 }
 
-/* ---- Henyey-Greenstein ---- */
-
-/* Samples 1 - mu and 1 + mu separately, both without cancellation: with
- * D = 1 - g + 2 g u, 1 - mu = 2 (1-g)^2 (1-u) (1+g u) / D^2 and
- * 1 + mu = 2 (1+g)^2 u (1 - g + g u) / D^2 (the textbook inverse CDF divides by g). */
-static void hg_sample(double g, double u, double *mu, double *sin_theta)
-{
-    double d = 1.0 - g + 2.0 * g * u;
-    double inv_d2 = 1.0 / (d * d);
-    double omm = 2.0 * (1.0 - g) * (1.0 - g) * (1.0 - u) * (1.0 + g * u) * inv_d2;
-    double opm = 2.0 * (1.0 + g) * (1.0 + g) * u * (1.0 - g + g * u) * inv_d2;
-    omm = fmin(fmax(omm, 0.0), 2.0);
-    opm = fmin(fmax(opm, 0.0), 2.0);
-    *mu = omm <= 1.0 ? 1.0 - omm : opm - 1.0;
-    *sin_theta = sqrt(omm * opm);
-}
+/* ---- Henyey-Greenstein (shaders/vs_phase.h) ---- */
 
 double vdbs_reference_hg_sample(double g, double u)
 {
     double mu, s;
-    hg_sample(g, u, &mu, &s);
+    vs_hg_sample_d(g, u, &mu, &s);
     return mu;
-}
-
-/* HG for 1 - mu in the cancellation-free form of DESIGN.md. */
-static double hg_eval(double g, double one_minus_mu)
-{
-    double a = 1.0 - g;
-    double d = a * a + 2.0 * g * fmin(fmax(one_minus_mu, 0.0), 2.0);
-    return a * (1.0 + g) / (4.0 * REF_PI * d * sqrt(d));
 }
 
 /* 1 - a.b for unit vectors as |a - b|^2 / 2. */
@@ -123,7 +98,7 @@ static void scatter_dir(double w[3], double mu, double sin_theta, double u)
     double b = w[0] * w[1] * a;
     double t1[3] = {1.0 + sign * w[0] * w[0] * a, sign * b, -sign * w[0]};
     double t2[3] = {b, sign + w[1] * w[1] * a, -w[1]};
-    double phi = 2.0 * REF_PI * u;
+    double phi = 2.0 * VDBS_PI * u;
     double c = sin_theta * cos(phi), s = sin_theta * sin(phi);
     double out[3];
     for (int k = 0; k < 3; ++k)
@@ -132,166 +107,10 @@ static void scatter_dir(double w[3], double mu, double sin_theta, double u)
     memcpy(w, out, sizeof out);
 }
 
-/* ---- majorant grid ---- */
-
-typedef struct ref_grid {
-    int dims[3];
-    int block;
-    double lo[3], hi[3]; /* index-space support box */
-    float *maj;          /* upper bound of sigma_t (per world unit) in each cell */
-} ref_grid;
-
-static vdbs_status grid_build(const vdbs_volume *volume, double density_scale, ref_grid *g,
-                              vdbs_error *err)
-{
-    memset(g, 0, sizeof *g);
-    float lo[3], hi[3];
-    vdbs_volume_support_box(volume, lo, hi);
-    int ext[3];
-    for (int a = 0; a < 3; ++a) {
-        g->lo[a] = lo[a];
-        g->hi[a] = hi[a];
-        ext[a] = (int)(hi[a] - lo[a]);
-    }
-    g->block = REF_BLOCK;
-    for (;;) {
-        for (int a = 0; a < 3; ++a)
-            g->dims[a] = (ext[a] + g->block - 1) / g->block;
-        if ((double)g->dims[0] * g->dims[1] * g->dims[2] <= REF_MAX_CELLS)
-            break;
-        g->block *= 2;
-    }
-    size_t cells = (size_t)g->dims[0] * g->dims[1] * g->dims[2];
-    g->maj = calloc(cells, sizeof *g->maj);
-    if (!g->maj)
-        return vdbs_error_set(err, VDBS_ERR_NOMEM, "out of memory for the majorant grid");
-    if (!(density_scale > 0.0))
-        return VDBS_OK;
-
-    pnanovdb_buf_t buf = pnanovdb_make_buf(volume->nano, volume->nano_size / 4);
-    pnanovdb_readaccessor_t acc = vs_density_accessor(buf);
-    const int bmin[3] = {(int)g->lo[0], (int)g->lo[1], (int)g->lo[2]};
-    for (size_t n = 0; n < volume->coord_count; ++n) {
-        const int32_t *c = volume->coords + 3 * n;
-        float v = vs_density_voxel(buf, &acc, vs_coord(c[0], c[1], c[2]));
-        if (!(v > 0.0f))
-            continue;
-        /* Voxel c shapes the interpolant on the open box (c-1, c+1): the cells holding
-         * the points c-1 and c along each axis. */
-        int k0[3], k1[3];
-        for (int a = 0; a < 3; ++a) {
-            k0[a] = (c[a] - 1 - bmin[a]) / g->block;
-            k1[a] = (c[a] - bmin[a]) / g->block;
-            if (k0[a] < 0)
-                k0[a] = 0;
-            if (k1[a] > g->dims[a] - 1)
-                k1[a] = g->dims[a] - 1;
-        }
-        for (int z = k0[2]; z <= k1[2]; ++z)
-            for (int y = k0[1]; y <= k1[1]; ++y)
-                for (int x = k0[0]; x <= k1[0]; ++x) {
-                    float *m = &g->maj[((size_t)z * g->dims[1] + y) * g->dims[0] + x];
-                    if (v > *m)
-                        *m = v;
-                }
-    }
-    /* The float interpolant can exceed its largest corner by a few ulps. */
-    for (size_t i = 0; i < cells; ++i)
-        g->maj[i] = (float)(g->maj[i] * density_scale * (1.0 + 1e-5));
-    return VDBS_OK;
-}
-
-/* Clips the ray o + t d to the support box; returns 0 when it misses. *axis is the
- * index axis of the exit face. */
-static int grid_clip(const ref_grid *g, const double o[3], const double d[3], double tmax,
-                     double *t0, double *t1, int *axis)
-{
-    double a0 = 0.0, far_min = HUGE_VAL;
-    int exit_axis = -1;
-    for (int a = 0; a < 3; ++a) {
-        if (d[a] == 0.0) {
-            if (o[a] < g->lo[a] || o[a] > g->hi[a])
-                return 0;
-            continue;
-        }
-        double ta = (g->lo[a] - o[a]) / d[a], tb = (g->hi[a] - o[a]) / d[a];
-        a0 = fmax(a0, fmin(ta, tb));
-        if (fmax(ta, tb) < far_min) {
-            far_min = fmax(ta, tb);
-            exit_axis = a;
-        }
-    }
-    *t0 = a0;
-    *t1 = fmin(tmax, far_min);
-    *axis = exit_axis;
-    return *t0 < *t1;
-}
-
-/* Walks the majorant cells along a ray segment [t0, t1]. */
-typedef struct ref_dda {
-    int cell[3];
-    int step[3];
-    double next[3];
-    double delta[3];
-    double t, t_end;
-} ref_dda;
-
-static void dda_init(ref_dda *s, const ref_grid *g, const double o[3], const double d[3], double t0,
-                     double t1)
-{
-    s->t = t0;
-    s->t_end = t1;
-    for (int a = 0; a < 3; ++a) {
-        double q = (o[a] + d[a] * t0 - g->lo[a]) / g->block;
-        int c = (int)floor(q);
-        if (c < 0)
-            c = 0;
-        if (c > g->dims[a] - 1)
-            c = g->dims[a] - 1;
-        s->cell[a] = c;
-        if (d[a] > 0.0) {
-            s->step[a] = 1;
-            s->delta[a] = g->block / d[a];
-            s->next[a] = (g->lo[a] + (double)(c + 1) * g->block - o[a]) / d[a];
-        } else if (d[a] < 0.0) {
-            s->step[a] = -1;
-            s->delta[a] = -g->block / d[a];
-            s->next[a] = (g->lo[a] + (double)c * g->block - o[a]) / d[a];
-        } else {
-            s->step[a] = 0;
-            s->delta[a] = HUGE_VAL;
-            s->next[a] = HUGE_VAL;
-        }
-    }
-}
-
-/* Next segment [*ta, *tb] of constant majorant *mu; 0 when the ray is done. */
-static int dda_segment(ref_dda *s, const ref_grid *g, double *ta, double *tb, double *mu)
-{
-    if (!(s->t < s->t_end))
-        return 0;
-    for (int a = 0; a < 3; ++a)
-        if (s->cell[a] < 0 || s->cell[a] >= g->dims[a])
-            return 0;
-    int a = 0;
-    if (s->next[1] < s->next[a])
-        a = 1;
-    if (s->next[2] < s->next[a])
-        a = 2;
-    double te = fmin(fmax(s->next[a], s->t), s->t_end);
-    *ta = s->t;
-    *tb = te;
-    *mu = g->maj[((size_t)s->cell[2] * g->dims[1] + s->cell[1]) * g->dims[0] + s->cell[0]];
-    s->t = te;
-    s->cell[a] += s->step[a];
-    s->next[a] += s->delta[a];
-    return 1;
-}
-
 /* ---- tracking ---- */
 
 typedef struct ref_tracker {
-    const ref_grid *grid;
+    const vdbs_majorant_grid *grid;
     pnanovdb_buf_t buf;
     pnanovdb_readaccessor_t acc;
     double density_scale;
@@ -315,16 +134,16 @@ static int delta_track(ref_tracker *tr, ref_rng *rng, const double o[3], const d
 {
     double t0, t1;
     int axis;
-    if (!grid_clip(tr->grid, o, d, tmax, &t0, &t1, &axis)) {
+    if (!vdbs_majorant_grid_clip(tr->grid, o, d, tmax, &t0, &t1, &axis)) {
         *exit_axis = -1;
         return TRACK_ESCAPED;
     }
     *exit_axis = axis;
-    ref_dda s;
-    dda_init(&s, tr->grid, o, d, t0, t1);
+    vdbs_majorant_dda s;
+    vdbs_majorant_dda_init(&s, tr->grid, o, d, t0, t1);
     double tau = rng_exp(rng);
     double ta, tb, mu;
-    while (dda_segment(&s, tr->grid, &ta, &tb, &mu)) {
+    while (vdbs_majorant_dda_next(&s, &ta, &tb, &mu)) {
         if (!(mu > 0.0))
             continue;
         double t = ta;
@@ -354,13 +173,13 @@ static double ratio_track(ref_tracker *tr, ref_rng *rng, const double o[3], cons
 {
     double t0, t1;
     int axis;
-    if (!grid_clip(tr->grid, o, d, tmax, &t0, &t1, &axis))
+    if (!vdbs_majorant_grid_clip(tr->grid, o, d, tmax, &t0, &t1, &axis))
         return 1.0;
-    ref_dda s;
-    dda_init(&s, tr->grid, o, d, t0, t1);
+    vdbs_majorant_dda s;
+    vdbs_majorant_dda_init(&s, tr->grid, o, d, t0, t1);
     double transmittance = 1.0;
     double ta, tb, mu;
-    while (dda_segment(&s, tr->grid, &ta, &tb, &mu)) {
+    while (vdbs_majorant_dda_next(&s, &ta, &tb, &mu)) {
         if (!(mu > 0.0))
             continue;
         double t = ta;
@@ -385,18 +204,16 @@ static double ratio_track(ref_tracker *tr, ref_rng *rng, const double o[3], cons
 
 typedef struct ref_ctx {
     const vdbs_volume *volume;
-    ref_grid grid;
+    vdbs_medium medium;
+    vdbs_majorant_grid grid;
     pnanovdb_buf_t buf;
-    double density_scale;
-    double albedo[3];
-    double g;
     vdbs_light_table lights; /* suns and points; the sky is sampled here, not by ordinates */
     int max_bounces;
 } ref_ctx;
 
 static void ctx_free(ref_ctx *ctx)
 {
-    free(ctx->grid.maj);
+    vdbs_majorant_grid_free(&ctx->grid);
     vdbs_lights_free(&ctx->lights);
     memset(ctx, 0, sizeof *ctx);
 }
@@ -413,11 +230,9 @@ static vdbs_status ctx_init(const vdbs_volume *volume, const vdbs_scene *scene, 
         return st;
     ctx->volume = volume;
     ctx->buf = pnanovdb_make_buf(volume->nano, volume->nano_size / 4);
-    ctx->density_scale = scene->density_scale;
-    memcpy(ctx->albedo, scene->albedo, sizeof ctx->albedo);
-    ctx->g = scene->g;
+    vdbs_medium_init(&ctx->medium, volume, scene);
     ctx->max_bounces = max_bounces;
-    st = grid_build(volume, scene->density_scale, &ctx->grid, err);
+    st = vdbs_majorant_grid_build(&ctx->medium, &ctx->grid, err);
     if (st != VDBS_OK)
         ctx_free(ctx);
     return st;
@@ -428,7 +243,7 @@ static void tracker_init(const ref_ctx *ctx, ref_tracker *tr)
     tr->grid = &ctx->grid;
     tr->buf = ctx->buf;
     tr->acc = vs_density_accessor(ctx->buf);
-    tr->density_scale = ctx->density_scale;
+    tr->density_scale = ctx->medium.density_scale;
     tr->budget = REF_PATH_STEPS;
 }
 
@@ -447,7 +262,7 @@ static void next_event(const ref_ctx *ctx, ref_tracker *tr, ref_rng *rng, const 
         if (l->type == VDBS_LIGHT_SUN) {
             /* Incident propagation s, outgoing -w: 1 - mu = |s + w|^2 / 2. */
             double neg_w[3] = {-w[0], -w[1], -w[2]};
-            weight = hg_eval(ctx->g, one_minus_dot(l->world, neg_w));
+            weight = vs_hg_eval_d(ctx->medium.g, one_minus_dot(l->world, neg_w));
             transmittance = ratio_track(tr, rng, xi, l->index, HUGE_VAL);
         } else {
             double v[3] = {l->world[0] - xw[0], l->world[1] - xw[1], l->world[2] - xw[2]};
@@ -457,12 +272,12 @@ static void next_event(const ref_ctx *ctx, ref_tracker *tr, ref_rng *rng, const 
                 for (int a = 0; a < 3; ++a)
                     v[a] /= r;
                 /* Incident propagation -v, outgoing -w: 1 - mu = |v - w|^2 / 2. */
-                weight = hg_eval(ctx->g, one_minus_dot(v, w)) / (rc * rc);
+                weight = vs_hg_eval_d(ctx->medium.g, one_minus_dot(v, w)) / (rc * rc);
                 double d[3];
                 vdbs_volume_index_vector(ctx->volume, v, d);
                 transmittance = ratio_track(tr, rng, xi, d, r);
             } else {
-                weight = 1.0 / (4.0 * REF_PI * rc * rc);
+                weight = 1.0 / (4.0 * VDBS_PI * rc * rc);
                 transmittance = 1.0;
             }
         }
@@ -501,7 +316,7 @@ static void trace_camera(const ref_ctx *ctx, ref_tracker *tr, ref_rng *rng, cons
         }
         /* Analog collision: always scatter, weighted by the albedo sigma_s / sigma_t. */
         for (int c = 0; c < 3; ++c)
-            beta[c] *= ctx->albedo[c];
+            beta[c] *= ctx->medium.albedo[c];
         double bmax = fmax(beta[0], fmax(beta[1], beta[2]));
         if (!(bmax > 0.0))
             return;
@@ -511,7 +326,7 @@ static void trace_camera(const ref_ctx *ctx, ref_tracker *tr, ref_rng *rng, cons
             radiance[c] += beta[c] * s[c];
 
         double mu, sin_theta;
-        hg_sample(ctx->g, rng_next(rng), &mu, &sin_theta);
+        vs_hg_sample_d(ctx->medium.g, rng_next(rng), &mu, &sin_theta);
         scatter_dir(w, mu, sin_theta, rng_next(rng));
         vdbs_volume_index_vector(ctx->volume, w, d);
         if (bounce >= ctx->max_bounces) {
@@ -736,7 +551,7 @@ vdbs_status vdbs_reference_tally_sun(const vdbs_volume *volume, const vdbs_scene
     }
     double sun_index[3];
     vdbs_volume_index_vector(volume, s, sun_index);
-    const double albedo = scene->albedo[0];
+    const double albedo = ctx.medium.albedo[0];
 
     const int64_t chunks = (paths + REF_TALLY_CHUNK - 1) / REF_TALLY_CHUNK;
     tally_sums *sums = calloc((size_t)chunks, sizeof *sums);
@@ -754,7 +569,7 @@ vdbs_status vdbs_reference_tally_sun(const vdbs_volume *volume, const vdbs_scene
             int64_t end = (k + 1) * REF_TALLY_CHUNK < paths ? (k + 1) * REF_TALLY_CHUNK : paths;
             for (int64_t n = k * REF_TALLY_CHUNK; n < end; ++n) {
                 ref_rng rng = rng_make(seed, UINT64_C(0x7a11), (uint64_t)n);
-                double rr = radius * sqrt(rng_next(&rng)), phi = 2.0 * REF_PI * rng_next(&rng);
+                double rr = radius * sqrt(rng_next(&rng)), phi = 2.0 * VDBS_PI * rng_next(&rng);
                 double xw[3], xi[3], w[3], d[3];
                 for (int a = 0; a < 3; ++a)
                     xw[a] = centre[a] + rr * (cos(phi) * u1[a] + sin(phi) * u2[a]) - back * s[a];
@@ -789,7 +604,7 @@ vdbs_status vdbs_reference_tally_sun(const vdbs_volume *volume, const vdbs_scene
                     if (!(beta > 0.0))
                         break;
                     double mu, sin_theta;
-                    hg_sample(ctx.g, rng_next(&rng), &mu, &sin_theta);
+                    vs_hg_sample_d(ctx.medium.g, rng_next(&rng), &mu, &sin_theta);
                     scatter_dir(w, mu, sin_theta, rng_next(&rng));
                     vdbs_volume_index_vector(volume, w, d);
                     if (bounce >= REF_RR_START && beta < 1.0) {

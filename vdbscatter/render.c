@@ -198,8 +198,10 @@ vdbs_status vdbs_render_march(vdbs_runner *runner, const vdbs_volume *volume,
                             "%zu bytes of grids exceed the 4 GiB a shader can address; use "
                             "--backend cpu",
                             grids_size);
+    vdbs_medium medium_params;
+    vdbs_medium_init(&medium_params, volume, scene);
     float medium[4 * VDBS_MEDIUM_TABLE_ENTRIES];
-    vdbs_medium_pack(volume, scene, medium);
+    vdbs_medium_pack(&medium_params, medium);
     march_job job = {(const vs_vec4 *)medium,
                      (const vs_vec4 *)lights.packed,
                      (const vs_vec4 *)table,

@@ -39,8 +39,10 @@ vdbs_status vdbs_single_scatter(vdbs_runner *runner, const vdbs_volume *volume,
                                 const vdbs_scene *scene, const vdbs_light_table *lights,
                                 float *radiance, vdbs_progress *progress, vdbs_error *err)
 {
+    vdbs_medium medium_params;
+    vdbs_medium_init(&medium_params, volume, scene);
     float medium[4 * VDBS_MEDIUM_TABLE_ENTRIES];
-    vdbs_medium_pack(volume, scene, medium);
+    vdbs_medium_pack(&medium_params, medium);
     single_job job = {volume, (const vs_vec4 *)medium, (const vs_vec4 *)lights->packed, radiance};
 
     vdbs_kernel_desc desc = {0};

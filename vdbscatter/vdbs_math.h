@@ -1,6 +1,7 @@
-/* Constants shared by the library's C sources (the kernels have theirs in vs_common.h). */
-#ifndef VDBSCATTER_VDBS_MATH_H
-#define VDBSCATTER_VDBS_MATH_H
+/* Double-precision constants shared by the library's C code (private header). The shader
+ * headers keep their float constants (VS_PI, VS_INV_4PI in shaders/vs_common.h). */
+#ifndef VDBS_MATH_H
+#define VDBS_MATH_H
 
 #define VDBS_PI 3.14159265358979323846
 

@@ -87,7 +87,8 @@ vdbs_status vdbs_reference_tally_sun(const vdbs_volume *volume, const vdbs_scene
 
 /* The cosine mu between incident and scattered propagation directions drawn from the HG
  * phase of anisotropy g for a uniform number u in [0, 1): the exact inverse of its CDF,
- * in a form without division by g (finite and accurate for g = 0 and |g| <= 0.999). */
+ * in a form without division by g (finite and accurate for g = 0 and |g| <= 0.999); the
+ * sampler the reference uses, vs_hg_sample_d of shaders/vs_phase.h. */
 double vdbs_reference_hg_sample(double g, double u);
 
 #ifdef __cplusplus
