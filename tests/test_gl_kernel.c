@@ -1,0 +1,190 @@
+/* The kernel runner on both backends, with a kernel shaped like the propagation solvers: a
+ * 6-neighbour Jacobi step over ping-pong grids with a max-change reduction after each step
+ * (shaders/vs_stencil.h, shaders/test_jacobi.comp).
+ *
+ * Oracle: for -Laplace(u) = f with f = 6 (1 - rho) u*, u* the lowest discrete sine mode of
+ * an nx x ny x nz grid and rho = (cos(pi/(nx+1)) + cos(pi/(ny+1)) + cos(pi/(nz+1))) / 3,
+ * Jacobi from u = 0 gives exactly u_k = (1 - rho^k) u*, and step k changes u by
+ * rho^(k-1) (1 - rho) u*. */
+#include "testutil.h"
+
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#define PNANOVDB_C
+#include <nanovdb/PNanoVDB.h>
+
+#include "vs_common.h"
+#include "vs_stencil.h"
+
+/* Items not a multiple of the work-group size, so that partial groups are exercised. */
+#define PI 3.14159265358979323846
+
+#define NX 12
+#define NY 11
+#define NZ 13
+#define ITEMS (NX * NY * NZ)
+
+typedef struct problem {
+    float rhs[ITEMS];
+    double exact[ITEMS]; /* u* */
+    int dims[3];
+    double rho, peak; /* peak = max u* */
+} problem;
+
+static problem P;
+
+static int setup(void **state)
+{
+    (void)state;
+    const int n[3] = {NX, NY, NZ};
+    double c[3];
+    for (int a = 0; a < 3; ++a) {
+        P.dims[a] = n[a];
+        c[a] = cos(PI / (n[a] + 1));
+    }
+    P.rho = (c[0] + c[1] + c[2]) / 3.0;
+    P.peak = 0.0;
+    for (int k = 0; k < NZ; ++k)
+        for (int j = 0; j < NY; ++j)
+            for (int i = 0; i < NX; ++i) {
+                int m = i + NX * (j + NY * k);
+                P.exact[m] = sin(PI * (i + 1) / (NX + 1)) * sin(PI * (j + 1) / (NY + 1)) *
+                             sin(PI * (k + 1) / (NZ + 1));
+                P.rhs[m] = (float)(6.0 * (1.0 - P.rho) * P.exact[m]);
+                P.peak = fmax(P.peak, P.exact[m]);
+            }
+    return 0;
+}
+
+static int teardown(void **state)
+{
+    (void)state;
+    test_runners_free();
+    return 0;
+}
+
+static double jacobi_step(void *user, const void *state_in, void *state_out, uint64_t begin,
+                          uint64_t end)
+{
+    const problem *p = user;
+    const float *in = state_in;
+    float *out = state_out;
+    double change = 0.0;
+    for (uint64_t n = begin; n < end; ++n) {
+        out[n] = vs_jacobi_item(in, p->rhs, (int)n, p->dims[0], p->dims[1], p->dims[2]);
+        change = fmax(change, fabs((double)out[n] - in[n]));
+    }
+    return change;
+}
+
+/* Runs up to `iterations` steps from u = 0 on the runner into u. */
+static vdbs_status solve(vdbs_runner *runner, int iterations, double tolerance, uint64_t gpu_chunk,
+                         float *u, vdbs_kernel_result *result, vdbs_error *err)
+{
+    memset(u, 0, sizeof(float) * ITEMS);
+    vdbs_kernel_desc desc = {0};
+    desc.items = ITEMS;
+    desc.user = &P;
+    desc.cpu_step = jacobi_step;
+    desc.cpu_chunk = 100;
+    desc.shader = "test_jacobi.comp";
+    desc.inputs[1] = (vdbs_kernel_input){P.rhs, sizeof P.rhs};
+    desc.inputs[2] = (vdbs_kernel_input){P.dims, sizeof P.dims};
+    desc.state_words = 1;
+    desc.state = u;
+    desc.max_iterations = iterations;
+    desc.tolerance = tolerance;
+    desc.reduce = VDBS_REDUCE_MAX;
+    desc.gpu_chunk = gpu_chunk;
+    return vdbs_kernel_iterate(runner, &desc, result, err);
+}
+
+/* After k steps: the field is (1 - rho^k) u* and the last step's change rho^(k-1)(1-rho) peak. */
+static void check_closed_form(vdbs_backend backend, uint64_t gpu_chunk)
+{
+    const int k = 60;
+    float *u = malloc(sizeof(float) * ITEMS);
+    vdbs_kernel_result result;
+    vdbs_error err;
+    if (solve(test_runner(backend), k, 0.0, gpu_chunk, u, &result, &err) != VDBS_OK)
+        fail_msg("%s", err.message);
+    assert_int_equal(result.iterations, k);
+    double worst = 0.0;
+    for (int m = 0; m < ITEMS; ++m)
+        worst = fmax(worst, fabs(u[m] - (1.0 - pow(P.rho, k)) * P.exact[m]));
+    double change = pow(P.rho, k - 1) * (1.0 - P.rho) * P.peak;
+    print_message("%s: %d steps, rho %.6f, field error %.2e of peak, last change %.6e "
+                  "(closed form %.6e)\n",
+                  backend == VDBS_BACKEND_GPU ? "GPU" : "C", k, P.rho, worst / P.peak,
+                  result.reduction, change);
+    /* Float rounding of 60 steps of 7-term sums: far below 1e-5 of the peak. */
+    assert_true(worst <= 1e-5 * P.peak);
+    assert_true(fabs(result.reduction - change) <= 1e-3 * change);
+    if (backend == VDBS_BACKEND_GPU)
+        assert_int_equal(result.dispatches, k);
+    free(u);
+}
+
+static void test_closed_form_c(void **state)
+{
+    (void)state;
+    check_closed_form(VDBS_BACKEND_CPU, 0);
+}
+
+static void test_closed_form_gpu(void **state)
+{
+    (void)state;
+    check_closed_form(VDBS_BACKEND_GPU, 0);
+    /* Several dispatch calls per step: the partials of every chunk land in their place. */
+    check_closed_form(VDBS_BACKEND_GPU, 256);
+}
+
+/* The tolerance stops the loop at the first step whose change is below it. */
+static void test_tolerance_stops(void **state)
+{
+    (void)state;
+    const double tolerance = 1e-3 * P.peak;
+    /* Smallest k with rho^(k-1) (1 - rho) peak <= tolerance. */
+    int expected = 1 + (int)ceil(log(tolerance / ((1.0 - P.rho) * P.peak)) / log(P.rho));
+    const vdbs_backend backends[2] = {VDBS_BACKEND_CPU, VDBS_BACKEND_GPU};
+    float *u = malloc(sizeof(float) * ITEMS);
+    for (int b = 0; b < 2; ++b) {
+        vdbs_kernel_result result;
+        vdbs_error err;
+        if (solve(test_runner(backends[b]), 100000, tolerance, 0, u, &result, &err) != VDBS_OK)
+            fail_msg("%s", err.message);
+        print_message("%s: stopped after %d steps (closed form %d), change %.3e <= %.3e\n",
+                      b ? "GPU" : "C", result.iterations, expected, result.reduction, tolerance);
+        assert_true(result.reduction <= tolerance);
+        assert_true(abs(result.iterations - expected) <= 1);
+    }
+    free(u);
+}
+
+static vdbs_status run_steps(vdbs_runner *runner, const void *scenario, float *out, vdbs_error *err)
+{
+    vdbs_kernel_result result;
+    return solve(runner, *(const int *)scenario, 0.0, 0, out, &result, err);
+}
+
+/* The same 300 steps on both backends, field against field (the twin harness). */
+static void test_twins(void **state)
+{
+    (void)state;
+    const int steps = 300;
+    free(test_twin("jacobi, 300 steps", run_steps, &steps, ITEMS));
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_closed_form_c),
+        cmocka_unit_test(test_closed_form_gpu),
+        cmocka_unit_test(test_tolerance_stops),
+        cmocka_unit_test(test_twins),
+    };
+    return cmocka_run_group_tests(tests, setup, teardown);
+}
