@@ -39,14 +39,6 @@ void vdbs_lights_free(vdbs_light_table *table)
     memset(table, 0, sizeof *table);
 }
 
-static void put(float *entry, const double xyz[3], double w)
-{
-    entry[0] = (float)xyz[0];
-    entry[1] = (float)xyz[1];
-    entry[2] = (float)xyz[2];
-    entry[3] = (float)w;
-}
-
 static vdbs_status pack(vdbs_light_table *t, vdbs_error *err)
 {
     size_t n = VS_LIGHTS_HEADER_SIZE + VS_LIGHT_STRIDE * (size_t)t->direct_count +
@@ -55,16 +47,16 @@ static vdbs_status pack(vdbs_light_table *t, vdbs_error *err)
     if (!p)
         return vdbs_error_set(err, VDBS_ERR_NOMEM, "out of memory for the light table");
     const double counts[3] = {t->direct_count, t->ordinate_count, t->min_distance};
-    put(p + 4 * VS_LIGHTS_OFF_COUNTS, counts, 0.0);
-    put(p + 4 * VS_LIGHTS_OFF_BACKGROUND, t->sky, 0.0);
+    vdbs_table_put(p + 4 * VS_LIGHTS_OFF_COUNTS, counts[0], counts[1], counts[2], 0.0);
+    vdbs_table_put(p + 4 * VS_LIGHTS_OFF_BACKGROUND, t->sky[0], t->sky[1], t->sky[2], 0.0);
     for (int i = 0; i < t->direct_count; ++i) {
         const vdbs_direct_light *l = &t->direct[i];
         float *e = p + 4 * (VS_LIGHTS_HEADER_SIZE + VS_LIGHT_STRIDE * (size_t)i);
         e[4 * VS_LIGHT_OFF_INDEX] = (float)l->type;
         for (int a = 0; a < 3; ++a)
             e[4 * VS_LIGHT_OFF_INDEX + 1 + a] = (float)l->index[a];
-        put(e + 4 * VS_LIGHT_OFF_WORLD, l->world, 0.0);
-        put(e + 4 * VS_LIGHT_OFF_COLOR, l->color, 0.0);
+        vdbs_table_put(e + 4 * VS_LIGHT_OFF_WORLD, l->world[0], l->world[1], l->world[2], 0.0);
+        vdbs_table_put(e + 4 * VS_LIGHT_OFF_COLOR, l->color[0], l->color[1], l->color[2], 0.0);
     }
     for (int k = 0; k < t->ordinate_count; ++k) {
         const vdbs_sky_ordinate *o = &t->ordinates[k];
@@ -72,9 +64,11 @@ static vdbs_status pack(vdbs_light_table *t, vdbs_error *err)
                             VS_ORDINATE_STRIDE * (size_t)k);
         const double weighted[3] = {o->radiance[0] * o->weight, o->radiance[1] * o->weight,
                                     o->radiance[2] * o->weight};
-        put(e + 4 * VS_ORDINATE_OFF_INDEX, o->index, 0.0);
-        put(e + 4 * VS_ORDINATE_OFF_WORLD, o->world, o->weight);
-        put(e + 4 * VS_ORDINATE_OFF_WEIGHTED, weighted, 0.0);
+        vdbs_table_put(e + 4 * VS_ORDINATE_OFF_INDEX, o->index[0], o->index[1], o->index[2], 0.0);
+        vdbs_table_put(e + 4 * VS_ORDINATE_OFF_WORLD, o->world[0], o->world[1], o->world[2],
+                       o->weight);
+        vdbs_table_put(e + 4 * VS_ORDINATE_OFF_WEIGHTED, weighted[0], weighted[1], weighted[2],
+                       0.0);
     }
     t->packed = p;
     t->packed_entries = n;

@@ -4,6 +4,8 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "vdbs_math.h"
+
 #define PNANOVDB_C
 #include <nanovdb/PNanoVDB.h>
 
@@ -180,29 +182,21 @@ int vdbs_majorant_dda_next(vdbs_majorant_dda *s, double *ta, double *tb, double 
     return 1;
 }
 
-static void put(float *entry, double x, double y, double z, double w)
-{
-    entry[0] = (float)x;
-    entry[1] = (float)y;
-    entry[2] = (float)z;
-    entry[3] = (float)w;
-}
-
 void vdbs_medium_pack(const vdbs_medium *medium, float table[4 * VDBS_MEDIUM_TABLE_ENTRIES])
 {
     const vdbs_volume *volume = medium->volume;
     memset(table, 0, sizeof(float) * 4 * VDBS_MEDIUM_TABLE_ENTRIES);
-    put(table + 4 * VS_MEDIUM_OFF_PARAMS, medium->density_scale, medium->g, 0.0, 0.0);
-    put(table + 4 * VS_MEDIUM_OFF_ALBEDO, medium->albedo[0], medium->albedo[1], medium->albedo[2],
-        0.0);
+    vdbs_table_put(table + 4 * VS_MEDIUM_OFF_PARAMS, medium->density_scale, medium->g, 0.0, 0.0);
+    vdbs_table_put(table + 4 * VS_MEDIUM_OFF_ALBEDO, medium->albedo[0], medium->albedo[1],
+                   medium->albedo[2], 0.0);
     for (int r = 0; r < 3; ++r) {
         const double *m = volume->index_to_world[r];
         const double *inv = volume->world_to_index[r];
-        put(table + 4 * (VS_MEDIUM_OFF_TO_WORLD + r), m[0], m[1], m[2], 0.0);
-        put(table + 4 * (VS_MEDIUM_OFF_TO_INDEX + r), inv[0], inv[1], inv[2], 0.0);
+        vdbs_table_put(table + 4 * (VS_MEDIUM_OFF_TO_WORLD + r), m[0], m[1], m[2], 0.0);
+        vdbs_table_put(table + 4 * (VS_MEDIUM_OFF_TO_INDEX + r), inv[0], inv[1], inv[2], 0.0);
     }
     float lo[3], hi[3];
     vdbs_volume_support_box(volume, lo, hi);
-    put(table + 4 * VS_MEDIUM_OFF_BOX_LO, lo[0], lo[1], lo[2], 0.0);
-    put(table + 4 * VS_MEDIUM_OFF_BOX_HI, hi[0], hi[1], hi[2], 0.0);
+    vdbs_table_put(table + 4 * VS_MEDIUM_OFF_BOX_LO, lo[0], lo[1], lo[2], 0.0);
+    vdbs_table_put(table + 4 * VS_MEDIUM_OFF_BOX_HI, hi[0], hi[1], hi[2], 0.0);
 }

@@ -12,6 +12,8 @@
 #include "vdbscatter/solver.h"
 #include "vdbscatter/vdbio.h"
 
+#include "vdbs_math.h"
+
 #define PNANOVDB_C
 #include <nanovdb/PNanoVDB.h>
 
@@ -36,14 +38,6 @@ int vdbs_render_quality(const char *quality, vdbs_march_options *options)
     options->sky_directions = q->sky_directions;
     options->step_voxels = q->render_step_voxels;
     return 1;
-}
-
-static void put(float *e, double x, double y, double z, double w)
-{
-    e[0] = (float)x;
-    e[1] = (float)y;
-    e[2] = (float)z;
-    e[3] = (float)w;
 }
 
 /* Byte offsets of the four ms grids in the render buffer (density first). */
@@ -73,7 +67,8 @@ vdbs_status vdbs_render_table(const vdbs_volume *volume, const vdbs_ms_grids *ms
     if (!t)
         return vdbs_error_set(err, VDBS_ERR_NOMEM, "out of memory for the render table");
     int with_ms = vdbs_ms_grids_present(ms);
-    put(t + 4 * VS_RENDER_OFF_MARCH, options->step_voxels, with_ms ? 1.0 : 0.0, 0.0, 0.0);
+    vdbs_table_put(t + 4 * VS_RENDER_OFF_MARCH, options->step_voxels, with_ms ? 1.0 : 0.0, 0.0,
+                   0.0);
     if (with_ms) {
         uint64_t offsets[4];
         ms_offsets(volume, ms, offsets);
@@ -85,20 +80,22 @@ vdbs_status vdbs_render_table(const vdbs_volume *volume, const vdbs_ms_grids *ms
                 return vdbs_error_set(err, VDBS_ERR_INPUT, "lit grids too large to address");
             }
         }
-        put(t + 4 * VS_RENDER_OFF_GRIDS, (double)(units[0] >> 16), (double)(units[0] & 0xffffu),
-            (double)(units[1] >> 16), (double)(units[1] & 0xffffu));
-        put(t + 4 * VS_RENDER_OFF_GRIDS_L1YZ, (double)(units[2] >> 16),
-            (double)(units[2] & 0xffffu), (double)(units[3] >> 16), (double)(units[3] & 0xffffu));
+        vdbs_table_put(t + 4 * VS_RENDER_OFF_GRIDS, (double)(units[0] >> 16),
+                       (double)(units[0] & 0xffffu), (double)(units[1] >> 16),
+                       (double)(units[1] & 0xffffu));
+        vdbs_table_put(t + 4 * VS_RENDER_OFF_GRIDS_L1YZ, (double)(units[2] >> 16),
+                       (double)(units[2] & 0xffffu), (double)(units[3] >> 16),
+                       (double)(units[3] & 0xffffu));
     }
     double origin[3];
     vdbs_volume_index_point(volume, frame->origin, origin);
-    put(t + 4 * VS_RENDER_OFF_ORIGIN, origin[0], origin[1], origin[2], frame->width);
-    put(t + 4 * VS_RENDER_OFF_FORWARD, frame->forward[0], frame->forward[1], frame->forward[2],
-        frame->height);
-    put(t + 4 * VS_RENDER_OFF_RIGHT, frame->right[0] * frame->tan_half_x,
-        frame->right[1] * frame->tan_half_x, frame->right[2] * frame->tan_half_x, 0.0);
-    put(t + 4 * VS_RENDER_OFF_UP, frame->up[0] * frame->tan_half_y,
-        frame->up[1] * frame->tan_half_y, frame->up[2] * frame->tan_half_y, 0.0);
+    vdbs_table_put(t + 4 * VS_RENDER_OFF_ORIGIN, origin[0], origin[1], origin[2], frame->width);
+    vdbs_table_put(t + 4 * VS_RENDER_OFF_FORWARD, frame->forward[0], frame->forward[1],
+                   frame->forward[2], frame->height);
+    vdbs_table_put(t + 4 * VS_RENDER_OFF_RIGHT, frame->right[0] * frame->tan_half_x,
+                   frame->right[1] * frame->tan_half_x, frame->right[2] * frame->tan_half_x, 0.0);
+    vdbs_table_put(t + 4 * VS_RENDER_OFF_UP, frame->up[0] * frame->tan_half_y,
+                   frame->up[1] * frame->tan_half_y, frame->up[2] * frame->tan_half_y, 0.0);
     *data = t;
     *entries = VS_RENDER_SIZE;
     return VDBS_OK;

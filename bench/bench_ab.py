@@ -1,0 +1,73 @@
+#!/usr/bin/python3
+"""Two builds side by side in one run: the same bakes and renders, alternating A and B,
+median of N runs each, on the C path and the compute shader (llvmpipe here).
+
+usage: bench/bench_ab.py BUILD_A BUILD_B [--runs 3] [--out bench/ab.md]
+BUILD_* are folders holding a `vdbscatter` executable (e.g. the build before and after a
+refactor). Times are the solve / render stage of the --json reports (load and write
+excluded). The table gives B/A per case: 1.00 is the same speed."""
+import argparse
+import json
+import os
+import statistics
+import subprocess
+import sys
+import tempfile
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+ROOT = os.path.dirname(HERE)
+
+
+def run(cmd):
+    p = subprocess.run(cmd, capture_output=True, text=True)
+    if p.returncode != 0:
+        sys.exit(f"{' '.join(cmd)}: {p.stderr}")
+    return json.loads(p.stdout)
+
+
+def main():
+    ap = argparse.ArgumentParser()
+    ap.add_argument("a")
+    ap.add_argument("b")
+    ap.add_argument("--runs", type=int, default=3)
+    ap.add_argument("--out", default=os.path.join(HERE, "ab.md"))
+    args = ap.parse_args()
+    exes = [os.path.join(args.a, "vdbscatter"), os.path.join(args.b, "vdbscatter")]
+    tmp = tempfile.mkdtemp(prefix="bench-ab-")
+    cloud = os.path.join(tmp, "cloud96.vdb")
+    subprocess.run([exes[0], "sample", "cloud", "--res", "96", "-o", cloud], check=True)
+    scene = os.path.join(ROOT, "samples", "cloud.json")
+    lit = os.path.join(tmp, "lit.vdb")
+    run([exes[0], "bake", "--scene", scene, "-o", lit, "--json", "-q", "--quality", "low"])
+    sun = ["--density-scale", "20", "--sun", "0.3,-1,0.2:3,3,3", "--point", "0.2,0.9,0.1:2,2,2"]
+    sky = ["--density-scale", "20", "--sun", "0.3,-1,0.2", "--env", "0.2,0.3,0.5", "--quality", "low"]
+    cases = []
+    for backend in ("cpu", "gpu"):
+        cases += [
+            (f"bake cloud 96^3, sun + point, {backend}", backend, "solve",
+             lambda e, o, b=backend: ["bake", cloud, "-o", o + ".vdb", "--backend", b, *sun]),
+            (f"bake cloud 96^3, sun + sky 16 dirs, {backend}", backend, "solve",
+             lambda e, o, b=backend: ["bake", cloud, "-o", o + ".vdb", "--backend", b, *sky]),
+            (f"render baked cloud 160x120, quality low, {backend}", backend, "render",
+             lambda e, o, b=backend: ["render", lit, "-o", o + ".exr", "--backend", b,
+                                      "--size", "160x120", "--quality", "low"]),
+        ]
+    rows = []
+    for name, backend, stage, argv in cases:
+        times = [[], []]
+        for r in range(args.runs):
+            for i, exe in enumerate(exes):
+                rep = run([exe, *argv(exe, os.path.join(tmp, f"o{i}")), "--json", "-q"])
+                times[i].append(rep["seconds"][stage])
+        ma, mb = statistics.median(times[0]), statistics.median(times[1])
+        rows.append((name, ma, mb, mb / ma))
+        print(f"{name}: A {ma:.3f}s B {mb:.3f}s B/A {mb / ma:.3f}", flush=True)
+    with open(args.out, "w") as f:
+        f.write(f"| case (median of {args.runs}) | A s | B s | B / A |\n|---|---|---|---|\n")
+        for r in rows:
+            f.write(f"| {r[0]} | {r[1]:.3f} | {r[2]:.3f} | {r[3]:.3f} |\n")
+    print(open(args.out).read())
+
+
+if __name__ == "__main__":
+    main()
