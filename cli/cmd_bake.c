@@ -10,6 +10,7 @@
 #include "commands.h"
 #include "options.h"
 #include "vdbscatter/bake.h"
+#include "vdbscatter/solver.h"
 
 static const char help[] =
     "usage: vdbscatter bake IN.vdb -o OUT.vdb [options]\n"
@@ -27,7 +28,7 @@ static const char help[] =
     "  --sun DX,DY,DZ[:R,G,B]   sun travelling along D with irradiance RGB (default 1)\n"
     "  --point X,Y,Z[:R,G,B]    point light at X,Y,Z with intensity RGB W/sr (default 1)\n"
     "  --env R,G,B              constant sky radiance\n"
-    "  --method single          solver (single scattering only, for now)\n"
+    "  --method NAME            solver (default single; the list below)\n"
     "  --quality Q              low | medium | high | ultra (sky directions 16/64/256/1024)\n"
     "\n"
     "other options:\n"
@@ -97,6 +98,16 @@ static cJSON *report_json(const char *input, const char *output, const vdbs_scen
     return j;
 }
 
+/* The solver table, so that --help lists exactly what --method accepts. */
+static void print_methods(void)
+{
+    int count = 0;
+    const vdbs_solver *solvers = vdbs_solver_list(&count);
+    fputs("\nmethods (--method):\n", stdout);
+    for (int m = 0; m < count; ++m)
+        printf("  %-24s %s\n", solvers[m].name, solvers[m].summary);
+}
+
 int cmd_bake(int argc, char **argv)
 {
     cli_args args;
@@ -106,6 +117,7 @@ int cmd_bake(int argc, char **argv)
         return cli_fail("bake", 2, err.message);
     if (args.help) {
         fputs(help, stdout);
+        print_methods();
         return CLI_EXIT_OK;
     }
     if (args.positional_count > 1)

@@ -1,8 +1,8 @@
 /* The light table: every light of a scene resolved once against a volume, in the layout
  * that the C kernels and the compute shaders read (written by vdbscatter/lights.c).
- * Include after vs_common.h. Layout by name, as PNanoVDB.h names its own: an entry is one
- * vec4 and every field has an offset constant and an accessor; no kernel indexes the
- * table by bare row numbers.
+ * Include after vs_common.h and vs_medium.h. Layout by name, as PNanoVDB.h names its own: an entry
+ * is one vec4 and every field has an offset constant and an accessor; no kernel indexes the table
+ * by bare row numbers.
  *
  *   header      VS_LIGHTS_HEADER_SIZE entries
  *   direct[i]   VS_LIGHT_STRIDE entries per sun or point light, i < direct count
@@ -116,6 +116,30 @@ VS_FUNC pnanovdb_vec3_t vs_ordinate_weighted(VS_DATA_PARAM(vs_vec4, light_data) 
 {
     return vs_vec3_from_vec4(
         light_data[vs_ordinate_entry(VS_DATA_ARG(light_data) k, VS_ORDINATE_OFF_WEIGHTED)]);
+}
+
+/* A point light seen from index-space point p: the index offset to it, its world image,
+ * the world distance and the clamped 1/r^2. Needs vs_medium.h for the map. */
+struct vs_point_view {
+    pnanovdb_vec3_t offset; /* index space, p to the light */
+    pnanovdb_vec3_t world;  /* the same offset in world units */
+    float distance;         /* |world| */
+    float falloff;          /* 1 / max(distance, minimum distance)^2 */
+};
+PNANOVDB_STRUCT_TYPEDEF(vs_point_view)
+
+VS_FUNC vs_point_view vs_point_light_view(VS_DATA_PARAM(vs_vec4, medium_data)
+                                              VS_DATA_PARAM(vs_vec4, light_data) int i,
+                                          pnanovdb_vec3_t p)
+{
+    pnanovdb_vec3_t at = vs_light_index(VS_DATA_ARG(light_data) i);
+    vs_point_view v;
+    v.offset = vs_vec3(at.x - p.x, at.y - p.y, at.z - p.z);
+    v.world = vs_medium_to_world(VS_DATA_ARG(medium_data) v.offset);
+    v.distance = vs_sqrt(vs_vec3_dot(v.world, v.world));
+    float rc = vs_max(v.distance, vs_lights_min_distance(VS_DATA_ONLY_ARG(light_data)));
+    v.falloff = 1.0f / (rc * rc);
+    return v;
 }
 
 #endif

@@ -14,11 +14,10 @@
  *
  * The work of a ray is a sequence of units, each exactly one march (the camera segment, or
  * the transmittance toward one light or sky direction from the segment's midpoint), kept
- * in a vs_render_state so that it can stop after any unit and resume in a later dispatch:
- * llvmpipe ends every loop of an invocation once 65535 loop iterations have run in total
- * (LP_MAX_TGSI_LOOP_ITERATIONS, shared by all loops), so a whole ray at quality medium does
- * not fit in one invocation there. One march per unit through a single call site bounds
- * the iterations of a unit by the march's cell count, whatever the SIMD lanes do.
+ * in a vs_render_state so that it can stop after any unit and resume in a later dispatch
+ * (the runner's passes, vs_pass.h: a whole ray at quality medium does not fit in one
+ * invocation under llvmpipe). One march per unit through a single call site bounds the
+ * iterations of a unit by the march's cell count, whatever the SIMD lanes do.
  *
  * All grids live in one buffer (GLSL has a single pnanovdb_buf_data): the density grid at
  * byte 0, the four vec3 grids at the byte offsets stored in the render table. PNanoVDB
@@ -360,11 +359,12 @@ VS_FUNC void vs_render_unit(VS_RENDER_TABLES pnanovdb_buf_t buf,
             dir = at;
             phase = vs_hg_dirs(g, world, ray.wo);
         } else {
-            pnanovdb_vec3_t d = vs_vec3(at.x - mid.x, at.y - mid.y, at.z - mid.z);
-            pnanovdb_vec3_t w = vs_medium_to_world(VS_DATA_ARG(medium_data) d);
-            float r = vs_sqrt(vs_vec3_dot(w, w));
-            float rc = vs_max(r, vs_lights_min_distance(VS_DATA_ONLY_ARG(light_data)));
-            falloff = 1.0f / (rc * rc);
+            vs_point_view v =
+                vs_point_light_view(VS_DATA_ARG(medium_data) VS_DATA_ARG(light_data) light, mid);
+            pnanovdb_vec3_t d = v.offset;
+            pnanovdb_vec3_t w = v.world;
+            float r = v.distance;
+            falloff = v.falloff;
             /* A light exactly at the midpoint has no direction: isotropic, unshadowed. */
             dir = vs_vec3(1.0f, 0.0f, 0.0f);
             tmax = 0.0f;

@@ -30,7 +30,6 @@ VS_FUNC pnanovdb_vec3_t vs_single_accumulate(VS_DATA_PARAM(vs_vec4, medium_data)
     int direct = vs_lights_direct_count(VS_DATA_ONLY_ARG(light_data));
     int total = vs_single_units(VS_DATA_ONLY_ARG(light_data));
     float density_scale = vs_medium_density_scale(VS_DATA_ONLY_ARG(medium_data));
-    float r_min = vs_lights_min_distance(VS_DATA_ONLY_ARG(light_data));
     pnanovdb_vec3_t box_lo = vs_medium_box_lo(VS_DATA_ONLY_ARG(medium_data));
     pnanovdb_vec3_t box_hi = vs_medium_box_hi(VS_DATA_ONLY_ARG(medium_data));
     pnanovdb_vec3_t p = vs_vec3(VS_FLOAT(ijk.x), VS_FLOAT(ijk.y), VS_FLOAT(ijk.z));
@@ -55,14 +54,14 @@ VS_FUNC pnanovdb_vec3_t vs_single_accumulate(VS_DATA_PARAM(vs_vec4, medium_data)
             transmittance =
                 vs_transmittance(buf, acc, p, at, VS_T_INFINITE, box_lo, box_hi, density_scale);
         } else {
-            pnanovdb_vec3_t d = vs_vec3(at.x - p.x, at.y - p.y, at.z - p.z);
-            pnanovdb_vec3_t w = vs_medium_to_world(VS_DATA_ARG(medium_data) d);
-            float r = vs_sqrt(vs_vec3_dot(w, w));
-            float rc = vs_max(r, r_min);
-            weight = 1.0f / (rc * rc);
-            transmittance = r > 0.0f ? vs_transmittance(buf, acc, p, vs_vec3_scale(d, 1.0f / r), r,
-                                                        box_lo, box_hi, density_scale)
-                                     : 1.0f;
+            vs_point_view v =
+                vs_point_light_view(VS_DATA_ARG(medium_data) VS_DATA_ARG(light_data) i, p);
+            float r = v.distance;
+            weight = v.falloff;
+            transmittance = r > 0.0f
+                                ? vs_transmittance(buf, acc, p, vs_vec3_scale(v.offset, 1.0f / r),
+                                                   r, box_lo, box_hi, density_scale)
+                                : 1.0f;
         }
         fluence = vs_vec3_madd(fluence, vs_light_color(VS_DATA_ARG(light_data) i),
                                weight * transmittance);

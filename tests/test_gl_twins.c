@@ -232,18 +232,7 @@ static void write_synthetic_lit(const vdbs_volume *volume, const char *path)
                 l1[a][3 * v + ch] = (float)(3.0 * m * b * dir[a]);
         }
     }
-    vdbio_vec3_grid grids[] = {
-        {"radiance", ms}, {"ms", ms}, {"ms_l1x", l1[0]}, {"ms_l1y", l1[1]}, {"ms_l1z", l1[2]},
-    };
-    vdbio_write_request request = {0};
-    request.density = volume->density;
-    request.coords = volume->coords;
-    request.coord_count = n;
-    request.vec3_grids = grids;
-    request.vec3_grid_count = 5;
-    vdbs_error err;
-    if (vdbio_write(path, NULL, &request, &err) != VDBS_OK)
-        fail_msg("%s", err.message);
+    test_write_lit(path, volume, ms, l1);
     free(ms);
     for (int a = 0; a < 3; ++a)
         free(l1[a]);

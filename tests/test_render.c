@@ -153,18 +153,7 @@ static void write_constant_lit(const char *path, const float ms[3], const float 
             for (int c = 0; c < 3; ++c)
                 grid[g][3 * v + c] = g == 0 ? ms[c] : l1[g - 1][c];
     }
-    vdbio_vec3_grid grids[] = {
-        {"radiance", grid[0]}, {"ms", grid[0]},     {"ms_l1x", grid[1]},
-        {"ms_l1y", grid[2]},   {"ms_l1z", grid[3]},
-    };
-    vdbio_write_request request = {0};
-    request.density = volume->density;
-    request.coords = volume->coords;
-    request.coord_count = n;
-    request.vec3_grids = grids;
-    request.vec3_grid_count = 5;
-    if (vdbio_write(path, NULL, &request, &err) != VDBS_OK)
-        fail_msg("%s", err.message);
+    test_write_lit(path, volume, grid[0], grid + 1);
     for (int g = 0; g < 4; ++g)
         free(grid[g]);
 }

@@ -124,3 +124,20 @@ float *test_twin(const char *label, test_twin_fn run, const void *scenario, size
     free(out[1]);
     return out[0];
 }
+
+void test_write_lit(const char *path, const vdbs_volume *volume, const float *ms,
+                    float *const l1[3])
+{
+    vdbio_vec3_grid grids[] = {
+        {"radiance", ms}, {"ms", ms}, {"ms_l1x", l1[0]}, {"ms_l1y", l1[1]}, {"ms_l1z", l1[2]},
+    };
+    vdbio_write_request request = {0};
+    request.density = volume->density;
+    request.coords = volume->coords;
+    request.coord_count = volume->coord_count;
+    request.vec3_grids = grids;
+    request.vec3_grid_count = 5;
+    vdbs_error err;
+    if (vdbio_write(path, NULL, &request, &err) != VDBS_OK)
+        fail_msg("%s", err.message);
+}

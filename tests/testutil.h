@@ -30,6 +30,11 @@ void test_add_sun_point_sky(vdbs_scene *scene);
  * fails the test on any error. */
 void test_load_ms_grids(const char *path, const double index_to_world[3][4], vdbs_ms_grids *ms);
 
+/* Writes a lit VDB over the volume's output voxels whose radiance and ms grids are `ms`
+ * and whose ms_l1x/y/z are l1[0..2] (3 floats per voxel each); fails the test on error. */
+void test_write_lit(const char *path, const vdbs_volume *volume, const float *ms,
+                    float *const l1[3]);
+
 /* The runner of a backend, created on first use and kept for the test program; fails the
  * test when it cannot be created. */
 vdbs_runner *test_runner(vdbs_backend backend);

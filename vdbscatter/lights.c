@@ -9,6 +9,7 @@
 
 #include "vdbs_math.h"
 #include "vs_common.h"
+#include "vs_medium.h"
 #include "vs_lights.h"
 
 /* The kernels compare light types with the shader constants. */

@@ -8,9 +8,9 @@
 #include <nanovdb/PNanoVDB.h>
 
 #include "vs_common.h"
+#include "vs_medium.h"
 #include "vs_lights.h"
 #include "vs_march.h"
-#include "vs_medium.h"
 #include "vs_single.h"
 
 typedef struct single_job {

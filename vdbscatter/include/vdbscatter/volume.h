@@ -49,10 +49,10 @@ int vdbs_volume_sun_step(const vdbs_volume *volume, const double direction[3], d
  * box grown by one voxel (the trilinear ramp beyond the outermost centres). */
 void vdbs_volume_support_box(const vdbs_volume *volume, float lo[3], float hi[3]);
 
-/* Marches one compute-shader invocation may run in one dispatch: llvmpipe ends every
- * loop of an invocation after 65535 iterations in total, silently. A march crosses at most
- * sum(hi - lo) + 3 cell planes of the support box, one iteration per plane plus two; half
- * the limit is left for PNanoVDB's root-tile loops and the caller's own loops. */
+/* Marches one compute-shader invocation may run in one dispatch under the loop limit that
+ * shaders/vs_pass.h explains (the runner's first guess of units per pass). A march crosses
+ * at most sum(hi - lo) + 3 cell planes of the support box, one iteration per plane plus
+ * two; half the limit is left for PNanoVDB's root-tile loops and the caller's own loops. */
 int vdbs_volume_gpu_marches_per_pass(const vdbs_volume *volume);
 
 /* Optical thickness of a volume for a density scale, for `info`: the largest per-voxel
