@@ -1,5 +1,6 @@
 #include "vdbscatter/kernel.h"
 
+#include <inttypes.h>
 #include <omp.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -292,6 +293,13 @@ static vdbs_status gpu_run(vdbs_runner *runner, const vdbs_kernel_desc *d,
         }
         if (left == 0)
             break;
+        /* A kernel that keeps reporting work beyond its own unit count would loop forever. */
+        if (d->total_units > 0 && done >= d->total_units) {
+            st = vdbs_error_set(err, VDBS_ERR_INTERNAL,
+                                "%s: %" PRIu64 " items unfinished after all %d units", d->shader,
+                                left, d->total_units);
+            break;
+        }
     }
     if (st == VDBS_OK && d->output)
         st = vdbs_gpu_buffer_read(job.gpu, job.output, 0, d->output_words * 4u * (size_t)d->items,
