@@ -5,7 +5,10 @@
  * Oracle: for -Laplace(u) = f with f = 6 (1 - rho) u*, u* the lowest discrete sine mode of
  * an nx x ny x nz grid and rho = (cos(pi/(nx+1)) + cos(pi/(ny+1)) + cos(pi/(nz+1))) / 3,
  * Jacobi from u = 0 gives exactly u_k = (1 - rho^k) u*, and step k changes u by
- * rho^(k-1) (1 - rho) u*. */
+ * rho^(k-1) (1 - rho) u*.
+ *
+ * And a sweep in dependency order (in place, plane after plane, with a sum reduction),
+ * whose planes are exact binary fractions (shaders/test_sweep.comp). */
 #include "testutil.h"
 
 #include <math.h>
@@ -35,6 +38,8 @@ typedef struct problem {
 } problem;
 
 static problem P;
+
+#define PLANE (NX * NY)
 
 static int setup(void **state)
 {
@@ -66,9 +71,10 @@ static int teardown(void **state)
     return 0;
 }
 
-static double jacobi_step(void *user, const void *state_in, void *state_out, uint64_t begin,
-                          uint64_t end)
+static double jacobi_step(void *user, int step, const void *state_in, void *state_out,
+                          uint64_t begin, uint64_t end)
 {
+    (void)step;
     const problem *p = user;
     const float *in = state_in;
     float *out = state_out;
@@ -178,13 +184,75 @@ static void test_twins(void **state)
     free(test_twin("jacobi, 300 steps", run_steps, &steps, ITEMS));
 }
 
+static double sweep_step(void *user, int step, const void *state_in, void *state_out,
+                         uint64_t begin, uint64_t end)
+{
+    const float *rhs = user;
+    const float *in = state_in;
+    float *out = state_out;
+    double sum = 0.0;
+    for (uint64_t n = begin; n < end; ++n) {
+        float u = vs_sweep_item(in, rhs, (int)n, PLANE, step);
+        out[n + (uint64_t)step * PLANE] = u;
+        sum += u;
+    }
+    return sum;
+}
+
+/* In-place sweep, plane after plane along z: with f = 1, plane k holds 2 - 2^-k exactly
+ * (binary fractions) and sums to PLANE times that. Steps out of order, or without a
+ * barrier between them, read a plane that is not written yet; planes beyond the last step
+ * stay untouched. */
+static void test_sweep_in_place(void **state)
+{
+    (void)state;
+    static float rhs[ITEMS];
+    for (int m = 0; m < ITEMS; ++m)
+        rhs[m] = 1.0f;
+    const vdbs_backend backends[2] = {VDBS_BACKEND_CPU, VDBS_BACKEND_GPU};
+    const int steps[3] = {1, 5, NZ};
+    float *u = malloc(sizeof(float) * ITEMS);
+    for (int b = 0; b < 2; ++b)
+        for (int t = 0; t < 3; ++t) {
+            memset(u, 0, sizeof(float) * ITEMS);
+            vdbs_kernel_desc desc = {0};
+            desc.items = PLANE;
+            desc.user = rhs;
+            desc.cpu_step = sweep_step;
+            desc.cpu_chunk = 50;
+            desc.shader = "test_sweep.comp";
+            desc.inputs[1] = (vdbs_kernel_input){rhs, sizeof rhs};
+            desc.state = u;
+            desc.state_items = ITEMS;
+            desc.in_place = 1;
+            desc.max_iterations = steps[t];
+            desc.reduce = VDBS_REDUCE_SUM;
+            vdbs_kernel_result result;
+            vdbs_error err;
+            if (vdbs_kernel_iterate(test_runner(backends[b]), &desc, &result, &err) != VDBS_OK)
+                fail_msg("%s", err.message);
+            assert_int_equal(result.iterations, steps[t]);
+            for (int k = 0; k < NZ; ++k) {
+                float want = k < steps[t] ? (float)(2.0 - ldexp(1.0, -k)) : 0.0f;
+                for (int n = 0; n < PLANE; ++n)
+                    if (u[n + k * PLANE] != want)
+                        fail_msg("%s, %d steps: plane %d item %d is %.9g, want %.9g",
+                                 b ? "GPU" : "C", steps[t], k, n, u[n + k * PLANE], want);
+            }
+            double last = PLANE * (2.0 - ldexp(1.0, -(steps[t] - 1)));
+            print_message("%s: %d in-place steps exact; last plane sum %.9g (exact %.9g)\n",
+                          b ? "GPU" : "C", steps[t], result.reduction, last);
+            assert_true(fabs(result.reduction - last) <= 1e-6 * last);
+        }
+    free(u);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
-        cmocka_unit_test(test_closed_form_c),
-        cmocka_unit_test(test_closed_form_gpu),
-        cmocka_unit_test(test_tolerance_stops),
-        cmocka_unit_test(test_twins),
+        cmocka_unit_test(test_closed_form_c),   cmocka_unit_test(test_closed_form_gpu),
+        cmocka_unit_test(test_tolerance_stops), cmocka_unit_test(test_twins),
+        cmocka_unit_test(test_sweep_in_place),
     };
     return cmocka_run_group_tests(tests, setup, teardown);
 }

@@ -111,6 +111,13 @@ static void cpu_run(const vdbs_kernel_desc *d)
     }
 }
 
+/* Bytes of the state an iterate step reads or writes. */
+static size_t state_bytes(const vdbs_kernel_desc *d)
+{
+    uint64_t items = d->state_items ? d->state_items : d->items;
+    return (d->state_words ? d->state_words : 1) * 4u * (size_t)items;
+}
+
 static double combine(vdbs_reduce reduce, double a, double b)
 {
     return reduce == VDBS_REDUCE_MAX ? (a > b ? a : b) : a + b;
@@ -121,21 +128,22 @@ static vdbs_status cpu_iterate(const vdbs_kernel_desc *d, int max_iterations,
 {
     const uint64_t chunk = cpu_chunk(d);
     const int64_t chunks = (int64_t)((d->items + chunk - 1) / chunk);
-    const size_t bytes = (d->state_words ? d->state_words : 1) * 4u * (size_t)d->items;
-    void *other = malloc(bytes ? bytes : 1);
+    const size_t bytes = state_bytes(d);
+    void *other = d->in_place ? NULL : malloc(bytes ? bytes : 1);
     double *partials = malloc(sizeof *partials * (size_t)(chunks > 0 ? chunks : 1));
-    if (!other || !partials) {
+    if ((!other && !d->in_place) || !partials) {
         free(other);
         free(partials);
         return vdbs_error_set(err, VDBS_ERR_NOMEM, "out of memory for %zu bytes of state", bytes);
     }
-    void *in = d->state, *out = other;
+    /* In place, in and out stay the same buffer. */
+    void *in = d->state, *out = d->in_place ? d->state : other;
     for (int it = 0; it < max_iterations; ++it) {
 #pragma omp parallel for schedule(dynamic, 1)
         for (int64_t c = 0; c < chunks; ++c) {
             uint64_t begin = (uint64_t)c * chunk;
             uint64_t end = begin + chunk < d->items ? begin + chunk : d->items;
-            partials[c] = d->cpu_step(d->user, in, out, begin, end);
+            partials[c] = d->cpu_step(d->user, it, in, out, begin, end);
         }
         /* In chunk order, so that the reduction does not depend on the thread count. */
         double reduction = 0.0;
@@ -148,7 +156,7 @@ static vdbs_status cpu_iterate(const vdbs_kernel_desc *d, int max_iterations,
         result->reduction = reduction;
         if (d->progress)
             vdbs_progress_update(d->progress, (uint64_t)it + 1);
-        if (reduction <= d->tolerance)
+        if (d->tolerance > 0.0 && reduction <= d->tolerance)
             break;
     }
     if (in != d->state)
@@ -173,8 +181,9 @@ static void job_free(gpu_job *job)
 {
     for (int i = 0; i < VDBS_KERNEL_MAX_INPUTS; ++i)
         vdbs_gpu_buffer_destroy(job->gpu, job->inputs[i]);
-    for (int i = 0; i < 2; ++i)
-        vdbs_gpu_buffer_destroy(job->gpu, job->states[i]);
+    vdbs_gpu_buffer_destroy(job->gpu, job->states[0]);
+    if (job->states[1].id != job->states[0].id)
+        vdbs_gpu_buffer_destroy(job->gpu, job->states[1]);
     vdbs_gpu_buffer_destroy(job->gpu, job->output);
     vdbs_gpu_buffer_destroy(job->gpu, job->partials);
     vdbs_gpu_program_destroy(job->gpu, job->program);
@@ -200,10 +209,12 @@ static vdbs_status job_init(gpu_job *job, vdbs_runner *runner, const vdbs_kernel
         if (st == VDBS_OK)
             vdbs_gpu_buffer_bind(job->gpu, job->inputs[i], (unsigned)i);
     }
-    const size_t state_bytes = (d->state_words ? d->state_words : 1) * 4u * (size_t)d->items;
-    for (int i = 0; i < 2 && st == VDBS_OK; ++i)
-        st = vdbs_gpu_buffer_create(job->gpu, state_bytes, i == 0 ? state : NULL, &job->states[i],
-                                    err);
+    for (int i = 0; i < (d->in_place ? 1 : 2) && st == VDBS_OK; ++i)
+        st = vdbs_gpu_buffer_create(job->gpu, state_bytes(d), i == 0 ? state : NULL,
+                                    &job->states[i], err);
+    /* In place: both bindings name one buffer (the steps touch different items). */
+    if (d->in_place)
+        job->states[1] = job->states[0];
     if (st == VDBS_OK)
         st = vdbs_gpu_buffer_create(job->gpu, d->output_words * 4u * (size_t)d->items, NULL,
                                     &job->output, err);
@@ -311,7 +322,6 @@ static vdbs_status gpu_run(vdbs_runner *runner, const vdbs_kernel_desc *d,
 static vdbs_status gpu_iterate(vdbs_runner *runner, const vdbs_kernel_desc *d, int max_iterations,
                                vdbs_kernel_result *result, vdbs_error *err)
 {
-    const size_t state_bytes = (d->state_words ? d->state_words : 1) * 4u * (size_t)d->items;
     const size_t groups = (size_t)((d->items + VS_PASS_LOCAL_SIZE - 1) / VS_PASS_LOCAL_SIZE);
     float *partials = malloc(sizeof *partials * (groups ? groups : 1));
     if (!partials)
@@ -346,11 +356,11 @@ static vdbs_status gpu_iterate(vdbs_runner *runner, const vdbs_kernel_desc *d, i
         result->reduction = reduction;
         if (d->progress)
             vdbs_progress_update(d->progress, (uint64_t)it + 1);
-        if (reduction <= d->tolerance)
+        if (d->tolerance > 0.0 && reduction <= d->tolerance)
             break;
     }
     if (st == VDBS_OK)
-        st = vdbs_gpu_buffer_read(job.gpu, job.states[in], 0, state_bytes, d->state, err);
+        st = vdbs_gpu_buffer_read(job.gpu, job.states[in], 0, state_bytes(d), d->state, err);
     job_free(&job);
     free(partials);
     return st;

@@ -10,7 +10,9 @@
  *   `units_per_dispatch` units per item, keeping each item's state between passes;
  * - iterate: every iteration is one step over all items, reading the previous iteration's
  *   state and writing the next, followed by a reduction (residual, remaining energy) that
- *   stops the loop at a tolerance or an iteration count. Propagation solvers use this. */
+ *   stops the loop at a tolerance or an iteration count. Propagation solvers use this; with
+ *   `in_place` the steps share one state and run in order: a sweep in dependency order
+ *   (plane after plane). */
 #ifndef VDBSCATTER_KERNEL_H
 #define VDBSCATTER_KERNEL_H
 
@@ -68,10 +70,11 @@ typedef struct vdbs_kernel_desc {
     uint64_t items;
     void *user; /* handed to the C functions */
 
-    /* C path. run: every unit of items [begin, end). iterate: one step of items
-     * [begin, end) from state_in to state_out; returns the chunk's reduction. */
+    /* C path. run: every unit of items [begin, end). iterate: step `step` (the shader's
+     * vs_pass_done()) of items [begin, end) from state_in to state_out; returns the chunk's
+     * reduction. */
     void (*cpu_items)(void *user, uint64_t begin, uint64_t end);
-    double (*cpu_step)(void *user, const void *state_in, void *state_out, uint64_t begin,
+    double (*cpu_step)(void *user, int step, const void *state_in, void *state_out, uint64_t begin,
                        uint64_t end);
     uint64_t cpu_chunk; /* items per OpenMP task; default 256 */
 
@@ -87,9 +90,14 @@ typedef struct vdbs_kernel_desc {
     uint64_t gpu_chunk;     /* items per dispatch call; default: as many as the GPU allows */
 
     /* iterate */
-    void *state;        /* items * state_words words: the initial state in, the final one out */
-    int max_iterations; /* default 1 */
-    double tolerance;   /* stop once the reduction is <= this; default 0 (run them all) */
+    void *state; /* state_items * state_words words: the initial state in, the final one out */
+    uint64_t state_items; /* items the state holds; default `items` (a sweep's steps each
+                             cover a part of it) */
+    int in_place;         /* every step reads and writes one state instead of ping-pong: a sweep in
+                             dependency order, step s (vs_pass_done() in the shader) working on the
+                             items that depend on step s - 1's */
+    int max_iterations;   /* default 1 */
+    double tolerance;     /* > 0: stop once the reduction is <= this; default 0: run them all */
     vdbs_reduce reduce;
 
     vdbs_progress *progress; /* may be NULL: run counts items, iterate counts iterations */
