@@ -7,22 +7,15 @@ BUILD_* are folders holding a `vdbscatter` executable (e.g. the build before and
 refactor). Times are the solve / render stage of the --json reports (load and write
 excluded). The table gives B/A per case: 1.00 is the same speed."""
 import argparse
-import json
 import os
 import statistics
 import subprocess
-import sys
 import tempfile
+
+from benchlib import run_json
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 ROOT = os.path.dirname(HERE)
-
-
-def run(cmd):
-    p = subprocess.run(cmd, capture_output=True, text=True)
-    if p.returncode != 0:
-        sys.exit(f"{' '.join(cmd)}: {p.stderr}")
-    return json.loads(p.stdout)
 
 
 def main():
@@ -38,7 +31,7 @@ def main():
     subprocess.run([exes[0], "sample", "cloud", "--res", "96", "-o", cloud], check=True)
     scene = os.path.join(ROOT, "samples", "cloud.json")
     lit = os.path.join(tmp, "lit.vdb")
-    run([exes[0], "bake", "--scene", scene, "-o", lit, "--json", "-q", "--quality", "low"])
+    run_json([exes[0], "bake", "--scene", scene, "-o", lit, "--json", "-q", "--quality", "low"])
     sun = ["--density-scale", "20", "--sun", "0.3,-1,0.2:3,3,3", "--point", "0.2,0.9,0.1:2,2,2"]
     sky = ["--density-scale", "20", "--sun", "0.3,-1,0.2", "--env", "0.2,0.3,0.5", "--quality", "low"]
     cases = []
@@ -57,7 +50,7 @@ def main():
         times = [[], []]
         for r in range(args.runs):
             for i, exe in enumerate(exes):
-                rep = run([exe, *argv(exe, os.path.join(tmp, f"o{i}")), "--json", "-q"])
+                rep = run_json([exe, *argv(exe, os.path.join(tmp, f"o{i}")), "--json", "-q"])
                 times[i].append(rep["seconds"][stage])
         ma, mb = statistics.median(times[0]), statistics.median(times[1])
         rows.append((name, ma, mb, mb / ma))

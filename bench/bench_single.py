@@ -6,11 +6,11 @@ usage: bench/bench_single.py BUILD_DIR [--out bench/single.md]
 Writes a markdown table; times are the solver stage from the bake report (load and
 write excluded), ratios are measured in the same run."""
 import argparse
-import json
 import os
 import subprocess
-import sys
 import tempfile
+
+from benchlib import run_json
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 ROOT = os.path.dirname(HERE)
@@ -18,11 +18,7 @@ DATA = os.path.join(ROOT, "..", "shared", "data")
 
 
 def bake(exe, src, out, backend, extra):
-    cmd = [exe, "bake", src, "-o", out, "--backend", backend, "--json", "-q", *extra]
-    p = subprocess.run(cmd, capture_output=True, text=True)
-    if p.returncode != 0:
-        sys.exit(f"{' '.join(cmd)}: {p.stderr}")
-    return json.loads(p.stdout)
+    return run_json([exe, "bake", src, "-o", out, "--backend", backend, "--json", "-q", *extra])
 
 
 def main():

@@ -368,19 +368,31 @@ static vdbs_status gpu_iterate(vdbs_runner *runner, const vdbs_kernel_desc *d, i
 
 /* ---- entry points ---- */
 
+/* Zeroes the result (a local one when the caller passed none); 0: no items, nothing to do. */
+static int kernel_start(const vdbs_kernel_desc *desc, vdbs_kernel_result **result,
+                        vdbs_kernel_result *local)
+{
+    *result = *result ? *result : local;
+    memset(*result, 0, sizeof **result);
+    return desc->items > 0;
+}
+
+static vdbs_status no_c_path(const vdbs_kernel_desc *desc, vdbs_error *err)
+{
+    return vdbs_error_set(err, VDBS_ERR_INTERNAL, "kernel %s has no C path",
+                          desc->shader ? desc->shader : "(unnamed)");
+}
+
 vdbs_status vdbs_kernel_run(vdbs_runner *runner, const vdbs_kernel_desc *desc,
                             vdbs_kernel_result *result, vdbs_error *err)
 {
     vdbs_kernel_result local;
-    result = result ? result : &local;
-    memset(result, 0, sizeof *result);
-    if (desc->items == 0)
+    if (!kernel_start(desc, &result, &local))
         return VDBS_OK;
     if (runner->backend == VDBS_BACKEND_GPU)
         return gpu_run(runner, desc, result, err);
     if (!desc->cpu_items)
-        return vdbs_error_set(err, VDBS_ERR_INTERNAL, "kernel %s has no C path",
-                              desc->shader ? desc->shader : "(unnamed)");
+        return no_c_path(desc, err);
     cpu_run(desc);
     return VDBS_OK;
 }
@@ -389,9 +401,7 @@ vdbs_status vdbs_kernel_iterate(vdbs_runner *runner, const vdbs_kernel_desc *des
                                 vdbs_kernel_result *result, vdbs_error *err)
 {
     vdbs_kernel_result local;
-    result = result ? result : &local;
-    memset(result, 0, sizeof *result);
-    if (desc->items == 0)
+    if (!kernel_start(desc, &result, &local))
         return VDBS_OK;
     if (!desc->state)
         return vdbs_error_set(err, VDBS_ERR_INTERNAL, "iterate: no state");
@@ -399,7 +409,6 @@ vdbs_status vdbs_kernel_iterate(vdbs_runner *runner, const vdbs_kernel_desc *des
     if (runner->backend == VDBS_BACKEND_GPU)
         return gpu_iterate(runner, desc, max_iterations, result, err);
     if (!desc->cpu_step)
-        return vdbs_error_set(err, VDBS_ERR_INTERNAL, "kernel %s has no C step",
-                              desc->shader ? desc->shader : "(unnamed)");
+        return no_c_path(desc, err);
     return cpu_iterate(desc, max_iterations, result, err);
 }
