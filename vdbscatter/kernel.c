@@ -118,6 +118,17 @@ static size_t state_bytes(const vdbs_kernel_desc *d)
     return (d->state_words ? d->state_words : 1) * 4u * (size_t)items;
 }
 
+/* Records step `it`'s reduction; whether the tolerance stops the loop. */
+static int step_done(const vdbs_kernel_desc *d, int it, double reduction,
+                     vdbs_kernel_result *result)
+{
+    result->iterations = it + 1;
+    result->reduction = reduction;
+    if (d->progress)
+        vdbs_progress_update(d->progress, (uint64_t)it + 1);
+    return d->tolerance > 0.0 && reduction <= d->tolerance;
+}
+
 static double combine(vdbs_reduce reduce, double a, double b)
 {
     return reduce == VDBS_REDUCE_MAX ? (a > b ? a : b) : a + b;
@@ -152,11 +163,7 @@ static vdbs_status cpu_iterate(const vdbs_kernel_desc *d, int max_iterations,
         void *t = in;
         in = out;
         out = t;
-        result->iterations = it + 1;
-        result->reduction = reduction;
-        if (d->progress)
-            vdbs_progress_update(d->progress, (uint64_t)it + 1);
-        if (d->tolerance > 0.0 && reduction <= d->tolerance)
+        if (step_done(d, it, reduction, result))
             break;
     }
     if (in != d->state)
@@ -352,11 +359,7 @@ static vdbs_status gpu_iterate(vdbs_runner *runner, const vdbs_kernel_desc *d, i
         for (size_t g = 0; g < groups; ++g)
             reduction = combine(d->reduce, reduction, (double)partials[g]);
         in = 1 - in;
-        result->iterations = it + 1;
-        result->reduction = reduction;
-        if (d->progress)
-            vdbs_progress_update(d->progress, (uint64_t)it + 1);
-        if (d->tolerance > 0.0 && reduction <= d->tolerance)
+        if (step_done(d, it, reduction, result))
             break;
     }
     if (st == VDBS_OK)
