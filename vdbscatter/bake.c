@@ -118,8 +118,9 @@ vdbs_status vdbs_bake(const vdbs_bake_options *o, vdbs_bake_report *report, vdbs
     vdbs_solve outputs = {0};
     float *radiance = outputs.radiance = calloc(3 * n, sizeof(float));
     outputs.ms = calloc(3 * n, sizeof(float));
+    /* Without multiple scattering the four ms grids are one array of zeros. */
     for (int a = 0; a < 3; ++a)
-        outputs.ms_l1[a] = calloc(3 * n, sizeof(float));
+        outputs.ms_l1[a] = solver->writes_ms ? calloc(3 * n, sizeof(float)) : outputs.ms;
     char *scene_json = vdbs_scene_to_json(scene);
     if (!radiance || !outputs.ms || !outputs.ms_l1[0] || !outputs.ms_l1[1] || !outputs.ms_l1[2] ||
         !scene_json) {
@@ -178,9 +179,10 @@ vdbs_status vdbs_bake(const vdbs_bake_options *o, vdbs_bake_report *report, vdbs
 done:
     report->seconds_total = vdbs_now() - t_start;
     free(scene_json);
-    free(outputs.ms);
     for (int a = 0; a < 3; ++a)
-        free(outputs.ms_l1[a]);
+        if (outputs.ms_l1[a] != outputs.ms)
+            free(outputs.ms_l1[a]);
+    free(outputs.ms);
     free(radiance);
     vdbs_volume_free(&volume);
     return st;

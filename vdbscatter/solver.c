@@ -33,7 +33,7 @@ static vdbs_status run_single(const vdbs_solve *s, vdbs_error *err)
 }
 
 static const vdbs_solver solvers[VDBS_METHOD_COUNT] = {
-    {VDBS_METHOD_SINGLE, "single", "exact single scattering only (no multiple scattering)",
+    {VDBS_METHOD_SINGLE, "single", "exact single scattering only (no multiple scattering)", 0,
      run_single},
 };
 

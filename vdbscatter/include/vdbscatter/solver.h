@@ -43,12 +43,14 @@ typedef struct vdbs_solve {
     float *radiance; /* S1 + Sms direction average */
     float *ms;       /* Sms direction average */
     float *ms_l1[3]; /* first moment of Sms, x / y / z components per channel */
+    /* (ms and ms_l1 alias one array when the solver's writes_ms is 0) */
 } vdbs_solve;
 
 typedef struct vdbs_solver {
     vdbs_method method;
     const char *name;    /* --method */
     const char *summary; /* one line for --help */
+    int writes_ms;       /* 0: ms and ms_l1 stay 0 (the bake then shares one zero array) */
     vdbs_status (*run)(const vdbs_solve *solve, vdbs_error *err);
 } vdbs_solver;
 
