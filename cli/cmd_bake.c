@@ -34,6 +34,11 @@ static const char help[] =
     "other options:\n"
     "  -o, --output FILE        lit VDB to write (refused if equal to the input)\n"
     "  --backend auto|cpu|gpu   auto: a hardware GPU if EGL finds one, else the C path\n"
+    "  --s1 march|grid          single scattering by an exact march per voxel and light\n"
+    "                           (default), or from light grids: one transmittance sweep per\n"
+    "                           sun and sky direction, then a lookup per voxel (C path; point\n"
+    "                           lights are still marched)\n"
+    "  --s1-oversample F        light-grid samples per smallest voxel length (default 2)\n"
     "  --from-levelset          convert a level set to a fog volume instead of refusing it\n"
     "  --half                   store grids as half floats (values clamped to 65504)\n"
     "  --report FILE.json       write timings per stage, parameters and output grids\n"
@@ -45,6 +50,8 @@ static const cli_option options[] = {
     {"--output", CLI_VALUE},
     {"--backend", CLI_VALUE},
     {"--from-levelset", CLI_FLAG},
+    {"--s1", CLI_VALUE},
+    {"--s1-oversample", CLI_VALUE},
     {"--half", CLI_FLAG},
     {"--report", CLI_VALUE},
     {"--json", CLI_FLAG},
@@ -77,6 +84,9 @@ static cJSON *report_json(const char *input, const char *output, const vdbs_scen
     cJSON_AddStringToObject(j, "method", scene->method);
     cJSON_AddStringToObject(j, "quality", scene->quality);
     cJSON_AddNumberToObject(j, "sky_directions", r->sky_directions);
+    cJSON_AddStringToObject(j, "s1", r->s1);
+    if (r->s1_oversample > 0)
+        cJSON_AddNumberToObject(j, "s1_oversample", r->s1_oversample);
     cJSON_AddStringToObject(j, "backend", r->backend);
     cJSON_AddStringToObject(j, "renderer", r->renderer);
     cJSON_AddNumberToObject(j, "active_voxels", (double)r->active_voxels);
@@ -139,6 +149,19 @@ int cmd_bake(int argc, char **argv)
     if (backend && (st = vdbs_backend_parse(backend, &o.backend, &err)) != VDBS_OK)
         return cli_fail("bake", st, err.message);
     int quiet = cli_flag(&args, "-q");
+    const char *s1 = cli_value(&args, "--s1");
+    if (s1 && strcmp(s1, "grid") != 0 && strcmp(s1, "march") != 0) {
+        vdbs_error_set(&err, VDBS_ERR_INPUT, "--s1: expected march or grid, got '%s'", s1);
+        return cli_fail("bake", 2, err.message);
+    }
+    o.s1_grids = s1 && strcmp(s1, "grid") == 0;
+    const char *oversample = cli_value(&args, "--s1-oversample");
+    if (oversample) {
+        long f = 0;
+        if ((st = cli_integer("--s1-oversample", oversample, 1, 16, &f, &err)) != VDBS_OK)
+            return cli_fail("bake", st, err.message);
+        o.s1_oversample = (int)f;
+    }
     o.from_levelset = cli_flag(&args, "--from-levelset");
     o.half = cli_flag(&args, "--half");
     o.progress = !quiet && isatty(STDERR_FILENO);

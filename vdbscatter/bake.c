@@ -6,6 +6,7 @@
 #include <string.h>
 
 #include "vdbscatter/kernel.h"
+#include "vdbscatter/lightgrid.h"
 #include "vdbscatter/lights.h"
 #include "vdbscatter/progress.h"
 #include "vdbscatter/solver.h"
@@ -52,6 +53,8 @@ static vdbs_status solve(const vdbs_bake_options *o, const vdbs_solver *solver,
     s->scene = o->scene;
     s->lights = &lights;
     s->quality = quality;
+    vdbs_dir_grid_desc grids = {o->s1_oversample};
+    s->s1_grids = o->s1_grids ? &grids : NULL;
     s->progress = &progress;
     st = solver->run(s, err);
     if (st == VDBS_OK)
@@ -113,6 +116,10 @@ vdbs_status vdbs_bake(const vdbs_bake_options *o, vdbs_bake_report *report, vdbs
     report->active_voxels = volume.info.active_voxels;
     report->output_voxels = volume.coord_count;
     report->sky_directions = sky;
+    snprintf(report->s1, sizeof report->s1, "%s", o->s1_grids ? "grid" : "march");
+    report->s1_oversample = !o->s1_grids           ? 0
+                            : o->s1_oversample > 0 ? o->s1_oversample
+                                                   : VDBS_DIR_GRID_DEFAULT_OVERSAMPLE;
 
     size_t n = volume.coord_count ? volume.coord_count : 1;
     vdbs_solve outputs = {0};
@@ -152,6 +159,7 @@ vdbs_status vdbs_bake(const vdbs_bake_options *o, vdbs_bake_report *report, vdbs
         {"vdbscatter_density_scale", scale ? scale : ""},
         {"vdbscatter_albedo", albedo},
         {"vdbscatter_g", g ? g : ""},
+        {"vdbscatter_s1", report->s1},
         {"vdbscatter_backend", report->backend},
         {"vdbscatter_solve_seconds", solve_text},
         {"vdbscatter_scene", scene_json},

@@ -40,8 +40,10 @@ void vdbs_lights_free(vdbs_light_table *table)
     memset(table, 0, sizeof *table);
 }
 
-static vdbs_status pack(vdbs_light_table *t, vdbs_error *err)
+vdbs_status vdbs_lights_pack(vdbs_light_table *t, vdbs_error *err)
 {
+    free(t->packed);
+    t->packed = NULL;
     size_t n = VS_LIGHTS_HEADER_SIZE + VS_LIGHT_STRIDE * (size_t)t->direct_count +
                VS_ORDINATE_STRIDE * (size_t)t->ordinate_count;
     float *p = calloc(n, 4 * sizeof *p);
@@ -141,7 +143,7 @@ vdbs_status vdbs_lights_build(const vdbs_volume *volume, const vdbs_scene *scene
     }
     table->ordinate_count = k;
     free(dirs);
-    vdbs_status st = pack(table, err);
+    vdbs_status st = vdbs_lights_pack(table, err);
     if (st != VDBS_OK)
         vdbs_lights_free(table);
     return st;

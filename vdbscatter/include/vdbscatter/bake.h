@@ -15,6 +15,8 @@ typedef struct vdbs_bake_options {
     const char *output;      /* lit VDB */
     const vdbs_scene *scene; /* validated */
     vdbs_backend backend;
+    int s1_grids;      /* single scattering from light grids (lightgrid.h) instead of marches */
+    int s1_oversample; /* light-grid samples per smallest voxel; 0 = the default */
     int from_levelset;
     int half;
     int progress; /* show progress on stderr */
@@ -29,6 +31,8 @@ typedef struct vdbs_bake_report {
     unsigned long long active_voxels;
     unsigned long long output_voxels;
     int sky_directions;
+    char s1[8];        /* "march" or "grid" */
+    int s1_oversample; /* 0 for march */
     double seconds_load;
     double seconds_solve;
     double seconds_write;

@@ -58,6 +58,10 @@ vdbs_status vdbs_lights_build(const vdbs_volume *volume, const vdbs_scene *scene
                               vdbs_error *err);
 void vdbs_lights_free(vdbs_light_table *table);
 
+/* (Re)writes table->packed from the other fields, e.g. after a caller kept only some of the
+ * lights. */
+vdbs_status vdbs_lights_pack(vdbs_light_table *table, vdbs_error *err);
+
 /* K unit directions spread evenly over the sphere (spherical Fibonacci lattice), equal
  * weights 4 pi / K; `dirs` holds 3 K doubles. */
 void vdbs_sphere_directions(int count, double *dirs);
