@@ -102,6 +102,164 @@ VS_FUNC float vs_axis_enter(float o, float d, float lo, float hi)
     return (o >= lo && o <= hi) ? -VS_T_INFINITE : VS_T_INFINITE;
 }
 
+/* A march in progress along x(t) = origin + t dir, so that a caller can read the optical
+ * depth at several t along one ray (a light grid's column) without marching again:
+ * vs_march_begin, then vs_march_advance to increasing t, reading tau in between. */
+struct vs_march_state {
+    pnanovdb_vec3_t origin;
+    pnanovdb_vec3_t dir;
+    float t;  /* how far the march has integrated */
+    float t1; /* end of the ray inside the box (and tmax) */
+    float probe;
+    pnanovdb_vec3_t delta; /* t per cell along each axis */
+    pnanovdb_coord_t sign; /* step direction per axis */
+    pnanovdb_coord_t c;    /* current cell */
+    pnanovdb_vec3_t next;  /* t at the current cell's exit per axis */
+    int locate;            /* 1: find the cell at t first */
+    int fetched;           /* 1: `cell` holds the current cell's corners */
+    vs_cell cell;
+    int steps;
+    int done; /* past VS_TAU_LIMIT, the end, or the step guard */
+    float density_scale;
+    vs_accum tau;
+};
+PNANOVDB_STRUCT_TYPEDEF(vs_march_state)
+
+/* Starts a march over t in [0, tmax] from index-space point origin along dir, the
+ * index-space image of a unit world step (t in world units); only the box [box_lo, box_hi]
+ * (the support of the interpolant) is marched. */
+VS_FUNC vs_march_state vs_march_begin(pnanovdb_vec3_t origin, pnanovdb_vec3_t dir, float tmax,
+                                      pnanovdb_vec3_t box_lo, pnanovdb_vec3_t box_hi,
+                                      float density_scale)
+{
+    vs_march_state m;
+    m.origin = origin;
+    m.dir = dir;
+    m.t = vs_max(0.0f, vs_max(vs_axis_enter(origin.x, dir.x, box_lo.x, box_hi.x),
+                              vs_max(vs_axis_enter(origin.y, dir.y, box_lo.y, box_hi.y),
+                                     vs_axis_enter(origin.z, dir.z, box_lo.z, box_hi.z))));
+    m.t1 = vs_min(tmax, vs_min(vs_axis_exit(origin.x, dir.x, box_lo.x, box_hi.x),
+                               vs_min(vs_axis_exit(origin.y, dir.y, box_lo.y, box_hi.y),
+                                      vs_axis_exit(origin.z, dir.z, box_lo.z, box_hi.z))));
+    vs_accum_init(PNANOVDB_REF(m.tau));
+    m.density_scale = density_scale;
+    m.done = !(m.t < m.t1) || density_scale <= 0.0f ? 1 : 0;
+    /* Cells are found by probing a thousandth of a voxel ahead, relative to the cell
+     * size rather than to t, so that the probe never lands back in the previous cell. */
+    float dmax = vs_max(vs_abs(dir.x), vs_max(vs_abs(dir.y), vs_abs(dir.z)));
+    m.probe = 1.0e-3f / dmax;
+    m.delta = vs_vec3(dir.x != 0.0f ? vs_abs(1.0f / dir.x) : VS_T_INFINITE,
+                      dir.y != 0.0f ? vs_abs(1.0f / dir.y) : VS_T_INFINITE,
+                      dir.z != 0.0f ? vs_abs(1.0f / dir.z) : VS_T_INFINITE);
+    m.sign = vs_coord(dir.x > 0.0f ? 1 : (dir.x < 0.0f ? -1 : 0),
+                      dir.y > 0.0f ? 1 : (dir.y < 0.0f ? -1 : 0),
+                      dir.z > 0.0f ? 1 : (dir.z < 0.0f ? -1 : 0));
+    m.c = vs_coord(0, 0, 0);
+    m.next = vs_vec3(0.0f, 0.0f, 0.0f);
+    m.locate = 1;
+    m.fetched = 0;
+    m.cell.v000 = m.cell.v100 = m.cell.v010 = m.cell.v110 = 0.0f;
+    m.cell.v001 = m.cell.v101 = m.cell.v011 = m.cell.v111 = 0.0f;
+    m.steps = 0;
+    return m;
+}
+
+/* Integrates on to t_target (or the ray's end), cell by cell with Simpson's rule, which is
+ * exact for the trilinear interpolant's cubic on any part of a cell. Stops for good once the
+ * depth passes VS_TAU_LIMIT (transmittance 0 in float). */
+VS_FUNC void vs_march_advance(pnanovdb_buf_t buf, PNANOVDB_INOUT(pnanovdb_readaccessor_t) acc,
+                              PNANOVDB_INOUT(vs_march_state) m, float t_target)
+{
+    if (PNANOVDB_DEREF(m).done != 0)
+        return;
+    pnanovdb_vec3_t origin = PNANOVDB_DEREF(m).origin;
+    pnanovdb_vec3_t dir = PNANOVDB_DEREF(m).dir;
+    float probe = PNANOVDB_DEREF(m).probe;
+    float t_stop = vs_min(PNANOVDB_DEREF(m).t1, t_target);
+    float t = PNANOVDB_DEREF(m).t;
+    pnanovdb_coord_t c = PNANOVDB_DEREF(m).c;
+    pnanovdb_vec3_t next = PNANOVDB_DEREF(m).next;
+    int locate = PNANOVDB_DEREF(m).locate;
+    int fetched = PNANOVDB_DEREF(m).fetched;
+    vs_cell cell = PNANOVDB_DEREF(m).cell;
+    int step = PNANOVDB_DEREF(m).steps;
+    for (; step < VS_MARCH_MAX_STEPS && t < t_stop; ++step) {
+        if (locate != 0) {
+            pnanovdb_vec3_t q = vs_vec3_madd(origin, dir, t + probe);
+            c = vs_coord(VS_INT(vs_floor(q.x)), VS_INT(vs_floor(q.y)), VS_INT(vs_floor(q.z)));
+            next.x = vs_max(t, vs_axis_exit(origin.x, dir.x, VS_FLOAT(c.x), VS_FLOAT(c.x + 1)));
+            next.y = vs_max(t, vs_axis_exit(origin.y, dir.y, VS_FLOAT(c.y), VS_FLOAT(c.y + 1)));
+            next.z = vs_max(t, vs_axis_exit(origin.z, dir.z, VS_FLOAT(c.z), VS_FLOAT(c.z + 1)));
+            locate = 0;
+            fetched = 0;
+        }
+        /* A cell is checked and fetched once, however many stops a caller makes in it. */
+        if (fetched == 0) {
+            int dim = VS_INT(
+                pnanovdb_readaccessor_get_dim(PNANOVDB_GRID_TYPE_FLOAT, buf, acc, PNANOVDB_REF(c)));
+            int last = dim - 1;
+            /* Skippable only when the whole cell (corners c and c+1) lies in the empty tile. */
+            if (dim > 1 && (c.x & last) != last && (c.y & last) != last && (c.z & last) != last &&
+                vs_density_voxel(buf, acc, c) == 0.0f) {
+                int mask = ~last;
+                float hi = VS_FLOAT(last);
+                float bx = VS_FLOAT(c.x & mask), by = VS_FLOAT(c.y & mask),
+                      bz = VS_FLOAT(c.z & mask);
+                float t_empty = vs_min(vs_axis_exit(origin.x, dir.x, bx, bx + hi),
+                                       vs_min(vs_axis_exit(origin.y, dir.y, by, by + hi),
+                                              vs_axis_exit(origin.z, dir.z, bz, bz + hi)));
+                if (t_empty > t + probe) {
+                    t = t_empty;
+                    locate = 1;
+                    continue;
+                }
+            }
+            cell = vs_cell_fetch(buf, acc, c);
+            fetched = 1;
+        }
+        float t_cell = vs_min(next.x, vs_min(next.y, next.z));
+        float t_exit = vs_min(t_stop, t_cell);
+        if (t_exit > t) {
+            pnanovdb_vec3_t local = vs_vec3(origin.x - VS_FLOAT(c.x), origin.y - VS_FLOAT(c.y),
+                                            origin.z - VS_FLOAT(c.z));
+            float fa = vs_cell_eval(cell, vs_vec3_madd(local, dir, t));
+            float fm = vs_cell_eval(cell, vs_vec3_madd(local, dir, 0.5f * (t + t_exit)));
+            float fb = vs_cell_eval(cell, vs_vec3_madd(local, dir, t_exit));
+            VS_PRECISE float segment = (t_exit - t) * (fa + 4.0f * fm + fb) * (1.0f / 6.0f) *
+                                       PNANOVDB_DEREF(m).density_scale;
+            vs_accum_add(PNANOVDB_REF(PNANOVDB_DEREF(m).tau), segment);
+            if (vs_accum_value(PNANOVDB_DEREF(m).tau) > VS_TAU_LIMIT) {
+                PNANOVDB_DEREF(m).done = 1;
+                break;
+            }
+            t = t_exit;
+        }
+        /* Stopped inside the cell at t_target: resume there later. */
+        if (t_exit < t_cell && t_exit >= t_stop)
+            break;
+        fetched = 0;
+        if (next.x <= next.y && next.x <= next.z) {
+            c.x += PNANOVDB_DEREF(m).sign.x;
+            next.x += PNANOVDB_DEREF(m).delta.x;
+        } else if (next.y <= next.z) {
+            c.y += PNANOVDB_DEREF(m).sign.y;
+            next.y += PNANOVDB_DEREF(m).delta.y;
+        } else {
+            c.z += PNANOVDB_DEREF(m).sign.z;
+            next.z += PNANOVDB_DEREF(m).delta.z;
+        }
+    }
+    PNANOVDB_DEREF(m).t = t;
+    PNANOVDB_DEREF(m).c = c;
+    PNANOVDB_DEREF(m).next = next;
+    PNANOVDB_DEREF(m).locate = locate;
+    PNANOVDB_DEREF(m).fetched = fetched;
+    PNANOVDB_DEREF(m).cell = cell;
+    PNANOVDB_DEREF(m).steps = step;
+    if (step >= VS_MARCH_MAX_STEPS || !(t < PNANOVDB_DEREF(m).t1))
+        PNANOVDB_DEREF(m).done = 1;
+}
+
 /* Optical depth sigma_t integrated over t in [0, tmax] from index-space point origin
  * along dir, sigma_t = density * density_scale, as an accumulator (see vs_accum_exp_neg).
  * Only the box [box_lo, box_hi] (index space, the support of the interpolant) is
@@ -110,86 +268,9 @@ VS_FUNC vs_accum vs_march(pnanovdb_buf_t buf, PNANOVDB_INOUT(pnanovdb_readaccess
                           pnanovdb_vec3_t origin, pnanovdb_vec3_t dir, float tmax,
                           pnanovdb_vec3_t box_lo, pnanovdb_vec3_t box_hi, float density_scale)
 {
-    float t0 = vs_max(0.0f, vs_max(vs_axis_enter(origin.x, dir.x, box_lo.x, box_hi.x),
-                                   vs_max(vs_axis_enter(origin.y, dir.y, box_lo.y, box_hi.y),
-                                          vs_axis_enter(origin.z, dir.z, box_lo.z, box_hi.z))));
-    float t1 = vs_min(tmax, vs_min(vs_axis_exit(origin.x, dir.x, box_lo.x, box_hi.x),
-                                   vs_min(vs_axis_exit(origin.y, dir.y, box_lo.y, box_hi.y),
-                                          vs_axis_exit(origin.z, dir.z, box_lo.z, box_hi.z))));
-    vs_accum tau;
-    vs_accum_init(PNANOVDB_REF(tau));
-    if (!(t0 < t1) || density_scale <= 0.0f)
-        return tau;
-
-    /* Cells are found by probing a thousandth of a voxel ahead, relative to the cell
-     * size rather than to t, so that the probe never lands back in the previous cell. */
-    float dmax = vs_max(vs_abs(dir.x), vs_max(vs_abs(dir.y), vs_abs(dir.z)));
-    float probe = 1.0e-3f / dmax;
-    pnanovdb_vec3_t delta = vs_vec3(dir.x != 0.0f ? vs_abs(1.0f / dir.x) : VS_T_INFINITE,
-                                    dir.y != 0.0f ? vs_abs(1.0f / dir.y) : VS_T_INFINITE,
-                                    dir.z != 0.0f ? vs_abs(1.0f / dir.z) : VS_T_INFINITE);
-    int sx = dir.x > 0.0f ? 1 : (dir.x < 0.0f ? -1 : 0);
-    int sy = dir.y > 0.0f ? 1 : (dir.y < 0.0f ? -1 : 0);
-    int sz = dir.z > 0.0f ? 1 : (dir.z < 0.0f ? -1 : 0);
-
-    float t = t0;
-    pnanovdb_coord_t c = vs_coord(0, 0, 0);
-    pnanovdb_vec3_t next = vs_vec3(0.0f, 0.0f, 0.0f);
-    pnanovdb_bool_t locate = PNANOVDB_TRUE;
-    for (int step = 0; step < VS_MARCH_MAX_STEPS && t < t1; ++step) {
-        if (locate) {
-            pnanovdb_vec3_t q = vs_vec3_madd(origin, dir, t + probe);
-            c = vs_coord(VS_INT(vs_floor(q.x)), VS_INT(vs_floor(q.y)), VS_INT(vs_floor(q.z)));
-            next.x = vs_max(t, vs_axis_exit(origin.x, dir.x, VS_FLOAT(c.x), VS_FLOAT(c.x + 1)));
-            next.y = vs_max(t, vs_axis_exit(origin.y, dir.y, VS_FLOAT(c.y), VS_FLOAT(c.y + 1)));
-            next.z = vs_max(t, vs_axis_exit(origin.z, dir.z, VS_FLOAT(c.z), VS_FLOAT(c.z + 1)));
-            locate = PNANOVDB_FALSE;
-        }
-        int dim = VS_INT(
-            pnanovdb_readaccessor_get_dim(PNANOVDB_GRID_TYPE_FLOAT, buf, acc, PNANOVDB_REF(c)));
-        int last = dim - 1;
-        /* Skippable only when the whole cell (corners c and c+1) lies in the empty tile. */
-        if (dim > 1 && (c.x & last) != last && (c.y & last) != last && (c.z & last) != last &&
-            vs_density_voxel(buf, acc, c) == 0.0f) {
-            int mask = ~last;
-            float hi = VS_FLOAT(last);
-            float bx = VS_FLOAT(c.x & mask), by = VS_FLOAT(c.y & mask), bz = VS_FLOAT(c.z & mask);
-            float t_empty = vs_min(vs_axis_exit(origin.x, dir.x, bx, bx + hi),
-                                   vs_min(vs_axis_exit(origin.y, dir.y, by, by + hi),
-                                          vs_axis_exit(origin.z, dir.z, bz, bz + hi)));
-            if (t_empty > t + probe) {
-                t = t_empty;
-                locate = PNANOVDB_TRUE;
-                continue;
-            }
-        }
-        float t_exit = vs_min(t1, vs_min(next.x, vs_min(next.y, next.z)));
-        if (t_exit > t) {
-            vs_cell cell = vs_cell_fetch(buf, acc, c);
-            pnanovdb_vec3_t local = vs_vec3(origin.x - VS_FLOAT(c.x), origin.y - VS_FLOAT(c.y),
-                                            origin.z - VS_FLOAT(c.z));
-            float fa = vs_cell_eval(cell, vs_vec3_madd(local, dir, t));
-            float fm = vs_cell_eval(cell, vs_vec3_madd(local, dir, 0.5f * (t + t_exit)));
-            float fb = vs_cell_eval(cell, vs_vec3_madd(local, dir, t_exit));
-            VS_PRECISE float segment =
-                (t_exit - t) * (fa + 4.0f * fm + fb) * (1.0f / 6.0f) * density_scale;
-            vs_accum_add(PNANOVDB_REF(tau), segment);
-            if (vs_accum_value(tau) > VS_TAU_LIMIT)
-                break;
-            t = t_exit;
-        }
-        if (next.x <= next.y && next.x <= next.z) {
-            c.x += sx;
-            next.x += delta.x;
-        } else if (next.y <= next.z) {
-            c.y += sy;
-            next.y += delta.y;
-        } else {
-            c.z += sz;
-            next.z += delta.z;
-        }
-    }
-    return tau;
+    vs_march_state m = vs_march_begin(origin, dir, tmax, box_lo, box_hi, density_scale);
+    vs_march_advance(buf, acc, PNANOVDB_REF(m), VS_T_INFINITE);
+    return m.tau;
 }
 
 VS_FUNC float vs_optical_depth(pnanovdb_buf_t buf, PNANOVDB_INOUT(pnanovdb_readaccessor_t) acc,

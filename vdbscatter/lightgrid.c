@@ -53,26 +53,23 @@ static double min_voxel_length(const vdbs_volume *volume)
     return best;
 }
 
-/* One column: the depth at each sample from the column's start, by one march per sample
- * interval through the exact trilinear march. Returns whether any density was met. */
+/* One column: the depth at each sample from the column's start, by one march along the
+ * column that stops at every sample (vs_march_advance). Returns whether any density was
+ * met. */
 static int sweep_column(pnanovdb_buf_t buf, pnanovdb_readaccessor_t *acc, const double start[3],
-                        const double step[3], int samples, float h, pnanovdb_vec3_t dir,
-                        pnanovdb_vec3_t box_lo, pnanovdb_vec3_t box_hi, float density_scale,
-                        float *out)
+                        int samples, float h, pnanovdb_vec3_t dir, pnanovdb_vec3_t box_lo,
+                        pnanovdb_vec3_t box_hi, float density_scale, float *out)
 {
-    double depth = 0.0;
+    pnanovdb_vec3_t o = vs_vec3((float)start[0], (float)start[1], (float)start[2]);
+    vs_march_state m =
+        vs_march_begin(o, dir, h * (float)(samples - 1), box_lo, box_hi, density_scale);
     out[0] = 0.0f;
     for (int k = 1; k < samples; ++k) {
-        if (depth <= VS_TAU_LIMIT) {
-            pnanovdb_vec3_t o = vs_vec3((float)(start[0] + (k - 1) * step[0]),
-                                        (float)(start[1] + (k - 1) * step[1]),
-                                        (float)(start[2] + (k - 1) * step[2]));
-            /* Beyond VS_TAU_LIMIT the transmittance is 0 in float: the rest need no march. */
-            depth += vs_accum_value(vs_march(buf, acc, o, dir, h, box_lo, box_hi, density_scale));
-        }
-        out[k] = (float)depth;
+        vs_march_advance(buf, acc, &m, h * (float)k);
+        /* Past VS_TAU_LIMIT the march stops: the transmittance is 0 in float from there. */
+        out[k] = vs_accum_value(m.tau);
     }
-    return depth > 0.0;
+    return out[samples - 1] > 0.0f;
 }
 
 vdbs_status vdbs_dir_grid_build(const vdbs_volume *volume, double density_scale,
@@ -142,11 +139,9 @@ vdbs_status vdbs_dir_grid_build(const vdbs_volume *volume, double density_scale,
     }
 
     pnanovdb_buf_t buf = pnanovdb_make_buf(volume->nano, volume->nano_size / 4);
-    double step_index[3], to_index_u[3], to_index_v[3], origin_index[3];
-    double step_world[3] = {w[0] * g->h, w[1] * g->h, w[2] * g->h};
+    double to_index_u[3], to_index_v[3], origin_index[3];
     double u_world[3] = {u[0] * g->h, u[1] * g->h, u[2] * g->h};
     double v_world[3] = {v[0] * g->h, v[1] * g->h, v[2] * g->h};
-    vdbs_volume_index_vector(volume, step_world, step_index);
     vdbs_volume_index_vector(volume, u_world, to_index_u);
     vdbs_volume_index_vector(volume, v_world, to_index_v);
     vdbs_volume_index_point(volume, g->origin, origin_index);
@@ -173,8 +168,8 @@ vdbs_status vdbs_dir_grid_build(const vdbs_volume *volume, double density_scale,
                     start[a] = origin_index[a] + i * to_index_u[a] + j * to_index_v[a];
                 int64_t *slot = &g->column[(int64_t)j * nu + i];
                 *slot = -1;
-                if (!sweep_column(buf, &acc, start, step_index, nw, (float)g->h, dir, box_lo,
-                                  box_hi, (float)density_scale, scratch))
+                if (!sweep_column(buf, &acc, start, nw, (float)g->h, dir, box_lo, box_hi,
+                                  (float)density_scale, scratch))
                     continue;
                 if (stored == capacity) {
                     capacity = capacity ? 2 * capacity : 16;
