@@ -53,7 +53,7 @@ static vdbs_status solve(const vdbs_bake_options *o, const vdbs_solver *solver,
     s->scene = o->scene;
     s->lights = &lights;
     s->quality = quality;
-    vdbs_dir_grid_desc grids = {o->s1_oversample};
+    vdbs_light_grid_desc grids = {o->s1_oversample};
     s->s1_grids = o->s1_grids ? &grids : NULL;
     s->progress = &progress;
     st = solver->run(s, err);
@@ -119,7 +119,7 @@ vdbs_status vdbs_bake(const vdbs_bake_options *o, vdbs_bake_report *report, vdbs
     snprintf(report->s1, sizeof report->s1, "%s", o->s1_grids ? "grid" : "march");
     report->s1_oversample = !o->s1_grids           ? 0
                             : o->s1_oversample > 0 ? o->s1_oversample
-                                                   : VDBS_DIR_GRID_DEFAULT_OVERSAMPLE;
+                                                   : VDBS_LIGHT_GRID_DEFAULT_OVERSAMPLE;
 
     size_t n = volume.coord_count ? volume.coord_count : 1;
     vdbs_solve outputs = {0};

@@ -71,28 +71,16 @@ vdbs_status vdbs_single_scatter(vdbs_runner *runner, const vdbs_volume *volume,
     return vdbs_kernel_run(runner, &desc, NULL, err);
 }
 
-/* The light table with its point lights only (suns and ordinates come from grids). */
-static vdbs_status points_only(const vdbs_light_table *all, vdbs_light_table *points,
-                               vdbs_error *err)
-{
-    memset(points, 0, sizeof *points);
-    points->direct =
-        calloc((size_t)(all->direct_count > 0 ? all->direct_count : 1), sizeof *points->direct);
-    points->ordinates = calloc(1, sizeof *points->ordinates);
-    if (!points->direct || !points->ordinates) {
-        vdbs_lights_free(points);
-        return vdbs_error_set(err, VDBS_ERR_NOMEM, "out of memory for a light table");
-    }
-    for (int i = 0; i < all->direct_count; ++i)
-        if (all->direct[i].type == VDBS_LIGHT_POINT)
-            points->direct[points->direct_count++] = all->direct[i];
-    points->min_distance = all->min_distance;
-    return vdbs_lights_pack(points, err);
-}
+/* The depth towards one light at a world point, from its grid. */
+typedef struct light_depth {
+    const vdbs_dir_grid *dir;
+    const vdbs_radial_grid *radial;
+    double min_distance; /* points: 1/r^2 is clamped here */
+} light_depth;
 
-/* Adds colour * exp(-depth) to the fluence of every output voxel, depth from the grid. */
-static void add_direction(const vdbs_volume *volume, const vdbs_dir_grid *grid,
-                          const double color[3], float *fluence)
+/* Adds colour * exp(-depth) (over r^2 for a point light) to every output voxel's fluence. */
+static void add_light(const vdbs_volume *volume, const light_depth *light, const double color[3],
+                      float *fluence)
 {
     const int64_t count = (int64_t)volume->coord_count;
 #pragma omp parallel for schedule(static)
@@ -100,56 +88,69 @@ static void add_direction(const vdbs_volume *volume, const vdbs_dir_grid *grid,
         const int32_t *c = volume->coords + 3 * n;
         double index[3] = {c[0], c[1], c[2]}, world[3];
         vdbs_volume_world_point(volume, index, world);
-        double t = exp(-vdbs_dir_grid_depth(grid, world));
+        double weight;
+        if (light->dir) {
+            weight = exp(-vdbs_dir_grid_depth(light->dir, world));
+        } else {
+            const double *p = light->radial->position;
+            double d[3] = {world[0] - p[0], world[1] - p[1], world[2] - p[2]};
+            double rc = fmax(sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]), light->min_distance);
+            weight = exp(-vdbs_radial_grid_depth(light->radial, world)) / (rc * rc);
+        }
         for (int ch = 0; ch < 3; ++ch)
-            fluence[3 * n + ch] += (float)(color[ch] * t);
+            fluence[3 * n + ch] += (float)(color[ch] * weight);
     }
 }
 
-vdbs_status vdbs_single_scatter_grids(vdbs_runner *runner, const vdbs_volume *volume,
-                                      const vdbs_scene *scene, const vdbs_light_table *lights,
-                                      const vdbs_dir_grid_desc *grids, float *radiance,
+vdbs_status vdbs_single_scatter_grids(const vdbs_volume *volume, const vdbs_scene *scene,
+                                      const vdbs_light_table *lights,
+                                      const vdbs_light_grid_desc *grids, float *radiance,
                                       vdbs_progress *progress, vdbs_error *err)
 {
     const size_t n = volume->coord_count;
-    vdbs_light_table points;
-    vdbs_status st = points_only(lights, &points, err);
-    if (st != VDBS_OK)
-        return st;
-    /* Points first, exactly, into radiance; the grids' fluence then joins it. */
-    st = vdbs_single_scatter(runner, volume, scene, &points, radiance, NULL, err);
-    vdbs_lights_free(&points);
     float *fluence = calloc(3 * (n ? n : 1), sizeof *fluence);
-    if (st == VDBS_OK && !fluence)
-        st = vdbs_error_set(err, VDBS_ERR_NOMEM, "out of memory for %zu voxels", n);
+    if (!fluence)
+        return vdbs_error_set(err, VDBS_ERR_NOMEM, "out of memory for %zu voxels", n);
+    vdbs_status st = VDBS_OK;
     const int total = lights->direct_count + lights->ordinate_count;
     for (int d = 0; d < total && st == VDBS_OK; ++d) {
-        double travel[3], color[3];
-        if (d < lights->direct_count) {
+        double color[3];
+        vdbs_dir_grid dir;
+        vdbs_radial_grid radial;
+        memset(&dir, 0, sizeof dir);
+        memset(&radial, 0, sizeof radial);
+        light_depth light = {NULL, NULL, lights->min_distance};
+        if (d < lights->direct_count && lights->direct[d].type == VDBS_LIGHT_POINT) {
             const vdbs_direct_light *l = &lights->direct[d];
-            if (l->type != VDBS_LIGHT_SUN)
-                continue;
-            memcpy(travel, l->world, sizeof travel);
             memcpy(color, l->color, sizeof color);
+            st =
+                vdbs_radial_grid_build(volume, scene->density_scale, l->world, grids, &radial, err);
+            light.radial = &radial;
         } else {
-            const vdbs_sky_ordinate *o = &lights->ordinates[d - lights->direct_count];
-            for (int a = 0; a < 3; ++a) {
-                travel[a] = -o->world[a]; /* sky light travels away from the sky it comes from */
-                color[a] = o->radiance[a] * o->weight;
+            double travel[3];
+            if (d < lights->direct_count) {
+                memcpy(travel, lights->direct[d].world, sizeof travel);
+                memcpy(color, lights->direct[d].color, sizeof color);
+            } else {
+                const vdbs_sky_ordinate *o = &lights->ordinates[d - lights->direct_count];
+                for (int a = 0; a < 3; ++a) {
+                    travel[a] = -o->world[a]; /* sky light travels away from its sky */
+                    color[a] = o->radiance[a] * o->weight;
+                }
             }
+            st = vdbs_dir_grid_build(volume, scene->density_scale, travel, grids, &dir, err);
+            light.dir = &dir;
         }
-        vdbs_dir_grid grid;
-        st = vdbs_dir_grid_build(volume, scene->density_scale, travel, grids, &grid, err);
-        if (st != VDBS_OK)
-            break;
-        add_direction(volume, &grid, color, fluence);
-        vdbs_dir_grid_free(&grid);
+        if (st == VDBS_OK)
+            add_light(volume, &light, color, fluence);
+        vdbs_dir_grid_free(&dir);
+        vdbs_radial_grid_free(&radial);
         if (progress)
             vdbs_progress_update(progress, (uint64_t)n * (uint64_t)(d + 1) / (uint64_t)total);
     }
     if (st == VDBS_OK)
         for (size_t v = 0; v < 3 * n; ++v)
-            radiance[v] += fluence[v] * (float)(1.0 / (4.0 * VDBS_PI));
+            radiance[v] = fluence[v] * (float)(1.0 / (4.0 * VDBS_PI));
     free(fluence);
     return st;
 }

@@ -23,13 +23,13 @@ vdbs_status vdbs_single_scatter(vdbs_runner *runner, const vdbs_volume *volume,
                                 const vdbs_scene *scene, const vdbs_light_table *lights,
                                 float *radiance, vdbs_progress *progress, vdbs_error *err);
 
-/* The same S1 from light grids: one directional grid per sun and sky ordinate, built by a
- * transmittance sweep and looked up at every output voxel (cost linear in the voxels per
- * direction instead of a march per voxel). Point lights are marched exactly per voxel on
- * the runner until their radial grids land. The grid part runs on the C path. */
-vdbs_status vdbs_single_scatter_grids(vdbs_runner *runner, const vdbs_volume *volume,
-                                      const vdbs_scene *scene, const vdbs_light_table *lights,
-                                      const vdbs_dir_grid_desc *grids, float *radiance,
+/* The same S1 from light grids (lightgrid.h): a directional grid per sun and sky ordinate
+ * and a radial grid per point light, each built by one transmittance sweep and looked up at
+ * every output voxel: cost linear in the voxels per light direction instead of a march per
+ * voxel and light. C path. */
+vdbs_status vdbs_single_scatter_grids(const vdbs_volume *volume, const vdbs_scene *scene,
+                                      const vdbs_light_table *lights,
+                                      const vdbs_light_grid_desc *grids, float *radiance,
                                       vdbs_progress *progress, vdbs_error *err);
 
 #ifdef __cplusplus

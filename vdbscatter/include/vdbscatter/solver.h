@@ -39,7 +39,7 @@ typedef struct vdbs_solve {
     const vdbs_scene *scene;
     const vdbs_light_table *lights; /* ordinates per the quality preset */
     const vdbs_quality *quality;
-    const vdbs_dir_grid_desc *s1_grids; /* S1 from light grids; NULL: the exact march */
+    const vdbs_light_grid_desc *s1_grids; /* S1 from light grids; NULL: the exact march */
     vdbs_progress *progress;
     /* Outputs, 3 floats per output voxel (coords order), zeroed by the caller. */
     float *radiance; /* S1 + Sms direction average */
