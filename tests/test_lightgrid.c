@@ -331,6 +331,60 @@ static void test_agreement_rotated(void **state)
     vdbs_volume_free(&volume);
 }
 
+/* Extremes (DESIGN.md): optical thickness 1e-5 to 1e5 per unit, lights of 1e-6 and 1e6, a
+ * one-voxel grid, an empty grid and density scale 0: finite, non-negative, linear in the
+ * lights, never above the unattenuated light, a point light inside and outside. */
+static void test_extremes(void **state)
+{
+    (void)state;
+    const double h = 0.1;
+    double m[3][4] = {{h, 0, 0, 0}, {0, h, 0, 0}, {0, 0, h, 0}};
+    const int six[3] = {6, 6, 6}, one[3] = {1, 1, 1};
+    const double sigmas[] = {0.0, 1e-5, 1.0, 1e5};
+    for (int size = 0; size < 2; ++size) {
+        vdbs_volume volume;
+        make_block(size ? one : six, m, &volume);
+        for (size_t k = 0; k < sizeof sigmas / sizeof *sigmas; ++k) {
+            float *r[2];
+            for (int b = 0; b < 2; ++b) {
+                vdbs_scene scene;
+                vdbs_scene_init(&scene);
+                scene.density_scale = sigmas[k];
+                test_add_sun_point_sky(&scene);
+                for (int i = 0; i < scene.light_count; ++i)
+                    for (int c = 0; c < 3; ++c)
+                        scene.lights[i].color[c] *= b ? 1e6 : 1e-6;
+                vdbs_error err;
+                assert_int_equal(vdbs_scene_validate(&scene, &err), VDBS_OK);
+                r[b] = solve(&volume, &scene, 16, 2);
+            }
+            for (size_t v = 0; v < 3 * volume.coord_count; ++v) {
+                assert_true(isfinite(r[0][v]) && r[0][v] >= 0.0f);
+                assert_true(isfinite(r[1][v]) && r[1][v] >= 0.0f);
+                if (r[0][v] > 1e-30f)
+                    assert_true(test_rel_diff(r[1][v], 1e12 * r[0][v]) < 1e-5);
+            }
+            free(r[0]);
+            free(r[1]);
+        }
+        vdbs_volume_free(&volume);
+    }
+    /* An empty grid: nothing to light, no error. */
+    float zero = 0.0f;
+    vdbio_density *density = NULL;
+    vdbs_error err;
+    assert_int_equal(vdbio_density_from_dense(&zero, one, NULL, NULL, NULL, &density, &err),
+                     VDBS_OK);
+    vdbs_volume empty;
+    assert_int_equal(vdbs_volume_from_density(density, &empty, &err), VDBS_OK);
+    vdbs_scene scene;
+    vdbs_scene_init(&scene);
+    test_add_sun_point_sky(&scene);
+    assert_int_equal(vdbs_scene_validate(&scene, &err), VDBS_OK);
+    free(solve(&empty, &scene, 16, 2));
+    vdbs_volume_free(&empty);
+}
+
 /* Empty space costs nothing: columns that meet no density are not stored. */
 static void test_sparse_columns(void **state)
 {
@@ -365,6 +419,7 @@ int main(void)
         cmocka_unit_test(test_agreement_samples),
         cmocka_unit_test(test_agreement_disney_cloud),
         cmocka_unit_test(test_agreement_rotated),
+        cmocka_unit_test(test_extremes),
         cmocka_unit_test(test_sparse_columns),
     };
     return cmocka_run_group_tests(tests, NULL, teardown);

@@ -108,7 +108,9 @@ vdbs_status vdbs_single_scatter_grids(const vdbs_volume *volume, const vdbs_scen
                                       vdbs_progress *progress, vdbs_error *err)
 {
     const size_t n = volume->coord_count;
-    float *fluence = calloc(3 * (n ? n : 1), sizeof *fluence);
+    if (n == 0)
+        return VDBS_OK; /* an empty grid: nothing to light, no grid to build */
+    float *fluence = calloc(3 * n, sizeof *fluence);
     if (!fluence)
         return vdbs_error_set(err, VDBS_ERR_NOMEM, "out of memory for %zu voxels", n);
     vdbs_status st = VDBS_OK;
