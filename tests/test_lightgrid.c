@@ -262,24 +262,26 @@ static void lit_scene(vdbs_scene *scene, const vdbs_volume *volume, double densi
     assert_int_equal(vdbs_scene_validate(scene, &err), VDBS_OK);
 }
 
-/* Grid against march at oversample 1, 2 and 3: at most 1% at the default, falling as the
- * oversampling rises. */
-static void agree(const char *label, const vdbs_volume *volume, double density_scale, int sky)
+/* Grid against march at oversample 1 up to max_oversample: at most 1% at the default, falling
+ * as the oversampling rises. */
+static void agree(const char *label, const vdbs_volume *volume, double density_scale, int sky,
+                  int max_oversample)
 {
     vdbs_scene scene;
     lit_scene(&scene, volume, density_scale);
     size_t n = 3 * volume->coord_count;
     float *exact = solve(volume, &scene, sky, 0);
     double e[4] = {0.0, 0.0, 0.0, 0.0};
-    for (int f = 1; f <= 3; ++f) {
+    for (int f = 1; f <= max_oversample; ++f) {
         float *grid = solve(volume, &scene, sky, f);
         e[f] = relrmse(grid, exact, n);
         free(grid);
     }
-    print_message("%s: relative RMSE against the march: F 1 %.3e, F 2 %.3e, F 3 %.3e\n", label,
-                  e[1], e[2], e[3]);
+    for (int f = 1; f <= max_oversample; ++f)
+        print_message("%s: relative RMSE against the march at F %d: %.3e\n", label, f, e[f]);
     assert_true(e[VDBS_LIGHT_GRID_DEFAULT_OVERSAMPLE] <= 0.01);
-    assert_true(e[3] < e[2] && e[2] < e[1]);
+    for (int f = 2; f <= max_oversample; ++f)
+        assert_true(e[f] < e[f - 1]);
     free(exact);
 }
 
@@ -293,7 +295,7 @@ static void test_agreement_samples(void **state)
         assert_int_equal(vdbs_sample_create(names[s], 40, 7, &density, &err), VDBS_OK);
         vdbs_volume volume;
         assert_int_equal(vdbs_volume_from_density(density, &volume, &err), VDBS_OK);
-        agree(names[s], &volume, 12.0, 16);
+        agree(names[s], &volume, 12.0, 16, 3);
         vdbs_volume_free(&volume);
     }
 }
@@ -307,7 +309,11 @@ static void test_agreement_disney_cloud(void **state)
     if (vdbs_volume_load(test_data_path("wdas_cloud_sixteenth.vdb"), &read, &volume, &err) !=
         VDBS_OK)
         fail_msg("%s", err.message);
-    agree("wdas_cloud_sixteenth at 0.2", &volume, 0.2, 4);
+    /* F 1 and 2 only: this is the suite's largest march (504k voxels) and it runs under the
+     * sanitizers too; F 3 is in bench/RESULTS.md. The error depends on the lighting: with 4
+     * sky directions 0.76%, with 2 1.03%, with the default 64 0.46% (bench); the sun
+     * alone 0.84%. */
+    agree("wdas_cloud_sixteenth at 0.2", &volume, 0.2, 4, 2);
     vdbs_volume_free(&volume);
 }
 
@@ -327,7 +333,7 @@ static void test_agreement_rotated(void **state)
     }
     vdbs_volume volume;
     make_block(dims, m, &volume);
-    agree("rotated non-uniform block", &volume, 5.0, 16);
+    agree("rotated non-uniform block", &volume, 5.0, 16, 3);
     vdbs_volume_free(&volume);
 }
 
