@@ -8,6 +8,7 @@
 #if defined(PNANOVDB_GLSL)
 
 #define VS_FUNC
+#define VS_FUNC_HOT
 #define VS_PRECISE precise
 #define VS_INT(x) int(x)
 #define VS_UINT(x) uint(x)
@@ -30,6 +31,13 @@
 #include <math.h>
 
 #define VS_FUNC static inline
+/* For the march's inner loop: gcc stops inlining it once it grew big (split into begin and
+ * advance), which cost the per-voxel bake 57%. */
+#if defined(__GNUC__)
+#define VS_FUNC_HOT static inline __attribute__((always_inline))
+#else
+#define VS_FUNC_HOT static inline
+#endif
 #define VS_PRECISE
 #define VS_INT(x) ((int)(x))
 #define VS_UINT(x) ((unsigned)(x))

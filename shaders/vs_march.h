@@ -167,8 +167,8 @@ VS_FUNC vs_march_state vs_march_begin(pnanovdb_vec3_t origin, pnanovdb_vec3_t di
 /* Integrates on to t_target (or the ray's end), cell by cell with Simpson's rule, which is
  * exact for the trilinear interpolant's cubic on any part of a cell. Stops for good once the
  * depth passes VS_TAU_LIMIT (transmittance 0 in float). */
-VS_FUNC void vs_march_advance(pnanovdb_buf_t buf, PNANOVDB_INOUT(pnanovdb_readaccessor_t) acc,
-                              PNANOVDB_INOUT(vs_march_state) m, float t_target)
+VS_FUNC_HOT void vs_march_advance(pnanovdb_buf_t buf, PNANOVDB_INOUT(pnanovdb_readaccessor_t) acc,
+                                  PNANOVDB_INOUT(vs_march_state) m, float t_target)
 {
     if (PNANOVDB_DEREF(m).done != 0)
         return;
