@@ -13,7 +13,6 @@
 
 #include "vdbscatter/camera.h"
 #include "vdbscatter/render.h"
-#include "vdbscatter/samples.h"
 #include "vdbscatter/scene.h"
 #include "vdbscatter/vdbio.h"
 #include "vdbscatter/volume.h"
@@ -25,14 +24,6 @@ static int teardown(void **state)
     (void)state;
     test_runners_free();
     return 0;
-}
-
-static void cloud(vdbs_volume *volume, int res, unsigned seed)
-{
-    vdbio_density *density = NULL;
-    vdbs_error err;
-    assert_int_equal(vdbs_sample_create("cloud", res, seed, &density, &err), VDBS_OK);
-    assert_int_equal(vdbs_volume_from_density(density, volume, &err), VDBS_OK);
 }
 
 static void rotated_file(vdbs_volume *volume)
@@ -80,7 +71,7 @@ static void test_single_cloud(void **state)
 {
     (void)state;
     vdbs_volume volume;
-    cloud(&volume, 32, 3);
+    test_sample_volume("cloud", 32, 3, &volume);
     vdbs_scene scene;
     lit_scene(&scene, 12.0, 0.0);
     single_twin("single, cloud", &volume, &scene, 16);
@@ -95,7 +86,7 @@ static void test_single_many_sky_directions(void **state)
 {
     (void)state;
     vdbs_volume volume;
-    cloud(&volume, 20, 5);
+    test_sample_volume("cloud", 20, 5, &volume);
     vdbs_scene scene;
     lit_scene(&scene, 20.0, 0.0);
     single_twin("single, 1024 sky directions", &volume, &scene, 1024);
@@ -160,7 +151,7 @@ static void test_render_single_cloud(void **state)
 {
     (void)state;
     vdbs_volume volume;
-    cloud(&volume, 32, 3);
+    test_sample_volume("cloud", 32, 3, &volume);
     vdbs_scene scene;
     lit_scene(&scene, 12.0, 0.7);
     scene.albedo[1] = 0.9;
@@ -191,7 +182,7 @@ static void test_render_gpu_passes(void **state)
 {
     (void)state;
     vdbs_volume volume;
-    cloud(&volume, 32, 3);
+    test_sample_volume("cloud", 32, 3, &volume);
     vdbs_scene scene;
     lit_scene(&scene, 12.0, 0.7);
     const int units[3] = {0, 1, 1 << 30};
@@ -242,7 +233,7 @@ static void test_render_baked_synthetic(void **state)
 {
     (void)state;
     vdbs_volume volume;
-    cloud(&volume, 32, 3);
+    test_sample_volume("cloud", 32, 3, &volume);
     const char *path = test_tmp_path("gl_twins_lit.vdb");
     write_synthetic_lit(&volume, path);
     vdbs_ms_grids ms;

@@ -15,7 +15,6 @@
 #include <string.h>
 
 #include "vdbscatter/lightgrid.h"
-#include "vdbscatter/samples.h"
 #include "vdbscatter/single.h"
 
 #define PI 3.14159265358979323846
@@ -290,11 +289,8 @@ static void test_agreement_samples(void **state)
     (void)state;
     const char *names[2] = {"cloud", "smoke"};
     for (int s = 0; s < 2; ++s) {
-        vdbio_density *density = NULL;
-        vdbs_error err;
-        assert_int_equal(vdbs_sample_create(names[s], 40, 7, &density, &err), VDBS_OK);
         vdbs_volume volume;
-        assert_int_equal(vdbs_volume_from_density(density, &volume, &err), VDBS_OK);
+        test_sample_volume(names[s], 40, 7, &volume);
         agree(names[s], &volume, 12.0, 16, 3);
         vdbs_volume_free(&volume);
     }
@@ -395,11 +391,9 @@ static void test_extremes(void **state)
 static void test_sparse_columns(void **state)
 {
     (void)state;
-    vdbio_density *density = NULL;
-    vdbs_error err;
-    assert_int_equal(vdbs_sample_create("cloud", 40, 7, &density, &err), VDBS_OK);
     vdbs_volume volume;
-    assert_int_equal(vdbs_volume_from_density(density, &volume, &err), VDBS_OK);
+    test_sample_volume("cloud", 40, 7, &volume);
+    vdbs_error err;
     const double travel[3] = {0.3, -1.0, 0.2};
     vdbs_dir_grid grid;
     assert_int_equal(vdbs_dir_grid_build(&volume, 12.0, travel, NULL, &grid, &err), VDBS_OK);

@@ -1,5 +1,7 @@
 #include "testutil.h"
 
+#include "vdbscatter/samples.h"
+
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -140,4 +142,13 @@ void test_write_lit(const char *path, const vdbs_volume *volume, const float *ms
     vdbs_error err;
     if (vdbio_write(path, NULL, &request, &err) != VDBS_OK)
         fail_msg("%s", err.message);
+}
+
+void test_sample_volume(const char *name, int res, unsigned seed, vdbs_volume *volume)
+{
+    vdbio_density *density = NULL;
+    vdbs_error err;
+    if (vdbs_sample_create(name, res, seed, &density, &err) != VDBS_OK ||
+        vdbs_volume_from_density(density, volume, &err) != VDBS_OK)
+        fail_msg("sample %s: %s", name, err.message);
 }

@@ -35,6 +35,9 @@ void test_load_ms_grids(const char *path, const double index_to_world[3][4], vdb
 void test_write_lit(const char *path, const vdbs_volume *volume, const float *ms,
                     float *const l1[3]);
 
+/* A procedural sample volume (vdbs_sample_create); fails the test on error. */
+void test_sample_volume(const char *name, int res, unsigned seed, vdbs_volume *volume);
+
 /* The runner of a backend, created on first use and kept for the test program; fails the
  * test when it cannot be created. */
 vdbs_runner *test_runner(vdbs_backend backend);

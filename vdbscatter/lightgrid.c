@@ -203,7 +203,13 @@ static float *distances(int n, double (*radius)(const void *grid, int k), const 
     return t;
 }
 
-static column_sweep sweep_setup(const vdbs_volume *volume, double density_scale)
+/* Sweeps every column of `columns` (n set): column (i, j) is the march `ray` gives, stopping
+ * at the distances radius(grid, k). */
+static vdbs_status sweep(const vdbs_volume *volume, double density_scale,
+                         vdbs_light_columns *columns,
+                         int (*ray)(const void *grid, int i, int j, double start[3], double dir[3]),
+                         double (*radius)(const void *grid, int k), const void *grid,
+                         vdbs_error *err)
 {
     column_sweep s;
     memset(&s, 0, sizeof s);
@@ -214,7 +220,15 @@ static column_sweep sweep_setup(const vdbs_volume *volume, double density_scale)
     s.box_lo = vs_vec3(lo[0], lo[1], lo[2]);
     s.box_hi = vs_vec3(hi[0], hi[1], hi[2]);
     s.density_scale = (float)density_scale;
-    return s;
+    s.ray = ray;
+    s.grid = grid;
+    float *t = distances(columns->n[2], radius, grid);
+    if (!t)
+        return vdbs_error_set(err, VDBS_ERR_NOMEM, "out of memory for a light grid");
+    s.t = t;
+    vdbs_status st = columns_build(columns, &s, err);
+    free(t);
+    return st;
 }
 
 /* ---- directional grids ---- */
@@ -316,16 +330,7 @@ vdbs_status vdbs_dir_grid_build(const vdbs_volume *volume, double density_scale,
     vdbs_volume_index_vector(volume, step_u, ray.step_u);
     vdbs_volume_index_vector(volume, step_v, ray.step_v);
     vdbs_volume_index_vector(volume, w, ray.dir);
-    column_sweep s = sweep_setup(volume, density_scale);
-    s.ray = dir_column_ray;
-    s.grid = &ray;
-    float *t = distances(g->columns.n[2], dir_radius, &ray);
-    if (!t)
-        return vdbs_error_set(err, VDBS_ERR_NOMEM, "out of memory for a light grid");
-    s.t = t;
-    vdbs_status st = columns_build(&g->columns, &s, err);
-    free(t);
-    return st;
+    return sweep(volume, density_scale, &g->columns, dir_column_ray, dir_radius, &ray, err);
 }
 
 /* Catmull-Rom weights of the samples at -1, 0, 1, 2 for a fraction t. */
@@ -466,15 +471,9 @@ vdbs_status vdbs_radial_grid_build(const vdbs_volume *volume, double density_sca
 
     radial_ray ray = {g, volume, {0}};
     vdbs_volume_index_point(volume, position, ray.position_index);
-    column_sweep s = sweep_setup(volume, density_scale);
-    s.ray = radial_column_ray;
-    s.grid = &ray;
-    float *t = distances(g->columns.n[2], radial_radius, &ray);
-    if (!t)
-        return vdbs_error_set(err, VDBS_ERR_NOMEM, "out of memory for a light grid");
-    s.t = t;
-    vdbs_status st = columns_build(&g->columns, &s, err);
-    free(t);
+    vdbs_status st =
+        sweep(volume, density_scale, &g->columns, radial_column_ray, radial_radius, &ray, err);
+    /* Also on a failed sweep: the shell radii are allocated. */
     if (st != VDBS_OK)
         vdbs_radial_grid_free(g);
     return st;
