@@ -349,9 +349,10 @@ int cmd_render(int argc, char **argv)
     desc.warn_user = &quiet;
     vdbs_render_report rep;
     st = vdbs_render(&desc, &rep, &err);
-    free(scene);
-    if (st != VDBS_OK)
+    if (st != VDBS_OK) {
+        free(scene);
         return cli_fail("render", st, err.message);
+    }
 
     if (cli_flag(&args, "--json")) {
         print_json(input, &r, &rep);
@@ -364,5 +365,6 @@ int cmd_render(int argc, char **argv)
         fprintf(stderr, "rendered %dx%d of '%s' (%s, %s) on %s in %.2fs -> %s\n", rep.width,
                 rep.height, rep.grid, rep.mode, detail, rep.backend, rep.seconds_render, r.output);
     }
+    free(scene); /* after print_json: input may be scene->volume_file */
     return CLI_EXIT_OK;
 }

@@ -226,6 +226,11 @@ class Images(Base):
             self.assertGreaterEqual(j["seconds"][key], 0.0)
         self.assertEqual(j["camera"]["position"], [0.0, 3.0, 3.0])  # from the scene file
         self.assertTrue(os.path.exists(out))
+        self.assertEqual(j["input"], sample("slab.vdb"))
+        # Without IN.vdb the input is the scene's volume file (it once read freed memory).
+        p = run("render", "--scene", sample("slab.json"), "-o", out, "--size", "4x4", "--quality", "low",
+                "--json", check=0)
+        self.assertEqual(os.path.realpath(json.loads(p.stdout)["input"]), os.path.realpath(sample("slab.vdb")))
 
     def test_camera_flag_and_vertical_view(self):
         out = self.path("top.png")
