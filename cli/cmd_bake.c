@@ -34,9 +34,9 @@ static const char help[] =
     "other options:\n"
     "  -o, --output FILE        lit VDB to write (refused if equal to the input)\n"
     "  --backend auto|cpu|gpu   auto: a hardware GPU if EGL finds one, else the C path\n"
-    "  --s1 march|grid          single scattering by an exact march per voxel and light\n"
-    "                           (default), or from light grids: one transmittance sweep per\n"
-    "                           light direction, then a lookup per voxel (C path)\n"
+    "  --s1 grid|march          single scattering from light grids (default): one\n"
+    "                           transmittance sweep per light direction, then a lookup per\n"
+    "                           voxel; or by the exact march per voxel and light (the oracle)\n"
     "  --s1-oversample F        light-grid samples per smallest voxel length (default 2)\n"
     "  --from-levelset          convert a level set to a fog volume instead of refusing it\n"
     "  --half                   store grids as half floats (values clamped to 65504)\n"
@@ -95,6 +95,15 @@ static cJSON *report_json(const char *input, const char *output, const vdbs_scen
     cJSON_AddNumberToObject(t, "solve", r->seconds_solve);
     cJSON_AddNumberToObject(t, "write", r->seconds_write);
     cJSON_AddNumberToObject(t, "total", r->seconds_total);
+    if (r->s1_oversample > 0) {
+        cJSON_AddNumberToObject(t, "s1_sweep", r->s1_grids.seconds_sweep);
+        cJSON_AddNumberToObject(t, "s1_lookup", r->seconds_s1_lookup);
+        cJSON *lg = cJSON_AddObjectToObject(j, "light_grids");
+        cJSON_AddNumberToObject(lg, "cells", (double)r->s1_grids.cells);
+        cJSON_AddNumberToObject(lg, "columns", (double)r->s1_grids.columns);
+        cJSON_AddNumberToObject(lg, "columns_empty", (double)r->s1_grids.columns_empty);
+        cJSON_AddNumberToObject(lg, "samples_stored", (double)r->s1_grids.stored);
+    }
     double rmax[3] = {r->radiance_max[0], r->radiance_max[1], r->radiance_max[2]};
     cJSON_AddItemToObject(j, "radiance_max", triple(rmax));
     const char *grids[] = {"density", "radiance", "ms", "ms_l1x", "ms_l1y", "ms_l1z"};
@@ -153,7 +162,7 @@ int cmd_bake(int argc, char **argv)
         vdbs_error_set(&err, VDBS_ERR_INPUT, "--s1: expected march or grid, got '%s'", s1);
         return cli_fail("bake", 2, err.message);
     }
-    o.s1_grids = s1 && strcmp(s1, "grid") == 0;
+    o.s1_march = s1 && strcmp(s1, "march") == 0;
     const char *oversample = cli_value(&args, "--s1-oversample");
     if (oversample) {
         long f = 0;

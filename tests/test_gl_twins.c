@@ -12,6 +12,8 @@
 #include <string.h>
 
 #include "vdbscatter/camera.h"
+#include "vdbscatter/lightgrid.h"
+#include "vdbscatter/lights.h"
 #include "vdbscatter/render.h"
 #include "vdbscatter/scene.h"
 #include "vdbscatter/vdbio.h"
@@ -101,6 +103,88 @@ static void test_single_real_rotated_file(void **state)
     vdbs_scene scene;
     lit_scene(&scene, 5.0, 0.0);
     single_twin("single, rotated dragon", &volume, &scene, 4);
+    vdbs_volume_free(&volume);
+}
+
+/* ---- light grids: the sweep and the lookup ---- */
+
+typedef struct grids_scenario {
+    const vdbs_volume *volume;
+    const vdbs_scene *scene;
+    const vdbs_light_table *lights;
+    const vdbs_light_grids *built; /* on the C path, for the lookup twin */
+} grids_scenario;
+
+/* Copies grids' samples where the C path's (built) are non-zero into out (may be NULL);
+ * returns how many. */
+static size_t nonzero_samples(const vdbs_light_grids *built, const vdbs_light_grids *grids,
+                              float *out)
+{
+    size_t n = 0;
+    for (int g = 0; g < built->count; ++g) {
+        int shape[3];
+        vdbs_light_grids_shape(built, g, shape);
+        for (int j = 0; j < shape[1]; ++j)
+            for (int i = 0; i < shape[0]; ++i)
+                for (int k = 0; k < shape[2]; ++k)
+                    if (vdbs_light_grids_sample(built, g, i, j, k) != 0.0f) {
+                        if (out)
+                            out[n] = vdbs_light_grids_sample(grids, g, i, j, k);
+                        ++n;
+                    }
+    }
+    return n;
+}
+
+/* The samples of every grid, swept on the runner's backend, where the C path's are
+ * non-zero (the rest is empty space, compared by the lookup twin). */
+static vdbs_status run_sweep(vdbs_runner *runner, const void *scenario, float *out, vdbs_error *err)
+{
+    const grids_scenario *s = scenario;
+    vdbs_light_grids grids;
+    int count = s->lights->direct_count + s->lights->ordinate_count;
+    vdbs_status st =
+        vdbs_light_grids_build(runner, s->volume, s->scene, s->lights, 0, count, NULL, &grids, err);
+    if (st == VDBS_OK)
+        nonzero_samples(s->built, &grids, out);
+    vdbs_light_grids_free(&grids);
+    return st;
+}
+
+/* The depth at every voxel from each grid (one set, built on the C path). */
+static vdbs_status run_lookup(vdbs_runner *runner, const void *scenario, float *out,
+                              vdbs_error *err)
+{
+    const grids_scenario *s = scenario;
+    vdbs_status st = VDBS_OK;
+    for (int g = 0; g < s->built->count && st == VDBS_OK; ++g)
+        st = vdbs_light_grids_lookup_voxels(runner, s->volume, s->built, g,
+                                            out + (size_t)g * s->volume->coord_count, err);
+    return st;
+}
+
+static void test_light_grids(void **state)
+{
+    (void)state;
+    vdbs_volume volume;
+    test_sample_volume("cloud", 24, 3, &volume);
+    vdbs_scene scene;
+    lit_scene(&scene, 12.0, 0.0);
+    vdbs_error err;
+    vdbs_lights_desc ld = {4};
+    vdbs_light_table lights;
+    assert_int_equal(vdbs_lights_build(&volume, &scene, &ld, &lights, &err), VDBS_OK);
+    vdbs_light_grids built;
+    int count = lights.direct_count + lights.ordinate_count;
+    assert_int_equal(vdbs_light_grids_build(test_runner(VDBS_BACKEND_CPU), &volume, &scene, &lights,
+                                            0, count, NULL, &built, &err),
+                     VDBS_OK);
+    grids_scenario s = {&volume, &scene, &lights, &built};
+    free(test_twin("light-grid sweep (sun, point, 4 sky)", run_sweep, &s,
+                   nonzero_samples(&built, &built, NULL)));
+    free(test_twin("light-grid lookup", run_lookup, &s, (size_t)count * volume.coord_count));
+    vdbs_light_grids_free(&built);
+    vdbs_lights_free(&lights);
     vdbs_volume_free(&volume);
 }
 
@@ -252,6 +336,7 @@ int main(void)
         cmocka_unit_test(test_single_cloud),
         cmocka_unit_test(test_single_many_sky_directions),
         cmocka_unit_test(test_single_real_rotated_file),
+        cmocka_unit_test(test_light_grids),
         cmocka_unit_test(test_render_single_cloud),
         cmocka_unit_test(test_render_single_real_rotated_file),
         cmocka_unit_test(test_render_gpu_passes),

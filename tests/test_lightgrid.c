@@ -56,9 +56,9 @@ static float *solve(const vdbs_volume *volume, const vdbs_scene *scene, int sky,
     vdbs_light_grid_desc gd = {oversample};
     vdbs_runner *runner = test_runner(VDBS_BACKEND_CPU);
     vdbs_status st =
-        oversample > 0
-            ? vdbs_single_scatter_grids(volume, scene, &lights, &gd, radiance, NULL, &err)
-            : vdbs_single_scatter(runner, volume, scene, &lights, radiance, NULL, &err);
+        oversample > 0 ? vdbs_single_scatter_grids(runner, volume, scene, &lights, &gd, radiance,
+                                                   NULL, NULL, &err)
+                       : vdbs_single_scatter(runner, volume, scene, &lights, radiance, NULL, &err);
     if (st != VDBS_OK)
         fail_msg("%s", err.message);
     vdbs_lights_free(&lights);
@@ -387,7 +387,8 @@ static void test_extremes(void **state)
     vdbs_volume_free(&empty);
 }
 
-/* Empty space costs nothing: columns that meet no density are not stored. */
+/* Empty space costs nothing: columns that meet no density store nothing, and a column
+ * stores only the stretch where its depth changes. */
 static void test_sparse_columns(void **state)
 {
     (void)state;
@@ -395,18 +396,32 @@ static void test_sparse_columns(void **state)
     test_sample_volume("cloud", 40, 7, &volume);
     vdbs_error err;
     const double travel[3] = {0.3, -1.0, 0.2};
-    vdbs_dir_grid grid;
-    assert_int_equal(vdbs_dir_grid_build(&volume, 12.0, travel, NULL, &grid, &err), VDBS_OK);
-    int64_t columns = (int64_t)grid.columns.n[0] * grid.columns.n[1];
-    print_message("cloud 40^3: %dx%dx%d samples, %lld columns stored, %lld empty\n",
-                  grid.columns.n[0], grid.columns.n[1], grid.columns.n[2],
-                  (long long)grid.columns.stored, (long long)grid.columns.empty);
-    assert_int_equal(grid.columns.stored + grid.columns.empty, columns);
-    assert_true(grid.columns.empty > 0 && grid.columns.stored > 0);
-    /* Upstream of everything the depth is 0; downstream of the volume it is the column's. */
-    double far_up[3] = {-100 * travel[0], -100 * travel[1], -100 * travel[2]};
-    assert_true(vdbs_dir_grid_depth(&grid, far_up) == 0.0);
-    vdbs_dir_grid_free(&grid);
+    vdbs_scene scene;
+    sun_scene(&scene, 12.0, travel);
+    vdbs_light_table lights;
+    vdbs_lights_desc ld = {0};
+    assert_int_equal(vdbs_lights_build(&volume, &scene, &ld, &lights, &err), VDBS_OK);
+    vdbs_light_grids grids;
+    assert_int_equal(vdbs_light_grids_build(test_runner(VDBS_BACKEND_CPU), &volume, &scene, &lights,
+                                            0, 1, NULL, &grids, &err),
+                     VDBS_OK);
+    int n[3];
+    vdbs_light_grids_shape(&grids, 0, n);
+    const vdbs_light_grid_stats *s = &grids.stats;
+    print_message("cloud 40^3: %dx%dx%d samples, %lld of %lld columns empty, %lld samples "
+                  "stored (%.1f%%)\n",
+                  n[0], n[1], n[2], (long long)s->columns_empty, (long long)s->columns,
+                  (long long)s->stored, 100.0 * (double)s->stored / (double)s->cells);
+    assert_int_equal(s->columns, (int64_t)n[0] * n[1]);
+    assert_int_equal(s->cells, s->columns * n[2]);
+    assert_true(s->columns_empty > 0 && s->columns_empty < s->columns);
+    assert_true(s->stored < s->cells / 2);
+    /* Upstream of everything the depth is 0; a point far downstream sees its column's. */
+    double p[3] = {-100 * travel[0], -100 * travel[1], -100 * travel[2]}, index[3];
+    vdbs_volume_index_point(&volume, p, index);
+    assert_true(vdbs_light_grids_depth(&grids, 0, index) == 0.0f);
+    vdbs_light_grids_free(&grids);
+    vdbs_lights_free(&lights);
     vdbs_volume_free(&volume);
 }
 

@@ -54,9 +54,14 @@ static vdbs_status solve(const vdbs_bake_options *o, const vdbs_solver *solver,
     s->lights = &lights;
     s->quality = quality;
     vdbs_light_grid_desc grids = {o->s1_oversample};
-    s->s1_grids = o->s1_grids ? &grids : NULL;
+    s->s1_grids = o->s1_march ? NULL : &grids;
     s->progress = &progress;
+    vdbs_s1_stats stats;
+    memset(&stats, 0, sizeof stats);
+    s->s1_stats = &stats;
     st = solver->run(s, err);
+    report->s1_grids = stats.grids;
+    report->seconds_s1_lookup = stats.seconds_lookup;
     if (st == VDBS_OK)
         vdbs_progress_end(&progress);
     vdbs_runner_destroy(runner);
@@ -116,8 +121,8 @@ vdbs_status vdbs_bake(const vdbs_bake_options *o, vdbs_bake_report *report, vdbs
     report->active_voxels = volume.info.active_voxels;
     report->output_voxels = volume.coord_count;
     report->sky_directions = sky;
-    snprintf(report->s1, sizeof report->s1, "%s", o->s1_grids ? "grid" : "march");
-    report->s1_oversample = !o->s1_grids           ? 0
+    snprintf(report->s1, sizeof report->s1, "%s", o->s1_march ? "march" : "grid");
+    report->s1_oversample = o->s1_march            ? 0
                             : o->s1_oversample > 0 ? o->s1_oversample
                                                    : VDBS_LIGHT_GRID_DEFAULT_OVERSAMPLE;
 

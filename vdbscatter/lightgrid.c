@@ -5,17 +5,23 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "vdbs_math.h"
+
 #define PNANOVDB_C
 #include <nanovdb/PNanoVDB.h>
 
-#include "vdbs_math.h"
 #include "vs_common.h"
 #include "vs_march.h"
+#include "vs_medium.h"
+#include "vs_lightgrid.h"
 
-/* Beyond this many samples a grid is refused (16 GiB of depth if every column were stored). */
-#define MAX_SAMPLES ((int64_t)1 << 32)
+/* Word offsets are 32-bit (GLSL uint): a set holds at most this many words. */
+#define MAX_WORDS ((int64_t)0xffffffffu)
 /* Octahedral texels per side at most (a point light far from a huge volume). */
 #define MAX_RESOLUTION 4096
+/* Samples of one sweep tile: under llvmpipe's 128 MiB storage-buffer limit with room to
+ * spare, and a bounded scratch on the C path. */
+#define TILE_SAMPLES ((int64_t)1 << 24)
 
 static double dot3(const double a[3], const double b[3])
 {
@@ -38,208 +44,28 @@ static int oversample_of(const vdbs_light_grid_desc *desc)
     return desc && desc->oversample > 0 ? desc->oversample : VDBS_LIGHT_GRID_DEFAULT_OVERSAMPLE;
 }
 
-/* ---- sparse columns, shared by both kinds ---- */
-
-static void columns_free(vdbs_light_columns *c)
+static void put_float(uint32_t *words, size_t at, double value)
 {
-    free(c->column);
-    free(c->depth);
-    memset(c, 0, sizeof *c);
+    float f = (float)value;
+    memcpy(words + at, &f, sizeof f);
 }
 
-/* What a column sweep needs: the march of column (i, j) starts at `start` (index space) along
- * `dir` and stops at the sample distances t[k] (world units). */
-typedef struct column_sweep {
-    const vdbs_volume *volume;
-    pnanovdb_buf_t buf;
-    pnanovdb_vec3_t box_lo, box_hi;
-    float density_scale;
-    const float *t; /* n[2] increasing distances, t[0] = 0 */
-    /* Fills start and dir for column (i, j); returns 0 for a column known to be empty. */
-    int (*ray)(const void *grid, int i, int j, double start[3], double dir[3]);
-    const void *grid;
-} column_sweep;
-
-/* One column: the depth at each sample, by one march along the column that stops at every
- * sample (vs_march_advance). Returns whether any density was met. */
-static int sweep_column(const column_sweep *s, pnanovdb_readaccessor_t *acc, int i, int j,
-                        int samples, float *out)
+static void put_vec3(uint32_t *words, size_t at, const double v[3])
 {
-    double start[3], dir[3];
-    memset(out, 0, sizeof *out * (size_t)samples);
-    if (!s->ray(s->grid, i, j, start, dir))
-        return 0;
-    vs_march_state m = vs_march_begin(vs_vec3((float)start[0], (float)start[1], (float)start[2]),
-                                      vs_vec3((float)dir[0], (float)dir[1], (float)dir[2]),
-                                      s->t[samples - 1], s->box_lo, s->box_hi, s->density_scale);
-    for (int k = 1; k < samples; ++k) {
-        vs_march_advance(s->buf, acc, &m, s->t[k]);
-        /* Past VS_TAU_LIMIT the march stops: the transmittance is 0 in float from there. */
-        out[k] = vs_accum_value(m.tau);
-    }
-    return out[samples - 1] > 0.0f;
+    for (int a = 0; a < 3; ++a)
+        put_float(words, at + (size_t)a, v[a]);
 }
 
-/* Sweeps every column of c (n set) in parallel, rows into their own buffers, then packs the
- * columns that met density. */
-static vdbs_status columns_build(vdbs_light_columns *c, const column_sweep *s, vdbs_error *err)
-{
-    const int nu = c->n[0], nv = c->n[1], nw = c->n[2];
-    int64_t columns = (int64_t)nu * nv;
-    if (columns * nw > MAX_SAMPLES)
-        return vdbs_error_set(err, VDBS_ERR_INPUT,
-                              "light grid of %dx%dx%d samples is too large; lower the oversample",
-                              nu, nv, nw);
-    c->column = malloc(sizeof *c->column * (size_t)columns);
-    float **rows = calloc((size_t)nv, sizeof *rows);
-    int *row_count = calloc((size_t)nv, sizeof *row_count);
-    int failed = !c->column || !rows || !row_count;
-
-#pragma omp parallel if (!failed)
-    {
-        pnanovdb_readaccessor_t acc = vs_density_accessor(s->buf);
-        float *scratch = malloc(sizeof *scratch * (size_t)nw);
-#pragma omp for schedule(dynamic, 1)
-        for (int j = 0; j < nv; ++j) {
-            float *row = NULL;
-            int stored = 0, capacity = 0;
-            for (int i = 0; i < nu && scratch; ++i) {
-                int64_t *slot = &c->column[(int64_t)j * nu + i];
-                *slot = -1;
-                if (!sweep_column(s, &acc, i, j, nw, scratch))
-                    continue;
-                if (stored == capacity) {
-                    capacity = capacity ? 2 * capacity : 16;
-                    float *grown = realloc(row, sizeof *row * (size_t)capacity * (size_t)nw);
-                    if (!grown) {
-#pragma omp atomic write
-                        failed = 1;
-                        break;
-                    }
-                    row = grown;
-                }
-                memcpy(row + (size_t)stored * (size_t)nw, scratch, sizeof *scratch * (size_t)nw);
-                *slot = stored++; /* row-local until packed */
-            }
-            if (!scratch) {
-#pragma omp atomic write
-                failed = 1;
-            }
-            rows[j] = row;
-            row_count[j] = stored;
-        }
-        free(scratch);
-    }
-
-    int64_t total = 0;
-    for (int j = 0; rows && j < nv; ++j)
-        total += row_count[j];
-    if (!failed)
-        c->depth = malloc(sizeof *c->depth * (size_t)(total > 0 ? total : 1) * (size_t)nw);
-    if (failed || !c->depth) {
-        for (int j = 0; rows && j < nv; ++j)
-            free(rows[j]);
-        free(rows);
-        free(row_count);
-        columns_free(c);
-        return vdbs_error_set(err, VDBS_ERR_NOMEM, "out of memory for a light grid");
-    }
-    int64_t at = 0;
-    for (int j = 0; j < nv; ++j) {
-        if (row_count[j] > 0)
-            memcpy(c->depth + at * nw, rows[j], sizeof *c->depth * (size_t)row_count[j] * nw);
-        for (int i = 0; i < nu; ++i) {
-            int64_t *slot = &c->column[(int64_t)j * nu + i];
-            if (*slot >= 0)
-                *slot = (at + *slot) * nw;
-        }
-        at += row_count[j];
-        free(rows[j]);
-    }
-    free(rows);
-    free(row_count);
-    c->stored = total;
-    c->empty = columns - total;
-    return VDBS_OK;
-}
-
-/* Depth of column (i, j) at sample k + f (k in [0, n[2] - 1]), linear along the column. */
-static double column_depth(const vdbs_light_columns *c, int i, int j, int k, double f)
-{
-    int64_t at = c->column[(int64_t)j * c->n[0] + i];
-    if (at < 0)
-        return 0.0;
-    const float *d = c->depth + at;
-    return k + 1 < c->n[2] ? d[k] + f * ((double)d[k + 1] - d[k]) : d[k];
-}
-
-/* Index and fraction of a coordinate clamped to [0, n - 1]. */
-static int split(double x, int n, double *f)
-{
-    if (!(x > 0.0)) {
-        *f = 0.0;
-        return 0;
-    }
-    if (x >= n - 1) {
-        *f = 0.0;
-        return n - 1;
-    }
-    int i = (int)x;
-    *f = x - i;
-    return i;
-}
-
-static int clampi(int i, int n)
-{
-    return i < 0 ? 0 : (i >= n ? n - 1 : i);
-}
-
-/* Sample distances 0, t1, t2, ... for a sweep (floats, as the march measures t). */
-static float *distances(int n, double (*radius)(const void *grid, int k), const void *grid)
-{
-    float *t = malloc(sizeof *t * (size_t)n);
-    for (int k = 0; t && k < n; ++k)
-        t[k] = (float)radius(grid, k);
-    return t;
-}
-
-/* Sweeps every column of `columns` (n set): column (i, j) is the march `ray` gives, stopping
- * at the distances radius(grid, k). */
-static vdbs_status sweep(const vdbs_volume *volume, double density_scale,
-                         vdbs_light_columns *columns,
-                         int (*ray)(const void *grid, int i, int j, double start[3], double dir[3]),
-                         double (*radius)(const void *grid, int k), const void *grid,
-                         vdbs_error *err)
-{
-    column_sweep s;
-    memset(&s, 0, sizeof s);
-    float lo[3], hi[3];
-    vdbs_volume_support_box(volume, lo, hi);
-    s.volume = volume;
-    s.buf = pnanovdb_make_buf(volume->nano, volume->nano_size / 4);
-    s.box_lo = vs_vec3(lo[0], lo[1], lo[2]);
-    s.box_hi = vs_vec3(hi[0], hi[1], hi[2]);
-    s.density_scale = (float)density_scale;
-    s.ray = ray;
-    s.grid = grid;
-    float *t = distances(columns->n[2], radius, grid);
-    if (!t)
-        return vdbs_error_set(err, VDBS_ERR_NOMEM, "out of memory for a light grid");
-    s.t = t;
-    vdbs_status st = columns_build(columns, &s, err);
-    free(t);
-    return st;
-}
-
-/* ---- directional grids ---- */
-
-void vdbs_dir_grid_free(vdbs_dir_grid *grid)
-{
-    if (!grid)
-        return;
-    columns_free(&grid->columns);
-    memset(grid, 0, sizeof *grid);
-}
+/* One grid's geometry before its sweep. */
+typedef struct grid_plan {
+    uint32_t kind;
+    int64_t n[3];
+    double spacing;
+    double origin[3]; /* index space */
+    double step_u[3], step_v[3], travel[3];
+    double to_grid[3][3];
+    double *radius; /* radial: n[2] shell radii */
+} grid_plan;
 
 /* An orthonormal frame around unit w (Duff et al. 2017, continuous everywhere). */
 static void frame(const double w[3], double u[3], double v[3])
@@ -255,56 +81,41 @@ static void frame(const double w[3], double u[3], double v[3])
     v[2] = -w[1];
 }
 
-typedef struct dir_ray {
-    const vdbs_dir_grid *grid;
-    double origin_index[3], step_u[3], step_v[3], dir[3]; /* index space */
-} dir_ray;
-
-static int dir_column_ray(const void *user, int i, int j, double start[3], double dir[3])
+/* The support box's eight corners, world. */
+static void box_corners(const vdbs_volume *volume, double corners[8][3])
 {
-    const dir_ray *r = user;
-    for (int a = 0; a < 3; ++a) {
-        start[a] = r->origin_index[a] + i * r->step_u[a] + j * r->step_v[a];
-        dir[a] = r->dir[a];
-    }
-    return 1;
-}
-
-static double dir_radius(const void *user, int k)
-{
-    return ((const dir_ray *)user)->grid->h * k;
-}
-
-vdbs_status vdbs_dir_grid_build(const vdbs_volume *volume, double density_scale,
-                                const double travel[3], const vdbs_light_grid_desc *desc,
-                                vdbs_dir_grid *g, vdbs_error *err)
-{
-    memset(g, 0, sizeof *g);
-    double len = sqrt(dot3(travel, travel));
-    if (!(len > 0.0) || !isfinite(len))
-        return vdbs_error_set(err, VDBS_ERR_INTERNAL, "light grid: zero direction");
-    double *u = g->axes[0], *v = g->axes[1], *w = g->axes[2];
-    for (int a = 0; a < 3; ++a)
-        w[a] = travel[a] / len;
-    frame(w, u, v);
-    g->h = min_voxel_length(volume) / oversample_of(desc);
-
-    /* The support box's corners in the frame, relative to its lowest corner (a voxel centre),
-     * so that aligned samples fall on voxel centres. */
     float lo[3], hi[3];
     vdbs_volume_support_box(volume, lo, hi);
-    double corner_lo[3] = {lo[0], lo[1], lo[2]}, base[3];
-    vdbs_volume_world_point(volume, corner_lo, base);
-    double cmin[3] = {HUGE_VAL, HUGE_VAL, HUGE_VAL}, cmax[3] = {-HUGE_VAL, -HUGE_VAL, -HUGE_VAL};
     for (int corner = 0; corner < 8; ++corner) {
         double idx[3] = {corner & 1 ? hi[0] : lo[0], corner & 2 ? hi[1] : lo[1],
                          corner & 4 ? hi[2] : lo[2]};
-        double p[3], d[3];
-        vdbs_volume_world_point(volume, idx, p);
+        vdbs_volume_world_point(volume, idx, corners[corner]);
+    }
+}
+
+static vdbs_status plan_directional(const vdbs_volume *volume, const double travel[3], int F,
+                                    grid_plan *g, vdbs_error *err)
+{
+    double len = sqrt(dot3(travel, travel));
+    if (!(len > 0.0) || !isfinite(len))
+        return vdbs_error_set(err, VDBS_ERR_INTERNAL, "light grid: zero direction");
+    double axes[3][3];
+    for (int a = 0; a < 3; ++a)
+        axes[2][a] = travel[a] / len;
+    frame(axes[2], axes[0], axes[1]);
+    g->kind = VS_LGRID_DIRECTIONAL;
+    g->spacing = min_voxel_length(volume) / F;
+    /* The corners in the frame, relative to the box's lowest corner (a voxel centre), so that
+     * aligned samples fall on voxel centres. */
+    double corners[8][3];
+    box_corners(volume, corners);
+    double cmin[3] = {HUGE_VAL, HUGE_VAL, HUGE_VAL}, cmax[3] = {-HUGE_VAL, -HUGE_VAL, -HUGE_VAL};
+    for (int corner = 0; corner < 8; ++corner) {
+        double d[3];
         for (int a = 0; a < 3; ++a)
-            d[a] = p[a] - base[a];
+            d[a] = corners[corner][a] - corners[0][a];
         for (int a = 0; a < 3; ++a) {
-            double c = dot3(d, g->axes[a]) / g->h;
+            double c = dot3(d, axes[a]) / g->spacing;
             cmin[a] = fmin(cmin[a], c);
             cmax[a] = fmax(cmax[a], c);
         }
@@ -317,198 +128,384 @@ vdbs_status vdbs_dir_grid_build(const vdbs_volume *volume, double density_scale,
         if (count > 1e9)
             return vdbs_error_set(err, VDBS_ERR_INPUT, "light grid: %g samples along an axis",
                                   count);
-        g->columns.n[a] = (int)count;
+        g->n[a] = (int64_t)count;
     }
+    double origin[3];
     for (int a = 0; a < 3; ++a)
-        g->origin[a] =
-            base[a] + first[0] * g->h * u[a] + first[1] * g->h * v[a] + first[2] * g->h * w[a];
-
-    dir_ray ray = {g, {0}, {0}, {0}, {0}};
-    double step_u[3] = {u[0] * g->h, u[1] * g->h, u[2] * g->h};
-    double step_v[3] = {v[0] * g->h, v[1] * g->h, v[2] * g->h};
-    vdbs_volume_index_point(volume, g->origin, ray.origin_index);
-    vdbs_volume_index_vector(volume, step_u, ray.step_u);
-    vdbs_volume_index_vector(volume, step_v, ray.step_v);
-    vdbs_volume_index_vector(volume, w, ray.dir);
-    return sweep(volume, density_scale, &g->columns, dir_column_ray, dir_radius, &ray, err);
+        origin[a] = corners[0][a] + g->spacing * (first[0] * axes[0][a] + first[1] * axes[1][a] +
+                                                  first[2] * axes[2][a]);
+    vdbs_volume_index_point(volume, origin, g->origin);
+    double step[3];
+    for (int a = 0; a < 3; ++a)
+        step[a] = axes[0][a] * g->spacing;
+    vdbs_volume_index_vector(volume, step, g->step_u);
+    for (int a = 0; a < 3; ++a)
+        step[a] = axes[1][a] * g->spacing;
+    vdbs_volume_index_vector(volume, step, g->step_v);
+    vdbs_volume_index_vector(volume, axes[2], g->travel);
+    /* Index offset -> grid coordinates: (axis . (M d)) / h, M the index-to-world linear part. */
+    const double(*m)[4] = volume->index_to_world;
+    for (int r = 0; r < 3; ++r)
+        for (int c = 0; c < 3; ++c)
+            g->to_grid[r][c] =
+                (axes[r][0] * m[0][c] + axes[r][1] * m[1][c] + axes[r][2] * m[2][c]) / g->spacing;
+    return VDBS_OK;
 }
 
-/* Catmull-Rom weights of the samples at -1, 0, 1, 2 for a fraction t. */
-static void catmull_rom(double t, double w[4])
+static vdbs_status plan_radial(const vdbs_volume *volume, const double position[3], int F,
+                               grid_plan *g, vdbs_error *err)
 {
-    double t2 = t * t, t3 = t2 * t;
-    w[0] = 0.5 * (-t3 + 2.0 * t2 - t);
-    w[1] = 0.5 * (3.0 * t3 - 5.0 * t2 + 2.0);
-    w[2] = 0.5 * (-3.0 * t3 + 4.0 * t2 + t);
-    w[3] = 0.5 * (t3 - t2);
-}
-
-double vdbs_dir_grid_depth(const vdbs_dir_grid *g, const double world[3])
-{
-    const vdbs_light_columns *c = &g->columns;
-    double d[3] = {world[0] - g->origin[0], world[1] - g->origin[1], world[2] - g->origin[2]};
-    double fu, fv, fw;
-    int i = split(dot3(d, g->axes[0]) / g->h, c->n[0], &fu);
-    int j = split(dot3(d, g->axes[1]) / g->h, c->n[1], &fv);
-    int k = split(dot3(d, g->axes[2]) / g->h, c->n[2], &fw);
-    double wu[4], wv[4];
-    catmull_rom(fu, wu);
-    catmull_rom(fv, wv);
-    double sum = 0.0, lo = HUGE_VAL, hi = -HUGE_VAL;
-    for (int b = 0; b < 4; ++b)
-        for (int a = 0; a < 4; ++a) {
-            double x =
-                column_depth(c, clampi(i + a - 1, c->n[0]), clampi(j + b - 1, c->n[1]), k, fw);
-            sum += wu[a] * wv[b] * x;
-            if (a >= 1 && a <= 2 && b >= 1 && b <= 2) {
-                lo = fmin(lo, x);
-                hi = fmax(hi, x);
-            }
-        }
-    /* No overshoot beyond the four nearest columns (sharp edges of the medium). */
-    return fmin(fmax(sum, lo), hi);
-}
-
-/* ---- radial grids ---- */
-
-void vdbs_radial_grid_free(vdbs_radial_grid *grid)
-{
-    if (!grid)
-        return;
-    columns_free(&grid->columns);
-    free(grid->radius);
-    memset(grid, 0, sizeof *grid);
-}
-
-/* Octahedral map of the unit sphere onto [-1, 1]^2 (continuous on the upper half; the lower
- * half folds over the diagonals). */
-static void octahedral_encode(const double d[3], double p[2])
-{
-    double n = fabs(d[0]) + fabs(d[1]) + fabs(d[2]);
-    double x = d[0] / n, y = d[1] / n;
-    if (d[2] < 0.0) {
-        double fx = (1.0 - fabs(y)) * copysign(1.0, x);
-        double fy = (1.0 - fabs(x)) * copysign(1.0, y);
-        x = fx;
-        y = fy;
-    }
-    p[0] = x;
-    p[1] = y;
-}
-
-static void octahedral_decode(const double p[2], double d[3])
-{
-    double x = p[0], y = p[1], z = 1.0 - fabs(x) - fabs(y);
-    if (z < 0.0) {
-        double fx = (1.0 - fabs(y)) * copysign(1.0, x);
-        double fy = (1.0 - fabs(x)) * copysign(1.0, y);
-        x = fx;
-        y = fy;
-    }
-    double n = sqrt(x * x + y * y + z * z);
-    d[0] = x / n;
-    d[1] = y / n;
-    d[2] = z / n;
-}
-
-typedef struct radial_ray {
-    const vdbs_radial_grid *grid;
-    const vdbs_volume *volume;
-    double position_index[3];
-} radial_ray;
-
-static int radial_column_ray(const void *user, int i, int j, double start[3], double dir[3])
-{
-    const radial_ray *r = user;
-    int n = r->grid->resolution;
-    double p[2] = {2.0 * (i + 0.5) / n - 1.0, 2.0 * (j + 0.5) / n - 1.0}, d[3];
-    octahedral_decode(p, d);
-    vdbs_volume_index_vector(r->volume, d, dir);
-    memcpy(start, r->position_index, sizeof r->position_index);
-    return 1;
-}
-
-static double radial_radius(const void *user, int k)
-{
-    return ((const radial_ray *)user)->grid->radius[k];
-}
-
-vdbs_status vdbs_radial_grid_build(const vdbs_volume *volume, double density_scale,
-                                   const double position[3], const vdbs_light_grid_desc *desc,
-                                   vdbs_radial_grid *g, vdbs_error *err)
-{
-    memset(g, 0, sizeof *g);
-    memcpy(g->position, position, sizeof g->position);
-    double h = min_voxel_length(volume) / oversample_of(desc);
-    float lo[3], hi[3];
-    vdbs_volume_support_box(volume, lo, hi);
-    double r_max = 0.0;
+    g->kind = VS_LGRID_RADIAL;
+    double h = min_voxel_length(volume) / F;
+    double corners[8][3], r_max = 0.0;
+    box_corners(volume, corners);
     for (int corner = 0; corner < 8; ++corner) {
-        double idx[3] = {corner & 1 ? hi[0] : lo[0], corner & 2 ? hi[1] : lo[1],
-                         corner & 4 ? hi[2] : lo[2]};
-        double p[3], d[3];
-        vdbs_volume_world_point(volume, idx, p);
+        double d[3];
         for (int a = 0; a < 3; ++a)
-            d[a] = p[a] - position[a];
+            d[a] = corners[corner][a] - position[a];
         r_max = fmax(r_max, sqrt(dot3(d, d)));
     }
     /* Texels of about h at r_max: an octahedral texel spans up to pi / resolution radians. */
-    double resolution = ceil(VDBS_PI * r_max / h);
-    g->resolution = (int)fmin(fmax(resolution, 8.0), MAX_RESOLUTION);
+    double resolution = fmin(fmax(ceil(VDBS_PI * r_max / h), 8.0), MAX_RESOLUTION);
+    double texel = VDBS_PI / resolution;
     /* Shells h apart, or a texel's width apart where that is wider; the last beyond r_max. */
-    double texel = VDBS_PI / g->resolution;
-    int shells = 1;
+    int64_t shells = 1;
     for (double r = 0.0; r < r_max; r += fmax(h, texel * r))
         ++shells;
     g->radius = malloc(sizeof *g->radius * (size_t)shells);
     if (!g->radius)
         return vdbs_error_set(err, VDBS_ERR_NOMEM, "out of memory for a light grid");
     g->radius[0] = 0.0;
-    for (int k = 1; k < shells; ++k)
+    for (int64_t k = 1; k < shells; ++k)
         g->radius[k] = g->radius[k - 1] + fmax(h, texel * g->radius[k - 1]);
-    g->columns.n[0] = g->columns.n[1] = g->resolution;
-    g->columns.n[2] = shells;
+    g->n[0] = g->n[1] = (int64_t)resolution;
+    g->n[2] = shells;
+    vdbs_volume_index_point(volume, position, g->origin);
+    return VDBS_OK;
+}
 
-    radial_ray ray = {g, volume, {0}};
-    vdbs_volume_index_point(volume, position, ray.position_index);
-    vdbs_status st =
-        sweep(volume, density_scale, &g->columns, radial_column_ray, radial_radius, &ray, err);
-    /* Also on a failed sweep: the shell radii are allocated. */
-    if (st != VDBS_OK)
-        vdbs_radial_grid_free(g);
+static void header_write(uint32_t *words, int grid, const grid_plan *g, size_t columns_at,
+                         size_t radii_at)
+{
+    size_t h = vs_lgrid_header(grid);
+    words[h + VS_LGRID_OFF_KIND] = g->kind;
+    for (int a = 0; a < 3; ++a)
+        words[h + VS_LGRID_OFF_N + (size_t)a] = (uint32_t)g->n[a];
+    words[h + VS_LGRID_OFF_COLUMNS] = (uint32_t)columns_at;
+    words[h + VS_LGRID_OFF_RADII] = (uint32_t)radii_at;
+    put_float(words, h + VS_LGRID_OFF_SPACING, g->spacing);
+    put_vec3(words, h + VS_LGRID_OFF_ORIGIN, g->origin);
+    put_vec3(words, h + VS_LGRID_OFF_STEP_U, g->step_u);
+    put_vec3(words, h + VS_LGRID_OFF_STEP_V, g->step_v);
+    put_vec3(words, h + VS_LGRID_OFF_TRAVEL, g->travel);
+    for (int r = 0; r < 3; ++r)
+        put_vec3(words, h + VS_LGRID_OFF_TO_GRID + 3 * (size_t)r, g->to_grid[r]);
+    for (int64_t k = 0; g->radius && k < g->n[2]; ++k)
+        put_float(words, radii_at + (size_t)k, g->radius[k]);
+}
+
+/* ---- the sweep, tile by tile ---- */
+
+typedef struct sweep_job {
+    const vdbs_volume *volume;
+    const float *medium;
+    const uint32_t *words; /* count, headers and radii */
+    int grid;
+    int64_t first_column; /* of the tile */
+    int64_t n0, n2;
+    float *out; /* the tile: n2 samples per column */
+} sweep_job;
+
+static void sweep_items(void *user, uint64_t begin, uint64_t end)
+{
+    const sweep_job *job = user;
+    pnanovdb_buf_t buf = pnanovdb_make_buf(job->volume->nano, job->volume->nano_size / 4);
+    pnanovdb_readaccessor_t acc = vs_density_accessor(buf);
+    for (uint64_t item = begin; item < end; ++item) {
+        int64_t column = job->first_column + (int64_t)item;
+        vs_lgrid_sweep_column((const vs_vec4 *)job->medium, job->words, job->out, buf, &acc,
+                              job->grid, (int)(column % job->n0), (int)(column / job->n0),
+                              (vs_uint)(item * (uint64_t)job->n2));
+    }
+}
+
+/* Growing storage of the packed depth samples. */
+typedef struct depth_store {
+    float *data;
+    int64_t count, capacity;
+} depth_store;
+
+static int store_reserve(depth_store *s, int64_t more)
+{
+    if (s->count + more <= s->capacity)
+        return 1;
+    int64_t cap = s->capacity ? s->capacity : 1 << 16;
+    while (cap < s->count + more)
+        cap *= 2;
+    float *grown = realloc(s->data, sizeof *grown * (size_t)cap);
+    if (!grown)
+        return 0;
+    s->data = grown;
+    s->capacity = cap;
+    return 1;
+}
+
+/* Keeps of each swept column only the stretch where its depth changes (vs_lightgrid.h):
+ * records[3 c + ...] get the offset relative to the store's start, the first stored sample
+ * and the count. */
+static int tile_pack(const float *tile, int64_t columns, int64_t n2, uint32_t *records,
+                     depth_store *store, int64_t *empty)
+{
+    int64_t *first = malloc(sizeof *first * (size_t)columns * 2);
+    if (!first)
+        return 0;
+    int64_t *count = first + columns;
+#pragma omp parallel for schedule(static)
+    for (int64_t c = 0; c < columns; ++c) {
+        const float *d = tile + c * n2;
+        int64_t k0 = 0;
+        while (k0 < n2 && d[k0] == 0.0f)
+            ++k0;
+        int64_t k1 = n2 - 1;
+        while (k1 > k0 && d[k1 - 1] == d[n2 - 1])
+            --k1;
+        first[c] = k0;
+        count[c] = k0 < n2 ? k1 - k0 + 1 : 0;
+    }
+    int64_t total = 0;
+    for (int64_t c = 0; c < columns; ++c) {
+        int64_t n = count[c];
+        count[c] = total; /* now the offset within this tile's stretch */
+        total += n;
+        records[VS_LGRID_COLUMN_WORDS * c + VS_LGRID_COLUMN_FIRST] = (uint32_t)first[c];
+        records[VS_LGRID_COLUMN_WORDS * c + VS_LGRID_COLUMN_COUNT] = (uint32_t)n;
+        records[VS_LGRID_COLUMN_WORDS * c + VS_LGRID_COLUMN_OFFSET] =
+            (uint32_t)(store->count + count[c]);
+        *empty += n == 0;
+    }
+    if (!store_reserve(store, total)) {
+        free(first);
+        return 0;
+    }
+#pragma omp parallel for schedule(static)
+    for (int64_t c = 0; c < columns; ++c) {
+        int64_t n = records[VS_LGRID_COLUMN_WORDS * c + VS_LGRID_COLUMN_COUNT];
+        if (n > 0)
+            memcpy(store->data + store->count + count[c], tile + c * n2 + first[c],
+                   sizeof *tile * (size_t)n);
+    }
+    store->count += total;
+    free(first);
+    return 1;
+}
+
+static vdbs_status sweep_grid(vdbs_runner *runner, const vdbs_volume *volume, const float *medium,
+                              const uint32_t *words, size_t prefix_words, int grid,
+                              const grid_plan *g, uint32_t *records, depth_store *store,
+                              int64_t *empty, vdbs_error *err)
+{
+    int64_t columns = g->n[0] * g->n[1];
+    int64_t per_tile = TILE_SAMPLES / g->n[2] > 0 ? TILE_SAMPLES / g->n[2] : 1;
+    if (per_tile > columns)
+        per_tile = columns;
+    float *tile = malloc(sizeof *tile * (size_t)(per_tile * g->n[2]));
+    if (!tile)
+        return vdbs_error_set(err, VDBS_ERR_NOMEM, "out of memory for a light-grid tile");
+    sweep_job job = {volume, medium, words, grid, 0, g->n[0], g->n[2], tile};
+    uint32_t params[4] = {(uint32_t)grid, 0, 0, 0};
+    vdbs_status st = VDBS_OK;
+    for (int64_t c0 = 0; c0 < columns && st == VDBS_OK; c0 += per_tile) {
+        int64_t n = columns - c0 < per_tile ? columns - c0 : per_tile;
+        job.first_column = c0;
+        params[1] = (uint32_t)c0;
+        vdbs_kernel_desc desc = {0};
+        desc.items = (uint64_t)n;
+        desc.user = &job;
+        desc.cpu_items = sweep_items;
+        desc.cpu_chunk = 16;
+        desc.shader = "lightgrid_sweep.comp";
+        desc.inputs[0] = (vdbs_kernel_input){volume->nano, volume->nano_size};
+        desc.inputs[1] = (vdbs_kernel_input){medium, sizeof(float) * 4 * VS_MEDIUM_SIZE};
+        desc.inputs[2] = (vdbs_kernel_input){words, sizeof *words * prefix_words};
+        desc.inputs[3] = (vdbs_kernel_input){params, sizeof params};
+        desc.output_words = (size_t)g->n[2];
+        desc.output = tile;
+        desc.units_per_dispatch = 1;
+        desc.total_units = 1;
+        st = vdbs_kernel_run(runner, &desc, NULL, err);
+        if (st == VDBS_OK &&
+            !tile_pack(tile, n, g->n[2], records + VS_LGRID_COLUMN_WORDS * c0, store, empty))
+            st = vdbs_error_set(err, VDBS_ERR_NOMEM, "out of memory for a light grid");
+    }
+    free(tile);
     return st;
 }
 
-double vdbs_radial_grid_depth(const vdbs_radial_grid *g, const double world[3])
+void vdbs_light_grids_free(vdbs_light_grids *grids)
 {
-    const vdbs_light_columns *c = &g->columns;
-    double v[3] = {world[0] - g->position[0], world[1] - g->position[1], world[2] - g->position[2]};
-    double r = sqrt(dot3(v, v));
-    if (!(r > 0.0))
-        return 0.0;
-    double d[3] = {v[0] / r, v[1] / r, v[2] / r}, p[2];
-    octahedral_encode(d, p);
-    double fu, fv, fr;
-    int i = split(0.5 * (p[0] + 1.0) * g->resolution - 0.5, c->n[0], &fu);
-    int j = split(0.5 * (p[1] + 1.0) * g->resolution - 0.5, c->n[1], &fv);
-    /* The shell below r (binary search), then linear in r to the next. */
-    int k = 0, top = c->n[2] - 1;
-    if (r >= g->radius[top]) {
-        k = top;
-        fr = 0.0;
-    } else {
-        while (top - k > 1) {
-            int mid = (k + top) / 2;
-            if (g->radius[mid] <= r)
-                k = mid;
-            else
-                top = mid;
+    if (!grids)
+        return;
+    free(grids->words);
+    memset(grids, 0, sizeof *grids);
+}
+
+vdbs_status vdbs_light_grids_build(vdbs_runner *runner, const vdbs_volume *volume,
+                                   const vdbs_scene *scene, const vdbs_light_table *lights,
+                                   int first, int count, const vdbs_light_grid_desc *desc,
+                                   vdbs_light_grids *out, vdbs_error *err)
+{
+    memset(out, 0, sizeof *out);
+    if (first < 0 || count < 0 || first + count > lights->direct_count + lights->ordinate_count)
+        return vdbs_error_set(err, VDBS_ERR_INTERNAL, "light grids: lights %d..%d of %d", first,
+                              first + count, lights->direct_count + lights->ordinate_count);
+    double t0 = omp_get_wtime();
+    vdbs_medium medium;
+    vdbs_medium_init(&medium, volume, scene);
+    vdbs_medium_pack(&medium, out->medium);
+    const int F = oversample_of(desc);
+    grid_plan *plans = calloc((size_t)(count > 0 ? count : 1), sizeof *plans);
+    if (!plans)
+        return vdbs_error_set(err, VDBS_ERR_NOMEM, "out of memory for light grids");
+    vdbs_status st = VDBS_OK;
+    for (int g = 0; g < count && st == VDBS_OK; ++g) {
+        int l = first + g;
+        if (l < lights->direct_count && lights->direct[l].type == VDBS_LIGHT_POINT) {
+            st = plan_radial(volume, lights->direct[l].world, F, &plans[g], err);
+        } else if (l < lights->direct_count) {
+            st = plan_directional(volume, lights->direct[l].world, F, &plans[g], err);
+        } else {
+            const double *w = lights->ordinates[l - lights->direct_count].world;
+            double travel[3] = {-w[0], -w[1], -w[2]}; /* sky light travels away from its sky */
+            st = plan_directional(volume, travel, F, &plans[g], err);
         }
-        fr = (r - g->radius[k]) / (g->radius[k + 1] - g->radius[k]);
     }
-    int i1 = i + 1 < c->n[0] ? i + 1 : i, j1 = j + 1 < c->n[1] ? j + 1 : j;
-    double d00 = column_depth(c, i, j, k, fr), d10 = column_depth(c, i1, j, k, fr);
-    double d01 = column_depth(c, i, j1, k, fr), d11 = column_depth(c, i1, j1, k, fr);
-    double d0 = d00 + fu * (d10 - d00), d1 = d01 + fu * (d11 - d01);
-    return d0 + fv * (d1 - d0);
+    /* Layout: count and headers, radii, column records, then the depth samples. */
+    int64_t at = VS_LGRIDS_OFF_HEADERS + (int64_t)count * VS_LGRID_WORDS;
+    int64_t *radii_at = calloc((size_t)(count > 0 ? count : 1), 2 * sizeof *radii_at);
+    int64_t *columns_at = radii_at ? radii_at + (count > 0 ? count : 1) : NULL;
+    if (st == VDBS_OK && !radii_at)
+        st = vdbs_error_set(err, VDBS_ERR_NOMEM, "out of memory for light grids");
+    for (int g = 0; g < count && st == VDBS_OK; ++g) {
+        radii_at[g] = at;
+        at += plans[g].kind == VS_LGRID_RADIAL ? plans[g].n[2] : 0;
+    }
+    const int64_t prefix = at;
+    for (int g = 0; g < count && st == VDBS_OK; ++g) {
+        columns_at[g] = at;
+        at += VS_LGRID_COLUMN_WORDS * plans[g].n[0] * plans[g].n[1];
+        out->stats.columns += plans[g].n[0] * plans[g].n[1];
+        out->stats.cells += plans[g].n[0] * plans[g].n[1] * plans[g].n[2];
+    }
+    const int64_t depth_at = at;
+    if (st == VDBS_OK && depth_at > MAX_WORDS)
+        st = vdbs_error_set(err, VDBS_ERR_INPUT,
+                            "light grids of %lld columns are too large; lower the oversample",
+                            (long long)out->stats.columns);
+    uint32_t *words = st == VDBS_OK ? calloc((size_t)depth_at, sizeof *words) : NULL;
+    if (st == VDBS_OK && !words)
+        st = vdbs_error_set(err, VDBS_ERR_NOMEM, "out of memory for light grids");
+    if (st == VDBS_OK) {
+        words[VS_LGRIDS_OFF_COUNT] = (uint32_t)count;
+        for (int g = 0; g < count; ++g)
+            header_write(words, g, &plans[g], (size_t)columns_at[g], (size_t)radii_at[g]);
+    }
+    depth_store store = {NULL, 0, 0};
+    for (int g = 0; g < count && st == VDBS_OK; ++g)
+        st = sweep_grid(runner, volume, out->medium, words, (size_t)prefix, g, &plans[g],
+                        words + columns_at[g], &store, &out->stats.columns_empty, err);
+    if (st == VDBS_OK && depth_at + store.count > MAX_WORDS)
+        st = vdbs_error_set(err, VDBS_ERR_INPUT,
+                            "light grids of %lld stored samples are too large; lower the "
+                            "oversample",
+                            (long long)store.count);
+    if (st == VDBS_OK) {
+        uint32_t *grown = realloc(words, sizeof *words * (size_t)(depth_at + store.count));
+        if (!grown) {
+            st = vdbs_error_set(err, VDBS_ERR_NOMEM, "out of memory for light grids");
+        } else {
+            words = grown;
+            memcpy(words + depth_at, store.data, sizeof *store.data * (size_t)store.count);
+            /* Record offsets were relative to the store. */
+            for (int g = 0; g < count; ++g)
+                for (int64_t c = 0; c < plans[g].n[0] * plans[g].n[1]; ++c)
+                    words[columns_at[g] + VS_LGRID_COLUMN_WORDS * c + VS_LGRID_COLUMN_OFFSET] +=
+                        (uint32_t)depth_at;
+        }
+    }
+    free(store.data);
+    for (int g = 0; g < count; ++g)
+        free(plans[g].radius);
+    free(plans);
+    free(radii_at);
+    if (st != VDBS_OK) {
+        free(words);
+        memset(out, 0, sizeof *out);
+        return st;
+    }
+    out->words = words;
+    out->word_count = (size_t)(depth_at + store.count);
+    out->count = count;
+    out->stats.stored = store.count;
+    out->stats.seconds_sweep = omp_get_wtime() - t0;
+    return VDBS_OK;
+}
+
+void vdbs_light_grids_shape(const vdbs_light_grids *grids, int grid, int n[3])
+{
+    for (int a = 0; a < 3; ++a)
+        n[a] = vs_lgrid_n(grids->words, grid, a);
+}
+
+float vdbs_light_grids_sample(const vdbs_light_grids *grids, int grid, int i, int j, int k)
+{
+    return vs_lgrid_column_depth(grids->words, grid, i, j, k, 0.0f);
+}
+
+float vdbs_light_grids_depth(const vdbs_light_grids *grids, int grid, const double index[3])
+{
+    return vs_lgrid_depth((const vs_vec4 *)grids->medium, grids->words, grid,
+                          vs_vec3((float)index[0], (float)index[1], (float)index[2]));
+}
+
+/* ---- the lookup at every output voxel ---- */
+
+typedef struct lookup_job {
+    const vdbs_volume *volume;
+    const vdbs_light_grids *grids;
+    int grid;
+    float *depth;
+} lookup_job;
+
+static void lookup_items(void *user, uint64_t begin, uint64_t end)
+{
+    const lookup_job *job = user;
+    for (uint64_t n = begin; n < end; ++n) {
+        const int32_t *c = job->volume->coords + 3 * n;
+        job->depth[n] = vs_lgrid_depth((const vs_vec4 *)job->grids->medium, job->grids->words,
+                                       job->grid, vs_vec3((float)c[0], (float)c[1], (float)c[2]));
+    }
+}
+
+vdbs_status vdbs_light_grids_lookup_voxels(vdbs_runner *runner, const vdbs_volume *volume,
+                                           const vdbs_light_grids *grids, int grid, float *depth,
+                                           vdbs_error *err)
+{
+    if (volume->coord_count == 0)
+        return VDBS_OK;
+    lookup_job job = {volume, grids, grid, depth};
+    uint32_t params[4] = {(uint32_t)grid, 0, 0, 0};
+    vdbs_kernel_desc desc = {0};
+    desc.items = volume->coord_count;
+    desc.user = &job;
+    desc.cpu_items = lookup_items;
+    desc.cpu_chunk = 4096;
+    desc.shader = "lightgrid_lookup.comp";
+    desc.inputs[1] = (vdbs_kernel_input){grids->medium, sizeof grids->medium};
+    desc.inputs[2] = (vdbs_kernel_input){grids->words, sizeof *grids->words * grids->word_count};
+    desc.inputs[3] = (vdbs_kernel_input){params, sizeof params};
+    desc.inputs[4] = (vdbs_kernel_input){volume->coords, 3 * sizeof(int32_t) * volume->coord_count};
+    desc.output_words = 1;
+    desc.output = depth;
+    desc.total_units = 1;
+    return vdbs_kernel_run(runner, &desc, NULL, err);
 }

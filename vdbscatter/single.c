@@ -1,6 +1,7 @@
 #include "vdbscatter/single.h"
 
 #include <math.h>
+#include <omp.h>
 #include <stdint.h>
 #include <stdlib.h>
 #include <string.h>
@@ -71,88 +72,85 @@ vdbs_status vdbs_single_scatter(vdbs_runner *runner, const vdbs_volume *volume,
     return vdbs_kernel_run(runner, &desc, NULL, err);
 }
 
-/* The depth towards one light at a world point, from its grid. */
-typedef struct light_depth {
-    const vdbs_dir_grid *dir;
-    const vdbs_radial_grid *radial;
-    double min_distance; /* points: 1/r^2 is clamped here */
-} light_depth;
-
-/* Adds colour * exp(-depth) (over r^2 for a point light) to every output voxel's fluence. */
-static void add_light(const vdbs_volume *volume, const light_depth *light, const double color[3],
-                      float *fluence)
+/* Adds colour * exp(-depth) (over r^2 for a point light at `point`, else NULL) to every
+ * output voxel's fluence. */
+static void add_light(const vdbs_volume *volume, const float *depth, const double color[3],
+                      const double *point, double min_distance, double *fluence)
 {
     const int64_t count = (int64_t)volume->coord_count;
 #pragma omp parallel for schedule(static)
     for (int64_t n = 0; n < count; ++n) {
-        const int32_t *c = volume->coords + 3 * n;
-        double index[3] = {c[0], c[1], c[2]}, world[3];
-        vdbs_volume_world_point(volume, index, world);
-        double weight;
-        if (light->dir) {
-            weight = exp(-vdbs_dir_grid_depth(light->dir, world));
-        } else {
-            const double *p = light->radial->position;
-            double d[3] = {world[0] - p[0], world[1] - p[1], world[2] - p[2]};
-            double rc = fmax(sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]), light->min_distance);
-            weight = exp(-vdbs_radial_grid_depth(light->radial, world)) / (rc * rc);
+        double weight = exp(-(double)depth[n]);
+        if (point) {
+            const int32_t *c = volume->coords + 3 * n;
+            double index[3] = {c[0], c[1], c[2]}, world[3];
+            vdbs_volume_world_point(volume, index, world);
+            double d[3] = {world[0] - point[0], world[1] - point[1], world[2] - point[2]};
+            double rc = fmax(sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]), min_distance);
+            weight /= rc * rc;
         }
         for (int ch = 0; ch < 3; ++ch)
-            fluence[3 * n + ch] += (float)(color[ch] * weight);
+            fluence[3 * n + ch] += color[ch] * weight;
     }
 }
 
-vdbs_status vdbs_single_scatter_grids(const vdbs_volume *volume, const vdbs_scene *scene,
-                                      const vdbs_light_table *lights,
+vdbs_status vdbs_single_scatter_grids(vdbs_runner *runner, const vdbs_volume *volume,
+                                      const vdbs_scene *scene, const vdbs_light_table *lights,
                                       const vdbs_light_grid_desc *grids, float *radiance,
-                                      vdbs_progress *progress, vdbs_error *err)
+                                      vdbs_s1_stats *stats, vdbs_progress *progress,
+                                      vdbs_error *err)
 {
+    vdbs_s1_stats local;
+    if (!stats)
+        stats = &local;
+    memset(stats, 0, sizeof *stats);
     const size_t n = volume->coord_count;
     if (n == 0)
         return VDBS_OK; /* an empty grid: nothing to light, no grid to build */
-    float *fluence = calloc(3 * n, sizeof *fluence);
-    if (!fluence)
+    double *fluence = calloc(3 * n, sizeof *fluence);
+    float *depth = malloc(n * sizeof *depth);
+    if (!fluence || !depth) {
+        free(fluence);
+        free(depth);
         return vdbs_error_set(err, VDBS_ERR_NOMEM, "out of memory for %zu voxels", n);
+    }
     vdbs_status st = VDBS_OK;
     const int total = lights->direct_count + lights->ordinate_count;
     for (int d = 0; d < total && st == VDBS_OK; ++d) {
-        double color[3];
-        vdbs_dir_grid dir;
-        vdbs_radial_grid radial;
-        memset(&dir, 0, sizeof dir);
-        memset(&radial, 0, sizeof radial);
-        light_depth light = {NULL, NULL, lights->min_distance};
-        if (d < lights->direct_count && lights->direct[d].type == VDBS_LIGHT_POINT) {
-            const vdbs_direct_light *l = &lights->direct[d];
-            memcpy(color, l->color, sizeof color);
-            st =
-                vdbs_radial_grid_build(volume, scene->density_scale, l->world, grids, &radial, err);
-            light.radial = &radial;
-        } else {
-            double travel[3];
+        vdbs_light_grids set;
+        st = vdbs_light_grids_build(runner, volume, scene, lights, d, 1, grids, &set, err);
+        if (st != VDBS_OK)
+            break;
+        double t0 = omp_get_wtime();
+        st = vdbs_light_grids_lookup_voxels(runner, volume, &set, 0, depth, err);
+        if (st == VDBS_OK) {
+            double color[3];
+            const double *point = NULL;
             if (d < lights->direct_count) {
-                memcpy(travel, lights->direct[d].world, sizeof travel);
                 memcpy(color, lights->direct[d].color, sizeof color);
+                if (lights->direct[d].type == VDBS_LIGHT_POINT)
+                    point = lights->direct[d].world;
             } else {
                 const vdbs_sky_ordinate *o = &lights->ordinates[d - lights->direct_count];
-                for (int a = 0; a < 3; ++a) {
-                    travel[a] = -o->world[a]; /* sky light travels away from its sky */
+                for (int a = 0; a < 3; ++a)
                     color[a] = o->radiance[a] * o->weight;
-                }
             }
-            st = vdbs_dir_grid_build(volume, scene->density_scale, travel, grids, &dir, err);
-            light.dir = &dir;
+            add_light(volume, depth, color, point, lights->min_distance, fluence);
         }
-        if (st == VDBS_OK)
-            add_light(volume, &light, color, fluence);
-        vdbs_dir_grid_free(&dir);
-        vdbs_radial_grid_free(&radial);
+        stats->seconds_lookup += omp_get_wtime() - t0;
+        stats->grids.cells += set.stats.cells;
+        stats->grids.columns += set.stats.columns;
+        stats->grids.columns_empty += set.stats.columns_empty;
+        stats->grids.stored += set.stats.stored;
+        stats->grids.seconds_sweep += set.stats.seconds_sweep;
+        vdbs_light_grids_free(&set);
         if (progress)
             vdbs_progress_update(progress, (uint64_t)n * (uint64_t)(d + 1) / (uint64_t)total);
     }
     if (st == VDBS_OK)
         for (size_t v = 0; v < 3 * n; ++v)
-            radiance[v] = fluence[v] * (float)(1.0 / (4.0 * VDBS_PI));
+            radiance[v] = (float)(fluence[v] * (1.0 / (4.0 * VDBS_PI)));
     free(fluence);
+    free(depth);
     return st;
 }

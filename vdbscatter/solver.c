@@ -29,8 +29,8 @@ int vdbs_quality_sky_directions(const char *name)
 static vdbs_status run_single(const vdbs_solve *s, vdbs_error *err)
 {
     if (s->s1_grids)
-        return vdbs_single_scatter_grids(s->volume, s->scene, s->lights, s->s1_grids, s->radiance,
-                                         s->progress, err);
+        return vdbs_single_scatter_grids(s->runner, s->volume, s->scene, s->lights, s->s1_grids,
+                                         s->radiance, s->s1_stats, s->progress, err);
     return vdbs_single_scatter(s->runner, s->volume, s->scene, s->lights, s->radiance, s->progress,
                                err);
 }

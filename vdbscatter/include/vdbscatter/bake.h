@@ -3,6 +3,7 @@
 #define VDBSCATTER_BAKE_H
 
 #include "vdbscatter/kernel.h"
+#include "vdbscatter/lightgrid.h"
 #include "vdbscatter/scene.h"
 #include "vdbscatter/status.h"
 
@@ -15,7 +16,8 @@ typedef struct vdbs_bake_options {
     const char *output;      /* lit VDB */
     const vdbs_scene *scene; /* validated */
     vdbs_backend backend;
-    int s1_grids;      /* single scattering from light grids (lightgrid.h) instead of marches */
+    int s1_march;      /* single scattering by the exact march per voxel and light instead of
+                          light grids (lightgrid.h; the default) */
     int s1_oversample; /* light-grid samples per smallest voxel; 0 = the default */
     int from_levelset;
     int half;
@@ -33,6 +35,9 @@ typedef struct vdbs_bake_report {
     int sky_directions;
     char s1[8];        /* "march" or "grid" */
     int s1_oversample; /* 0 for march */
+    /* Light grids (grid only): sizes summed over the lights, and the time of each stage. */
+    vdbs_light_grid_stats s1_grids;
+    double seconds_s1_lookup;
     double seconds_load;
     double seconds_solve;
     double seconds_write;

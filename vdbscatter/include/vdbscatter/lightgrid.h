@@ -2,8 +2,6 @@
  * transmittance sweep per column, so that the optical depth towards the light at any point
  * is a lookup instead of a march. Cost per light direction is linear in the cells.
  *
- * Both kinds store sparse columns of depth samples (columns that meet no density cost no
- * memory), filled by one exact march per column that stops at every sample:
  * - directional grids (a sun, or one sky ordinate): an orthonormal frame (u, v, w), w the
  *   light's direction of travel, spanning the volume's support box; columns along w, h apart
  *   across and along (h = the smallest world voxel length / oversample). With an
@@ -14,43 +12,27 @@
  *   the support box's farthest corner (up to a cap); shells are h apart, or a texel's width
  *   where that is wider (exponential spacing, once the angular resolution is capped).
  *
- * Status (issue 7, first part): the C path. The compute-shader twin and the render's use of
- * the grids come next. */
+ * A set of grids is one buffer of 32-bit words whose layout, sweep and lookup are written once
+ * for C and GLSL in shaders/vs_lightgrid.h; the sweep and the lookup run through the kernel
+ * runner on either backend. Columns that meet no density store nothing, and a column stores
+ * only the stretch where its depth changes. The GPU sweeps in tiles of columns under the
+ * driver's storage-buffer limit. */
 #ifndef VDBSCATTER_LIGHTGRID_H
 #define VDBSCATTER_LIGHTGRID_H
 
 #include <stddef.h>
 #include <stdint.h>
 
+#include "vdbscatter/kernel.h"
+#include "vdbscatter/lights.h"
+#include "vdbscatter/medium.h"
+#include "vdbscatter/scene.h"
 #include "vdbscatter/status.h"
 #include "vdbscatter/volume.h"
 
 #ifdef __cplusplus
 extern "C" {
 #endif
-
-/* n[0] x n[1] columns of n[2] depth samples each; only columns that met density are stored. */
-typedef struct vdbs_light_columns {
-    int n[3];
-    int64_t *column; /* n[0] * n[1] entries (first index fastest): offset in depth, -1 if empty */
-    float *depth;
-    int64_t stored;
-    int64_t empty;
-} vdbs_light_columns;
-
-typedef struct vdbs_dir_grid {
-    double origin[3];  /* world position of sample (0, 0, 0) */
-    double axes[3][3]; /* world unit vectors u, v, w; w is the direction of travel */
-    double h;          /* sample spacing, world units */
-    vdbs_light_columns columns;
-} vdbs_dir_grid;
-
-typedef struct vdbs_radial_grid {
-    double position[3]; /* the light, world */
-    int resolution;     /* octahedral texels per side (columns n[0] = n[1]) */
-    double *radius;     /* columns.n[2] shell radii, increasing from 0 (the light itself) */
-    vdbs_light_columns columns;
-} vdbs_radial_grid;
 
 /* The default oversampling: the smallest that keeps S1 within 1% relative RMSE of the exact
  * march on the bundled samples and the Disney cloud (tests/test_lightgrid.c). */
@@ -61,33 +43,49 @@ typedef struct vdbs_light_grid_desc {
     int oversample; /* samples per smallest voxel length; default 2 */
 } vdbs_light_grid_desc;
 
-/* The grid of light travelling along `travel` (world, any length) through the volume with
- * sigma_t = density * density_scale. Errors: a zero direction (VDBS_ERR_INTERNAL), a grid too
- * large (VDBS_ERR_INPUT), out of memory. */
-vdbs_status vdbs_dir_grid_build(const vdbs_volume *volume, double density_scale,
-                                const double travel[3], const vdbs_light_grid_desc *desc,
-                                vdbs_dir_grid *grid, vdbs_error *err);
-void vdbs_dir_grid_free(vdbs_dir_grid *grid);
+/* What building a set cost and holds. */
+typedef struct vdbs_light_grid_stats {
+    int64_t cells;         /* samples of all grids, n0 n1 n2 summed */
+    int64_t columns;       /* n0 n1 summed */
+    int64_t columns_empty; /* columns that met no density: swept, nothing stored */
+    int64_t stored;        /* depth samples stored */
+    double seconds_sweep;  /* wall time of the sweeps (packing included) */
+} vdbs_light_grid_stats;
 
-/* Optical depth towards the light at a world point, interpolated in the grid's own
- * coordinates (depth, never transmittance): bicubic (Catmull-Rom) across the 4 x 4 nearest
- * columns, kept within the range of the 2 x 2 nearest so that sharp edges of the medium do
- * not ring, and linear along the columns. Catmull-Rom halves to quarters trilinear's error
- * on clouds (1/16 Disney cloud at density scale 0.2, oversample 2: 0.76% against 1.5%
- * relative RMSE of S1). 0 upstream of the grid, the last sample's value downstream, the edge
- * columns' beside it. */
-double vdbs_dir_grid_depth(const vdbs_dir_grid *grid, const double world[3]);
+typedef struct vdbs_light_grids {
+    uint32_t *words; /* the set (shaders/vs_lightgrid.h) */
+    size_t word_count;
+    int count;
+    float medium[4 * VDBS_MEDIUM_TABLE_ENTRIES]; /* the table the grids were swept with */
+    vdbs_light_grid_stats stats;
+} vdbs_light_grids;
 
-/* The grid of a point light at `position` (world), inside or outside the volume. Errors as
- * vdbs_dir_grid_build. */
-vdbs_status vdbs_radial_grid_build(const vdbs_volume *volume, double density_scale,
-                                   const double position[3], const vdbs_light_grid_desc *desc,
-                                   vdbs_radial_grid *grid, vdbs_error *err);
-void vdbs_radial_grid_free(vdbs_radial_grid *grid);
+/* One grid per light of the table's lights [first, first + count), lights numbered as the
+ * kernels do: the direct lights, then the sky ordinates. A sun or ordinate gets a
+ * directional grid (sky light travels away from its sky), a point light a radial one. The
+ * medium (density scale) is the scene's. Errors: a grid too large (VDBS_ERR_INPUT), out of
+ * memory, GPU errors. */
+vdbs_status vdbs_light_grids_build(vdbs_runner *runner, const vdbs_volume *volume,
+                                   const vdbs_scene *scene, const vdbs_light_table *lights,
+                                   int first, int count, const vdbs_light_grid_desc *desc,
+                                   vdbs_light_grids *grids, vdbs_error *err);
+void vdbs_light_grids_free(vdbs_light_grids *grids);
 
-/* Optical depth between the light and a world point: bilinear across the octahedral texels
- * (clamped at the map's edges), linear in r between shells. */
-double vdbs_radial_grid_depth(const vdbs_radial_grid *grid, const double world[3]);
+/* The optical depth towards the light of grid `grid` at an index-space point (the shared
+ * lookup, C path). */
+float vdbs_light_grids_depth(const vdbs_light_grids *grids, int grid, const double index[3]);
+
+/* The same lookup at every output voxel of the volume (depth holds volume->coord_count
+ * floats), on the runner's backend. */
+vdbs_status vdbs_light_grids_lookup_voxels(vdbs_runner *runner, const vdbs_volume *volume,
+                                           const vdbs_light_grids *grids, int grid, float *depth,
+                                           vdbs_error *err);
+
+/* Columns n0 x n1 and samples per column n2 of grid `grid`. */
+void vdbs_light_grids_shape(const vdbs_light_grids *grids, int grid, int n[3]);
+
+/* Sample k of column (i, j) of grid `grid`: the swept optical depth as stored. */
+float vdbs_light_grids_sample(const vdbs_light_grids *grids, int grid, int i, int j, int k);
 
 #ifdef __cplusplus
 }

@@ -23,14 +23,21 @@ vdbs_status vdbs_single_scatter(vdbs_runner *runner, const vdbs_volume *volume,
                                 const vdbs_scene *scene, const vdbs_light_table *lights,
                                 float *radiance, vdbs_progress *progress, vdbs_error *err);
 
+/* What S1 from light grids cost. */
+typedef struct vdbs_s1_stats {
+    vdbs_light_grid_stats grids; /* summed over the lights */
+    double seconds_lookup;       /* lookups and accumulation */
+} vdbs_s1_stats;
+
 /* The same S1 from light grids (lightgrid.h): a directional grid per sun and sky ordinate
  * and a radial grid per point light, each built by one transmittance sweep and looked up at
- * every output voxel: cost linear in the voxels per light direction instead of a march per
- * voxel and light. C path. */
-vdbs_status vdbs_single_scatter_grids(const vdbs_volume *volume, const vdbs_scene *scene,
-                                      const vdbs_light_table *lights,
+ * every output voxel, one light at a time: cost linear in the voxels per light direction
+ * instead of a march per voxel and light. stats may be NULL. */
+vdbs_status vdbs_single_scatter_grids(vdbs_runner *runner, const vdbs_volume *volume,
+                                      const vdbs_scene *scene, const vdbs_light_table *lights,
                                       const vdbs_light_grid_desc *grids, float *radiance,
-                                      vdbs_progress *progress, vdbs_error *err);
+                                      vdbs_s1_stats *stats, vdbs_progress *progress,
+                                      vdbs_error *err);
 
 #ifdef __cplusplus
 }

@@ -11,6 +11,7 @@
 #include "vdbscatter/lights.h"
 #include "vdbscatter/progress.h"
 #include "vdbscatter/scene.h"
+#include "vdbscatter/single.h"
 #include "vdbscatter/status.h"
 #include "vdbscatter/volume.h"
 
@@ -41,6 +42,7 @@ typedef struct vdbs_solve {
     const vdbs_quality *quality;
     const vdbs_light_grid_desc *s1_grids; /* S1 from light grids; NULL: the exact march */
     vdbs_progress *progress;
+    vdbs_s1_stats *s1_stats; /* filled when S1 comes from light grids; may be NULL */
     /* Outputs, 3 floats per output voxel (coords order), zeroed by the caller. */
     float *radiance; /* S1 + Sms direction average */
     float *ms;       /* Sms direction average */
