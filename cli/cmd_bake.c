@@ -33,11 +33,8 @@ static const char help[] =
     "\n"
     "other options:\n"
     "  -o, --output FILE        lit VDB to write (refused if equal to the input)\n"
-    "  --backend auto|cpu|gpu   auto: a hardware GPU if EGL finds one, else the C path\n"
-    "  --s1 grid|march          single scattering from light grids (default): one\n"
-    "                           transmittance sweep per light direction, then a lookup per\n"
-    "                           voxel; or by the exact march per voxel and light (the oracle)\n"
-    "  --s1-oversample F        light-grid samples per smallest voxel length (default 2)\n"
+    "  --backend auto|cpu|gpu   auto: a hardware GPU if EGL finds one, else the C "
+    "path\n" CLI_S1_HELP
     "  --from-levelset          convert a level set to a fog volume instead of refusing it\n"
     "  --half                   store grids as half floats (values clamped to 65504)\n"
     "  --report FILE.json       write timings per stage, parameters and output grids\n"
@@ -68,11 +65,6 @@ static const cli_option options[] = {
     {NULL, CLI_FLAG},
 };
 
-static cJSON *triple(const double v[3])
-{
-    return cJSON_CreateDoubleArray(v, 3);
-}
-
 static cJSON *report_json(const char *input, const char *output, const vdbs_scene *scene,
                           const vdbs_bake_report *r)
 {
@@ -98,14 +90,10 @@ static cJSON *report_json(const char *input, const char *output, const vdbs_scen
     if (r->s1_oversample > 0) {
         cJSON_AddNumberToObject(t, "s1_sweep", r->s1_grids.seconds_sweep);
         cJSON_AddNumberToObject(t, "s1_lookup", r->seconds_s1_lookup);
-        cJSON *lg = cJSON_AddObjectToObject(j, "light_grids");
-        cJSON_AddNumberToObject(lg, "cells", (double)r->s1_grids.cells);
-        cJSON_AddNumberToObject(lg, "columns", (double)r->s1_grids.columns);
-        cJSON_AddNumberToObject(lg, "columns_empty", (double)r->s1_grids.columns_empty);
-        cJSON_AddNumberToObject(lg, "samples_stored", (double)r->s1_grids.stored);
+        cli_json_light_grids(j, &r->s1_grids);
     }
     double rmax[3] = {r->radiance_max[0], r->radiance_max[1], r->radiance_max[2]};
-    cJSON_AddItemToObject(j, "radiance_max", triple(rmax));
+    cJSON_AddItemToObject(j, "radiance_max", cli_json_triple(rmax));
     const char *grids[] = {"density", "radiance", "ms", "ms_l1x", "ms_l1y", "ms_l1z"};
     cJSON_AddItemToObject(j, "grids", cJSON_CreateStringArray(grids, 6));
     char *scene_text = vdbs_scene_to_json(scene);
@@ -157,19 +145,8 @@ int cmd_bake(int argc, char **argv)
     if (backend && (st = vdbs_backend_parse(backend, &o.backend, &err)) != VDBS_OK)
         return cli_fail("bake", st, err.message);
     int quiet = cli_flag(&args, "-q");
-    const char *s1 = cli_value(&args, "--s1");
-    if (s1 && strcmp(s1, "grid") != 0 && strcmp(s1, "march") != 0) {
-        vdbs_error_set(&err, VDBS_ERR_INPUT, "--s1: expected march or grid, got '%s'", s1);
-        return cli_fail("bake", 2, err.message);
-    }
-    o.s1_march = s1 && strcmp(s1, "march") == 0;
-    const char *oversample = cli_value(&args, "--s1-oversample");
-    if (oversample) {
-        long f = 0;
-        if ((st = cli_integer("--s1-oversample", oversample, 1, 16, &f, &err)) != VDBS_OK)
-            return cli_fail("bake", st, err.message);
-        o.s1_oversample = (int)f;
-    }
+    if ((st = cli_s1_options(&args, &o.s1_march, &o.s1_oversample, &err)) != VDBS_OK)
+        return cli_fail("bake", st, err.message);
     o.from_levelset = cli_flag(&args, "--from-levelset");
     o.half = cli_flag(&args, "--half");
     o.progress = !quiet && isatty(STDERR_FILENO);

@@ -59,7 +59,7 @@ static const char help[] =
     "  -o, --output FILE        .exr (linear float) or .png (8-bit sRGB)\n"
     "  --mode single|baked|reference\n"
     "  --backend auto|cpu|gpu   single/baked: auto = a hardware GPU if EGL finds one, else\n"
-    "                           the C path; reference always runs on the C path\n"
+    "                           the C path; reference always runs on the C path\n" CLI_S1_HELP
     "  --exposure EV            PNG only: scale by 2^EV before the sRGB encoding\n"
     "  --json                   print a summary as JSON on stdout\n"
     "  -q                       no progress, summary or warnings\n";
@@ -76,6 +76,7 @@ static const cli_option options[] = {
     {"--albedo", CLI_VALUE},   {"--g", CLI_VALUE},
     {"--sun", CLI_VALUE},      {"--point", CLI_VALUE},
     {"--env", CLI_VALUE},      {"--quality", CLI_VALUE},
+    {"--s1", CLI_VALUE},       {"--s1-oversample", CLI_VALUE},
     {NULL, CLI_FLAG},
 };
 
@@ -90,6 +91,7 @@ typedef struct render_args {
     int spp_given;
     double time_limit;
     unsigned long long seed;
+    int s1_march, s1_oversample;
 } render_args;
 
 static vdbs_status parse_size(const char *text, int *width, int *height, vdbs_error *err)
@@ -185,6 +187,8 @@ static vdbs_status parse_args(const cli_args *args, render_args *r, vdbs_error *
         if ((st = vdbs_backend_parse(v, &r->backend, err)) != VDBS_OK)
             return st;
     }
+    if ((st = cli_s1_options(args, &r->s1_march, &r->s1_oversample, err)) != VDBS_OK)
+        return st;
     if ((v = cli_value(args, "--exposure")) &&
         (st = cli_number("--exposure", v, &r->exposure, err)) != VDBS_OK)
         return st;
@@ -233,11 +237,6 @@ static void warn_line(int quiet, const char *fmt, const char *arg)
     cli_warn(&quiet, line);
 }
 
-static cJSON *triple(const double v[3])
-{
-    return cJSON_CreateDoubleArray(v, 3);
-}
-
 /* Which scene fields the flags set: for a lit VDB they go on top of its baked scene. */
 static unsigned scene_flags_given(const cli_args *args)
 {
@@ -282,15 +281,24 @@ static void print_json(const char *input, const render_args *r, const vdbs_rende
     }
     cJSON_AddNumberToObject(j, "exposure", r->exposure);
     cJSON *c = cJSON_AddObjectToObject(j, "camera");
-    cJSON_AddItemToObject(c, "position", triple(rep->camera.position));
-    cJSON_AddItemToObject(c, "target", triple(rep->camera.target));
-    cJSON_AddItemToObject(c, "up", triple(rep->camera_up));
+    cJSON_AddItemToObject(c, "position", cli_json_triple(rep->camera.position));
+    cJSON_AddItemToObject(c, "target", cli_json_triple(rep->camera.target));
+    cJSON_AddItemToObject(c, "up", cli_json_triple(rep->camera_up));
     cJSON_AddNumberToObject(c, "fov_deg", rep->camera.fov_deg);
     cJSON *t = cJSON_AddObjectToObject(j, "seconds");
     cJSON_AddNumberToObject(t, "load", rep->seconds_load);
     cJSON_AddNumberToObject(t, "render", rep->seconds_render);
     cJSON_AddNumberToObject(t, "write", rep->seconds_write);
     cJSON_AddNumberToObject(t, "total", rep->seconds_total);
+    if (rep->s1[0]) {
+        cJSON_AddStringToObject(j, "s1", rep->s1);
+        if (rep->s1_oversample > 0) {
+            cJSON_AddNumberToObject(j, "s1_oversample", rep->s1_oversample);
+            cJSON_AddNumberToObject(t, "s1_sweep", rep->march_stats.grids.seconds_sweep);
+            cli_json_light_grids(j, &rep->march_stats.grids);
+        }
+        cJSON_AddNumberToObject(t, "march", rep->march_stats.seconds_march);
+    }
     char *text = cJSON_Print(j);
     puts(text);
     free(text);
@@ -336,6 +344,8 @@ int cmd_render(int argc, char **argv)
     desc.scene_set = scene_flags_given(&args);
     desc.mode = r.mode;
     desc.backend = r.backend;
+    desc.s1_march = r.s1_march;
+    desc.s1_oversample = r.s1_oversample;
     desc.camera = r.camera.present ? &r.camera : NULL;
     desc.width = r.size_given ? r.width : 0;
     desc.height = r.size_given ? r.height : 0;

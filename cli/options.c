@@ -1,6 +1,8 @@
 #define _POSIX_C_SOURCE 200809L
 #include "options.h"
 
+#include <cjson/cJSON.h>
+
 #include <errno.h>
 #include <math.h>
 #include <stdio.h>
@@ -233,4 +235,37 @@ void cli_warn(void *quiet, const char *message)
     if (quiet && *(const int *)quiet)
         return;
     fprintf(stderr, "vdbscatter: warning: %s\n", message);
+}
+
+vdbs_status cli_s1_options(const cli_args *args, int *march, int *oversample, vdbs_error *err)
+{
+    *march = 0;
+    *oversample = 0;
+    const char *s1 = cli_value(args, "--s1");
+    if (s1 && strcmp(s1, "grid") != 0 && strcmp(s1, "march") != 0)
+        return vdbs_error_set(err, VDBS_ERR_INPUT, "--s1: expected grid or march, got '%s'", s1);
+    *march = s1 && strcmp(s1, "march") == 0;
+    const char *text = cli_value(args, "--s1-oversample");
+    long f = 0;
+    if (text) {
+        vdbs_status st = cli_integer("--s1-oversample", text, 1, 16, &f, err);
+        if (st != VDBS_OK)
+            return st;
+        *oversample = (int)f;
+    }
+    return VDBS_OK;
+}
+
+cJSON *cli_json_triple(const double v[3])
+{
+    return cJSON_CreateDoubleArray(v, 3);
+}
+
+void cli_json_light_grids(cJSON *j, const vdbs_light_grid_stats *stats)
+{
+    cJSON *lg = cJSON_AddObjectToObject(j, "light_grids");
+    cJSON_AddNumberToObject(lg, "cells", (double)stats->cells);
+    cJSON_AddNumberToObject(lg, "columns", (double)stats->columns);
+    cJSON_AddNumberToObject(lg, "columns_empty", (double)stats->columns_empty);
+    cJSON_AddNumberToObject(lg, "samples_stored", (double)stats->stored);
 }

@@ -2,6 +2,7 @@
 #ifndef VDBSCATTER_CLI_OPTIONS_H
 #define VDBSCATTER_CLI_OPTIONS_H
 
+#include "vdbscatter/lightgrid.h"
 #include "vdbscatter/scene.h"
 #include "vdbscatter/status.h"
 
@@ -62,6 +63,23 @@ vdbs_status cli_triple(const char *flag, const char *text, int allow_scalar, dou
  * lights. Validates the result (at least one light unless allow_no_lights). */
 vdbs_status cli_build_scene(const cli_args *args, vdbs_scene *scene, int allow_no_lights,
                             vdbs_error *err);
+
+/* JSON pieces of the bake and render reports. */
+struct cJSON;
+struct cJSON *cli_json_triple(const double v[3]);
+/* "light_grids": {cells, columns, columns_empty, samples_stored} into j. */
+void cli_json_light_grids(struct cJSON *j, const vdbs_light_grid_stats *stats);
+
+/* --s1 grid|march and --s1-oversample F (1..16): *march 1 for "march", *oversample 0 when
+ * not given (the default). */
+vdbs_status cli_s1_options(const cli_args *args, int *march, int *oversample, vdbs_error *err);
+
+/* The help lines of those two flags (bake and render). */
+#define CLI_S1_HELP                                                                                \
+    "  --s1 grid|march          single scattering from light grids (default): one\n"               \
+    "                           transmittance sweep per light direction, then a lookup per\n"      \
+    "                           point; or by the exact march to every light (the oracle)\n"        \
+    "  --s1-oversample F        light-grid samples per smallest voxel length (default 2)\n"
 
 /* Prints "vdbscatter CMD: message" on stderr and returns the exit status for status
  * (a vdbs_status or an exit status: 2, VDBS_ERR_INPUT, is a usage error). */

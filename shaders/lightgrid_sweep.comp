@@ -3,6 +3,7 @@
  * shared with the C path. Column c0 + item of grid `grid` is marched once and its n2 depth
  * samples are written to sweep_out[item * n2 ...]. */
 #define PNANOVDB_GLSL
+#define VS_LGRID_SWEEP
 #include "vs_pass.h"
 layout(local_size_x = VS_PASS_LOCAL_SIZE) in;
 

@@ -11,6 +11,8 @@ layout(std430, binding = 0) readonly buffer NanoBuffer { uint pnanovdb_buf_data[
 layout(std430, binding = 1) readonly buffer MediumBuffer { vec4 medium_data[]; };
 layout(std430, binding = 2) readonly buffer LightBuffer { vec4 light_data[]; };
 layout(std430, binding = 3) readonly buffer RenderBuffer { vec4 render_data[]; };
+/* The light grids (a count of 0 when the lights are marched). */
+layout(std430, binding = 4) readonly buffer LightGridBuffer { uint lgrid_data[]; };
 layout(std430, binding = VS_PASS_BINDING_STATE_IN) readonly buffer StateIn { uint state_in[]; };
 layout(std430, binding = VS_PASS_BINDING_STATE_OUT) writeonly buffer StateOut { uint state_out[]; };
 layout(std430, binding = VS_PASS_BINDING_OUTPUT) writeonly buffer ImageBuffer { float image_rgb[]; };
@@ -21,6 +23,7 @@ layout(std430, binding = VS_PASS_BINDING_OUTPUT) writeonly buffer ImageBuffer { 
 #include "vs_phase.h"
 #include "vs_medium.h"
 #include "vs_lights.h"
+#include "vs_lightgrid.h"
 #include "vs_render.h"
 
 void main()

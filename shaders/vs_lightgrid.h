@@ -157,7 +157,8 @@ VS_FUNC void vs_lgrid_column_ray(VS_DATA_PARAM(vs_vec4, medium_data)
     PNANOVDB_DEREF(dir) = vs_lgrid_vec3(VS_DATA_ARG(lgrid_data) grid, VS_LGRID_OFF_TRAVEL);
 }
 
-#if defined(VS_MARCH_H) /* the sweep marches; a lookup-only shader needs no march */
+/* The sweep needs vs_march.h; in GLSL only the sweep shader (VS_LGRID_SWEEP) has sweep_out. */
+#if defined(VS_MARCH_H) && (!defined(PNANOVDB_GLSL) || defined(VS_LGRID_SWEEP))
 /* The sweep of one column: the optical depth at each of its n2 samples, by one exact march
  * along the column that stops at every sample, written to out[base + k]. */
 VS_FUNC void vs_lgrid_sweep_column(VS_DATA_PARAM(vs_vec4, medium_data)
@@ -171,28 +172,26 @@ VS_FUNC void vs_lgrid_sweep_column(VS_DATA_PARAM(vs_vec4, medium_data)
     pnanovdb_vec3_t dir = vs_vec3(0.0f, 0.0f, 0.0f);
     vs_lgrid_column_ray(VS_DATA_ARG(medium_data) VS_DATA_ARG(lgrid_data) grid, i, j,
                         PNANOVDB_REF(start), PNANOVDB_REF(dir));
-    vs_march_state m = vs_march_begin(
-        start, dir, vs_lgrid_sample_t(VS_DATA_ARG(lgrid_data) grid, n2 - 1),
-        vs_medium_box_lo(VS_DATA_ONLY_ARG(medium_data)),
-        vs_medium_box_hi(VS_DATA_ONLY_ARG(medium_data)),
-        vs_medium_density_scale(VS_DATA_ONLY_ARG(medium_data)));
+    vs_march_state m =
+        vs_march_begin(start, dir, vs_lgrid_sample_t(VS_DATA_ARG(lgrid_data) grid, n2 - 1),
+                       vs_medium_box_lo(VS_DATA_ONLY_ARG(medium_data)),
+                       vs_medium_box_hi(VS_DATA_ONLY_ARG(medium_data)),
+                       vs_medium_density_scale(VS_DATA_ONLY_ARG(medium_data)));
     sweep_out[base] = 0.0f;
     for (int k = 1; k < n2; ++k) {
-        vs_march_advance(buf, acc, PNANOVDB_REF(m), vs_lgrid_sample_t(VS_DATA_ARG(lgrid_data) grid, k));
+        vs_march_advance(buf, acc, PNANOVDB_REF(m),
+                         vs_lgrid_sample_t(VS_DATA_ARG(lgrid_data) grid, k));
         /* Past VS_TAU_LIMIT the march stops: the transmittance is 0 in float from there. */
         sweep_out[base + VS_UINT(k)] = vs_accum_value(m.tau);
     }
 }
 #endif
 
-/* Depth of column (i, j) at sample k + f (0 <= k < n2), linear along the column. */
-VS_FUNC float vs_lgrid_column_depth(VS_DATA_PARAM(vs_uint, lgrid_data) int grid, int i, int j,
+/* Depth at sample k + f (0 <= k < n2) of the column whose record starts at word `record`,
+ * linear along the column. */
+VS_FUNC float vs_lgrid_record_depth(VS_DATA_PARAM(vs_uint, lgrid_data) vs_uint record, int n2,
                                     int k, float f)
 {
-    int n0 = vs_lgrid_n(VS_DATA_ARG(lgrid_data) grid, 0);
-    int n2 = vs_lgrid_n(VS_DATA_ARG(lgrid_data) grid, 2);
-    vs_uint record = vs_lgrid_word(VS_DATA_ARG(lgrid_data) grid, VS_LGRID_OFF_COLUMNS) +
-                     VS_UINT(VS_LGRID_COLUMN_WORDS * (j * n0 + i));
     int count = VS_INT(lgrid_data[record + VS_UINT(VS_LGRID_COLUMN_COUNT)]);
     if (count == 0)
         return 0.0f;
@@ -206,7 +205,23 @@ VS_FUNC float vs_lgrid_column_depth(VS_DATA_PARAM(vs_uint, lgrid_data) int grid,
     return d;
 }
 
-/* Index of x clamped to [0, n - 1]; the fraction goes to frac.x. */
+/* Word of column (i, j)'s record. */
+VS_FUNC vs_uint vs_lgrid_record(VS_DATA_PARAM(vs_uint, lgrid_data) int grid, int i, int j)
+{
+    return vs_lgrid_word(VS_DATA_ARG(lgrid_data) grid, VS_LGRID_OFF_COLUMNS) +
+           VS_UINT(VS_LGRID_COLUMN_WORDS * (j * vs_lgrid_n(VS_DATA_ARG(lgrid_data) grid, 0) + i));
+}
+
+/* Depth of column (i, j) at sample k + f. */
+VS_FUNC float vs_lgrid_column_depth(VS_DATA_PARAM(vs_uint, lgrid_data) int grid, int i, int j,
+                                    int k, float f)
+{
+    return vs_lgrid_record_depth(VS_DATA_ARG(lgrid_data)
+                                     vs_lgrid_record(VS_DATA_ARG(lgrid_data) grid, i, j),
+                                 vs_lgrid_n(VS_DATA_ARG(lgrid_data) grid, 2), k, f);
+}
+
+/* Index of x clamped to [0, n - 1]; the fraction goes to frac. */
 VS_FUNC int vs_lgrid_split(float x, int n, PNANOVDB_INOUT(float) frac)
 {
     PNANOVDB_DEREF(frac) = 0.0f;
@@ -237,41 +252,49 @@ VS_FUNC float vs_catmull_rom(float t, int a)
     return 0.5f * (t3 - t2);
 }
 
+/* Grid coordinate (in samples) of index offset d along row `row` of the map. */
+VS_FUNC float vs_lgrid_coordinate(VS_DATA_PARAM(vs_uint, lgrid_data) int grid, int row,
+                                  pnanovdb_vec3_t d)
+{
+    return vs_vec3_dot(vs_lgrid_vec3(VS_DATA_ARG(lgrid_data) grid, VS_LGRID_OFF_TO_GRID + 3 * row),
+                       d);
+}
+
 VS_FUNC float vs_lgrid_dir_depth(VS_DATA_PARAM(vs_uint, lgrid_data) int grid, pnanovdb_vec3_t p)
 {
-    pnanovdb_vec3_t d =
-        vs_vec3(p.x - vs_lgrid_float(VS_DATA_ARG(lgrid_data) grid, VS_LGRID_OFF_ORIGIN),
-                p.y - vs_lgrid_float(VS_DATA_ARG(lgrid_data) grid, VS_LGRID_OFF_ORIGIN + 1),
-                p.z - vs_lgrid_float(VS_DATA_ARG(lgrid_data) grid, VS_LGRID_OFF_ORIGIN + 2));
-    float fu = 0.0f, fv = 0.0f, fw = 0.0f;
+    pnanovdb_vec3_t o = vs_lgrid_vec3(VS_DATA_ARG(lgrid_data) grid, VS_LGRID_OFF_ORIGIN);
+    pnanovdb_vec3_t d = vs_vec3(p.x - o.x, p.y - o.y, p.z - o.z);
     int n0 = vs_lgrid_n(VS_DATA_ARG(lgrid_data) grid, 0);
     int n1 = vs_lgrid_n(VS_DATA_ARG(lgrid_data) grid, 1);
-    int i = vs_lgrid_split(
-        vs_vec3_dot(vs_lgrid_vec3(VS_DATA_ARG(lgrid_data) grid, VS_LGRID_OFF_TO_GRID), d), n0,
-        PNANOVDB_REF(fu));
-    int j = vs_lgrid_split(
-        vs_vec3_dot(vs_lgrid_vec3(VS_DATA_ARG(lgrid_data) grid, VS_LGRID_OFF_TO_GRID + 3), d), n1,
-        PNANOVDB_REF(fv));
-    int k = vs_lgrid_split(
-        vs_vec3_dot(vs_lgrid_vec3(VS_DATA_ARG(lgrid_data) grid, VS_LGRID_OFF_TO_GRID + 6), d),
-        vs_lgrid_n(VS_DATA_ARG(lgrid_data) grid, 2), PNANOVDB_REF(fw));
+    int n2 = vs_lgrid_n(VS_DATA_ARG(lgrid_data) grid, 2);
+    vs_uint records = vs_lgrid_word(VS_DATA_ARG(lgrid_data) grid, VS_LGRID_OFF_COLUMNS);
+    float fu = 0.0f, fv = 0.0f, fw = 0.0f;
+    int i = vs_lgrid_split(vs_lgrid_coordinate(VS_DATA_ARG(lgrid_data) grid, 0, d), n0,
+                           PNANOVDB_REF(fu));
+    int j = vs_lgrid_split(vs_lgrid_coordinate(VS_DATA_ARG(lgrid_data) grid, 1, d), n1,
+                           PNANOVDB_REF(fv));
+    int k = vs_lgrid_split(vs_lgrid_coordinate(VS_DATA_ARG(lgrid_data) grid, 2, d), n2,
+                           PNANOVDB_REF(fw));
     float sum = 0.0f, lo = VS_T_INFINITE, hi = -VS_T_INFINITE;
     for (int b = -1; b <= 2; ++b) {
         float wv = vs_catmull_rom(fv, b);
-        int jb = vs_lgrid_clamp(j + b, n1);
+        vs_uint row = records + VS_UINT(VS_LGRID_COLUMN_WORDS * n0 * vs_lgrid_clamp(j + b, n1));
         for (int a = -1; a <= 2; ++a) {
-            float x = vs_lgrid_column_depth(VS_DATA_ARG(lgrid_data) grid,
-                                            vs_lgrid_clamp(i + a, n0), jb, k, fw);
+            float x = vs_lgrid_record_depth(
+                VS_DATA_ARG(lgrid_data) row +
+                    VS_UINT(VS_LGRID_COLUMN_WORDS * vs_lgrid_clamp(i + a, n0)),
+                n2, k, fw);
             VS_PRECISE float s = sum + vs_catmull_rom(fu, a) * wv * x;
             sum = s;
+            /* Plain comparisons: fminf / fmaxf are calls in C (NaN rules). */
             if (a >= 0 && a <= 1 && b >= 0 && b <= 1) {
-                lo = vs_min(lo, x);
-                hi = vs_max(hi, x);
+                lo = x < lo ? x : lo;
+                hi = x > hi ? x : hi;
             }
         }
     }
     /* No overshoot beyond the four nearest columns (sharp edges of the medium). */
-    return vs_min(vs_max(sum, lo), hi);
+    return sum < lo ? lo : (sum > hi ? hi : sum);
 }
 
 VS_FUNC float vs_lgrid_radial_depth(VS_DATA_PARAM(vs_vec4, medium_data)

@@ -59,6 +59,101 @@ VS_FUNC vs_cell vs_cell_fetch(pnanovdb_buf_t buf, PNANOVDB_INOUT(pnanovdb_readac
     return cell;
 }
 
+/* The cell one step along an axis shares a face with this one: shifts the shared corners
+ * into place and fetches only the four new ones (half the lookups of a fresh fetch).
+ * axis 0 / 1 / 2 = x / y / z, sign the step; c is the new cell. */
+VS_FUNC vs_cell vs_cell_step(pnanovdb_buf_t buf, PNANOVDB_INOUT(pnanovdb_readaccessor_t) acc,
+                             vs_cell old, pnanovdb_coord_t c, int axis, int sign)
+{
+    vs_cell cell = old;
+    if (axis == 0) {
+        int x = sign > 0 ? c.x + 1 : c.x;
+        if (sign > 0) {
+            cell.v000 = old.v100;
+            cell.v010 = old.v110;
+            cell.v001 = old.v101;
+            cell.v011 = old.v111;
+        } else {
+            cell.v100 = old.v000;
+            cell.v110 = old.v010;
+            cell.v101 = old.v001;
+            cell.v111 = old.v011;
+        }
+        float a = vs_density_voxel(buf, acc, vs_coord(x, c.y, c.z));
+        float b = vs_density_voxel(buf, acc, vs_coord(x, c.y + 1, c.z));
+        float d = vs_density_voxel(buf, acc, vs_coord(x, c.y, c.z + 1));
+        float e = vs_density_voxel(buf, acc, vs_coord(x, c.y + 1, c.z + 1));
+        if (sign > 0) {
+            cell.v100 = a;
+            cell.v110 = b;
+            cell.v101 = d;
+            cell.v111 = e;
+        } else {
+            cell.v000 = a;
+            cell.v010 = b;
+            cell.v001 = d;
+            cell.v011 = e;
+        }
+    } else if (axis == 1) {
+        int y = sign > 0 ? c.y + 1 : c.y;
+        if (sign > 0) {
+            cell.v000 = old.v010;
+            cell.v100 = old.v110;
+            cell.v001 = old.v011;
+            cell.v101 = old.v111;
+        } else {
+            cell.v010 = old.v000;
+            cell.v110 = old.v100;
+            cell.v011 = old.v001;
+            cell.v111 = old.v101;
+        }
+        float a = vs_density_voxel(buf, acc, vs_coord(c.x, y, c.z));
+        float b = vs_density_voxel(buf, acc, vs_coord(c.x + 1, y, c.z));
+        float d = vs_density_voxel(buf, acc, vs_coord(c.x, y, c.z + 1));
+        float e = vs_density_voxel(buf, acc, vs_coord(c.x + 1, y, c.z + 1));
+        if (sign > 0) {
+            cell.v010 = a;
+            cell.v110 = b;
+            cell.v011 = d;
+            cell.v111 = e;
+        } else {
+            cell.v000 = a;
+            cell.v100 = b;
+            cell.v001 = d;
+            cell.v101 = e;
+        }
+    } else {
+        int z = sign > 0 ? c.z + 1 : c.z;
+        if (sign > 0) {
+            cell.v000 = old.v001;
+            cell.v100 = old.v101;
+            cell.v010 = old.v011;
+            cell.v110 = old.v111;
+        } else {
+            cell.v001 = old.v000;
+            cell.v101 = old.v100;
+            cell.v011 = old.v010;
+            cell.v111 = old.v110;
+        }
+        float a = vs_density_voxel(buf, acc, vs_coord(c.x, c.y, z));
+        float b = vs_density_voxel(buf, acc, vs_coord(c.x + 1, c.y, z));
+        float d = vs_density_voxel(buf, acc, vs_coord(c.x, c.y + 1, z));
+        float e = vs_density_voxel(buf, acc, vs_coord(c.x + 1, c.y + 1, z));
+        if (sign > 0) {
+            cell.v001 = a;
+            cell.v101 = b;
+            cell.v011 = d;
+            cell.v111 = e;
+        } else {
+            cell.v000 = a;
+            cell.v100 = b;
+            cell.v010 = d;
+            cell.v110 = e;
+        }
+    }
+    return cell;
+}
+
 /* Trilinear interpolation inside a cell at local coordinates f in [0,1]^3. */
 VS_FUNC float vs_cell_eval(vs_cell cell, pnanovdb_vec3_t f)
 {
@@ -116,7 +211,8 @@ struct vs_march_state {
     pnanovdb_coord_t c;    /* current cell */
     pnanovdb_vec3_t next;  /* t at the current cell's exit per axis */
     int locate;            /* 1: find the cell at t first */
-    int fetched;           /* 1: `cell` holds the current cell's corners */
+    int fetched;           /* 1: `cell` holds the current cell's corners; 0: fetch them; 2 + axis:
+                              `cell` holds the previous cell's, one step along axis away */
     vs_cell cell;
     int steps;
     int done; /* past VS_TAU_LIMIT, the end, or the step guard */
@@ -194,7 +290,7 @@ VS_FUNC_HOT void vs_march_advance(pnanovdb_buf_t buf, PNANOVDB_INOUT(pnanovdb_re
             fetched = 0;
         }
         /* A cell is checked and fetched once, however many stops a caller makes in it. */
-        if (fetched == 0) {
+        if (fetched != 1) {
             int dim = VS_INT(
                 pnanovdb_readaccessor_get_dim(PNANOVDB_GRID_TYPE_FLOAT, buf, acc, PNANOVDB_REF(c)));
             int last = dim - 1;
@@ -214,7 +310,15 @@ VS_FUNC_HOT void vs_march_advance(pnanovdb_buf_t buf, PNANOVDB_INOUT(pnanovdb_re
                     continue;
                 }
             }
-            cell = vs_cell_fetch(buf, acc, c);
+            if (fetched == 0) {
+                cell = vs_cell_fetch(buf, acc, c);
+            } else {
+                int axis = fetched - 2;
+                int sign = axis == 0
+                               ? PNANOVDB_DEREF(m).sign.x
+                               : (axis == 1 ? PNANOVDB_DEREF(m).sign.y : PNANOVDB_DEREF(m).sign.z);
+                cell = vs_cell_step(buf, acc, cell, c, axis, sign);
+            }
             fetched = 1;
         }
         float t_cell = vs_min(next.x, vs_min(next.y, next.z));
@@ -237,16 +341,19 @@ VS_FUNC_HOT void vs_march_advance(pnanovdb_buf_t buf, PNANOVDB_INOUT(pnanovdb_re
         /* Stopped inside the cell at t_target: resume there later. */
         if (t_exit < t_cell && t_exit >= t_stop)
             break;
-        fetched = 0;
+        /* The next cell shares a face with this one (fetched == 1 here). */
         if (next.x <= next.y && next.x <= next.z) {
             c.x += PNANOVDB_DEREF(m).sign.x;
             next.x += PNANOVDB_DEREF(m).delta.x;
+            fetched = 2;
         } else if (next.y <= next.z) {
             c.y += PNANOVDB_DEREF(m).sign.y;
             next.y += PNANOVDB_DEREF(m).delta.y;
+            fetched = 3;
         } else {
             c.z += PNANOVDB_DEREF(m).sign.z;
             next.z += PNANOVDB_DEREF(m).delta.z;
+            fetched = 4;
         }
     }
     PNANOVDB_DEREF(m).t = t;

@@ -1,6 +1,6 @@
 /* Deterministic ray-marched rendering (`render --mode single|baked`, later the viewer),
- * shared by C and GLSL. Include after vs_common.h, vs_march.h, vs_phase.h, vs_medium.h and
- * vs_lights.h.
+ * shared by C and GLSL. Include after vs_common.h, vs_march.h, vs_phase.h, vs_medium.h,
+ * vs_lights.h and vs_lightgrid.h.
  *
  * Along a camera ray, L = integral T(0,t) sigma_s(x) S(x, wo) dt + T_total L_background,
  * with S = S1 (+ Sms in baked mode). The ray is cut into segments of step_voxels voxels
@@ -26,11 +26,15 @@
  * Three tables: the medium (vs_medium.h), the lights (vs_lights.h) and this render table
  * (camera, step, grid offsets; written by vdbscatter/render.c). The sky's S1 sums the light
  * table's ordinates, each with its own radiance, so that non-uniform skies need no change.
+ *
+ * With light grids (vs_lightgrid.h; the render table says so), the transmittance toward a
+ * light or sky ordinate is a lookup in its grid, one grid per light in the light table's
+ * order, instead of a march: the units stay the same, only the camera segment marches.
  */
 #ifndef VS_RENDER_H
 #define VS_RENDER_H
 
-/* (step in voxels, 1 when the ms grids are present, 0, 0) */
+/* (step in voxels, 1 when the ms grids are present, 1 when light grids are, 0) */
 #define VS_RENDER_OFF_MARCH 0
 /* Grid offsets in units of 32 bytes, split as (hi, lo) = (offset >> 16, offset & 0xffff) so
  * that floats hold them exactly: (ms hi, ms lo, l1x hi, l1x lo), (l1y hi, lo, l1z hi, lo). */
@@ -48,9 +52,11 @@
 /* The three tables every render function reads: parameters in C, SSBOs in GLSL. */
 #define VS_RENDER_TABLES                                                                           \
     VS_DATA_PARAM(vs_vec4, medium_data)                                                            \
-    VS_DATA_PARAM(vs_vec4, light_data) VS_DATA_PARAM(vs_vec4, render_data)
+    VS_DATA_PARAM(vs_vec4, light_data)                                                             \
+    VS_DATA_PARAM(vs_vec4, render_data) VS_DATA_PARAM(vs_uint, lgrid_data)
 #define VS_RENDER_TABLES_ARG                                                                       \
-    VS_DATA_ARG(medium_data) VS_DATA_ARG(light_data) VS_DATA_ARG(render_data)
+    VS_DATA_ARG(medium_data)                                                                       \
+    VS_DATA_ARG(light_data) VS_DATA_ARG(render_data) VS_DATA_ARG(lgrid_data)
 
 /* Guard on segments per camera ray (a step of 1/8 voxel across a 2^17-voxel grid). */
 #define VS_RENDER_MAX_SEGMENTS 1048576
@@ -382,8 +388,15 @@ VS_FUNC void vs_render_unit(VS_RENDER_TABLES pnanovdb_buf_t buf,
                            ray.wo);
     }
 
-    vs_accum depth = vs_march(buf, PNANOVDB_REF(PNANOVDB_DEREF(accs).density), origin, dir, tmax,
-                              box_lo, box_hi, density_scale);
+    vs_accum depth;
+    if (unit > 0 && render_data[VS_RENDER_OFF_MARCH].z != 0.0f) {
+        vs_accum_init(PNANOVDB_REF(depth));
+        vs_accum_add(PNANOVDB_REF(depth),
+                     vs_lgrid_depth(VS_DATA_ARG(medium_data) VS_DATA_ARG(lgrid_data) unit - 1, mid));
+    } else {
+        depth = vs_march(buf, PNANOVDB_REF(PNANOVDB_DEREF(accs).density), origin, dir, tmax,
+                         box_lo, box_hi, density_scale);
+    }
 
     if (unit == 0) {
         float tau = vs_accum_value(depth);

@@ -310,19 +310,30 @@ class RealFiles(Base):
 
 class LightGrids(Base):
     def test_s1_grid_against_march(self):
-        """bake --s1 grid: reported and recorded, and within 1% relative RMSE of --s1 march
-        (over voxels above 1e-3 of the maximum) on the cloud sample, sun + point + sky."""
+        """bake with light grids (the default; --s1 grid): reported and recorded, and within 1%
+        relative RMSE of --s1 march (over voxels above 1e-3 of the maximum) on the cloud sample,
+        sun + point + sky; the report gives the grids' sizes and the stages' times."""
         src = os.path.join(SAMPLES, "cloud.vdb")
         lights = ["--density-scale", "20", "--sun", "0.3,-1,0.2", "--point", "0,0.2,0:2,2,2",
                   "--env", "0.2,0.3,0.5", "--quality", "low", "--json"]
-        grid, p = self.bake(src, "--s1", "grid", *lights, out="grid.vdb")
+        grid, p = self.bake(src, *lights, out="grid.vdb")
         self.assertEqual(p.returncode, 0, p.stderr)
         report = json.loads(p.stdout)
         self.assertEqual(report["s1"], "grid")
         self.assertEqual(report["s1_oversample"], 2)
-        march, p = self.bake(src, *lights, out="march.vdb")
+        lg = report["light_grids"]
+        self.assertGreater(lg["columns"], lg["columns_empty"])
+        self.assertGreater(lg["columns_empty"], 0)
+        self.assertGreater(lg["cells"], lg["samples_stored"])
+        self.assertGreater(lg["samples_stored"], 0)
+        for stage in ["s1_sweep", "s1_lookup"]:
+            self.assertGreaterEqual(report["seconds"][stage], 0.0)
+        self.assertLessEqual(report["seconds"]["s1_sweep"] + report["seconds"]["s1_lookup"],
+                             report["seconds"]["solve"])
+        march, p = self.bake(src, "--s1", "march", *lights, out="march.vdb")
         self.assertEqual(p.returncode, 0, p.stderr)
         self.assertEqual(json.loads(p.stdout)["s1"], "march")
+        self.assertNotIn("light_grids", json.loads(p.stdout))
         g = {tuple(i.min): i.value for i in vdb.read(grid, "radiance").citerOnValues()}
         m = {tuple(i.min): i.value for i in vdb.read(march, "radiance").citerOnValues()}
         self.assertEqual(g.keys(), m.keys())

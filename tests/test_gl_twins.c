@@ -2,7 +2,8 @@
  * (the same kernel text), through the one harness test_twin (relative agreement 1e-5
  * wherever |v| >= 1e-30). Single scattering per voxel and the ray-march render, on a
  * procedural cloud and on a real file with a rotated, non-uniform transform and active
- * tiles; the render also in baked mode (synthetic ms / ms_l1 grids with varying directions
+ * tiles; the light grids' sweep and lookup; the render with light marches and with light
+ * grids, also in baked mode (synthetic ms / ms_l1 grids with varying directions
  * and anisotropies) and with the GPU's passes forced small and huge. */
 #include "testutil.h"
 
@@ -216,6 +217,16 @@ static vdbs_status run_render(vdbs_runner *runner, const void *scenario, float *
     return st;
 }
 
+static vdbs_march_options march_options(int sky, float step, int gpu_units, int s1_march)
+{
+    vdbs_march_options o = {0};
+    o.sky_directions = sky;
+    o.step_voxels = step;
+    o.gpu_units = gpu_units;
+    o.s1_march = s1_march;
+    return o;
+}
+
 static void render_twin(const char *label, const render_scenario *s)
 {
     const size_t n = 3 * SIZE * SIZE;
@@ -239,11 +250,15 @@ static void test_render_single_cloud(void **state)
     vdbs_scene scene;
     lit_scene(&scene, 12.0, 0.7);
     scene.albedo[1] = 0.9;
-    render_scenario s = {&volume, NULL, &scene, {16, 1.0f, NULL, 0}};
-    render_twin("render single, cloud", &s);
+    render_scenario s = {&volume, NULL, &scene, march_options(16, 1.0f, 0, 1)};
+    render_twin("render single, cloud, light marches", &s);
+    s.options.s1_march = 0;
+    render_twin("render single, cloud, light grids", &s);
     scene.density_scale = 400.0; /* opaque core: transmittances down to the 1e-30 cut */
     scene.g = -0.999;
-    render_twin("render single, opaque cloud, g -0.999", &s);
+    render_twin("render single, opaque cloud, g -0.999, light grids", &s);
+    s.options.s1_march = 1;
+    render_twin("render single, opaque cloud, g -0.999, light marches", &s);
     vdbs_volume_free(&volume);
 }
 
@@ -254,8 +269,10 @@ static void test_render_single_real_rotated_file(void **state)
     rotated_file(&volume);
     vdbs_scene scene;
     lit_scene(&scene, 5.0, 0.5);
-    render_scenario s = {&volume, NULL, &scene, {4, 2.0f, NULL, 0}};
-    render_twin("render single, rotated dragon", &s);
+    render_scenario s = {&volume, NULL, &scene, march_options(4, 2.0f, 0, 1)};
+    render_twin("render single, rotated dragon, light marches", &s);
+    s.options.s1_march = 0;
+    render_twin("render single, rotated dragon, light grids", &s);
     vdbs_volume_free(&volume);
 }
 
@@ -272,7 +289,7 @@ static void test_render_gpu_passes(void **state)
     const int units[3] = {0, 1, 1 << 30};
     float *images[3];
     for (int i = 0; i < 3; ++i) {
-        render_scenario s = {&volume, NULL, &scene, {16, 1.0f, NULL, units[i]}};
+        render_scenario s = {&volume, NULL, &scene, march_options(16, 1.0f, units[i], 1)};
         images[i] = calloc(3 * SIZE * SIZE, sizeof(float));
         vdbs_error err;
         if (run_render(test_runner(VDBS_BACKEND_GPU), &s, images[i], &err) != VDBS_OK)
@@ -324,7 +341,7 @@ static void test_render_baked_synthetic(void **state)
     test_load_ms_grids(path, volume.index_to_world, &ms);
     vdbs_scene scene;
     lit_scene(&scene, 8.0, 0.85);
-    render_scenario s = {&volume, &ms, &scene, {16, 1.0f, NULL, 0}};
+    render_scenario s = {&volume, &ms, &scene, march_options(16, 1.0f, 0, 0)};
     render_twin("render baked, synthetic ms grids", &s);
     vdbs_ms_grids_free(&ms);
     vdbs_volume_free(&volume);

@@ -26,6 +26,7 @@
 #include "vs_phase.h"
 #include "vs_medium.h"
 #include "vs_lights.h"
+#include "vs_lightgrid.h"
 #include "vs_render.h"
 
 #define PI 3.14159265358979323846
@@ -191,7 +192,9 @@ static void test_ms_reconstruction(void **state)
     vdbs_camera_frame frame;
     vdbs_camera_frame_volume(&volume, 4, 4, &camera);
     assert_int_equal(vdbs_camera_frame_init(&camera, &frame, &err), VDBS_OK);
-    vdbs_march_options options = {4, 1.0f, NULL, 0};
+    vdbs_march_options options = {0};
+    options.sky_directions = 4;
+    options.step_voxels = 1.0f;
     float *table = NULL;
     size_t entries = 0;
     uint32_t *buffer = NULL;
@@ -284,7 +287,9 @@ static void test_empty_medium_shows_env(void **state)
     assert_int_equal(vdbs_camera_frame_init(&camera, &frame, &err), VDBS_OK);
     vdbs_image image;
     image_init(&image, 16, 12);
-    vdbs_march_options options = {16, 0.5f, NULL, 0};
+    vdbs_march_options options = {0};
+    options.sky_directions = 16;
+    options.step_voxels = 0.5f;
     assert_int_equal(vdbs_render_march(test_runner(VDBS_BACKEND_CPU), &volume, NULL, &scene, &frame,
                                        &options, &image, &err),
                      VDBS_OK);
@@ -340,7 +345,11 @@ static void test_slab_closed_form(void **state)
         double previous = 1.0;
         for (int q = 0; q < 4; ++q) {
             float step = 1.0f / (float)(1 << q);
-            vdbs_march_options options = {16, step, NULL, 0};
+            /* The light marches (the oracle); the light grids below. */
+            vdbs_march_options options = {0};
+            options.sky_directions = 16;
+            options.step_voxels = step;
+            options.s1_march = 1;
             vdbs_image image;
             image_init(&image, 1, 1);
             assert_int_equal(vdbs_render_march(test_runner(VDBS_BACKEND_CPU), &volume, NULL, &scene,
@@ -358,6 +367,24 @@ static void test_slab_closed_form(void **state)
             free(image.rgb);
         }
         assert_true(previous < 2e-4);
+        /* Light grids at the finest step: depth interpolated linearly between samples h =
+         * half a voxel apart along the sun. In the ramps the depth is quadratic, tau'' =
+         * sigma / voxel, so interpolation errs by at most tau'' h^2 / 8 in depth, and the
+         * radiance by at most that relative. */
+        vdbs_march_options options = {0};
+        options.sky_directions = 16;
+        options.step_voxels = 0.125f;
+        vdbs_image image;
+        image_init(&image, 1, 1);
+        assert_int_equal(vdbs_render_march(test_runner(VDBS_BACKEND_CPU), &volume, NULL, &scene,
+                                           &frame, &options, &image, &err),
+                         VDBS_OK);
+        double rel = fabs(image.rgb[0] - want) / want;
+        double voxel = 2.0 / res, h = voxel / 2.0, bound = sigma / voxel * h * h / 8.0;
+        print_message("g %.1f, light grids, step 0.125 voxel: relative error %.2e (bound %.2e)\n",
+                      gs[gi], rel, bound);
+        assert_true(rel <= bound);
+        free(image.rgb);
     }
     vdbs_volume_free(&volume);
 }
@@ -409,10 +436,8 @@ static void test_baked_single_bake_equals_single(void **state)
     vdbs_camera_frame frame;
     vdbs_camera_frame_volume(&source, w, h, &camera);
     assert_int_equal(vdbs_camera_frame_init(&camera, &frame, &err), VDBS_OK);
-    vdbs_march_options options;
+    vdbs_march_options options = {0};
     assert_true(vdbs_render_quality("low", &options));
-    options.progress = NULL;
-    options.gpu_units = 0;
     vdbs_image a, b;
     image_init(&a, w, h);
     image_init(&b, w, h);

@@ -20,6 +20,7 @@
 #include "vs_common.h"
 #include "vs_medium.h"
 #include "vs_lights.h"
+#include "vs_lightgrid.h"
 #include "vs_march.h"
 #include "vs_phase.h"
 #include "vs_render.h"
@@ -143,6 +144,7 @@ typedef struct march_job {
     const vs_vec4 *medium_data;
     const vs_vec4 *light_data;
     const vs_vec4 *render_data;
+    const vs_uint *lgrid_data;
     pnanovdb_buf_t buf;
     int width;
     float *rgb;
@@ -153,9 +155,9 @@ static void march_items(void *user, uint64_t begin, uint64_t end)
     const march_job *job = user;
     vs_render_accessors accs = vs_render_accessors_init(job->render_data, job->buf);
     for (uint64_t n = begin; n < end; ++n) {
-        pnanovdb_vec3_t L =
-            vs_render_pixel(job->medium_data, job->light_data, job->render_data, job->buf, &accs,
-                            (int)(n % (uint64_t)job->width), (int)(n / (uint64_t)job->width));
+        pnanovdb_vec3_t L = vs_render_pixel(
+            job->medium_data, job->light_data, job->render_data, job->lgrid_data, job->buf, &accs,
+            (int)(n % (uint64_t)job->width), (int)(n / (uint64_t)job->width));
         job->rgb[3 * n] = L.x;
         job->rgb[3 * n + 1] = L.y;
         job->rgb[3 * n + 2] = L.z;
@@ -195,6 +197,29 @@ vdbs_status vdbs_render_march(vdbs_runner *runner, const vdbs_volume *volume,
                             "%zu bytes of grids exceed the 4 GiB a shader can address; use "
                             "--backend cpu",
                             grids_size);
+    /* The light grids of every light and sky ordinate, built once (none for the march). */
+    vdbs_light_grids light_grids;
+    memset(&light_grids, 0, sizeof light_grids);
+    uint32_t no_grids[4] = {0, 0, 0, 0};
+    const uint32_t *lgrid_words = no_grids;
+    size_t lgrid_bytes = sizeof no_grids;
+    if (st == VDBS_OK && !options->s1_march) {
+        vdbs_light_grid_desc gd = {options->s1_oversample};
+        st = vdbs_light_grids_build(runner, volume, scene, &lights, 0,
+                                    lights.direct_count + lights.ordinate_count, &gd, &light_grids,
+                                    err);
+        lgrid_words = light_grids.words;
+        lgrid_bytes = sizeof *light_grids.words * light_grids.word_count;
+        table[4 * VS_RENDER_OFF_MARCH + 2] = 1.0f;
+        if (st == VDBS_OK && vdbs_runner_backend(runner) == VDBS_BACKEND_GPU &&
+            (int64_t)lgrid_bytes > vdbs_gpu_get_info(vdbs_runner_gpu(runner))->max_ssbo_bytes)
+            st = vdbs_error_set(
+                err, VDBS_ERR_GPU,
+                "%zu MiB of light grids exceed the GPU's %lld MiB storage-buffer "
+                "limit; lower --s1-oversample or --quality, or use --backend cpu",
+                lgrid_bytes >> 20,
+                (long long)(vdbs_gpu_get_info(vdbs_runner_gpu(runner))->max_ssbo_bytes >> 20));
+    }
     vdbs_medium medium_params;
     vdbs_medium_init(&medium_params, volume, scene);
     float medium[4 * VDBS_MEDIUM_TABLE_ENTRIES];
@@ -202,6 +227,7 @@ vdbs_status vdbs_render_march(vdbs_runner *runner, const vdbs_volume *volume,
     march_job job = {(const vs_vec4 *)medium,
                      (const vs_vec4 *)lights.packed,
                      (const vs_vec4 *)table,
+                     lgrid_words,
                      pnanovdb_make_buf(grids, grids_size / 4),
                      frame->width,
                      image->rgb};
@@ -216,6 +242,7 @@ vdbs_status vdbs_render_march(vdbs_runner *runner, const vdbs_volume *volume,
     desc.inputs[1] = (vdbs_kernel_input){medium, sizeof medium};
     desc.inputs[2] = (vdbs_kernel_input){lights.packed, lights.packed_entries * 4 * sizeof(float)};
     desc.inputs[3] = (vdbs_kernel_input){table, entries * 4 * sizeof(float)};
+    desc.inputs[4] = (vdbs_kernel_input){lgrid_words, lgrid_bytes};
     desc.state_words = VS_RENDER_STATE_WORDS;
     desc.output_words = 3;
     desc.output = image->rgb;
@@ -223,8 +250,14 @@ vdbs_status vdbs_render_march(vdbs_runner *runner, const vdbs_volume *volume,
         options->gpu_units > 0 ? options->gpu_units : vdbs_volume_gpu_marches_per_pass(volume);
     desc.gpu_chunk = RENDER_GPU_CHUNK;
     desc.progress = options->progress;
+    double t_march = omp_get_wtime();
     if (st == VDBS_OK)
         st = vdbs_kernel_run(runner, &desc, NULL, err);
+    if (options->stats) {
+        options->stats->grids = light_grids.stats;
+        options->stats->seconds_march = omp_get_wtime() - t_march;
+    }
+    vdbs_light_grids_free(&light_grids);
     if (owned)
         free(grids);
     vdbs_lights_free(&lights);
@@ -363,6 +396,13 @@ static vdbs_status render_image(const vdbs_render_desc *d, vdbs_render_mode mode
         snprintf(report->renderer, sizeof report->renderer, "%s", vdbs_runner_device(runner));
         march->progress = &progress;
         march->gpu_units = d->gpu_units;
+        march->s1_march = d->s1_march;
+        march->s1_oversample = d->s1_oversample;
+        march->stats = &report->march_stats;
+        snprintf(report->s1, sizeof report->s1, "%s", d->s1_march ? "march" : "grid");
+        report->s1_oversample = d->s1_march            ? 0
+                                : d->s1_oversample > 0 ? d->s1_oversample
+                                                       : VDBS_LIGHT_GRID_DEFAULT_OVERSAMPLE;
         report->spp = 1;
         vdbs_progress_begin(&progress, d->progress, "render", pixels);
         st = vdbs_render_march(runner, volume, mode == VDBS_RENDER_BAKED ? ms : NULL, scene, frame,

@@ -16,6 +16,7 @@
 #include "vdbscatter/camera.h"
 #include "vdbscatter/image.h"
 #include "vdbscatter/kernel.h"
+#include "vdbscatter/lightgrid.h"
 #include "vdbscatter/litvdb.h"
 #include "vdbscatter/progress.h"
 #include "vdbscatter/scene.h"
@@ -34,7 +35,19 @@ typedef struct vdbs_march_options {
      * size so that a dispatch stays within llvmpipe's loop limit. Tests set it to check
      * the resumption (1) and the limit detection (huge). */
     int gpu_units;
+    /* S1 toward the lights: 0 from light grids (lightgrid.h) built once per call, one lookup
+     * per light and sky ordinate per camera sample; 1 by the exact march (the oracle). */
+    int s1_march;
+    int s1_oversample; /* light-grid oversampling; 0 = the default */
+    /* Filled by vdbs_render_march when not NULL. */
+    struct vdbs_render_stats *stats;
 } vdbs_march_options;
+
+/* What a march render cost: the light grids' sizes and the time of each stage. */
+typedef struct vdbs_render_stats {
+    vdbs_light_grid_stats grids; /* zero with s1_march */
+    double seconds_march;        /* the camera rays (with lookups or light marches) */
+} vdbs_render_stats;
 
 /* The presets of --quality (solver.h): sky directions 16 / 64 / 256 / 1024 and steps of
  * 1, 1/2, 1/4, 1/8 voxel for low / medium / high / ultra. Returns 0 for an unknown name. */
@@ -96,6 +109,8 @@ typedef struct vdbs_render_desc {
     int width, height;         /* 0: the scene camera's size, else 640x480 */
     double exposure;           /* PNG only, EV */
     int gpu_units;             /* see vdbs_march_options */
+    int s1_march;              /* single/baked: 1 marches to the lights (vdbs_march_options) */
+    int s1_oversample;         /* light-grid oversampling; 0 = the default */
     /* reference mode */
     int spp;           /* default 64 (4 with time_limit) */
     double time_limit; /* seconds; 0 = one round of spp */
@@ -119,6 +134,11 @@ typedef struct vdbs_render_report {
     vdbs_camera camera;  /* as used */
     double camera_up[3]; /* the frame's up */
     double seconds_load, seconds_render, seconds_write, seconds_total;
+    /* single/baked: "grid" or "march", the grids' oversampling (0 for march), their sizes,
+     * and the render split into the sweeps and the camera rays */
+    char s1[8];
+    int s1_oversample;
+    vdbs_render_stats march_stats;
 } vdbs_render_report;
 
 vdbs_status vdbs_render(const vdbs_render_desc *desc, vdbs_render_report *report, vdbs_error *err);
