@@ -54,9 +54,17 @@ typedef struct vs_vec4 {
 #define vs_exp expf
 #define vs_sqrt sqrtf
 #define vs_abs fabsf
-#define vs_min fminf
-#define vs_max fmaxf
 #define vs_pow powf
+/* Plain comparisons: fminf / fmaxf are library calls (their NaN rules keep gcc from inlining
+ * them), in the march's innermost loop. Kernel operands are never NaN. */
+static inline float vs_min(float a, float b)
+{
+    return b < a ? b : a;
+}
+static inline float vs_max(float a, float b)
+{
+    return b > a ? b : a;
+}
 
 #endif
 

@@ -6,7 +6,8 @@
  * GLSL): a count, then one header per grid (named offsets below; floats stored as their
  * bits), then each grid's column table, shell radii and depth samples at the word offsets
  * its header gives. A grid has n0 x n1 columns of n2 samples; a column's record is
- * (word offset of its stored samples, first stored sample, stored count). Only the part of
+ * (word offset of its stored samples, first stored sample, stored count). A sweep writes
+ * VS_LGRID_SKIPPED as the first sample of a column it skipped. Only the part of
  * a column that can differ is stored: before `first` the depth is 0 (no density met yet),
  * from first + count on it is the last stored value (no density met any more); an empty
  * column stores nothing (count 0: depth 0 all along).
@@ -38,6 +39,9 @@
 #define VS_LGRID_OFF_COLUMNS 4 /* uint: word offset of the column records */
 #define VS_LGRID_OFF_RADII 5   /* uint: radial: word offset of the n2 shell radii */
 #define VS_LGRID_OFF_SPACING 6 /* float: directional: h, world distance between samples */
+/* uint: word offset of one bit per column (j n0 + i), set where the column may meet density;
+ * 0: every column may. The sweep skips the others (empty space costs no march). */
+#define VS_LGRID_OFF_LIVE 7
 #define VS_LGRID_OFF_ORIGIN 8  /* 3 floats, index space: directional sample 0; radial: light */
 #define VS_LGRID_OFF_STEP_U 11 /* 3 floats: directional: index step between columns along u */
 #define VS_LGRID_OFF_STEP_V 14 /* 3 floats: ... along v */
@@ -51,6 +55,7 @@
 #define VS_LGRID_COLUMN_FIRST 1
 #define VS_LGRID_COLUMN_COUNT 2
 #define VS_LGRID_COLUMN_WORDS 3
+#define VS_LGRID_SKIPPED (-1.0f)
 
 #if defined(PNANOVDB_GLSL)
 #define vs_uint uint
@@ -168,6 +173,14 @@ VS_FUNC void vs_lgrid_sweep_column(VS_DATA_PARAM(vs_vec4, medium_data)
                                    int j, vs_uint base)
 {
     int n2 = vs_lgrid_n(VS_DATA_ARG(lgrid_data) grid, 2);
+    vs_uint live = vs_lgrid_word(VS_DATA_ARG(lgrid_data) grid, VS_LGRID_OFF_LIVE);
+    if (live != 0u) {
+        vs_uint column = VS_UINT(j * vs_lgrid_n(VS_DATA_ARG(lgrid_data) grid, 0) + i);
+        if (((lgrid_data[live + column / 32u] >> (column % 32u)) & 1u) == 0u) {
+            sweep_out[base] = VS_LGRID_SKIPPED;
+            return;
+        }
+    }
     pnanovdb_vec3_t start = vs_vec3(0.0f, 0.0f, 0.0f);
     pnanovdb_vec3_t dir = vs_vec3(0.0f, 0.0f, 0.0f);
     vs_lgrid_column_ray(VS_DATA_ARG(medium_data) VS_DATA_ARG(lgrid_data) grid, i, j,

@@ -391,11 +391,12 @@ VS_FUNC void vs_render_unit(VS_RENDER_TABLES pnanovdb_buf_t buf,
     vs_accum depth;
     if (unit > 0 && render_data[VS_RENDER_OFF_MARCH].z != 0.0f) {
         vs_accum_init(PNANOVDB_REF(depth));
-        vs_accum_add(PNANOVDB_REF(depth),
-                     vs_lgrid_depth(VS_DATA_ARG(medium_data) VS_DATA_ARG(lgrid_data) unit - 1, mid));
+        vs_accum_add(
+            PNANOVDB_REF(depth),
+            vs_lgrid_depth(VS_DATA_ARG(medium_data) VS_DATA_ARG(lgrid_data) unit - 1, mid));
     } else {
-        depth = vs_march(buf, PNANOVDB_REF(PNANOVDB_DEREF(accs).density), origin, dir, tmax,
-                         box_lo, box_hi, density_scale);
+        depth = vs_march(buf, PNANOVDB_REF(PNANOVDB_DEREF(accs).density), origin, dir, tmax, box_lo,
+                         box_hi, density_scale);
     }
 
     if (unit == 0) {

@@ -136,7 +136,8 @@ class HelpAndFlags(Base):
         p = run("render", "--help", check=0)
         self.assertIn("usage: vdbscatter render", p.stdout)
         for word in ["--mode", "single", "baked", "reference", "--camera", "--size", "--quality",
-                     "--exposure", "--spp", "--time", "--max-bounces", "--seed", "--backend", "--json"]:
+                     "--exposure", "--spp", "--time", "--max-bounces", "--seed", "--backend", "--json",
+                     "--s1", "--s1-oversample"]:
             self.assertIn(word, p.stdout)
         self.assertIn("render", run("--help", check=0).stdout)
 
@@ -162,6 +163,9 @@ class HelpAndFlags(Base):
             (base + ["--max-bounces", "0"], "--max-bounces"),
             (base + ["--seed", "-3"], "--seed"),
             (base + ["--quality", "extreme"], "quality"),
+            (base + ["--s1", "cone"], "--s1"),
+            (base + ["--s1-oversample", "0"], "--s1-oversample"),
+            (base + ["--s1-oversample", "17"], "--s1-oversample"),
             (base + ["--g", "1"], "g"),
             (base + ["--frobnicate"], "--frobnicate"),
             (base + ["--mode", "baked"], "lit"),
@@ -280,6 +284,26 @@ class LitInput(Base):
             "--size", "40x30", "-q", check=0)
         metrics = self.compare(baked, single)
         self.assertLessEqual(metrics["relrmse"], 1e-3)
+
+    def test_baked_grids_match_marches(self):
+        """render --mode baked with light grids (the default) against the exact light marches
+        (--s1 march) on the cloud sample, sun + sky, g = 0.85: within 1% relative RMSE; the
+        summary gives the grids' sizes and the stages' times."""
+        lit = self.bake()
+        grids, marches = self.path("grids.exr"), self.path("marches.exr")
+        p = run("render", lit, "-o", grids, "--size", "64x48", "--json", check=0)
+        j = json.loads(p.stdout)
+        self.assertEqual((j["mode"], j["s1"], j["s1_oversample"]), ("baked", "grid", 2))
+        self.assertGreater(j["light_grids"]["columns"], j["light_grids"]["columns_empty"])
+        self.assertGreater(j["light_grids"]["samples_stored"], 0)
+        self.assertLessEqual(j["seconds"]["s1_sweep"] + j["seconds"]["march"], j["seconds"]["render"])
+        p = run("render", lit, "-o", marches, "--size", "64x48", "--s1", "march", "--json", check=0)
+        j = json.loads(p.stdout)
+        self.assertEqual(j["s1"], "march")
+        self.assertNotIn("light_grids", j)
+        metrics = self.compare(grids, marches)
+        print(f"\nbaked cloud, light grids against light marches: relative RMSE {metrics['relrmse']:.2e}")
+        self.assertLessEqual(metrics["relrmse"], 0.01)
 
     def test_flags_override_the_baked_scene(self):
         lit = self.bake()

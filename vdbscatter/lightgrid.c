@@ -65,6 +65,7 @@ typedef struct grid_plan {
     double step_u[3], step_v[3], travel[3];
     double to_grid[3][3];
     double *radius; /* radial: n[2] shell radii */
+    uint32_t *live; /* directional: a bit per column that may meet density (vs_lightgrid.h) */
 } grid_plan;
 
 /* An orthonormal frame around unit w (Duff et al. 2017, continuous everywhere). */
@@ -91,6 +92,72 @@ static void box_corners(const vdbs_volume *volume, double corners[8][3])
                          corner & 4 ? hi[2] : lo[2]};
         vdbs_volume_world_point(volume, idx, corners[corner]);
     }
+}
+
+/* Bricks of BRICK^3 voxels that hold output voxels, over the support box. */
+#define BRICK 8
+
+/* Marks the columns whose line may meet density: those within the footprint of a brick that
+ * holds output voxels (the active region dilated by one, where the interpolant can be
+ * non-zero), each brick taken as the index box [b, b + BRICK] (a cell whose lowest corner is
+ * in the brick reaches one voxel beyond it), grown by a column for rounding. */
+static vdbs_status mark_live_columns(const vdbs_volume *volume, grid_plan *g, vdbs_error *err)
+{
+    float lo[3], hi[3];
+    vdbs_volume_support_box(volume, lo, hi);
+    int64_t b0[3], nb[3];
+    for (int a = 0; a < 3; ++a) {
+        b0[a] = (int64_t)floor(lo[a] / BRICK);
+        nb[a] = (int64_t)floor(hi[a] / BRICK) - b0[a] + 1;
+    }
+    uint8_t *brick = calloc((size_t)(nb[0] * nb[1] * nb[2]), 1);
+    int64_t columns = g->n[0] * g->n[1];
+    g->live = calloc((size_t)((columns + 31) / 32), sizeof *g->live);
+    if (!brick || !g->live) {
+        free(brick);
+        return vdbs_error_set(err, VDBS_ERR_NOMEM, "out of memory for a light grid");
+    }
+    for (size_t v = 0; v < volume->coord_count; ++v) {
+        const int32_t *c = volume->coords + 3 * v;
+        int64_t at[3];
+        for (int a = 0; a < 3; ++a)
+            at[a] = (int64_t)floor((double)c[a] / BRICK) - b0[a];
+        if (at[0] >= 0 && at[1] >= 0 && at[2] >= 0 && at[0] < nb[0] && at[1] < nb[1] &&
+            at[2] < nb[2])
+            brick[(at[2] * nb[1] + at[1]) * nb[0] + at[0]] = 1;
+    }
+    for (int64_t z = 0; z < nb[2]; ++z)
+        for (int64_t y = 0; y < nb[1]; ++y)
+            for (int64_t x = 0; x < nb[0]; ++x) {
+                if (!brick[(z * nb[1] + y) * nb[0] + x])
+                    continue;
+                const int64_t b[3] = {(b0[0] + x) * BRICK, (b0[1] + y) * BRICK,
+                                      (b0[2] + z) * BRICK};
+                double umin = HUGE_VAL, umax = -HUGE_VAL, vmin = HUGE_VAL, vmax = -HUGE_VAL;
+                for (int corner = 0; corner < 8; ++corner) {
+                    double d[3];
+                    for (int a = 0; a < 3; ++a)
+                        d[a] = (double)b[a] + ((corner >> a) & 1 ? BRICK : 0) - g->origin[a];
+                    double u = dot3(g->to_grid[0], d), w = dot3(g->to_grid[1], d);
+                    umin = fmin(umin, u);
+                    umax = fmax(umax, u);
+                    vmin = fmin(vmin, w);
+                    vmax = fmax(vmax, w);
+                }
+                int64_t i0 = (int64_t)floor(umin) - 1, i1 = (int64_t)ceil(umax) + 1;
+                int64_t j0 = (int64_t)floor(vmin) - 1, j1 = (int64_t)ceil(vmax) + 1;
+                i0 = i0 < 0 ? 0 : i0;
+                j0 = j0 < 0 ? 0 : j0;
+                i1 = i1 >= g->n[0] ? g->n[0] - 1 : i1;
+                j1 = j1 >= g->n[1] ? g->n[1] - 1 : j1;
+                for (int64_t j = j0; j <= j1; ++j)
+                    for (int64_t i = i0; i <= i1; ++i) {
+                        int64_t column = j * g->n[0] + i;
+                        g->live[column / 32] |= 1u << (column % 32);
+                    }
+            }
+    free(brick);
+    return VDBS_OK;
 }
 
 static vdbs_status plan_directional(const vdbs_volume *volume, const double travel[3], int F,
@@ -149,7 +216,7 @@ static vdbs_status plan_directional(const vdbs_volume *volume, const double trav
         for (int c = 0; c < 3; ++c)
             g->to_grid[r][c] =
                 (axes[r][0] * m[0][c] + axes[r][1] * m[1][c] + axes[r][2] * m[2][c]) / g->spacing;
-    return VDBS_OK;
+    return mark_live_columns(volume, g, err);
 }
 
 static vdbs_status plan_radial(const vdbs_volume *volume, const double position[3], int F,
@@ -185,7 +252,7 @@ static vdbs_status plan_radial(const vdbs_volume *volume, const double position[
 }
 
 static void header_write(uint32_t *words, int grid, const grid_plan *g, size_t columns_at,
-                         size_t radii_at)
+                         size_t radii_at, size_t live_at)
 {
     size_t h = vs_lgrid_header(grid);
     words[h + VS_LGRID_OFF_KIND] = g->kind;
@@ -193,6 +260,9 @@ static void header_write(uint32_t *words, int grid, const grid_plan *g, size_t c
         words[h + VS_LGRID_OFF_N + (size_t)a] = (uint32_t)g->n[a];
     words[h + VS_LGRID_OFF_COLUMNS] = (uint32_t)columns_at;
     words[h + VS_LGRID_OFF_RADII] = (uint32_t)radii_at;
+    words[h + VS_LGRID_OFF_LIVE] = g->live ? (uint32_t)live_at : 0u;
+    if (g->live)
+        memcpy(words + live_at, g->live, sizeof *g->live * (size_t)((g->n[0] * g->n[1] + 31) / 32));
     put_float(words, h + VS_LGRID_OFF_SPACING, g->spacing);
     put_vec3(words, h + VS_LGRID_OFF_ORIGIN, g->origin);
     put_vec3(words, h + VS_LGRID_OFF_STEP_U, g->step_u);
@@ -263,6 +333,10 @@ static int tile_pack(const float *tile, int64_t columns, int64_t n2, uint32_t *r
 #pragma omp parallel for schedule(static)
     for (int64_t c = 0; c < columns; ++c) {
         const float *d = tile + c * n2;
+        if (d[0] == VS_LGRID_SKIPPED) {
+            first[c] = count[c] = 0;
+            continue;
+        }
         int64_t k0 = 0;
         while (k0 < n2 && d[k0] == 0.0f)
             ++k0;
@@ -299,18 +373,22 @@ static int tile_pack(const float *tile, int64_t columns, int64_t n2, uint32_t *r
     return 1;
 }
 
-static vdbs_status sweep_grid(vdbs_runner *runner, const vdbs_volume *volume, const float *medium,
-                              const uint32_t *words, size_t prefix_words, int grid,
-                              const grid_plan *g, uint32_t *records, depth_store *store,
-                              int64_t *empty, vdbs_error *err)
+/* Columns of grid g per sweep tile. */
+static int64_t tile_columns(const grid_plan *g)
 {
     int64_t columns = g->n[0] * g->n[1];
     int64_t per_tile = TILE_SAMPLES / g->n[2] > 0 ? TILE_SAMPLES / g->n[2] : 1;
-    if (per_tile > columns)
-        per_tile = columns;
-    float *tile = malloc(sizeof *tile * (size_t)(per_tile * g->n[2]));
-    if (!tile)
-        return vdbs_error_set(err, VDBS_ERR_NOMEM, "out of memory for a light-grid tile");
+    return per_tile < columns ? per_tile : columns;
+}
+
+/* Sweeps grid g tile by tile into `tile` (room for tile_columns(g) columns). */
+static vdbs_status sweep_grid(vdbs_runner *runner, const vdbs_volume *volume, const float *medium,
+                              const uint32_t *words, size_t prefix_words, int grid,
+                              const grid_plan *g, float *tile, uint32_t *records,
+                              depth_store *store, int64_t *empty, vdbs_error *err)
+{
+    int64_t columns = g->n[0] * g->n[1];
+    int64_t per_tile = tile_columns(g);
     sweep_job job = {volume, medium, words, grid, 0, g->n[0], g->n[2], tile};
     uint32_t params[4] = {(uint32_t)grid, 0, 0, 0};
     vdbs_status st = VDBS_OK;
@@ -337,7 +415,6 @@ static vdbs_status sweep_grid(vdbs_runner *runner, const vdbs_volume *volume, co
             !tile_pack(tile, n, g->n[2], records + VS_LGRID_COLUMN_WORDS * c0, store, empty))
             st = vdbs_error_set(err, VDBS_ERR_NOMEM, "out of memory for a light grid");
     }
-    free(tile);
     return st;
 }
 
@@ -379,15 +456,20 @@ vdbs_status vdbs_light_grids_build(vdbs_runner *runner, const vdbs_volume *volum
             st = plan_directional(volume, travel, F, &plans[g], err);
         }
     }
-    /* Layout: count and headers, radii, column records, then the depth samples. */
+    /* Layout: count and headers, radii and live bits (what the sweep reads), column records,
+     * then the depth samples. */
     int64_t at = VS_LGRIDS_OFF_HEADERS + (int64_t)count * VS_LGRID_WORDS;
-    int64_t *radii_at = calloc((size_t)(count > 0 ? count : 1), 2 * sizeof *radii_at);
-    int64_t *columns_at = radii_at ? radii_at + (count > 0 ? count : 1) : NULL;
+    int slots = count > 0 ? count : 1;
+    int64_t *radii_at = calloc((size_t)slots, 3 * sizeof *radii_at);
+    int64_t *columns_at = radii_at ? radii_at + slots : NULL;
+    int64_t *live_at = radii_at ? radii_at + 2 * slots : NULL;
     if (st == VDBS_OK && !radii_at)
         st = vdbs_error_set(err, VDBS_ERR_NOMEM, "out of memory for light grids");
     for (int g = 0; g < count && st == VDBS_OK; ++g) {
         radii_at[g] = at;
         at += plans[g].kind == VS_LGRID_RADIAL ? plans[g].n[2] : 0;
+        live_at[g] = at;
+        at += plans[g].live ? (plans[g].n[0] * plans[g].n[1] + 31) / 32 : 0;
     }
     const int64_t prefix = at;
     for (int g = 0; g < count && st == VDBS_OK; ++g) {
@@ -407,12 +489,22 @@ vdbs_status vdbs_light_grids_build(vdbs_runner *runner, const vdbs_volume *volum
     if (st == VDBS_OK) {
         words[VS_LGRIDS_OFF_COUNT] = (uint32_t)count;
         for (int g = 0; g < count; ++g)
-            header_write(words, g, &plans[g], (size_t)columns_at[g], (size_t)radii_at[g]);
+            header_write(words, g, &plans[g], (size_t)columns_at[g], (size_t)radii_at[g],
+                         (size_t)live_at[g]);
     }
+    /* One tile for all grids: the largest any of them needs. */
+    int64_t tile_samples = 1;
+    for (int g = 0; g < count; ++g)
+        if (tile_columns(&plans[g]) * plans[g].n[2] > tile_samples)
+            tile_samples = tile_columns(&plans[g]) * plans[g].n[2];
+    float *tile = st == VDBS_OK ? malloc(sizeof *tile * (size_t)tile_samples) : NULL;
+    if (st == VDBS_OK && !tile)
+        st = vdbs_error_set(err, VDBS_ERR_NOMEM, "out of memory for a light-grid tile");
     depth_store store = {NULL, 0, 0};
     for (int g = 0; g < count && st == VDBS_OK; ++g)
-        st = sweep_grid(runner, volume, out->medium, words, (size_t)prefix, g, &plans[g],
+        st = sweep_grid(runner, volume, out->medium, words, (size_t)prefix, g, &plans[g], tile,
                         words + columns_at[g], &store, &out->stats.columns_empty, err);
+    free(tile);
     if (st == VDBS_OK && depth_at + store.count > MAX_WORDS)
         st = vdbs_error_set(err, VDBS_ERR_INPUT,
                             "light grids of %lld stored samples are too large; lower the "
@@ -433,8 +525,10 @@ vdbs_status vdbs_light_grids_build(vdbs_runner *runner, const vdbs_volume *volum
         }
     }
     free(store.data);
-    for (int g = 0; g < count; ++g)
+    for (int g = 0; g < count; ++g) {
         free(plans[g].radius);
+        free(plans[g].live);
+    }
     free(plans);
     free(radii_at);
     if (st != VDBS_OK) {
