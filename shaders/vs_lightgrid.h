@@ -21,17 +21,22 @@
  *
  * Lookup: depth, never transmittance, is interpolated. Directional grids: Catmull-Rom
  * across the 4 x 4 nearest columns, kept within the range of the 2 x 2 nearest so that
- * sharp edges of the medium do not ring, and linear along the columns (Catmull-Rom halves
- * to quarters trilinear's error on clouds). Radial grids: bilinear across texels, linear
- * in r between shells. */
+ * sharp edges of the medium do not ring (Catmull-Rom halves to quarters trilinear's error
+ * on clouds), or bilinear across the 2 x 2 nearest (a quarter of the memory traffic, for the
+ * render), and linear along the columns. Radial grids: bilinear across texels, linear in r
+ * between shells. */
 #ifndef VS_LIGHTGRID_H
 #define VS_LIGHTGRID_H
 
 #define VS_LGRID_DIRECTIONAL 0u
 #define VS_LGRID_RADIAL 1u
 
-/* The set: grid count, then the headers from word VS_LGRIDS_OFF_HEADERS on. */
+/* The set: grid count, how directional grids interpolate across columns, then the headers
+ * from word VS_LGRIDS_OFF_HEADERS on. */
 #define VS_LGRIDS_OFF_COUNT 0
+#define VS_LGRIDS_OFF_ACROSS 1 /* VS_LGRID_ACROSS_* */
+#define VS_LGRID_ACROSS_CATMULL_ROM 0u
+#define VS_LGRID_ACROSS_BILINEAR 1u
 #define VS_LGRIDS_OFF_HEADERS 4
 /* One grid's header, relative to its start. */
 #define VS_LGRID_OFF_KIND 0    /* uint: VS_LGRID_DIRECTIONAL or VS_LGRID_RADIAL */
@@ -288,6 +293,20 @@ VS_FUNC float vs_lgrid_dir_depth(VS_DATA_PARAM(vs_uint, lgrid_data) int grid, pn
                            PNANOVDB_REF(fv));
     int k = vs_lgrid_split(vs_lgrid_coordinate(VS_DATA_ARG(lgrid_data) grid, 2, d), n2,
                            PNANOVDB_REF(fw));
+    if (lgrid_data[VS_LGRIDS_OFF_ACROSS] == VS_LGRID_ACROSS_BILINEAR) {
+        vs_uint row0 = records + VS_UINT(VS_LGRID_COLUMN_WORDS * n0 * j);
+        vs_uint row1 = records + VS_UINT(VS_LGRID_COLUMN_WORDS * n0 * vs_lgrid_clamp(j + 1, n1));
+        vs_uint di = VS_UINT(VS_LGRID_COLUMN_WORDS * (vs_lgrid_clamp(i + 1, n0) - i));
+        vs_uint at = VS_UINT(VS_LGRID_COLUMN_WORDS * i);
+        float d00 = vs_lgrid_record_depth(VS_DATA_ARG(lgrid_data) row0 + at, n2, k, fw);
+        float d10 = vs_lgrid_record_depth(VS_DATA_ARG(lgrid_data) row0 + at + di, n2, k, fw);
+        float d01 = vs_lgrid_record_depth(VS_DATA_ARG(lgrid_data) row1 + at, n2, k, fw);
+        float d11 = vs_lgrid_record_depth(VS_DATA_ARG(lgrid_data) row1 + at + di, n2, k, fw);
+        VS_PRECISE float d0 = d00 + fu * (d10 - d00);
+        VS_PRECISE float d1 = d01 + fu * (d11 - d01);
+        VS_PRECISE float d = d0 + fv * (d1 - d0);
+        return d;
+    }
     float sum = 0.0f, lo = VS_T_INFINITE, hi = -VS_T_INFINITE;
     for (int b = -1; b <= 2; ++b) {
         float wv = vs_catmull_rom(fv, b);

@@ -53,7 +53,7 @@ static float *solve(const vdbs_volume *volume, const vdbs_scene *scene, int sky,
     vdbs_light_table lights;
     if (vdbs_lights_build(volume, scene, &ld, &lights, &err) != VDBS_OK)
         fail_msg("%s", err.message);
-    vdbs_light_grid_desc gd = {oversample};
+    vdbs_light_grid_desc gd = {oversample, 0};
     vdbs_runner *runner = test_runner(VDBS_BACKEND_CPU);
     vdbs_status st =
         oversample > 0 ? vdbs_single_scatter_grids(runner, volume, scene, &lights, &gd, radiance,

@@ -53,7 +53,7 @@ static vdbs_status solve(const vdbs_bake_options *o, const vdbs_solver *solver,
     s->scene = o->scene;
     s->lights = &lights;
     s->quality = quality;
-    vdbs_light_grid_desc grids = {o->s1_oversample};
+    vdbs_light_grid_desc grids = {o->s1_oversample, 0};
     s->s1_grids = o->s1_march ? NULL : &grids;
     s->progress = &progress;
     vdbs_s1_stats stats;

@@ -488,6 +488,8 @@ vdbs_status vdbs_light_grids_build(vdbs_runner *runner, const vdbs_volume *volum
         st = vdbs_error_set(err, VDBS_ERR_NOMEM, "out of memory for light grids");
     if (st == VDBS_OK) {
         words[VS_LGRIDS_OFF_COUNT] = (uint32_t)count;
+        words[VS_LGRIDS_OFF_ACROSS] =
+            desc && desc->bilinear ? VS_LGRID_ACROSS_BILINEAR : VS_LGRID_ACROSS_CATMULL_ROM;
         for (int g = 0; g < count; ++g)
             header_write(words, g, &plans[g], (size_t)columns_at[g], (size_t)radii_at[g],
                          (size_t)live_at[g]);

@@ -204,7 +204,9 @@ vdbs_status vdbs_render_march(vdbs_runner *runner, const vdbs_volume *volume,
     const uint32_t *lgrid_words = no_grids;
     size_t lgrid_bytes = sizeof no_grids;
     if (st == VDBS_OK && !options->s1_march) {
-        vdbs_light_grid_desc gd = {options->s1_oversample};
+        /* Bilinear across columns: a camera sample's error averages along the ray and over
+         * the lights, and the lookups are memory-bound (bench/RESULTS.md). */
+        vdbs_light_grid_desc gd = {options->s1_oversample, 1};
         st = vdbs_light_grids_build(runner, volume, scene, &lights, 0,
                                     lights.direct_count + lights.ordinate_count, &gd, &light_grids,
                                     err);
