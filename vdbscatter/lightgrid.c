@@ -546,6 +546,21 @@ vdbs_status vdbs_light_grids_build(vdbs_runner *runner, const vdbs_volume *volum
     return VDBS_OK;
 }
 
+vdbs_status vdbs_light_grids_fit(vdbs_runner *runner, const vdbs_light_grids *grids,
+                                 vdbs_error *err)
+{
+    if (vdbs_runner_backend(runner) != VDBS_BACKEND_GPU)
+        return VDBS_OK;
+    int64_t limit = vdbs_gpu_get_info(vdbs_runner_gpu(runner))->max_ssbo_bytes;
+    size_t bytes = sizeof *grids->words * grids->word_count;
+    if ((int64_t)bytes <= limit)
+        return VDBS_OK;
+    return vdbs_error_set(err, VDBS_ERR_GPU,
+                          "%zu MiB of light grids exceed the GPU's %lld MiB storage-buffer limit; "
+                          "lower --s1-oversample or --quality, or use --backend cpu",
+                          bytes >> 20, (long long)(limit >> 20));
+}
+
 void vdbs_light_grids_shape(const vdbs_light_grids *grids, int grid, int n[3])
 {
     for (int a = 0; a < 3; ++a)
@@ -588,6 +603,9 @@ vdbs_status vdbs_light_grids_lookup_voxels(vdbs_runner *runner, const vdbs_volum
 {
     if (volume->coord_count == 0)
         return VDBS_OK;
+    vdbs_status st = vdbs_light_grids_fit(runner, grids, err);
+    if (st != VDBS_OK)
+        return st;
     lookup_job job = {volume, grids, grid, depth};
     uint32_t params[4] = {(uint32_t)grid, 0, 0, 0};
     vdbs_kernel_desc desc = {0};

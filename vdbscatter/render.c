@@ -213,14 +213,8 @@ vdbs_status vdbs_render_march(vdbs_runner *runner, const vdbs_volume *volume,
         lgrid_words = light_grids.words;
         lgrid_bytes = sizeof *light_grids.words * light_grids.word_count;
         table[4 * VS_RENDER_OFF_MARCH + 2] = 1.0f;
-        if (st == VDBS_OK && vdbs_runner_backend(runner) == VDBS_BACKEND_GPU &&
-            (int64_t)lgrid_bytes > vdbs_gpu_get_info(vdbs_runner_gpu(runner))->max_ssbo_bytes)
-            st = vdbs_error_set(
-                err, VDBS_ERR_GPU,
-                "%zu MiB of light grids exceed the GPU's %lld MiB storage-buffer "
-                "limit; lower --s1-oversample or --quality, or use --backend cpu",
-                lgrid_bytes >> 20,
-                (long long)(vdbs_gpu_get_info(vdbs_runner_gpu(runner))->max_ssbo_bytes >> 20));
+        if (st == VDBS_OK)
+            st = vdbs_light_grids_fit(runner, &light_grids, err);
     }
     vdbs_medium medium_params;
     vdbs_medium_init(&medium_params, volume, scene);

@@ -83,6 +83,11 @@ vdbs_status vdbs_light_grids_lookup_voxels(vdbs_runner *runner, const vdbs_volum
                                            const vdbs_light_grids *grids, int grid, float *depth,
                                            vdbs_error *err);
 
+/* On the GPU, whether the set fits one storage buffer (VDBS_ERR_GPU naming --s1-oversample,
+ * --quality and --backend cpu if not); always VDBS_OK on the C path. */
+vdbs_status vdbs_light_grids_fit(vdbs_runner *runner, const vdbs_light_grids *grids,
+                                 vdbs_error *err);
+
 /* Columns n0 x n1 and samples per column n2 of grid `grid`. */
 void vdbs_light_grids_shape(const vdbs_light_grids *grids, int grid, int n[3]);
 
