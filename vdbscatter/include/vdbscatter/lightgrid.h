@@ -16,7 +16,12 @@
  * for C and GLSL in shaders/vs_lightgrid.h; the sweep and the lookup run through the kernel
  * runner on either backend. Columns that meet no density store nothing, and a column stores
  * only the stretch where its depth changes. The GPU sweeps in tiles of columns under the
- * driver's storage-buffer limit. */
+ * driver's storage-buffer limit.
+ *
+ * Propagation solvers (POP) work on coarser instances of the same two kinds: the header
+ * gives a grid's frame, shape (n0 x n1 columns of n2 samples), spacing or shells, so that a
+ * solver keeps its per-cell state in arrays of its own indexed (column j n0 + i, sample k)
+ * beside the set, and reads the swept depths through the same lookup. */
 #ifndef VDBSCATTER_LIGHTGRID_H
 #define VDBSCATTER_LIGHTGRID_H
 
