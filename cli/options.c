@@ -157,6 +157,30 @@ static vdbs_status parse_light(const char *flag, const char *text, double xyz[3]
     return VDBS_OK;
 }
 
+/* --env R,G,B (or one grey value), or --env FILE[:SCALE]: a lat-long map. */
+static vdbs_status parse_env(vdbs_scene *scene, vdbs_light *light, const char *text,
+                             vdbs_error *err)
+{
+    if (cli_triple("--env", text, 1, light->color, NULL) == VDBS_OK)
+        return VDBS_OK;
+    char path[VDBS_PATH_MAX];
+    if (strlen(text) >= sizeof path)
+        return vdbs_error_set(err, VDBS_ERR_INPUT, "--env: path too long");
+    strcpy(path, text);
+    light->color[0] = light->color[1] = light->color[2] = 1.0;
+    char *colon = strrchr(path, ':');
+    if (colon && cli_number("--env", colon + 1, &light->env_scale, NULL) == VDBS_OK) {
+        *colon = '\0';
+        if (!(light->env_scale >= 0.0))
+            return vdbs_error_set(err, VDBS_ERR_INPUT, "--env: the scale must be >= 0, got '%s'",
+                                  colon + 1);
+    }
+    if (!path[0])
+        return vdbs_error_set(err, VDBS_ERR_INPUT,
+                              "--env: expected R,G,B or FILE[:SCALE], got '%s'", text);
+    return vdbs_light_set_env_file(scene, light, path, err);
+}
+
 vdbs_status cli_build_scene(const cli_args *args, vdbs_scene *scene, int allow_no_lights,
                             vdbs_error *err)
 {
@@ -200,7 +224,7 @@ vdbs_status cli_build_scene(const cli_args *args, vdbs_scene *scene, int allow_n
             light->env_scale = 1.0;
             if (strcmp(name, "--env") == 0) {
                 light->type = VDBS_LIGHT_ENV;
-                st = cli_triple(name, v, 1, light->color, err);
+                st = parse_env(scene, light, v, err);
             } else if (strcmp(name, "--sun") == 0) {
                 light->type = VDBS_LIGHT_SUN;
                 st = parse_light(name, v, light->direction, light->color, err);

@@ -425,6 +425,22 @@ static vdbs_status png_read(const char *path, vdbs_image *image, vdbs_error *err
     return st;
 }
 
+/* Radiance RGBE (.hdr): linear float radiance as stored. */
+static vdbs_status hdr_read(const char *path, vdbs_image *image, vdbs_error *err)
+{
+    int w = 0, h = 0, comp = 0;
+    float *data = stbi_loadf(path, &w, &h, &comp, 3);
+    if (!data)
+        return vdbs_error_set(err, VDBS_ERR_INPUT,
+                              "%s: corrupt or unsupported Radiance HDR file: %s", path,
+                              stbi_failure_reason());
+    vdbs_status st = vdbs_image_alloc(image, w, h, 0, err);
+    if (st == VDBS_OK)
+        memcpy(image->rgb, data, sizeof(float) * 3 * (size_t)w * (size_t)h);
+    stbi_image_free(data);
+    return st;
+}
+
 /* ---- public I/O ------------------------------------------------------------------------ */
 
 vdbs_status vdbs_image_write(const char *path, const vdbs_image *image, double exposure_ev,
@@ -449,9 +465,9 @@ vdbs_status vdbs_image_write(const char *path, const vdbs_image *image, double e
     return st;
 }
 
-vdbs_status vdbs_image_read(const char *path, vdbs_image *image, vdbs_error *err)
+vdbs_status vdbs_image_kind_of(const char *path, vdbs_image_kind *kind, vdbs_error *err)
 {
-    memset(image, 0, sizeof *image);
+    *kind = VDBS_IMAGE_UNKNOWN;
     FILE *f = fopen(path, "rb");
     if (!f)
         return vdbs_error_set(err, VDBS_ERR_INPUT, "%s: cannot open: %s", path, strerror(errno));
@@ -462,10 +478,32 @@ vdbs_status vdbs_image_read(const char *path, vdbs_image *image, vdbs_error *err
     static const unsigned char exr_magic[4] = {0x76, 0x2f, 0x31, 0x01};
     static const unsigned char png_magic[8] = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1a, '\n'};
     if (got >= 4 && memcmp(magic, exr_magic, 4) == 0)
+        *kind = VDBS_IMAGE_EXR;
+    else if (got == 8 && memcmp(magic, png_magic, 8) == 0)
+        *kind = VDBS_IMAGE_PNG;
+    else if (got >= 2 && magic[0] == '#' && magic[1] == '?')
+        *kind = VDBS_IMAGE_HDR; /* "#?RADIANCE" or "#?RGBE" */
+    return VDBS_OK;
+}
+
+vdbs_status vdbs_image_read(const char *path, vdbs_image *image, vdbs_error *err)
+{
+    memset(image, 0, sizeof *image);
+    vdbs_image_kind kind;
+    vdbs_status st = vdbs_image_kind_of(path, &kind, err);
+    if (st != VDBS_OK)
+        return st;
+    switch (kind) {
+    case VDBS_IMAGE_EXR:
         return exr_read(path, image, err);
-    if (got == 8 && memcmp(magic, png_magic, 8) == 0)
+    case VDBS_IMAGE_PNG:
         return png_read(path, image, err);
-    return vdbs_error_set(err, VDBS_ERR_INPUT, "%s: not an OpenEXR or PNG image", path);
+    case VDBS_IMAGE_HDR:
+        return hdr_read(path, image, err);
+    default:
+        return vdbs_error_set(err, VDBS_ERR_INPUT, "%s: not an OpenEXR, Radiance HDR or PNG image",
+                              path);
+    }
 }
 
 /* ---- comparison ------------------------------------------------------------------------ */

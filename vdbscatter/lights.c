@@ -1,6 +1,7 @@
 #include "vdbscatter/lights.h"
 
 #include <math.h>
+#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -37,6 +38,8 @@ void vdbs_lights_free(vdbs_light_table *table)
     free(table->direct);
     free(table->ordinates);
     free(table->packed);
+    vdbs_envmap_free(table->env);
+    free(table->env);
     memset(table, 0, sizeof *table);
 }
 
@@ -95,14 +98,28 @@ vdbs_status vdbs_lights_build(const vdbs_volume *volume, const vdbs_scene *scene
             return vdbs_error_set(err, VDBS_ERR_INTERNAL,
                                   "lights[%d]: env_map %d is not a path of this scene", i,
                                   light->env_map);
-        if (file[0])
-            return vdbs_error_set(err, VDBS_ERR_INPUT,
-                                  "environment maps (%s) are not supported yet; use a constant "
-                                  "sky colour (--env R,G,B)",
-                                  file);
-        for (int c = 0; c < 3; ++c)
-            table->sky[c] += light->color[c];
         table->has_sky = 1;
+        if (!file[0]) {
+            for (int c = 0; c < 3; ++c)
+                table->sky[c] += light->color[c];
+            continue;
+        }
+        if (table->env) {
+            vdbs_error_set(err, VDBS_ERR_INPUT,
+                           "%s: one environment map per scene (the other is %s)", file,
+                           table->env_file);
+            vdbs_lights_free(table);
+            return VDBS_ERR_INPUT;
+        }
+        table->env = calloc(1, sizeof *table->env);
+        if (!table->env)
+            return vdbs_error_set(err, VDBS_ERR_NOMEM, "out of memory for an env map");
+        snprintf(table->env_file, sizeof table->env_file, "%s", file);
+        vdbs_status st = vdbs_envmap_load(file, light->env_scale, table->env, err);
+        if (st != VDBS_OK) {
+            vdbs_lights_free(table);
+            return st;
+        }
     }
     table->min_distance = 0.5 * volume->mean_voxel_size;
     int k = table->has_sky && desc && desc->sky_ordinates > 0 ? desc->sky_ordinates : 0;
@@ -133,13 +150,40 @@ vdbs_status vdbs_lights_build(const vdbs_volume *volume, const vdbs_scene *scene
         }
         ++table->direct_count;
     }
-    vdbs_sphere_directions(k, dirs);
-    for (int d = 0; d < k; ++d) {
-        vdbs_sky_ordinate *o = &table->ordinates[d];
-        memcpy(o->world, dirs + 3 * d, sizeof o->world);
-        vdbs_volume_index_vector(volume, o->world, o->index);
-        o->weight = 4.0 * VDBS_PI / k;
-        memcpy(o->radiance, table->sky, sizeof o->radiance);
+    if (table->env) {
+        /* Importance-sampled from the map; a constant env on top adds to every ordinate. */
+        double *weight = calloc(k > 0 ? (size_t)k : 1, sizeof *weight);
+        double *radiance = calloc(k > 0 ? 3 * (size_t)k : 1, sizeof *radiance);
+        int got = weight && radiance
+                      ? vdbs_envmap_sample(table->env, k, dirs, weight, radiance, err)
+                      : -1;
+        if (got < 0) {
+            free(weight);
+            free(radiance);
+            free(dirs);
+            vdbs_lights_free(table);
+            return vdbs_error_set(err, VDBS_ERR_NOMEM, "out of memory for the light table");
+        }
+        for (int d = 0; d < got; ++d) {
+            vdbs_sky_ordinate *o = &table->ordinates[d];
+            memcpy(o->world, dirs + 3 * d, sizeof o->world);
+            vdbs_volume_index_vector(volume, o->world, o->index);
+            o->weight = weight[d];
+            for (int c = 0; c < 3; ++c)
+                o->radiance[c] = radiance[3 * d + c] + table->sky[c];
+        }
+        k = got;
+        free(weight);
+        free(radiance);
+    } else {
+        vdbs_sphere_directions(k, dirs);
+        for (int d = 0; d < k; ++d) {
+            vdbs_sky_ordinate *o = &table->ordinates[d];
+            memcpy(o->world, dirs + 3 * d, sizeof o->world);
+            vdbs_volume_index_vector(volume, o->world, o->index);
+            o->weight = 4.0 * VDBS_PI / k;
+            memcpy(o->radiance, table->sky, sizeof o->radiance);
+        }
     }
     table->ordinate_count = k;
     free(dirs);

@@ -430,6 +430,14 @@ vdbs_status vdbs_render(const vdbs_render_desc *d, vdbs_render_report *report, v
         return vdbs_error_set(err, VDBS_ERR_NOMEM, "out of memory for a scene");
     st = resolve_scene(d, input, &lit, &mode, &is_lit, scene, err);
     vdbs_march_options march = {0};
+    /* Maps light bakes; the render's background, S1 and reference do not read them yet. */
+    for (int i = 0; st == VDBS_OK && i < scene->light_count; ++i)
+        if (scene->lights[i].type == VDBS_LIGHT_ENV &&
+            vdbs_light_env_file(scene, &scene->lights[i])[0])
+            st = vdbs_error_set(err, VDBS_ERR_INPUT,
+                                "render: environment maps (%s) are not supported by render yet; "
+                                "use a constant --env R,G,B",
+                                vdbs_light_env_file(scene, &scene->lights[i]));
     if (st == VDBS_OK) {
         report->mode = vdbs_render_mode_name(mode);
         for (int i = 0; i < scene->light_count; ++i)

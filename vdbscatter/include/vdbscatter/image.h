@@ -26,10 +26,20 @@ void vdbs_image_free(vdbs_image *image);
 vdbs_status vdbs_image_write(const char *path, const vdbs_image *image, double exposure_ev,
                              vdbs_error *err);
 
-/* Reads an EXR (channels R, G, B; se.R, se.G, se.B when present; half or float) or a PNG
- * (decoded from sRGB to linear). Errors (VDBS_ERR_INPUT): missing, unreadable or foreign
- * file, missing R/G/B channels. */
+/* Reads an EXR (channels R, G, B; se.R, se.G, se.B when present; half or float), a Radiance
+ * HDR (RGBE, linear) or a PNG (decoded from sRGB to linear), by content. Errors
+ * (VDBS_ERR_INPUT): missing, unreadable or foreign file, missing R/G/B channels. */
 vdbs_status vdbs_image_read(const char *path, vdbs_image *image, vdbs_error *err);
+
+typedef enum vdbs_image_kind {
+    VDBS_IMAGE_UNKNOWN = 0,
+    VDBS_IMAGE_EXR,
+    VDBS_IMAGE_HDR,
+    VDBS_IMAGE_PNG
+} vdbs_image_kind;
+
+/* The format of a file by its first bytes (UNKNOWN for anything else). Errors: cannot open. */
+vdbs_status vdbs_image_kind_of(const char *path, vdbs_image_kind *kind, vdbs_error *err);
 
 typedef struct vdbs_image_metrics {
     double relrmse;      /* sqrt(mean((a-b)^2)) / sqrt(mean(b^2)), all pixels and channels */

@@ -8,6 +8,7 @@
 
 #include <stddef.h>
 
+#include "vdbscatter/envmap.h"
 #include "vdbscatter/scene.h"
 #include "vdbscatter/status.h"
 #include "vdbscatter/volume.h"
@@ -39,7 +40,10 @@ typedef struct vdbs_light_table {
     vdbs_sky_ordinate *ordinates; /* empty without a sky or when none were asked for */
     int ordinate_count;
     int has_sky;
-    double sky[3];       /* constant sky radiance: the sum of the env colours (background) */
+    double sky[3];    /* constant sky radiance: the sum of the env colours (background) */
+    vdbs_envmap *env; /* the scene's lat-long map (scaled), or NULL; its ordinates are
+                         importance-sampled (envmap.h) and carry sky[] on top */
+    char env_file[VDBS_PATH_MAX];
     double min_distance; /* point lights' 1/r^2 is clamped at this world distance */
     float *packed;       /* the kernels' layout (shaders/vs_lights.h), 4 floats an entry */
     size_t packed_entries;
@@ -50,9 +54,9 @@ typedef struct vdbs_lights_desc {
                           the sky itself) */
 } vdbs_lights_desc;
 
-/* Resolves the scene's lights for the volume. Errors: an environment map file (only a
- * constant sky is supported yet, VDBS_ERR_INPUT), a zero sun direction (VDBS_ERR_INPUT),
- * out of memory. On error the table is empty. */
+/* Resolves the scene's lights for the volume. Errors: an environment map that cannot be
+ * used (envmap.h) or a second one, a zero sun direction (VDBS_ERR_INPUT), out of memory. On
+ * error the table is empty. */
 vdbs_status vdbs_lights_build(const vdbs_volume *volume, const vdbs_scene *scene,
                               const vdbs_lights_desc *desc, vdbs_light_table *table,
                               vdbs_error *err);

@@ -1,0 +1,221 @@
+#include "vdbscatter/envmap.h"
+
+#include <math.h>
+#include <stdint.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "vdbscatter/image.h"
+
+#include "vdbs_math.h"
+
+vdbs_status vdbs_envmap_load(const char *path, double scale, vdbs_envmap *map, vdbs_error *err)
+{
+    memset(map, 0, sizeof *map);
+    if (!(scale >= 0.0) || !isfinite(scale))
+        return vdbs_error_set(err, VDBS_ERR_INPUT, "%s: env scale %g is not a finite value >= 0",
+                              path, scale);
+    vdbs_image_kind kind;
+    vdbs_status st = vdbs_image_kind_of(path, &kind, err);
+    if (st != VDBS_OK)
+        return st;
+    if (kind != VDBS_IMAGE_EXR && kind != VDBS_IMAGE_HDR)
+        return vdbs_error_set(err, VDBS_ERR_INPUT,
+                              "%s: not an OpenEXR or Radiance HDR environment map", path);
+    vdbs_image image;
+    if ((st = vdbs_image_read(path, &image, err)) != VDBS_OK)
+        return st;
+    if (image.width != 2 * image.height || image.height < 2) {
+        st = vdbs_error_set(err, VDBS_ERR_INPUT,
+                            "%s: a lat-long map is twice as wide as high, this one is %dx%d", path,
+                            image.width, image.height);
+        vdbs_image_free(&image);
+        return st;
+    }
+    const size_t n = 3 * (size_t)image.width * (size_t)image.height;
+    for (size_t i = 0; i < n; ++i)
+        if (!(image.rgb[i] >= 0.0f) || !isfinite(image.rgb[i])) {
+            size_t texel = i / 3;
+            st = vdbs_error_set(err, VDBS_ERR_INPUT,
+                                "%s: texel (%zu, %zu) is %g (negative or not "
+                                "finite)",
+                                path, texel % (size_t)image.width, texel / (size_t)image.width,
+                                (double)image.rgb[i]);
+            vdbs_image_free(&image);
+            return st;
+        }
+    for (size_t i = 0; i < n; ++i)
+        image.rgb[i] = (float)(image.rgb[i] * scale);
+    map->width = image.width;
+    map->height = image.height;
+    map->rgb = image.rgb; /* taken over; image.se is NULL for maps */
+    free(image.se);
+    return VDBS_OK;
+}
+
+void vdbs_envmap_free(vdbs_envmap *map)
+{
+    if (!map)
+        return;
+    free(map->rgb);
+    memset(map, 0, sizeof *map);
+}
+
+static double latitude_of(const vdbs_envmap *m, double y)
+{
+    return -VDBS_PI * (y / (m->height - 1) - 0.5);
+}
+
+static double longitude_of(const vdbs_envmap *m, double x)
+{
+    return -2.0 * VDBS_PI * (x / (m->width - 1) - 0.5);
+}
+
+void vdbs_envmap_direction(const vdbs_envmap *map, double x, double y, double dir[3])
+{
+    double lat = latitude_of(map, y), lon = longitude_of(map, x);
+    dir[0] = sin(lon) * cos(lat);
+    dir[1] = sin(lat);
+    dir[2] = cos(lon) * cos(lat);
+}
+
+void vdbs_envmap_position(const vdbs_envmap *map, const double dir[3], double *x, double *y)
+{
+    double r = sqrt(dir[0] * dir[0] + dir[2] * dir[2]);
+    double len = sqrt(r * r + dir[1] * dir[1]);
+    double lat = len > 0.0 ? atan2(dir[1], r) : 0.0;
+    double lon = r > 0.0 ? atan2(dir[0], dir[2]) : 0.0;
+    *x = (lon / (-2.0 * VDBS_PI) + 0.5) * (map->width - 1);
+    *y = (lat / -VDBS_PI + 0.5) * (map->height - 1);
+}
+
+/* Longitude and sin(latitude) ranges of texel (x, y). */
+static void texel_bounds(const vdbs_envmap *m, int x, int y, double *lon0, double *lon1, double *s0,
+                         double *s1)
+{
+    double dlon = 2.0 * VDBS_PI / (m->width - 1), dlat = VDBS_PI / (m->height - 1);
+    double lon = longitude_of(m, x), lat = latitude_of(m, y);
+    *lon0 = fmax(lon - 0.5 * dlon, -VDBS_PI);
+    *lon1 = fmin(lon + 0.5 * dlon, VDBS_PI);
+    *s0 = sin(fmax(lat - 0.5 * dlat, -0.5 * VDBS_PI));
+    *s1 = sin(fmin(lat + 0.5 * dlat, 0.5 * VDBS_PI));
+}
+
+double vdbs_envmap_texel_solid_angle(const vdbs_envmap *map, int x, int y)
+{
+    double lon0, lon1, s0, s1;
+    texel_bounds(map, x, y, &lon0, &lon1, &s0, &s1);
+    return (lon1 - lon0) * (s1 - s0);
+}
+
+void vdbs_envmap_lookup(const vdbs_envmap *map, const double dir[3], double rgb[3])
+{
+    double x, y;
+    vdbs_envmap_position(map, dir, &x, &y);
+    x = fmin(fmax(x, 0.0), map->width - 1.0);
+    y = fmin(fmax(y, 0.0), map->height - 1.0);
+    int x0 = (int)x, y0 = (int)y;
+    int x1 = x0 + 1 < map->width ? x0 + 1 : x0, y1 = y0 + 1 < map->height ? y0 + 1 : y0;
+    double fx = x - x0, fy = y - y0;
+    for (int c = 0; c < 3; ++c) {
+        const float *p = map->rgb + c;
+        double a = p[3 * ((size_t)y0 * map->width + x0)], b = p[3 * ((size_t)y0 * map->width + x1)];
+        double d = p[3 * ((size_t)y1 * map->width + x0)], e = p[3 * ((size_t)y1 * map->width + x1)];
+        rgb[c] = (a + fx * (b - a)) * (1.0 - fy) + (d + fx * (e - d)) * fy;
+    }
+}
+
+static double luminance(const float *rgb)
+{
+    return 0.2126 * rgb[0] + 0.7152 * rgb[1] + 0.0722 * rgb[2];
+}
+
+/* The first index i with cdf[i + 1] > u (cdf[0] = 0, cdf[n] = 1, non-decreasing). */
+static int cdf_find(const double *cdf, int n, double u)
+{
+    int lo = 0, hi = n - 1;
+    while (lo < hi) {
+        int mid = (lo + hi) / 2;
+        if (cdf[mid + 1] > u)
+            hi = mid;
+        else
+            lo = mid + 1;
+    }
+    return lo;
+}
+
+static double radical_inverse2(uint32_t k)
+{
+    k = (k << 16) | (k >> 16);
+    k = ((k & 0x00ff00ffu) << 8) | ((k & 0xff00ff00u) >> 8);
+    k = ((k & 0x0f0f0f0fu) << 4) | ((k & 0xf0f0f0f0u) >> 4);
+    k = ((k & 0x33333333u) << 2) | ((k & 0xccccccccu) >> 2);
+    k = ((k & 0x55555555u) << 1) | ((k & 0xaaaaaaaau) >> 1);
+    return k * (1.0 / 4294967296.0);
+}
+
+int vdbs_envmap_sample(const vdbs_envmap *map, int count, double *dirs, double *weight,
+                       double *radiance, vdbs_error *err)
+{
+    const int w = map->width, h = map->height;
+    /* Row CDFs (rows of w + 1 entries) of luminance x solid angle and the marginal over rows. */
+    double *row_cdf = malloc(sizeof *row_cdf * (size_t)h * (size_t)(w + 1));
+    double *marginal = malloc(sizeof *marginal * (size_t)(h + 1));
+    double *row_sum = malloc(sizeof *row_sum * (size_t)h);
+    if (!row_cdf || !marginal || !row_sum) {
+        free(row_cdf);
+        free(marginal);
+        free(row_sum);
+        vdbs_error_set(err, VDBS_ERR_NOMEM, "out of memory for an env map's CDF");
+        return -1;
+    }
+    marginal[0] = 0.0;
+    for (int y = 0; y < h; ++y) {
+        double *c = row_cdf + (size_t)y * (w + 1);
+        c[0] = 0.0;
+        for (int x = 0; x < w; ++x)
+            c[x + 1] = c[x] + luminance(map->rgb + 3 * ((size_t)y * w + x)) *
+                                  vdbs_envmap_texel_solid_angle(map, x, y);
+        row_sum[y] = c[w];
+        for (int x = 1; x <= w; ++x)
+            c[x] = row_sum[y] > 0.0 ? c[x] / row_sum[y] : (double)x / w;
+        marginal[y + 1] = marginal[y] + row_sum[y];
+    }
+    const double total = marginal[h];
+    int written = 0;
+    if (total > 0.0) {
+        for (int y = 1; y <= h; ++y)
+            marginal[y] /= total;
+        for (int k = 0; k < count; ++k) {
+            double u1 = (k + 0.5) / count, u2 = radical_inverse2((uint32_t)k);
+            int y = cdf_find(marginal, h, u1);
+            const double *c = row_cdf + (size_t)y * (w + 1);
+            int x = cdf_find(c, w, u2);
+            /* Where u fell inside the texel's share: uniform in solid angle over the texel. */
+            double fy = (u1 - marginal[y]) / fmax(marginal[y + 1] - marginal[y], 1e-300);
+            double fx = (u2 - c[x]) / fmax(c[x + 1] - c[x], 1e-300);
+            fy = fmin(fmax(fy, 0.0), 1.0);
+            fx = fmin(fmax(fx, 0.0), 1.0);
+            double lon0, lon1, s0, s1;
+            texel_bounds(map, x, y, &lon0, &lon1, &s0, &s1);
+            double lon = lon0 + fx * (lon1 - lon0);
+            double s = s1 + fy * (s0 - s1); /* rows run from +Y down */
+            double cl = sqrt(fmax(0.0, 1.0 - s * s));
+            double *d = dirs + 3 * written;
+            d[0] = sin(lon) * cl;
+            d[1] = s;
+            d[2] = cos(lon) * cl;
+            const float *texel = map->rgb + 3 * ((size_t)y * w + x);
+            double omega = (lon1 - lon0) * (s1 - s0);
+            double p_texel = luminance(texel) * omega / total;
+            weight[written] = omega / (count * p_texel);
+            for (int ch = 0; ch < 3; ++ch)
+                radiance[3 * written + ch] = texel[ch];
+            ++written;
+        }
+    }
+    free(row_cdf);
+    free(marginal);
+    free(row_sum);
+    return written;
+}

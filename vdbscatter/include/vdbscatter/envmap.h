@@ -1,0 +1,57 @@
+/* Lat-long environment maps (DESIGN.md "Lights", env): OpenEXR or Radiance HDR files in
+ * OpenEXR's Imf::LatLong layout (ImfEnvmap.cpp), +Y up. Pixel (x, y) of a W x H map looks
+ * along latitude -pi (y / (H - 1) - 1/2) and longitude -2 pi (x / (W - 1) - 1/2), direction
+ * (sin lon cos lat, sin lat, cos lon cos lat): rows 0 and H - 1 sit on the poles, columns 0
+ * and W - 1 both on longitude +-pi. A texel holds the radiance arriving *from* its direction.
+ *
+ * Texel solid angles: texel (x, y) covers the longitudes and latitudes halfway to its
+ * neighbours, clamped to [-pi, pi] and [-pi/2, pi/2], so the first and last column and row
+ * cover half a step and the solid angles sum to 4 pi.
+ *
+ * Sampling: texels are drawn with probability proportional to luminance times solid angle
+ * and a point inside the texel uniformly in solid angle, from a deterministic stratified
+ * (Hammersley) set through the 2D CDF, so a bake is reproducible. Each of the K directions
+ * carries the texel's radiance and the weight 1 / (K pdf) in steradians: sum_k L_k w_k T_k
+ * is a consistent quadrature of integral L T over the sphere (exact for a constant map, where
+ * every w_k = 4 pi / K). */
+#ifndef VDBSCATTER_ENVMAP_H
+#define VDBSCATTER_ENVMAP_H
+
+#include "vdbscatter/status.h"
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+typedef struct vdbs_envmap {
+    int width, height;
+    float *rgb; /* 3 * width * height, radiance times the scale, row 0 the +Y pole */
+} vdbs_envmap;
+
+/* Reads `path` (OpenEXR or Radiance HDR) and multiplies it by scale. Errors (VDBS_ERR_INPUT,
+ * naming the file): missing or unreadable, another format, a width not twice the height,
+ * negative or non-finite texels, a scale that is negative or not finite. */
+vdbs_status vdbs_envmap_load(const char *path, double scale, vdbs_envmap *map, vdbs_error *err);
+void vdbs_envmap_free(vdbs_envmap *map);
+
+/* The direction of (continuous) pixel position (x, y), and back (x in [0, W-1], y in
+ * [0, H-1]). */
+void vdbs_envmap_direction(const vdbs_envmap *map, double x, double y, double dir[3]);
+void vdbs_envmap_position(const vdbs_envmap *map, const double dir[3], double *x, double *y);
+
+/* Solid angle of texel (x, y) in steradians. */
+double vdbs_envmap_texel_solid_angle(const vdbs_envmap *map, int x, int y);
+
+/* Radiance arriving from `dir` (any length), bilinear between texel centres. */
+void vdbs_envmap_lookup(const vdbs_envmap *map, const double dir[3], double rgb[3]);
+
+/* K importance-sampled directions (see above): dirs 3 K (unit, towards the sky), weight K
+ * (steradians), radiance 3 K. Returns the number written: K, or 0 for a black map. */
+int vdbs_envmap_sample(const vdbs_envmap *map, int count, double *dirs, double *weight,
+                       double *radiance, vdbs_error *err);
+
+#ifdef __cplusplus
+}
+#endif
+
+#endif
