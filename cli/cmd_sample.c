@@ -4,19 +4,23 @@
 
 #include "commands.h"
 #include "options.h"
+#include "vdbscatter/envmap.h"
 #include "vdbscatter/samples.h"
 #include "vdbscatter/vdbio.h"
 
 static const char help[] =
     "usage: vdbscatter sample NAME -o OUT.vdb [--res N] [--seed S] [-q]\n"
+    "       vdbscatter sample sky -o SKY.exr [--res N]\n"
     "\n"
     "Writes a procedural density volume in [-1,1]^3 (voxel size 2/N, centred on the\n"
-    "origin). NAME is one of:\n"
+    "origin), or the test environment map. NAME is one of:\n"
     "  cloud   fBm-noise cumulus (sparse, soft edges)\n"
     "  smoke   a rising plume\n"
     "  sphere  homogeneous ball of radius 0.8, density 1\n"
     "  slab    homogeneous slab |y| <= 0.25 (lit face +Y), density 1\n"
     "  cube    homogeneous cube of half-size 0.6, density 1\n"
+    "  sky     a lat-long OpenEXR sky of 2N x N texels: blue sky, dim ground and a\n"
+    "          small bright sun (longitude 30, latitude 35 degrees)\n"
     "\n"
     "options:\n"
     "  -o, --output FILE  output VDB (required)\n"
@@ -40,7 +44,8 @@ int cmd_sample(int argc, char **argv)
         return CLI_EXIT_OK;
     }
     if (args.positional_count != 1)
-        return cli_fail("sample", 2, "expected one sample NAME (cloud, smoke, sphere, slab, cube)");
+        return cli_fail("sample", 2,
+                        "expected one sample NAME (cloud, smoke, sphere, slab, cube, sky)");
     const char *out = cli_output(&args);
     if (!out)
         return cli_fail("sample", 2, "missing -o OUT.vdb");
@@ -53,6 +58,14 @@ int cmd_sample(int argc, char **argv)
         return cli_fail("sample", 2, err.message);
     int quiet = cli_flag(&args, "-q");
 
+    if (strcmp(args.positional[0], "sky") == 0) {
+        vdbs_image image;
+        vdbs_status st = vdbs_envmap_test_sky((int)res, &image, &err);
+        if (st == VDBS_OK)
+            st = vdbs_image_write(out, &image, 0.0, &err);
+        vdbs_image_free(&image);
+        return st == VDBS_OK ? CLI_EXIT_OK : cli_fail("sample", st, err.message);
+    }
     vdbio_density *density = NULL;
     vdbs_status st =
         vdbs_sample_create(args.positional[0], (int)res, (uint32_t)seed, &density, &err);

@@ -308,6 +308,43 @@ class RealFiles(Base):
         self.assertLessEqual(component_range(r)[1], 65504.0)
 
 
+class EnvMaps(Base):
+    def test_bake_with_the_test_sky(self):
+        """sample sky writes the bundled test map's kind; bake --env FILE[:SCALE] lights with it,
+        the scale scaling S1 exactly; render refuses maps until it reads them."""
+        sky = self.path("sky.exr")
+        run("sample", "sky", "-o", sky, "--res", "32", check=0)
+        src = os.path.join(SAMPLES, "cloud.vdb")
+        common = ["--density-scale", "20", "--quality", "low", "--json", "-q"]
+        one, p = self.bake(src, "--env", sky, *common, out="one.vdb")
+        self.assertEqual(p.returncode, 0, p.stderr)
+        half, p = self.bake(src, "--env", sky + ":0.5", *common, out="half.vdb")
+        self.assertEqual(p.returncode, 0, p.stderr)
+        a = {tuple(i.min): i.value for i in vdb.read(one, "radiance").citerOnValues()}
+        b = {tuple(i.min): i.value for i in vdb.read(half, "radiance").citerOnValues()}
+        self.assertGreater(max(max(v) for v in a.values()), 0.0)
+        for key, v in a.items():
+            for c in range(3):
+                self.assertAlmostEqual(b[key][c], 0.5 * v[c], delta=1e-6 * max(v[c], 1e-30))
+        self.assert_bad_input(["render", one, "-o", self.path("r.exr"), "--size", "8x6"],
+                              "not supported by render yet", output="r.exr")
+
+    def test_bad_maps(self):
+        sky = self.path("sky.exr")
+        run("sample", "sky", "-o", sky, "--res", "8", check=0)
+        square = self.path("square.exr")  # an image that is not 2:1
+        run("render", os.path.join(SAMPLES, "cube.vdb"), "-o", square, "--size", "8x8", "--sun", "0,-1,0",
+            "-q", check=0)
+        png = self.path("sky.png")
+        run("render", os.path.join(SAMPLES, "cube.vdb"), "-o", png, "--size", "16x8", "--sun", "0,-1,0",
+            "-q", check=0)
+        src = os.path.join(SAMPLES, "cloud.vdb")
+        for env, needle in [(square, "twice as wide"), (png, "not an OpenEXR or Radiance HDR"),
+                            (self.path("missing.exr"), "missing.exr"), (sky + ":-1", "scale")]:
+            with self.subTest(env=env):
+                self.assert_bad_input(["bake", src, "-o", self.path("out.vdb"), "--env", env], needle)
+
+
 class LightGrids(Base):
     def test_s1_grid_against_march(self):
         """bake with light grids (the default; --s1 grid): reported and recorded, and within 1%

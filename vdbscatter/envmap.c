@@ -219,3 +219,35 @@ int vdbs_envmap_sample(const vdbs_envmap *map, int count, double *dirs, double *
     free(row_sum);
     return written;
 }
+
+vdbs_status vdbs_envmap_test_sky(int height, vdbs_image *image, vdbs_error *err)
+{
+    if (height < 2 || height > 8192)
+        return vdbs_error_set(err, VDBS_ERR_INPUT, "sky: height %d is not in 2..8192", height);
+    vdbs_status st = vdbs_image_alloc(image, 2 * height, height, 0, err);
+    if (st != VDBS_OK)
+        return st;
+    vdbs_envmap map = {2 * height, height, image->rgb};
+    const double lat = 35.0 * VDBS_PI / 180.0, lon = 30.0 * VDBS_PI / 180.0;
+    const double sun[3] = {sin(lon) * cos(lat), sin(lat), cos(lon) * cos(lat)};
+    const double zenith[3] = {0.15, 0.3, 0.7}, horizon[3] = {0.7, 0.8, 0.9};
+    const double ground[3] = {0.12, 0.1, 0.08}, sun_rgb[3] = {3000.0, 2800.0, 2500.0};
+    const double cos_disc = cos(1.5 * VDBS_PI / 180.0);
+    for (int y = 0; y < height; ++y)
+        for (int x = 0; x < 2 * height; ++x) {
+            double d[3];
+            vdbs_envmap_direction(&map, x, y, d);
+            double c = d[0] * sun[0] + d[1] * sun[1] + d[2] * sun[2];
+            double glow = 2.0 * exp(-(1.0 - c) * 40.0);
+            float *p = image->rgb + 3 * ((size_t)y * 2 * height + x);
+            for (int ch = 0; ch < 3; ++ch) {
+                double v = d[1] >= 0.0 ? horizon[ch] + (zenith[ch] - horizon[ch]) * sqrt(d[1])
+                                       : ground[ch];
+                v += glow * horizon[ch];
+                if (c >= cos_disc)
+                    v = sun_rgb[ch];
+                p[ch] = (float)v;
+            }
+        }
+    return VDBS_OK;
+}

@@ -17,6 +17,7 @@
 #ifndef VDBSCATTER_ENVMAP_H
 #define VDBSCATTER_ENVMAP_H
 
+#include "vdbscatter/image.h"
 #include "vdbscatter/status.h"
 
 #ifdef __cplusplus
@@ -49,6 +50,11 @@ void vdbs_envmap_lookup(const vdbs_envmap *map, const double dir[3], double rgb[
  * (steradians), radiance 3 K. Returns the number written: K, or 0 for a black map. */
 int vdbs_envmap_sample(const vdbs_envmap *map, int count, double *dirs, double *weight,
                        double *radiance, vdbs_error *err);
+
+/* The test sky (`vdbscatter sample sky`): a 2 height x height lat-long image (allocated
+ * here) of a blue sky brightening to the horizon, a dim ground and a small sun (about 3
+ * degrees, 20 000 times the zenith) at longitude 30 and latitude 35 degrees with a glow. */
+vdbs_status vdbs_envmap_test_sky(int height, vdbs_image *image, vdbs_error *err);
 
 #ifdef __cplusplus
 }
