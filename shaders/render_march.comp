@@ -13,6 +13,8 @@ layout(std430, binding = 2) readonly buffer LightBuffer { vec4 light_data[]; };
 layout(std430, binding = 3) readonly buffer RenderBuffer { vec4 render_data[]; };
 /* The light grids (a count of 0 when the lights are marched). */
 layout(std430, binding = 4) readonly buffer LightGridBuffer { uint lgrid_data[]; };
+/* The environment map (vs_envmap.h; a zero header without one). */
+layout(std430, binding = 5) readonly buffer EnvBuffer { float env_data[]; };
 layout(std430, binding = VS_PASS_BINDING_STATE_IN) readonly buffer StateIn { uint state_in[]; };
 layout(std430, binding = VS_PASS_BINDING_STATE_OUT) writeonly buffer StateOut { uint state_out[]; };
 layout(std430, binding = VS_PASS_BINDING_OUTPUT) writeonly buffer ImageBuffer { float image_rgb[]; };
@@ -24,6 +26,7 @@ layout(std430, binding = VS_PASS_BINDING_OUTPUT) writeonly buffer ImageBuffer { 
 #include "vs_medium.h"
 #include "vs_lights.h"
 #include "vs_lightgrid.h"
+#include "vs_envmap.h"
 #include "vs_render.h"
 
 void main()
@@ -40,7 +43,7 @@ void main()
         vs_render_advance(buf, accs, ray, st, vs_pass_units());
     }
     vs_render_state_store(item, st);
-    vec3 radiance = vs_render_result(st);
+    vec3 radiance = vs_render_result(ray, st);
     image_rgb[3u * item] = radiance.x;
     image_rgb[3u * item + 1u] = radiance.y;
     image_rgb[3u * item + 2u] = radiance.z;

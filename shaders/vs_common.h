@@ -25,6 +25,8 @@
 #define vs_min min
 #define vs_max max
 #define vs_pow pow
+#define vs_atan2 atan
+#define VS_UNUSED(name)
 
 #else
 
@@ -55,6 +57,9 @@ typedef struct vs_vec4 {
 #define vs_sqrt sqrtf
 #define vs_abs fabsf
 #define vs_pow powf
+#define vs_atan2 atan2f
+/* A table parameter a kernel function passes on but does not read (a global in GLSL). */
+#define VS_UNUSED(name) (void)(name)
 /* Plain comparisons: fminf / fmaxf are library calls (their NaN rules keep gcc from inlining
  * them), in the march's innermost loop. Kernel operands are never NaN. */
 static inline float vs_min(float a, float b)

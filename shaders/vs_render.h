@@ -1,6 +1,6 @@
 /* Deterministic ray-marched rendering (`render --mode single|baked`, later the viewer),
  * shared by C and GLSL. Include after vs_common.h, vs_march.h, vs_phase.h, vs_medium.h,
- * vs_lights.h and vs_lightgrid.h.
+ * vs_lights.h, vs_lightgrid.h and vs_envmap.h.
  *
  * Along a camera ray, L = integral T(0,t) sigma_s(x) S(x, wo) dt + T_total L_background,
  * with S = S1 (+ Sms in baked mode). The ray is cut into segments of step_voxels voxels
@@ -53,10 +53,11 @@
 #define VS_RENDER_TABLES                                                                           \
     VS_DATA_PARAM(vs_vec4, medium_data)                                                            \
     VS_DATA_PARAM(vs_vec4, light_data)                                                             \
-    VS_DATA_PARAM(vs_vec4, render_data) VS_DATA_PARAM(vs_uint, lgrid_data)
+    VS_DATA_PARAM(vs_vec4, render_data)                                                            \
+    VS_DATA_PARAM(vs_uint, lgrid_data) VS_DATA_PARAM(float, env_data)
 #define VS_RENDER_TABLES_ARG                                                                       \
     VS_DATA_ARG(medium_data)                                                                       \
-    VS_DATA_ARG(light_data) VS_DATA_ARG(render_data) VS_DATA_ARG(lgrid_data)
+    VS_DATA_ARG(light_data) VS_DATA_ARG(render_data) VS_DATA_ARG(lgrid_data) VS_DATA_ARG(env_data)
 
 /* Guard on segments per camera ray (a step of 1/8 voxel across a 2^17-voxel grid). */
 #define VS_RENDER_MAX_SEGMENTS 1048576
@@ -332,6 +333,7 @@ VS_FUNC void vs_render_unit(VS_RENDER_TABLES pnanovdb_buf_t buf,
                             PNANOVDB_INOUT(vs_render_accessors) accs, vs_render_ray_info ray,
                             PNANOVDB_INOUT(vs_render_state) st)
 {
+    VS_UNUSED(env_data); /* read by vs_render_result */
     int light_count = vs_lights_direct_count(VS_DATA_ONLY_ARG(light_data));
     int sky_count = vs_lights_ordinate_count(VS_DATA_ONLY_ARG(light_data));
     float density_scale = vs_medium_density_scale(VS_DATA_ONLY_ARG(medium_data));
@@ -452,10 +454,15 @@ VS_FUNC void vs_render_advance(VS_RENDER_TABLES pnanovdb_buf_t buf,
     }
 }
 
-/* The ray's radiance: the in-scattered integral plus the background seen through it. */
-VS_FUNC pnanovdb_vec3_t vs_render_result(VS_DATA_PARAM(vs_vec4, light_data) vs_render_state st)
+/* The ray's radiance: the in-scattered integral plus the background seen through it (the
+ * constant env colours and the map along the ray). */
+VS_FUNC pnanovdb_vec3_t vs_render_result(VS_DATA_PARAM(vs_vec4, light_data)
+                                             VS_DATA_PARAM(float, env_data) vs_render_ray_info ray,
+                                         vs_render_state st)
 {
-    return vs_vec3_madd(st.radiance, vs_lights_background(VS_DATA_ONLY_ARG(light_data)),
+    pnanovdb_vec3_t sky = vs_lights_background(VS_DATA_ONLY_ARG(light_data));
+    pnanovdb_vec3_t map = vs_env_radiance(VS_DATA_ARG(env_data) vs_vec3_scale(ray.wo, -1.0f));
+    return vs_vec3_madd(st.radiance, vs_vec3(sky.x + map.x, sky.y + map.y, sky.z + map.z),
                         st.transmittance);
 }
 
@@ -469,7 +476,7 @@ VS_FUNC pnanovdb_vec3_t vs_render_ray(VS_RENDER_TABLES pnanovdb_buf_t buf,
         vs_render_ray_begin(VS_DATA_ARG(medium_data) VS_DATA_ARG(render_data) origin, dir, wo);
     vs_render_state st = vs_render_state_init(ray);
     vs_render_advance(VS_RENDER_TABLES_ARG buf, accs, ray, PNANOVDB_REF(st), 2147483647);
-    return vs_render_result(VS_DATA_ARG(light_data) st);
+    return vs_render_result(VS_DATA_ARG(light_data) VS_DATA_ARG(env_data) ray, st);
 }
 
 VS_FUNC pnanovdb_vec3_t vs_render_pixel(VS_RENDER_TABLES pnanovdb_buf_t buf,
@@ -479,7 +486,7 @@ VS_FUNC pnanovdb_vec3_t vs_render_pixel(VS_RENDER_TABLES pnanovdb_buf_t buf,
         vs_render_camera_ray(VS_DATA_ARG(medium_data) VS_DATA_ARG(render_data) px, py);
     vs_render_state st = vs_render_state_init(ray);
     vs_render_advance(VS_RENDER_TABLES_ARG buf, accs, ray, PNANOVDB_REF(st), 2147483647);
-    return vs_render_result(VS_DATA_ARG(light_data) st);
+    return vs_render_result(VS_DATA_ARG(light_data) VS_DATA_ARG(env_data) ray, st);
 }
 
 #if defined(PNANOVDB_GLSL)

@@ -14,6 +14,7 @@
 #include "vdbscatter/envmap.h"
 #include "vdbscatter/image.h"
 #include "vdbscatter/lights.h"
+#include "vdbscatter/render.h"
 #include "vdbscatter/single.h"
 
 #define PI 3.14159265358979323846
@@ -329,12 +330,59 @@ static void test_probe_side(void **state)
     vdbs_volume_free(&volume);
 }
 
+/* Rays that leave the volume see the map: with an empty medium every pixel of the render is
+ * the map looked up along its camera ray (the kernel's float lookup against envmap.c's). */
+static void test_background(void **state)
+{
+    (void)state;
+    vdbs_error err;
+    vdbs_image sky;
+    assert_int_equal(vdbs_envmap_test_sky(32, &sky, &err), VDBS_OK);
+    const char *path = test_tmp_path("env_background.exr");
+    assert_int_equal(vdbs_image_write(path, &sky, 0.0, &err), VDBS_OK);
+    vdbs_image_free(&sky);
+    vdbs_volume volume;
+    test_sample_volume("cloud", 16, 3, &volume);
+    vdbs_scene scene;
+    env_scene(&scene, path, 2.0);
+    scene.density_scale = 0.0;
+    vdbs_envmap map;
+    load_ok(path, 2.0, &map);
+    vdbs_camera camera = {1, {0.3, 0.2, 2.0}, {0.0, 0.0, 0.0}, {0.0, 1.0, 0.0}, 120.0, 24, 16};
+    vdbs_camera_frame frame;
+    assert_int_equal(vdbs_camera_frame_init(&camera, &frame, &err), VDBS_OK);
+    vdbs_image image;
+    assert_int_equal(vdbs_image_alloc(&image, 24, 16, 0, &err), VDBS_OK);
+    vdbs_march_options options = {0};
+    options.sky_directions = 16;
+    options.step_voxels = 1.0f;
+    assert_int_equal(vdbs_render_march(test_runner(VDBS_BACKEND_CPU), &volume, NULL, &scene, &frame,
+                                       &options, &image, &err),
+                     VDBS_OK);
+    double worst = 0.0;
+    for (int py = 0; py < 16; ++py)
+        for (int px = 0; px < 24; ++px) {
+            double dir[3], want[3];
+            vdbs_camera_ray(&frame, px + 0.5, py + 0.5, dir);
+            vdbs_envmap_lookup(&map, dir, want);
+            for (int c = 0; c < 3; ++c)
+                worst = fmax(worst, test_rel_diff(image.rgb[3 * (py * 24 + px) + c], want[c]));
+        }
+    print_message("background against the map along the camera rays: worst relative "
+                  "difference %.2e\n",
+                  worst);
+    assert_true(worst <= 1e-5);
+    vdbs_image_free(&image);
+    vdbs_envmap_free(&map);
+    vdbs_volume_free(&volume);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_convention), cmocka_unit_test(test_sampling),
         cmocka_unit_test(test_bad_maps),   cmocka_unit_test(test_bake_twins),
-        cmocka_unit_test(test_probe_side),
+        cmocka_unit_test(test_probe_side), cmocka_unit_test(test_background),
     };
     return cmocka_run_group_tests(tests, NULL, teardown);
 }

@@ -154,69 +154,95 @@ static double radical_inverse2(uint32_t k)
     return k * (1.0 / 4294967296.0);
 }
 
-int vdbs_envmap_sample(const vdbs_envmap *map, int count, double *dirs, double *weight,
-                       double *radiance, vdbs_error *err)
+vdbs_status vdbs_envmap_sampler_init(const vdbs_envmap *map, vdbs_envmap_sampler *s,
+                                     vdbs_error *err)
 {
+    memset(s, 0, sizeof *s);
     const int w = map->width, h = map->height;
-    /* Row CDFs (rows of w + 1 entries) of luminance x solid angle and the marginal over rows. */
-    double *row_cdf = malloc(sizeof *row_cdf * (size_t)h * (size_t)(w + 1));
-    double *marginal = malloc(sizeof *marginal * (size_t)(h + 1));
-    double *row_sum = malloc(sizeof *row_sum * (size_t)h);
-    if (!row_cdf || !marginal || !row_sum) {
-        free(row_cdf);
-        free(marginal);
-        free(row_sum);
-        vdbs_error_set(err, VDBS_ERR_NOMEM, "out of memory for an env map's CDF");
-        return -1;
+    s->map = map;
+    s->row_cdf = malloc(sizeof *s->row_cdf * (size_t)h * (size_t)(w + 1));
+    s->marginal = malloc(sizeof *s->marginal * (size_t)(h + 1));
+    if (!s->row_cdf || !s->marginal) {
+        vdbs_envmap_sampler_free(s);
+        return vdbs_error_set(err, VDBS_ERR_NOMEM, "out of memory for an env map's CDF");
     }
-    marginal[0] = 0.0;
+    s->marginal[0] = 0.0;
     for (int y = 0; y < h; ++y) {
-        double *c = row_cdf + (size_t)y * (w + 1);
+        double *c = s->row_cdf + (size_t)y * (w + 1);
         c[0] = 0.0;
         for (int x = 0; x < w; ++x)
             c[x + 1] = c[x] + luminance(map->rgb + 3 * ((size_t)y * w + x)) *
                                   vdbs_envmap_texel_solid_angle(map, x, y);
-        row_sum[y] = c[w];
+        double row = c[w];
         for (int x = 1; x <= w; ++x)
-            c[x] = row_sum[y] > 0.0 ? c[x] / row_sum[y] : (double)x / w;
-        marginal[y + 1] = marginal[y] + row_sum[y];
+            c[x] = row > 0.0 ? c[x] / row : (double)x / w;
+        s->marginal[y + 1] = s->marginal[y] + row;
     }
-    const double total = marginal[h];
+    s->total = s->marginal[h];
+    for (int y = 1; y <= h && s->total > 0.0; ++y)
+        s->marginal[y] /= s->total;
+    return VDBS_OK;
+}
+
+void vdbs_envmap_sampler_free(vdbs_envmap_sampler *s)
+{
+    free(s->row_cdf);
+    free(s->marginal);
+    memset(s, 0, sizeof *s);
+}
+
+double vdbs_envmap_sampler_draw(const vdbs_envmap_sampler *s, double u1, double u2, double dir[3],
+                                double radiance[3])
+{
+    const vdbs_envmap *map = s->map;
+    const int w = map->width, h = map->height;
+    int y = cdf_find(s->marginal, h, u1);
+    const double *c = s->row_cdf + (size_t)y * (w + 1);
+    int x = cdf_find(c, w, u2);
+    /* Where u fell inside the texel's share: uniform in solid angle over the texel. */
+    double fy = (u1 - s->marginal[y]) / fmax(s->marginal[y + 1] - s->marginal[y], 1e-300);
+    double fx = (u2 - c[x]) / fmax(c[x + 1] - c[x], 1e-300);
+    fy = fmin(fmax(fy, 0.0), 1.0);
+    fx = fmin(fmax(fx, 0.0), 1.0);
+    double lon0, lon1, s0, s1;
+    texel_bounds(map, x, y, &lon0, &lon1, &s0, &s1);
+    double lon = lon0 + fx * (lon1 - lon0);
+    double sl = s1 + fy * (s0 - s1); /* rows run from +Y down */
+    double cl = sqrt(fmax(0.0, 1.0 - sl * sl));
+    dir[0] = sin(lon) * cl;
+    dir[1] = sl;
+    dir[2] = cos(lon) * cl;
+    const float *texel = map->rgb + 3 * ((size_t)y * w + x);
+    for (int ch = 0; ch < 3; ++ch)
+        radiance[ch] = texel[ch];
+    return luminance(texel) / s->total;
+}
+
+double vdbs_envmap_sampler_pdf(const vdbs_envmap_sampler *s, const double dir[3])
+{
+    if (!(s->total > 0.0))
+        return 0.0;
+    double x, y;
+    vdbs_envmap_position(s->map, dir, &x, &y);
+    int xi = (int)floor(x + 0.5), yi = (int)floor(y + 0.5);
+    xi = xi < 0 ? 0 : (xi >= s->map->width ? s->map->width - 1 : xi);
+    yi = yi < 0 ? 0 : (yi >= s->map->height ? s->map->height - 1 : yi);
+    return luminance(s->map->rgb + 3 * ((size_t)yi * s->map->width + xi)) / s->total;
+}
+
+int vdbs_envmap_sample(const vdbs_envmap *map, int count, double *dirs, double *weight,
+                       double *radiance, vdbs_error *err)
+{
+    vdbs_envmap_sampler s;
+    if (vdbs_envmap_sampler_init(map, &s, err) != VDBS_OK)
+        return -1;
     int written = 0;
-    if (total > 0.0) {
-        for (int y = 1; y <= h; ++y)
-            marginal[y] /= total;
-        for (int k = 0; k < count; ++k) {
-            double u1 = (k + 0.5) / count, u2 = radical_inverse2((uint32_t)k);
-            int y = cdf_find(marginal, h, u1);
-            const double *c = row_cdf + (size_t)y * (w + 1);
-            int x = cdf_find(c, w, u2);
-            /* Where u fell inside the texel's share: uniform in solid angle over the texel. */
-            double fy = (u1 - marginal[y]) / fmax(marginal[y + 1] - marginal[y], 1e-300);
-            double fx = (u2 - c[x]) / fmax(c[x + 1] - c[x], 1e-300);
-            fy = fmin(fmax(fy, 0.0), 1.0);
-            fx = fmin(fmax(fx, 0.0), 1.0);
-            double lon0, lon1, s0, s1;
-            texel_bounds(map, x, y, &lon0, &lon1, &s0, &s1);
-            double lon = lon0 + fx * (lon1 - lon0);
-            double s = s1 + fy * (s0 - s1); /* rows run from +Y down */
-            double cl = sqrt(fmax(0.0, 1.0 - s * s));
-            double *d = dirs + 3 * written;
-            d[0] = sin(lon) * cl;
-            d[1] = s;
-            d[2] = cos(lon) * cl;
-            const float *texel = map->rgb + 3 * ((size_t)y * w + x);
-            double omega = (lon1 - lon0) * (s1 - s0);
-            double p_texel = luminance(texel) * omega / total;
-            weight[written] = omega / (count * p_texel);
-            for (int ch = 0; ch < 3; ++ch)
-                radiance[3 * written + ch] = texel[ch];
-            ++written;
-        }
+    for (int k = 0; k < count && s.total > 0.0; ++k) {
+        double pdf = vdbs_envmap_sampler_draw(&s, (k + 0.5) / count, radical_inverse2((uint32_t)k),
+                                              dirs + 3 * written, radiance + 3 * written);
+        weight[written++] = 1.0 / (count * pdf);
     }
-    free(row_cdf);
-    free(marginal);
-    free(row_sum);
+    vdbs_envmap_sampler_free(&s);
     return written;
 }
 

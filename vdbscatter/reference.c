@@ -208,12 +208,14 @@ typedef struct ref_ctx {
     vdbs_majorant_grid grid;
     pnanovdb_buf_t buf;
     vdbs_light_table lights; /* suns and points; the sky is sampled here, not by ordinates */
+    vdbs_envmap_sampler env; /* the map's distribution when lights.env is set */
     int max_bounces;
 } ref_ctx;
 
 static void ctx_free(ref_ctx *ctx)
 {
     vdbs_majorant_grid_free(&ctx->grid);
+    vdbs_envmap_sampler_free(&ctx->env);
     vdbs_lights_free(&ctx->lights);
     memset(ctx, 0, sizeof *ctx);
 }
@@ -232,6 +234,11 @@ static vdbs_status ctx_init(const vdbs_volume *volume, const vdbs_scene *scene, 
     ctx->buf = pnanovdb_make_buf(volume->nano, volume->nano_size / 4);
     vdbs_medium_init(&ctx->medium, volume, scene);
     ctx->max_bounces = max_bounces;
+    if (ctx->lights.env &&
+        (st = vdbs_envmap_sampler_init(ctx->lights.env, &ctx->env, err)) != VDBS_OK) {
+        ctx_free(ctx);
+        return st;
+    }
     st = vdbs_majorant_grid_build(&ctx->medium, &ctx->grid, err);
     if (st != VDBS_OK)
         ctx_free(ctx);
@@ -248,6 +255,36 @@ static void tracker_init(const ref_ctx *ctx, ref_tracker *tr)
 }
 
 /* ---- paths ---- */
+
+/* The sky's radiance arriving from world direction `from` (unit): the constant env colours
+ * plus the map, bilinear. */
+static void sky_radiance(const ref_ctx *ctx, const double from[3], double out[3])
+{
+    memcpy(out, ctx->lights.sky, sizeof ctx->lights.sky);
+    if (ctx->lights.env) {
+        double m[3];
+        vdbs_envmap_lookup(ctx->lights.env, from, m);
+        for (int c = 0; c < 3; ++c)
+            out[c] += m[c];
+    }
+}
+
+/* Multiple importance sampling of a map (power heuristic): the weight of the strategy whose
+ * pdf is a against the other's b. */
+static double mis_weight(double a, double b)
+{
+    return a * a / (a * a + b * b);
+}
+
+/* The MIS weight of the sky seen along a phase-sampled direction w (the sky lies along w)
+ * whose HG pdf was phase_pdf, against the map's next-event estimate that could have drawn w
+ * too; 1 without a map. */
+static double escape_weight(const ref_ctx *ctx, const double w[3], double phase_pdf)
+{
+    if (!(ctx->env.total > 0.0) || phase_pdf < 0.0)
+        return 1.0;
+    return mis_weight(phase_pdf, vdbs_envmap_sampler_pdf(&ctx->env, w));
+}
 
 /* Light arriving at the scattering vertex (world xw, index xi) and scattered into the
  * direction -w (towards where the path came from), per unit sigma_s: the NEE estimate of
@@ -284,6 +321,21 @@ static void next_event(const ref_ctx *ctx, ref_tracker *tr, ref_rng *rng, const 
         for (int c = 0; c < 3; ++c)
             out[c] += l->color[c] * weight * transmittance;
     }
+    if (!(ctx->env.total > 0.0))
+        return;
+    /* The map by its luminance x solid angle distribution, MIS-weighted against HG sampling
+     * (which finds the same light on escape, weighted by escape_weight). */
+    double from[3], texel[3], L[3];
+    double pdf = vdbs_envmap_sampler_draw(&ctx->env, rng_next(rng), rng_next(rng), from, texel);
+    double neg_from[3] = {-from[0], -from[1], -from[2]}, neg_w[3] = {-w[0], -w[1], -w[2]};
+    double phase = vs_hg_eval_d(ctx->medium.g, one_minus_dot(neg_from, neg_w));
+    double d[3];
+    vdbs_volume_index_vector(ctx->volume, from, d);
+    double transmittance = ratio_track(tr, rng, xi, d, HUGE_VAL);
+    sky_radiance(ctx, from, L);
+    double weight = phase * transmittance * mis_weight(pdf, phase) / pdf;
+    for (int c = 0; c < 3; ++c)
+        out[c] += L[c] * weight;
 }
 
 /* One radiance sample along the camera ray (world origin and unit direction). */
@@ -298,14 +350,19 @@ static void trace_camera(const ref_ctx *ctx, ref_tracker *tr, ref_rng *rng, cons
     vdbs_volume_index_vector(ctx->volume, w, d);
     radiance[0] = radiance[1] = radiance[2] = 0.0;
     tr->budget = REF_PATH_STEPS;
+    double phase_pdf = -1.0; /* HG pdf of the current direction; < 0: the camera's own */
 
     for (int bounce = 1;; ++bounce) {
         double t;
         int axis;
         int r = delta_track(tr, rng, xi, d, HUGE_VAL, &t, &axis);
         if (r == TRACK_ESCAPED) {
-            for (int c = 0; c < 3; ++c)
-                radiance[c] += beta[c] * ctx->lights.sky[c];
+            if (ctx->lights.has_sky) {
+                double L[3], weight = escape_weight(ctx, w, phase_pdf);
+                sky_radiance(ctx, w, L);
+                for (int c = 0; c < 3; ++c)
+                    radiance[c] += beta[c] * L[c] * weight;
+            }
             return;
         }
         if (r == TRACK_GAVE_UP)
@@ -327,14 +384,17 @@ static void trace_camera(const ref_ctx *ctx, ref_tracker *tr, ref_rng *rng, cons
 
         double mu, sin_theta;
         vs_hg_sample_d(ctx->medium.g, rng_next(rng), &mu, &sin_theta);
+        phase_pdf = vs_hg_eval_d(ctx->medium.g, 1.0 - mu);
         scatter_dir(w, mu, sin_theta, rng_next(rng));
         vdbs_volume_index_vector(ctx->volume, w, d);
         if (bounce >= ctx->max_bounces) {
             /* No further scattering: the sky through the remaining transmittance. */
             if (ctx->lights.has_sky) {
                 double tr_env = ratio_track(tr, rng, xi, d, HUGE_VAL);
+                double L[3], weight = escape_weight(ctx, w, phase_pdf) * tr_env;
+                sky_radiance(ctx, w, L);
                 for (int c = 0; c < 3; ++c)
-                    radiance[c] += beta[c] * ctx->lights.sky[c] * tr_env;
+                    radiance[c] += beta[c] * L[c] * weight;
             }
             return;
         }

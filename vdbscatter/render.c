@@ -21,6 +21,7 @@
 #include "vs_medium.h"
 #include "vs_lights.h"
 #include "vs_lightgrid.h"
+#include "vs_envmap.h"
 #include "vs_march.h"
 #include "vs_phase.h"
 #include "vs_render.h"
@@ -145,6 +146,7 @@ typedef struct march_job {
     const vs_vec4 *light_data;
     const vs_vec4 *render_data;
     const vs_uint *lgrid_data;
+    const float *env_data;
     pnanovdb_buf_t buf;
     int width;
     float *rgb;
@@ -156,8 +158,8 @@ static void march_items(void *user, uint64_t begin, uint64_t end)
     vs_render_accessors accs = vs_render_accessors_init(job->render_data, job->buf);
     for (uint64_t n = begin; n < end; ++n) {
         pnanovdb_vec3_t L = vs_render_pixel(
-            job->medium_data, job->light_data, job->render_data, job->lgrid_data, job->buf, &accs,
-            (int)(n % (uint64_t)job->width), (int)(n / (uint64_t)job->width));
+            job->medium_data, job->light_data, job->render_data, job->lgrid_data, job->env_data,
+            job->buf, &accs, (int)(n % (uint64_t)job->width), (int)(n / (uint64_t)job->width));
         job->rgb[3 * n] = L.x;
         job->rgb[3 * n + 1] = L.y;
         job->rgb[3 * n + 2] = L.z;
@@ -216,6 +218,23 @@ vdbs_status vdbs_render_march(vdbs_runner *runner, const vdbs_volume *volume,
         if (st == VDBS_OK)
             st = vdbs_light_grids_fit(runner, &light_grids, err);
     }
+    /* The map the rays that leave see (vs_envmap.h); a zero header without one. */
+    float no_env[VS_ENV_OFF_TEXELS] = {0.0f, 0.0f, 0.0f, 0.0f};
+    float *env = no_env;
+    size_t env_bytes = sizeof no_env;
+    if (st == VDBS_OK && lights.env) {
+        size_t texels = (size_t)lights.env->width * (size_t)lights.env->height;
+        env_bytes = sizeof(float) * (VS_ENV_OFF_TEXELS + 3 * texels);
+        env = calloc(1, env_bytes);
+        if (!env) {
+            env = no_env;
+            st = vdbs_error_set(err, VDBS_ERR_NOMEM, "out of memory for the env map");
+        } else {
+            env[VS_ENV_OFF_WIDTH] = (float)lights.env->width;
+            env[VS_ENV_OFF_HEIGHT] = (float)lights.env->height;
+            memcpy(env + VS_ENV_OFF_TEXELS, lights.env->rgb, sizeof(float) * 3 * texels);
+        }
+    }
     vdbs_medium medium_params;
     vdbs_medium_init(&medium_params, volume, scene);
     float medium[4 * VDBS_MEDIUM_TABLE_ENTRIES];
@@ -224,6 +243,7 @@ vdbs_status vdbs_render_march(vdbs_runner *runner, const vdbs_volume *volume,
                      (const vs_vec4 *)lights.packed,
                      (const vs_vec4 *)table,
                      lgrid_words,
+                     env,
                      pnanovdb_make_buf(grids, grids_size / 4),
                      frame->width,
                      image->rgb};
@@ -239,6 +259,7 @@ vdbs_status vdbs_render_march(vdbs_runner *runner, const vdbs_volume *volume,
     desc.inputs[2] = (vdbs_kernel_input){lights.packed, lights.packed_entries * 4 * sizeof(float)};
     desc.inputs[3] = (vdbs_kernel_input){table, entries * 4 * sizeof(float)};
     desc.inputs[4] = (vdbs_kernel_input){lgrid_words, lgrid_bytes};
+    desc.inputs[5] = (vdbs_kernel_input){env, env_bytes};
     desc.state_words = VS_RENDER_STATE_WORDS;
     desc.output_words = 3;
     desc.output = image->rgb;
@@ -254,6 +275,8 @@ vdbs_status vdbs_render_march(vdbs_runner *runner, const vdbs_volume *volume,
         options->stats->seconds_march = omp_get_wtime() - t_march;
     }
     vdbs_light_grids_free(&light_grids);
+    if (env != no_env)
+        free(env);
     if (owned)
         free(grids);
     vdbs_lights_free(&lights);
@@ -430,14 +453,6 @@ vdbs_status vdbs_render(const vdbs_render_desc *d, vdbs_render_report *report, v
         return vdbs_error_set(err, VDBS_ERR_NOMEM, "out of memory for a scene");
     st = resolve_scene(d, input, &lit, &mode, &is_lit, scene, err);
     vdbs_march_options march = {0};
-    /* Maps light bakes; the render's background, S1 and reference do not read them yet. */
-    for (int i = 0; st == VDBS_OK && i < scene->light_count; ++i)
-        if (scene->lights[i].type == VDBS_LIGHT_ENV &&
-            vdbs_light_env_file(scene, &scene->lights[i])[0])
-            st = vdbs_error_set(err, VDBS_ERR_INPUT,
-                                "render: environment maps (%s) are not supported by render yet; "
-                                "use a constant --env R,G,B",
-                                vdbs_light_env_file(scene, &scene->lights[i]));
     if (st == VDBS_OK) {
         report->mode = vdbs_render_mode_name(mode);
         for (int i = 0; i < scene->light_count; ++i)

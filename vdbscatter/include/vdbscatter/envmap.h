@@ -46,8 +46,27 @@ double vdbs_envmap_texel_solid_angle(const vdbs_envmap *map, int x, int y);
 /* Radiance arriving from `dir` (any length), bilinear between texel centres. */
 void vdbs_envmap_lookup(const vdbs_envmap *map, const double dir[3], double rgb[3]);
 
+/* The luminance x solid angle distribution of a map (the map must outlive it). */
+typedef struct vdbs_envmap_sampler {
+    const vdbs_envmap *map;
+    double *row_cdf;  /* height rows of width + 1 */
+    double *marginal; /* height + 1 */
+    double total;     /* integral of luminance over the sphere; 0 for a black map */
+} vdbs_envmap_sampler;
+
+vdbs_status vdbs_envmap_sampler_init(const vdbs_envmap *map, vdbs_envmap_sampler *sampler,
+                                     vdbs_error *err);
+void vdbs_envmap_sampler_free(vdbs_envmap_sampler *sampler);
+/* A direction for (u1, u2) in [0, 1)^2 (towards the sky), the texel's radiance, and its pdf
+ * per steradian (returned; total must be > 0). */
+double vdbs_envmap_sampler_draw(const vdbs_envmap_sampler *sampler, double u1, double u2,
+                                double dir[3], double radiance[3]);
+/* The pdf per steradian of drawing `dir`: the luminance of its texel over total. */
+double vdbs_envmap_sampler_pdf(const vdbs_envmap_sampler *sampler, const double dir[3]);
+
 /* K importance-sampled directions (see above): dirs 3 K (unit, towards the sky), weight K
- * (steradians), radiance 3 K. Returns the number written: K, or 0 for a black map. */
+ * (steradians), radiance 3 K. Returns the number written: K, or 0 for a black map; -1 when
+ * out of memory. */
 int vdbs_envmap_sample(const vdbs_envmap *map, int count, double *dirs, double *weight,
                        double *radiance, vdbs_error *err);
 
