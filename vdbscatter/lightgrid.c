@@ -518,7 +518,8 @@ vdbs_status vdbs_light_grids_build(vdbs_runner *runner, const vdbs_volume *volum
             st = vdbs_error_set(err, VDBS_ERR_NOMEM, "out of memory for light grids");
         } else {
             words = grown;
-            memcpy(words + depth_at, store.data, sizeof *store.data * (size_t)store.count);
+            if (store.count > 0) /* every column empty: no samples, store.data NULL */
+                memcpy(words + depth_at, store.data, sizeof *store.data * (size_t)store.count);
             /* Record offsets were relative to the store. */
             for (int g = 0; g < count; ++g)
                 for (int64_t c = 0; c < plans[g].n[0] * plans[g].n[1]; ++c)
