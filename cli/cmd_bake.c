@@ -27,7 +27,9 @@ static const char help[] =
     "  --g G                    Henyey-Greenstein anisotropy in [-0.999, 0.999] (default 0)\n"
     "  --sun DX,DY,DZ[:R,G,B]   sun travelling along D with irradiance RGB (default 1)\n"
     "  --point X,Y,Z[:R,G,B]    point light at X,Y,Z with intensity RGB W/sr (default 1)\n"
-    "  --env R,G,B              constant sky radiance\n"
+    "  --env R,G,B | FILE[:S]   constant sky radiance, or a lat-long OpenEXR / Radiance HDR\n"
+    "                           map times S, importance-sampled into the sky directions\n"
+    "  --sky-directions K       sky quadrature directions (default: the quality's)\n"
     "  --method NAME            solver (default single; the list below)\n"
     "  --quality Q              low | medium | high | ultra (sky directions 16/64/256/1024)\n"
     "\n"
@@ -62,6 +64,7 @@ static const cli_option options[] = {
     {"--env", CLI_VALUE},
     {"--method", CLI_VALUE},
     {"--quality", CLI_VALUE},
+    {"--sky-directions", CLI_VALUE},
     {NULL, CLI_FLAG},
 };
 

@@ -38,7 +38,9 @@ static const char help[] =
     "  --g G                    Henyey-Greenstein anisotropy in [-0.999, 0.999] (default 0)\n"
     "  --sun DX,DY,DZ[:R,G,B]   sun travelling along D with irradiance RGB (default 1)\n"
     "  --point X,Y,Z[:R,G,B]    point light at X,Y,Z with intensity RGB W/sr (default 1)\n"
-    "  --env R,G,B              constant sky radiance (also the background)\n"
+    "  --env R,G,B | FILE[:S]   constant sky radiance, or a lat-long OpenEXR / Radiance HDR\n"
+    "                           map times S (also the background)\n"
+    "  --sky-directions K       sky quadrature directions (default: the quality's)\n"
     "  --quality Q              single/baked: low | medium | high | ultra = 16 / 64 / 256 /\n"
     "                           1024 sky directions and camera-ray steps of 1 / 0.5 / 0.25 /\n"
     "                           0.125 voxel (default medium, or the scene's)\n"
@@ -65,18 +67,31 @@ static const char help[] =
     "  -q                       no progress, summary or warnings\n";
 
 static const cli_option options[] = {
-    {"-o", CLI_VALUE},         {"--output", CLI_VALUE},
-    {"--camera", CLI_VALUE},   {"--size", CLI_VALUE},
-    {"--mode", CLI_VALUE},     {"--backend", CLI_VALUE},
-    {"--exposure", CLI_VALUE}, {"--spp", CLI_VALUE},
-    {"--time", CLI_VALUE},     {"--max-bounces", CLI_VALUE},
-    {"--seed", CLI_VALUE},     {"--json", CLI_FLAG},
-    {"-q", CLI_FLAG},          {"--scene", CLI_VALUE},
-    {"--grid", CLI_VALUE},     {"--density-scale", CLI_VALUE},
-    {"--albedo", CLI_VALUE},   {"--g", CLI_VALUE},
-    {"--sun", CLI_VALUE},      {"--point", CLI_VALUE},
-    {"--env", CLI_VALUE},      {"--quality", CLI_VALUE},
-    {"--s1", CLI_VALUE},       {"--s1-oversample", CLI_VALUE},
+    {"-o", CLI_VALUE},
+    {"--output", CLI_VALUE},
+    {"--camera", CLI_VALUE},
+    {"--size", CLI_VALUE},
+    {"--mode", CLI_VALUE},
+    {"--backend", CLI_VALUE},
+    {"--exposure", CLI_VALUE},
+    {"--spp", CLI_VALUE},
+    {"--time", CLI_VALUE},
+    {"--max-bounces", CLI_VALUE},
+    {"--seed", CLI_VALUE},
+    {"--json", CLI_FLAG},
+    {"-q", CLI_FLAG},
+    {"--scene", CLI_VALUE},
+    {"--grid", CLI_VALUE},
+    {"--density-scale", CLI_VALUE},
+    {"--albedo", CLI_VALUE},
+    {"--g", CLI_VALUE},
+    {"--sun", CLI_VALUE},
+    {"--point", CLI_VALUE},
+    {"--env", CLI_VALUE},
+    {"--quality", CLI_VALUE},
+    {"--sky-directions", CLI_VALUE},
+    {"--s1", CLI_VALUE},
+    {"--s1-oversample", CLI_VALUE},
     {NULL, CLI_FLAG},
 };
 
@@ -249,6 +264,8 @@ static unsigned scene_flags_given(const cli_args *args)
         set |= VDBS_SCENE_SET_G;
     if (cli_value(args, "--quality"))
         set |= VDBS_SCENE_SET_QUALITY;
+    if (cli_value(args, "--sky-directions"))
+        set |= VDBS_SCENE_SET_SKY_DIRECTIONS;
     if (cli_value(args, "--sun") || cli_value(args, "--point") || cli_value(args, "--env"))
         set |= VDBS_SCENE_SET_LIGHTS;
     if (cli_value(args, "--grid"))

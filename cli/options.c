@@ -204,6 +204,10 @@ vdbs_status cli_build_scene(const cli_args *args, vdbs_scene *scene, int allow_n
         } else if (strcmp(name, "--g") == 0) {
             st = cli_number(name, v, &x, err);
             scene->g = x;
+        } else if (strcmp(name, "--sky-directions") == 0) {
+            long k = 0;
+            st = cli_integer(name, v, 1, VDBS_MAX_SKY_DIRECTIONS, &k, err);
+            scene->sky_directions = (int)k;
         } else if (strcmp(name, "--method") == 0 || strcmp(name, "--quality") == 0) {
             char *dst = name[2] == 'm' ? scene->method : scene->quality;
             if (strlen(v) >= sizeof scene->method)

@@ -90,6 +90,37 @@ static void test_convention(void **state)
     vdbs_envmap_free(&map);
 }
 
+/* A Radiance .hdr map reads as its OpenEXR twin, to RGBE's 8-bit mantissas (relative to
+ * each texel's largest channel). */
+static void test_hdr_file(void **state)
+{
+    (void)state;
+    vdbs_error err;
+    vdbs_image sky;
+    assert_int_equal(vdbs_envmap_test_sky(16, &sky, &err), VDBS_OK);
+    const char *exr = test_tmp_path("env_sky.exr"), *hdr = test_tmp_path("env_sky.hdr");
+    assert_int_equal(vdbs_image_write(exr, &sky, 0.0, &err), VDBS_OK);
+    assert_int_equal(vdbs_image_write(hdr, &sky, 0.0, &err), VDBS_OK);
+    vdbs_image_free(&sky);
+    vdbs_envmap a, b;
+    load_ok(exr, 1.0, &a);
+    load_ok(hdr, 1.0, &b);
+    assert_int_equal(a.width, b.width);
+    assert_int_equal(a.height, b.height);
+    double worst = 0.0;
+    /* RGBE shares one exponent per texel: each channel to 2^-8 of the texel's largest. */
+    for (int t = 0; t < a.width * a.height; ++t) {
+        const float *p = a.rgb + 3 * t, *q = b.rgb + 3 * t;
+        double top = fmax(p[0], fmax(p[1], p[2]));
+        for (int c = 0; c < 3; ++c)
+            worst = fmax(worst, fabs(p[c] - q[c]) / top);
+    }
+    print_message("hdr against exr: worst relative difference %.2e\n", worst);
+    assert_true(worst < 1.0 / 128.0);
+    vdbs_envmap_free(&a);
+    vdbs_envmap_free(&b);
+}
+
 static void test_sampling(void **state)
 {
     (void)state;
@@ -380,9 +411,10 @@ static void test_background(void **state)
 int main(void)
 {
     const struct CMUnitTest tests[] = {
-        cmocka_unit_test(test_convention), cmocka_unit_test(test_sampling),
-        cmocka_unit_test(test_bad_maps),   cmocka_unit_test(test_bake_twins),
-        cmocka_unit_test(test_probe_side), cmocka_unit_test(test_background),
+        cmocka_unit_test(test_convention), cmocka_unit_test(test_hdr_file),
+        cmocka_unit_test(test_sampling),   cmocka_unit_test(test_bad_maps),
+        cmocka_unit_test(test_bake_twins), cmocka_unit_test(test_probe_side),
+        cmocka_unit_test(test_background),
     };
     return cmocka_run_group_tests(tests, NULL, teardown);
 }

@@ -31,7 +31,8 @@ static vdbs_status solve(const vdbs_bake_options *o, const vdbs_solver *solver,
                          vdbs_bake_report *report, vdbs_error *err)
 {
     vdbs_lights_desc lights_desc = {0};
-    lights_desc.sky_ordinates = quality->sky_directions;
+    lights_desc.sky_ordinates =
+        o->scene->sky_directions > 0 ? o->scene->sky_directions : quality->sky_directions;
     vdbs_light_table lights;
     vdbs_status st = vdbs_lights_build(volume, o->scene, &lights_desc, &lights, err);
     if (st != VDBS_OK)
@@ -99,7 +100,7 @@ vdbs_status vdbs_bake(const vdbs_bake_options *o, vdbs_bake_report *report, vdbs
     const vdbs_quality *quality = vdbs_quality_find(scene->quality);
     if (!quality)
         return vdbs_error_set(err, VDBS_ERR_INPUT, "unknown quality '%s'", scene->quality);
-    const int sky = quality->sky_directions;
+    const int sky = scene->sky_directions > 0 ? scene->sky_directions : quality->sky_directions;
     for (int i = 0; i < scene->light_count; ++i)
         if (scene->lights[i].type == VDBS_LIGHT_SUN && scene->lights[i].angular_diameter_deg > 0)
             warn(o, "%s",

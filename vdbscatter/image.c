@@ -425,6 +425,17 @@ static vdbs_status png_read(const char *path, vdbs_image *image, vdbs_error *err
     return st;
 }
 
+/* Radiance RGBE (.hdr), linear: environment maps for other tools and the tests. */
+static vdbs_status hdr_write(const char *path, const char *tmp, const vdbs_image *image,
+                             vdbs_error *err)
+{
+    if (!stbi_write_hdr(tmp, image->width, image->height, 3, image->rgb)) {
+        unlink(tmp);
+        return vdbs_error_set(err, VDBS_ERR_IO, "%s: cannot write Radiance HDR to %s", path, tmp);
+    }
+    return VDBS_OK;
+}
+
 /* Radiance RGBE (.hdr): linear float radiance as stored. */
 static vdbs_status hdr_read(const char *path, vdbs_image *image, vdbs_error *err)
 {
@@ -447,9 +458,10 @@ vdbs_status vdbs_image_write(const char *path, const vdbs_image *image, double e
                              vdbs_error *err)
 {
     const int exr = has_extension(path, ".exr"), png = has_extension(path, ".png");
-    if (!exr && !png)
-        return vdbs_error_set(err, VDBS_ERR_INPUT, "%s: unknown image extension (use .exr or .png)",
-                              path);
+    const int hdr = has_extension(path, ".hdr");
+    if (!exr && !png && !hdr)
+        return vdbs_error_set(err, VDBS_ERR_INPUT,
+                              "%s: unknown image extension (use .exr, .png or .hdr)", path);
     if (!image || !image->rgb || image->width <= 0 || image->height <= 0)
         return vdbs_error_set(err, VDBS_ERR_INTERNAL, "%s: empty image", path);
     if (png && !isfinite(exposure_ev))
@@ -457,8 +469,9 @@ vdbs_status vdbs_image_write(const char *path, const vdbs_image *image, double e
     char *tmp = temp_path_for(path);
     if (!tmp)
         return vdbs_error_set(err, VDBS_ERR_NOMEM, "%s: out of memory", path);
-    vdbs_status st =
-        exr ? exr_write(path, tmp, image, err) : png_write(path, tmp, image, exposure_ev, err);
+    vdbs_status st = exr   ? exr_write(path, tmp, image, err)
+                     : hdr ? hdr_write(path, tmp, image, err)
+                           : png_write(path, tmp, image, exposure_ev, err);
     if (st == VDBS_OK)
         st = commit_temp(tmp, path, err);
     free(tmp);

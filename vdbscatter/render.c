@@ -308,8 +308,12 @@ static void apply_overrides(unsigned set, const vdbs_scene *given, vdbs_scene *s
         memcpy(scene->albedo, given->albedo, sizeof scene->albedo);
     if (set & VDBS_SCENE_SET_G)
         scene->g = given->g;
-    if (set & VDBS_SCENE_SET_QUALITY)
+    if (set & VDBS_SCENE_SET_QUALITY) {
         memcpy(scene->quality, given->quality, sizeof scene->quality);
+        scene->sky_directions = given->sky_directions; /* the quality's K unless also given */
+    }
+    if (set & VDBS_SCENE_SET_SKY_DIRECTIONS)
+        scene->sky_directions = given->sky_directions;
     if (set & VDBS_SCENE_SET_LIGHTS)
         vdbs_scene_copy_lights(scene, given);
     if (set & VDBS_SCENE_SET_GRID) {
@@ -465,6 +469,8 @@ vdbs_status vdbs_render(const vdbs_render_desc *d, vdbs_render_report *report, v
             warn(d, "--mode reference runs on the C path; --backend gpu is ignored");
         if (!vdbs_render_quality(scene->quality, &march))
             st = vdbs_error_set(err, VDBS_ERR_INPUT, "unknown quality");
+        if (scene->sky_directions > 0)
+            march.sky_directions = scene->sky_directions;
     }
 
     /* The density: a lit VDB's own `density` grid unless the caller names one. */

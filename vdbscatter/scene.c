@@ -531,7 +531,7 @@ static vdbs_status parse_camera(const parse_ctx *ctx, const cJSON *cam, vdbs_sce
 
 static vdbs_status parse_solver(const parse_ctx *ctx, const cJSON *sol, vdbs_scene *s)
 {
-    static const char *const keys[] = {"method", "quality", NULL};
+    static const char *const keys[] = {"method", "quality", "sky_directions", NULL};
     vdbs_status st;
     bool found = false;
     if ((st = expect_object(ctx, sol, "solver")) != VDBS_OK ||
@@ -548,6 +548,11 @@ static vdbs_status parse_solver(const parse_ctx *ctx, const cJSON *sol, vdbs_sce
     if (found && !vdbs_quality_find(s->quality))
         return fail(ctx, "solver.quality",
                     "unknown quality \"%s\" (expected low, medium, high or ultra)", s->quality);
+    if ((st = get_int(ctx, sol, "solver", "sky_directions", &s->sky_directions)) != VDBS_OK)
+        return st;
+    if (s->sky_directions < 0 || s->sky_directions > VDBS_MAX_SKY_DIRECTIONS)
+        return fail(ctx, "solver.sky_directions", "must be in 1..%d, got %d",
+                    VDBS_MAX_SKY_DIRECTIONS, s->sky_directions);
     return VDBS_OK;
 }
 
@@ -826,7 +831,8 @@ char *vdbs_scene_to_json(const vdbs_scene *s)
     }
 
     ok = ok && (sol = cJSON_AddObjectToObject(root, "solver")) != NULL &&
-         add_string(sol, "method", s->method) && add_string(sol, "quality", s->quality);
+         add_string(sol, "method", s->method) && add_string(sol, "quality", s->quality) &&
+         (s->sky_directions == 0 || add_int(sol, "sky_directions", s->sky_directions));
     if (ok)
         text = cJSON_PrintUnformatted(root);
     cJSON_Delete(root);

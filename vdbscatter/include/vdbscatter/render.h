@@ -94,6 +94,7 @@ enum {
     VDBS_SCENE_SET_QUALITY = 1 << 3,
     VDBS_SCENE_SET_LIGHTS = 1 << 4,
     VDBS_SCENE_SET_GRID = 1 << 5,
+    VDBS_SCENE_SET_SKY_DIRECTIONS = 1 << 7,
     VDBS_SCENE_FROM_FILE = 1 << 6 /* a scene file was given: it replaces a baked scene */
 };
 

@@ -36,6 +36,9 @@ typedef struct vdbs_light {
     /* Fields a light type does not use are 0, except color = 1 for an env map. */
 } vdbs_light;
 
+/* The most sky ordinates a scene may ask for. */
+#define VDBS_MAX_SKY_DIRECTIONS 65536
+
 typedef struct vdbs_camera {
     int present;
     double position[3];
@@ -59,8 +62,10 @@ typedef struct vdbs_scene {
      * ends the list); copy lights between scenes with vdbs_scene_copy_lights. */
     char env_paths[VDBS_ENV_PATHS_MAX];
     vdbs_camera camera;
-    char method[32];  /* "single", later "pop", "svd", "inet" */
-    char quality[32]; /* "low", "medium", "high", "ultra" */
+    char method[32];    /* "single", later "pop", "svd", "inet" */
+    char quality[32];   /* "low", "medium", "high", "ultra" */
+    int sky_directions; /* sky ordinates K (solver.sky_directions, --sky-directions); 0: the
+                           quality's 16 / 64 / 256 / 1024 */
 } vdbs_scene;
 
 /* Defaults follow Blender Cycles' Principled Volume: density 1, albedo 0.5, g 0;
