@@ -218,16 +218,27 @@ double vdbs_envmap_sampler_draw(const vdbs_envmap_sampler *s, double u1, double 
     return luminance(texel) / s->total;
 }
 
+/* The texel whose solid angle holds dir (texel_bounds: halfway to the neighbours). */
+static const float *texel_of(const vdbs_envmap *map, const double dir[3])
+{
+    double x, y;
+    vdbs_envmap_position(map, dir, &x, &y);
+    int xi = (int)floor(x + 0.5), yi = (int)floor(y + 0.5);
+    xi = xi < 0 ? 0 : (xi >= map->width ? map->width - 1 : xi);
+    yi = yi < 0 ? 0 : (yi >= map->height ? map->height - 1 : yi);
+    return map->rgb + 3 * ((size_t)yi * map->width + xi);
+}
+
+void vdbs_envmap_texel(const vdbs_envmap *map, const double dir[3], double rgb[3])
+{
+    const float *t = texel_of(map, dir);
+    for (int c = 0; c < 3; ++c)
+        rgb[c] = t[c];
+}
+
 double vdbs_envmap_sampler_pdf(const vdbs_envmap_sampler *s, const double dir[3])
 {
-    if (!(s->total > 0.0))
-        return 0.0;
-    double x, y;
-    vdbs_envmap_position(s->map, dir, &x, &y);
-    int xi = (int)floor(x + 0.5), yi = (int)floor(y + 0.5);
-    xi = xi < 0 ? 0 : (xi >= s->map->width ? s->map->width - 1 : xi);
-    yi = yi < 0 ? 0 : (yi >= s->map->height ? s->map->height - 1 : yi);
-    return luminance(s->map->rgb + 3 * ((size_t)yi * s->map->width + xi)) / s->total;
+    return s->total > 0.0 ? luminance(texel_of(s->map, dir)) / s->total : 0.0;
 }
 
 int vdbs_envmap_sample(const vdbs_envmap *map, int count, double *dirs, double *weight,

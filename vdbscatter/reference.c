@@ -257,13 +257,17 @@ static void tracker_init(const ref_ctx *ctx, ref_tracker *tr)
 /* ---- paths ---- */
 
 /* The sky's radiance arriving from world direction `from` (unit): the constant env colours
- * plus the map, bilinear. */
-static void sky_radiance(const ref_ctx *ctx, const double from[3], double out[3])
+ * plus the map, as the background (bilinear) for camera rays that leave unscattered, as
+ * lighting (its texels, envmap.h) after a scattering. */
+static void sky_radiance(const ref_ctx *ctx, const double from[3], int lighting, double out[3])
 {
     memcpy(out, ctx->lights.sky, sizeof ctx->lights.sky);
     if (ctx->lights.env) {
         double m[3];
-        vdbs_envmap_lookup(ctx->lights.env, from, m);
+        if (lighting)
+            vdbs_envmap_texel(ctx->lights.env, from, m);
+        else
+            vdbs_envmap_lookup(ctx->lights.env, from, m);
         for (int c = 0; c < 3; ++c)
             out[c] += m[c];
     }
@@ -332,7 +336,7 @@ static void next_event(const ref_ctx *ctx, ref_tracker *tr, ref_rng *rng, const 
     double d[3];
     vdbs_volume_index_vector(ctx->volume, from, d);
     double transmittance = ratio_track(tr, rng, xi, d, HUGE_VAL);
-    sky_radiance(ctx, from, L);
+    sky_radiance(ctx, from, 1, L);
     double weight = phase * transmittance * mis_weight(pdf, phase) / pdf;
     for (int c = 0; c < 3; ++c)
         out[c] += L[c] * weight;
@@ -359,7 +363,7 @@ static void trace_camera(const ref_ctx *ctx, ref_tracker *tr, ref_rng *rng, cons
         if (r == TRACK_ESCAPED) {
             if (ctx->lights.has_sky) {
                 double L[3], weight = escape_weight(ctx, w, phase_pdf);
-                sky_radiance(ctx, w, L);
+                sky_radiance(ctx, w, phase_pdf >= 0.0, L);
                 for (int c = 0; c < 3; ++c)
                     radiance[c] += beta[c] * L[c] * weight;
             }
@@ -392,7 +396,7 @@ static void trace_camera(const ref_ctx *ctx, ref_tracker *tr, ref_rng *rng, cons
             if (ctx->lights.has_sky) {
                 double tr_env = ratio_track(tr, rng, xi, d, HUGE_VAL);
                 double L[3], weight = escape_weight(ctx, w, phase_pdf) * tr_env;
-                sky_radiance(ctx, w, L);
+                sky_radiance(ctx, w, 1, L);
                 for (int c = 0; c < 3; ++c)
                     radiance[c] += beta[c] * L[c] * weight;
             }

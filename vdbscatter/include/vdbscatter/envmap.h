@@ -43,8 +43,15 @@ void vdbs_envmap_position(const vdbs_envmap *map, const double dir[3], double *x
 /* Solid angle of texel (x, y) in steradians. */
 double vdbs_envmap_texel_solid_angle(const vdbs_envmap *map, int x, int y);
 
-/* Radiance arriving from `dir` (any length), bilinear between texel centres. */
+/* Radiance arriving from `dir` (any length), bilinear between texel centres: what rays that
+ * leave the volume see. */
 void vdbs_envmap_lookup(const vdbs_envmap *map, const double dir[3], double rgb[3]);
+
+/* The radiance of the texel whose solid angle holds `dir`: the map as lighting, piecewise
+ * constant over the texels, which is what the sampling below integrates exactly (its pdf is
+ * positive on every texel with light, so the quadrature and the reference's next-event
+ * estimates converge to the same integral). */
+void vdbs_envmap_texel(const vdbs_envmap *map, const double dir[3], double rgb[3]);
 
 /* The luminance x solid angle distribution of a map (the map must outlive it). */
 typedef struct vdbs_envmap_sampler {
