@@ -44,28 +44,8 @@ static const char help[] =
     "  -q                       no progress, summary or warnings\n";
 
 static const cli_option options[] = {
-    {"-o", CLI_VALUE},
-    {"--output", CLI_VALUE},
-    {"--backend", CLI_VALUE},
-    {"--from-levelset", CLI_FLAG},
-    {"--s1", CLI_VALUE},
-    {"--s1-oversample", CLI_VALUE},
-    {"--half", CLI_FLAG},
-    {"--report", CLI_VALUE},
-    {"--json", CLI_FLAG},
-    {"-q", CLI_FLAG},
-    {"--scene", CLI_VALUE},
-    {"--grid", CLI_VALUE},
-    {"--density-scale", CLI_VALUE},
-    {"--albedo", CLI_VALUE},
-    {"--g", CLI_VALUE},
-    {"--sun", CLI_VALUE},
-    {"--point", CLI_VALUE},
-    {"--env", CLI_VALUE},
-    {"--method", CLI_VALUE},
-    {"--quality", CLI_VALUE},
-    {"--sky-directions", CLI_VALUE},
-    {NULL, CLI_FLAG},
+    CLI_COMMON_OPTIONS,      {"--from-levelset", CLI_FLAG}, {"--half", CLI_FLAG},
+    {"--report", CLI_VALUE}, {"--method", CLI_VALUE},       {NULL, CLI_FLAG},
 };
 
 static cJSON *report_json(const char *input, const char *output, const vdbs_scene *scene,

@@ -70,6 +70,18 @@ struct cJSON *cli_json_triple(const double v[3]);
 /* "light_grids": {cells, columns, columns_empty, samples_stored} into j. */
 void cli_json_light_grids(struct cJSON *j, const vdbs_light_grid_stats *stats);
 
+/* The options bake and render share: the output, the backend, the scene and its flags
+ * (cli_build_scene), S1 (cli_s1_options), --json and -q. */
+#define CLI_COMMON_OPTIONS                                                                         \
+    {"-o", CLI_VALUE}, {"--output", CLI_VALUE}, {"--backend", CLI_VALUE}, {"--json", CLI_FLAG},    \
+        {"-q", CLI_FLAG}, {"--scene", CLI_VALUE}, {"--grid", CLI_VALUE},                           \
+        {"--density-scale", CLI_VALUE}, {"--albedo", CLI_VALUE}, {"--g", CLI_VALUE},               \
+        {"--sun", CLI_VALUE}, {"--point", CLI_VALUE}, {"--env", CLI_VALUE},                        \
+        {"--quality", CLI_VALUE}, {"--sky-directions", CLI_VALUE}, {"--s1", CLI_VALUE},            \
+    {                                                                                              \
+        "--s1-oversample", CLI_VALUE                                                               \
+    }
+
 /* --s1 grid|march and --s1-oversample F (1..16): *march 1 for "march", *oversample 0 when
  * not given (the default). */
 vdbs_status cli_s1_options(const cli_args *args, int *march, int *oversample, vdbs_error *err);
