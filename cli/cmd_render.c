@@ -56,6 +56,8 @@ static const char help[] =
     "                           is spent\n"
     "  --max-bounces K          scattering events per path (default 1000)\n"
     "  --seed S                 random seed (default 1); the same seed gives the same image\n"
+    "  --env-nee on|off         next-event estimation toward an env map, combined with HG\n"
+    "                           sampling by MIS (default on; off: HG sampling alone)\n"
     "\n"
     "other options:\n"
     "  -o, --output FILE        .exr (linear float) or .png (8-bit sRGB)\n"
@@ -67,9 +69,11 @@ static const char help[] =
     "  -q                       no progress, summary or warnings\n";
 
 static const cli_option options[] = {
-    CLI_COMMON_OPTIONS,    {"--camera", CLI_VALUE},      {"--size", CLI_VALUE},
-    {"--mode", CLI_VALUE}, {"--exposure", CLI_VALUE},    {"--spp", CLI_VALUE},
-    {"--time", CLI_VALUE}, {"--max-bounces", CLI_VALUE}, {"--seed", CLI_VALUE},
+    CLI_COMMON_OPTIONS,        {"--camera", CLI_VALUE},
+    {"--size", CLI_VALUE},     {"--mode", CLI_VALUE},
+    {"--exposure", CLI_VALUE}, {"--spp", CLI_VALUE},
+    {"--time", CLI_VALUE},     {"--max-bounces", CLI_VALUE},
+    {"--seed", CLI_VALUE},     {"--env-nee", CLI_VALUE},
     {NULL, CLI_FLAG},
 };
 
@@ -85,6 +89,7 @@ typedef struct render_args {
     double time_limit;
     unsigned long long seed;
     int s1_march, s1_oversample;
+    int no_env_nee;
 } render_args;
 
 static vdbs_status parse_size(const char *text, int *width, int *height, vdbs_error *err)
@@ -220,6 +225,12 @@ static vdbs_status parse_args(const cli_args *args, render_args *r, vdbs_error *
                                   "--seed: expected a non-negative integer, got '%s'", v);
         r->seed = s;
     }
+    if ((v = cli_value(args, "--env-nee"))) {
+        if (strcmp(v, "on") != 0 && strcmp(v, "off") != 0)
+            return vdbs_error_set(err, VDBS_ERR_INPUT, "--env-nee: expected on or off, got '%s'",
+                                  v);
+        r->no_env_nee = strcmp(v, "off") == 0;
+    }
     return VDBS_OK;
 }
 
@@ -326,8 +337,9 @@ int cmd_render(int argc, char **argv)
     }
     const char *input = args.positional_count ? args.positional[0] : scene->volume_file;
     if (r.mode != VDBS_RENDER_REFERENCE) {
-        static const char *const ref_only[] = {"--spp", "--time", "--max-bounces", "--seed"};
-        for (int i = 0; i < 4; ++i)
+        static const char *const ref_only[] = {"--spp", "--time", "--max-bounces", "--seed",
+                                               "--env-nee"};
+        for (int i = 0; i < 5; ++i)
             if (cli_value(&args, ref_only[i]))
                 warn_line(quiet, "%s applies to --mode reference only; ignored", ref_only[i]);
     }
@@ -349,6 +361,7 @@ int cmd_render(int argc, char **argv)
     desc.time_limit = r.time_limit;
     desc.max_bounces = (int)r.max_bounces;
     desc.seed = r.seed;
+    desc.no_env_nee = r.no_env_nee;
     desc.progress = !quiet && isatty(STDERR_FILENO);
     desc.warn = cli_warn;
     desc.warn_user = &quiet;

@@ -137,7 +137,7 @@ class HelpAndFlags(Base):
         self.assertIn("usage: vdbscatter render", p.stdout)
         for word in ["--mode", "single", "baked", "reference", "--camera", "--size", "--quality",
                      "--exposure", "--spp", "--time", "--max-bounces", "--seed", "--backend", "--json",
-                     "--s1", "--s1-oversample"]:
+                     "--s1", "--s1-oversample", "--env-nee", "--sky-directions"]:
             self.assertIn(word, p.stdout)
         self.assertIn("render", run("--help", check=0).stdout)
 
@@ -164,6 +164,8 @@ class HelpAndFlags(Base):
             (base + ["--seed", "-3"], "--seed"),
             (base + ["--quality", "extreme"], "quality"),
             (base + ["--s1", "cone"], "--s1"),
+            (base + ["--env-nee", "maybe"], "--env-nee"),
+            (base + ["--sky-directions", "0"], "--sky-directions"),
             (base + ["--s1-oversample", "0"], "--s1-oversample"),
             (base + ["--s1-oversample", "17"], "--s1-oversample"),
             (base + ["--g", "1"], "g"),

@@ -220,8 +220,9 @@ static void ctx_free(ref_ctx *ctx)
     memset(ctx, 0, sizeof *ctx);
 }
 
+/* env_nee 0: the map is left to HG sampling (no sampler: no NEE, escape weights 1). */
 static vdbs_status ctx_init(const vdbs_volume *volume, const vdbs_scene *scene, int max_bounces,
-                            ref_ctx *ctx, vdbs_error *err)
+                            int env_nee, ref_ctx *ctx, vdbs_error *err)
 {
     memset(ctx, 0, sizeof *ctx);
     if (max_bounces < 1)
@@ -234,7 +235,7 @@ static vdbs_status ctx_init(const vdbs_volume *volume, const vdbs_scene *scene, 
     ctx->buf = pnanovdb_make_buf(volume->nano, volume->nano_size / 4);
     vdbs_medium_init(&ctx->medium, volume, scene);
     ctx->max_bounces = max_bounces;
-    if (ctx->lights.env &&
+    if (ctx->lights.env && env_nee &&
         (st = vdbs_envmap_sampler_init(ctx->lights.env, &ctx->env, err)) != VDBS_OK) {
         ctx_free(ctx);
         return st;
@@ -437,7 +438,7 @@ vdbs_status vdbs_reference_render(const vdbs_volume *volume, const vdbs_scene *s
     if (st != VDBS_OK)
         return st;
     ref_ctx ctx;
-    st = ctx_init(volume, scene, options->max_bounces, &ctx, err);
+    st = ctx_init(volume, scene, options->max_bounces, !options->no_env_nee, &ctx, err);
     if (st != VDBS_OK)
         return st;
 
@@ -562,7 +563,7 @@ vdbs_status vdbs_reference_tally_sun(const vdbs_volume *volume, const vdbs_scene
     if (!sun)
         return vdbs_error_set(err, VDBS_ERR_INPUT, "tally: the scene has no sun");
     ref_ctx ctx;
-    vdbs_status st = ctx_init(volume, scene, max_bounces, &ctx, err);
+    vdbs_status st = ctx_init(volume, scene, max_bounces, 1, &ctx, err);
     if (st != VDBS_OK)
         return st;
 

@@ -403,6 +403,7 @@ static vdbs_status render_image(const vdbs_render_desc *d, vdbs_render_mode mode
         ro.time_limit = d->time_limit;
         ro.max_bounces = d->max_bounces > 0 ? d->max_bounces : 1000;
         ro.seed = d->seed;
+        ro.no_env_nee = d->no_env_nee;
         ro.progress = &progress;
         snprintf(report->backend, sizeof report->backend, "cpu");
         snprintf(report->renderer, sizeof report->renderer, "C (OpenMP, %d threads)",

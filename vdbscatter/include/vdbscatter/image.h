@@ -21,8 +21,9 @@ vdbs_status vdbs_image_alloc(vdbs_image *image, int width, int height, int with_
 void vdbs_image_free(vdbs_image *image);
 
 /* Writes by extension: ".exr" linear float RGB (plus channels se.R, se.G, se.B when se is
- * set), ".png" 8-bit sRGB of rgb * 2^exposure_ev, ".hdr" Radiance RGBE (linear). Written to a temporary name in the same
- * folder and renamed. Errors: unknown extension (VDBS_ERR_INPUT), I/O. */
+ * set), ".png" 8-bit sRGB of rgb * 2^exposure_ev, ".hdr" Radiance RGBE (linear). Written to a
+ * temporary name in the same folder and renamed. Errors: unknown extension (VDBS_ERR_INPUT), I/O.
+ */
 vdbs_status vdbs_image_write(const char *path, const vdbs_image *image, double exposure_ev,
                              vdbs_error *err);
 

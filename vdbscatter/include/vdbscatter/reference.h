@@ -41,6 +41,8 @@ typedef struct vdbs_reference_options {
                           the time left (at least one round) */
     int max_bounces;   /* scattering events per path (>= 1); 1 = single scattering only */
     uint64_t seed;
+    int no_env_nee;          /* 1: an env map is found by HG sampling alone, without next-event
+                                estimation toward it (the benchmark's comparison) */
     vdbs_progress *progress; /* may be NULL; updated with the finished fraction (of the
                                 pixels, or of time_limit) times progress->total */
 } vdbs_reference_options;

@@ -117,6 +117,7 @@ typedef struct vdbs_render_desc {
     double time_limit; /* seconds; 0 = one round of spp */
     int max_bounces;   /* default 1000 */
     uint64_t seed;     /* 0 is a seed like any other */
+    int no_env_nee;    /* vdbs_reference_options.no_env_nee */
     int progress;      /* show progress on stderr */
     vdbs_warn_fn warn;
     void *warn_user;
