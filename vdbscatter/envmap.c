@@ -9,6 +9,12 @@
 
 #include "vdbs_math.h"
 
+#define PNANOVDB_C
+#include <nanovdb/PNanoVDB.h>
+
+#include "vs_common.h"
+#include "vs_envmap.h"
+
 vdbs_status vdbs_envmap_load(const char *path, double scale, vdbs_envmap *map, vdbs_error *err)
 {
     memset(map, 0, sizeof *map);
@@ -44,12 +50,21 @@ vdbs_status vdbs_envmap_load(const char *path, double scale, vdbs_envmap *map, v
             vdbs_image_free(&image);
             return st;
         }
-    for (size_t i = 0; i < n; ++i)
-        image.rgb[i] = (float)(image.rgb[i] * scale);
+    map->bytes = sizeof(float) * (VS_ENV_OFF_TEXELS + n);
+    map->data = calloc(1, map->bytes);
+    if (!map->data) {
+        vdbs_image_free(&image);
+        memset(map, 0, sizeof *map);
+        return vdbs_error_set(err, VDBS_ERR_NOMEM, "%s: out of memory for the map", path);
+    }
     map->width = image.width;
     map->height = image.height;
-    map->rgb = image.rgb; /* taken over; image.se is NULL for maps */
-    free(image.se);
+    map->data[VS_ENV_OFF_WIDTH] = (float)image.width;
+    map->data[VS_ENV_OFF_HEIGHT] = (float)image.height;
+    map->rgb = map->data + VS_ENV_OFF_TEXELS;
+    for (size_t i = 0; i < n; ++i)
+        map->rgb[i] = (float)(image.rgb[i] * scale);
+    vdbs_image_free(&image);
     return VDBS_OK;
 }
 
@@ -57,7 +72,7 @@ void vdbs_envmap_free(vdbs_envmap *map)
 {
     if (!map)
         return;
-    free(map->rgb);
+    free(map->data);
     memset(map, 0, sizeof *map);
 }
 
@@ -110,19 +125,11 @@ double vdbs_envmap_texel_solid_angle(const vdbs_envmap *map, int x, int y)
 
 void vdbs_envmap_lookup(const vdbs_envmap *map, const double dir[3], double rgb[3])
 {
-    double x, y;
-    vdbs_envmap_position(map, dir, &x, &y);
-    x = fmin(fmax(x, 0.0), map->width - 1.0);
-    y = fmin(fmax(y, 0.0), map->height - 1.0);
-    int x0 = (int)x, y0 = (int)y;
-    int x1 = x0 + 1 < map->width ? x0 + 1 : x0, y1 = y0 + 1 < map->height ? y0 + 1 : y0;
-    double fx = x - x0, fy = y - y0;
-    for (int c = 0; c < 3; ++c) {
-        const float *p = map->rgb + c;
-        double a = p[3 * ((size_t)y0 * map->width + x0)], b = p[3 * ((size_t)y0 * map->width + x1)];
-        double d = p[3 * ((size_t)y1 * map->width + x0)], e = p[3 * ((size_t)y1 * map->width + x1)];
-        rgb[c] = (a + fx * (b - a)) * (1.0 - fy) + (d + fx * (e - d)) * fy;
-    }
+    pnanovdb_vec3_t v =
+        vs_env_radiance(map->data, vs_vec3((float)dir[0], (float)dir[1], (float)dir[2]));
+    rgb[0] = v.x;
+    rgb[1] = v.y;
+    rgb[2] = v.z;
 }
 
 static double luminance(const float *rgb)
@@ -264,7 +271,9 @@ vdbs_status vdbs_envmap_test_sky(int height, vdbs_image *image, vdbs_error *err)
     vdbs_status st = vdbs_image_alloc(image, 2 * height, height, 0, err);
     if (st != VDBS_OK)
         return st;
-    vdbs_envmap map = {2 * height, height, image->rgb};
+    vdbs_envmap map = {0};
+    map.width = 2 * height;
+    map.height = height; /* only the geometry is read */
     const double lat = 35.0 * VDBS_PI / 180.0, lon = 30.0 * VDBS_PI / 180.0;
     const double sun[3] = {sin(lon) * cos(lat), sin(lat), cos(lon) * cos(lat)};
     const double zenith[3] = {0.15, 0.3, 0.7}, horizon[3] = {0.7, 0.8, 0.9};

@@ -218,23 +218,11 @@ vdbs_status vdbs_render_march(vdbs_runner *runner, const vdbs_volume *volume,
         if (st == VDBS_OK)
             st = vdbs_light_grids_fit(runner, &light_grids, err);
     }
-    /* The map the rays that leave see (vs_envmap.h); a zero header without one. */
-    float no_env[VS_ENV_OFF_TEXELS] = {0.0f, 0.0f, 0.0f, 0.0f};
-    float *env = no_env;
-    size_t env_bytes = sizeof no_env;
-    if (st == VDBS_OK && lights.env) {
-        size_t texels = (size_t)lights.env->width * (size_t)lights.env->height;
-        env_bytes = sizeof(float) * (VS_ENV_OFF_TEXELS + 3 * texels);
-        env = calloc(1, env_bytes);
-        if (!env) {
-            env = no_env;
-            st = vdbs_error_set(err, VDBS_ERR_NOMEM, "out of memory for the env map");
-        } else {
-            env[VS_ENV_OFF_WIDTH] = (float)lights.env->width;
-            env[VS_ENV_OFF_HEIGHT] = (float)lights.env->height;
-            memcpy(env + VS_ENV_OFF_TEXELS, lights.env->rgb, sizeof(float) * 3 * texels);
-        }
-    }
+    /* The map the rays that leave see, already in the kernels' layout; a zero header
+     * without one. */
+    const float no_env[VS_ENV_OFF_TEXELS] = {0.0f, 0.0f, 0.0f, 0.0f};
+    const float *env = lights.env ? lights.env->data : no_env;
+    size_t env_bytes = lights.env ? lights.env->bytes : sizeof no_env;
     vdbs_medium medium_params;
     vdbs_medium_init(&medium_params, volume, scene);
     float medium[4 * VDBS_MEDIUM_TABLE_ENTRIES];
@@ -275,8 +263,6 @@ vdbs_status vdbs_render_march(vdbs_runner *runner, const vdbs_volume *volume,
         options->stats->seconds_march = omp_get_wtime() - t_march;
     }
     vdbs_light_grids_free(&light_grids);
-    if (env != no_env)
-        free(env);
     if (owned)
         free(grids);
     vdbs_lights_free(&lights);

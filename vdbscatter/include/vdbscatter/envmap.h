@@ -17,6 +17,8 @@
 #ifndef VDBSCATTER_ENVMAP_H
 #define VDBSCATTER_ENVMAP_H
 
+#include <stddef.h>
+
 #include "vdbscatter/image.h"
 #include "vdbscatter/status.h"
 
@@ -26,7 +28,10 @@ extern "C" {
 
 typedef struct vdbs_envmap {
     int width, height;
-    float *rgb; /* 3 * width * height, radiance times the scale, row 0 the +Y pole */
+    float *data;  /* the kernels' layout (shaders/vs_envmap.h): a header, then the texels */
+    size_t bytes; /* of data */
+    float *rgb;   /* data's texels: 3 * width * height, radiance times the scale, row 0 the
+                     +Y pole */
 } vdbs_envmap;
 
 /* Reads `path` (OpenEXR or Radiance HDR) and multiplies it by scale. Errors (VDBS_ERR_INPUT,
@@ -44,7 +49,7 @@ void vdbs_envmap_position(const vdbs_envmap *map, const double dir[3], double *x
 double vdbs_envmap_texel_solid_angle(const vdbs_envmap *map, int x, int y);
 
 /* Radiance arriving from `dir` (any length), bilinear between texel centres: what rays that
- * leave the volume see. */
+ * leave the volume see (the kernels' lookup, vs_envmap.h). */
 void vdbs_envmap_lookup(const vdbs_envmap *map, const double dir[3], double rgb[3]);
 
 /* The radiance of the texel whose solid angle holds `dir`: the map as lighting, piecewise
