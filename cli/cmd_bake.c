@@ -31,7 +31,12 @@ static const char help[] =
     "                           map times S, importance-sampled into the sky directions\n"
     "  --sky-directions K       sky quadrature directions (default: the quality's)\n"
     "  --method NAME            solver (default single; the list below)\n"
-    "  --quality Q              low | medium | high | ultra (sky directions 16/64/256/1024)\n"
+    "  --quality Q              low | medium | high | ultra (sky directions 16/64/256/1024;\n"
+    "                           POP cells 16/24/32/48 across and sky ordinates 8/16/32/64)\n"
+    "  --pop-res N              POP: cells across the largest extent of the volume\n"
+    "  --pop-ordinates N        POP: propagation grids for the sky (importance-sampled)\n"
+    "  --pop-decay LAW          POP anisotropy decay: mean-cosine (default; a exp(-sigma_s t\n"
+    "                           (1 - g)), exact first moment) or paper (a g^(sigma_s t))\n"
     "\n"
     "other options:\n"
     "  -o, --output FILE        lit VDB to write (refused if equal to the input)\n"
@@ -44,8 +49,15 @@ static const char help[] =
     "  -q                       no progress, summary or warnings\n";
 
 static const cli_option options[] = {
-    CLI_COMMON_OPTIONS,      {"--from-levelset", CLI_FLAG}, {"--half", CLI_FLAG},
-    {"--report", CLI_VALUE}, {"--method", CLI_VALUE},       {NULL, CLI_FLAG},
+    CLI_COMMON_OPTIONS,
+    {"--from-levelset", CLI_FLAG},
+    {"--half", CLI_FLAG},
+    {"--report", CLI_VALUE},
+    {"--method", CLI_VALUE},
+    {"--pop-res", CLI_VALUE},
+    {"--pop-ordinates", CLI_VALUE},
+    {"--pop-decay", CLI_VALUE},
+    {NULL, CLI_FLAG},
 };
 
 static cJSON *report_json(const char *input, const char *output, const vdbs_scene *scene,
@@ -74,6 +86,24 @@ static cJSON *report_json(const char *input, const char *output, const vdbs_scen
         cJSON_AddNumberToObject(t, "s1_sweep", r->s1_grids.seconds_sweep);
         cJSON_AddNumberToObject(t, "s1_lookup", r->seconds_s1_lookup);
         cli_json_light_grids(j, &r->s1_grids);
+    }
+    if (strcmp(scene->method, "pop") == 0) {
+        const vdbs_pop_stats *p = &r->pop;
+        cJSON_AddNumberToObject(t, "pop_seed", p->seconds_seed);
+        cJSON_AddNumberToObject(t, "pop_propagate", p->seconds_propagate);
+        cJSON_AddNumberToObject(t, "pop_isotropic", p->seconds_isotropic);
+        cJSON_AddNumberToObject(t, "pop_merge", p->seconds_merge);
+        cJSON_AddNumberToObject(t, "pop_upsample", p->seconds_upsample);
+        cJSON *pj = cJSON_AddObjectToObject(j, "pop");
+        cJSON_AddNumberToObject(pj, "grids", p->grids);
+        cJSON_AddNumberToObject(pj, "resolution", p->resolution);
+        cJSON_AddNumberToObject(pj, "cells", (double)p->cells);
+        cJSON_AddNumberToObject(pj, "merged_cells", (double)p->merged_cells);
+        cJSON_AddNumberToObject(pj, "iterations_anisotropic", p->iterations_anisotropic);
+        cJSON_AddNumberToObject(pj, "iterations_isotropic", p->iterations_isotropic);
+        cJSON_AddNumberToObject(pj, "seeded", p->seeded);
+        cJSON_AddNumberToObject(pj, "residual", p->residual);
+        cJSON_AddStringToObject(pj, "decay", scene->pop_decay_paper ? "paper" : "mean-cosine");
     }
     double rmax[3] = {r->radiance_max[0], r->radiance_max[1], r->radiance_max[2]};
     cJSON_AddItemToObject(j, "radiance_max", cli_json_triple(rmax));

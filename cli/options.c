@@ -208,6 +208,14 @@ vdbs_status cli_build_scene(const cli_args *args, vdbs_scene *scene, int allow_n
             long k = 0;
             st = cli_integer(name, v, 1, VDBS_MAX_SKY_DIRECTIONS, &k, err);
             scene->sky_directions = (int)k;
+        } else if (strcmp(name, "--pop-res") == 0 || strcmp(name, "--pop-ordinates") == 0) {
+            long k = 0;
+            int res = name[6] == 'r';
+            st = cli_integer(name, v, res ? 2 : 1,
+                             res ? VDBS_MAX_POP_RESOLUTION : VDBS_MAX_SKY_DIRECTIONS, &k, err);
+            *(res ? &scene->pop_resolution : &scene->pop_ordinates) = (int)k;
+        } else if (strcmp(name, "--pop-decay") == 0) {
+            st = vdbs_scene_set_pop_decay(scene, v, err);
         } else if (strcmp(name, "--method") == 0 || strcmp(name, "--quality") == 0) {
             char *dst = name[2] == 'm' ? scene->method : scene->quality;
             if (strlen(v) >= sizeof scene->method)

@@ -27,10 +27,15 @@
 #define vs_pow pow
 #define vs_atan2 atan
 #define VS_UNUSED(name)
+#define vs_uint uint
+#define VS_OUT_PARAM(T, name)
+#define vs_word_float uintBitsToFloat
 
 #else
 
 #include <math.h>
+#include <stdint.h>
+#include <string.h>
 
 #define VS_FUNC static inline
 /* For the march's inner loop: gcc stops inlining it once it grew big (split into begin and
@@ -69,6 +74,16 @@ static inline float vs_min(float a, float b)
 static inline float vs_max(float a, float b)
 {
     return b > a ? b : a;
+}
+typedef uint32_t vs_uint;
+/* An output array: a pointer parameter in C, an SSBO in GLSL. */
+#define VS_OUT_PARAM(T, name) T *name,
+/* A float stored as its bits in a table of 32-bit words. */
+static inline float vs_word_float(uint32_t w)
+{
+    float f;
+    memcpy(&f, &w, sizeof f);
+    return f;
 }
 
 #endif

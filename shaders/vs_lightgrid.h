@@ -62,24 +62,6 @@
 #define VS_LGRID_COLUMN_WORDS 3
 #define VS_LGRID_SKIPPED (-1.0f)
 
-#if defined(PNANOVDB_GLSL)
-#define vs_uint uint
-#define VS_OUT_PARAM(T, name)
-#define vs_word_float uintBitsToFloat
-#else
-#include <stdint.h>
-#include <string.h>
-typedef uint32_t vs_uint;
-/* An output array: a pointer parameter in C, an SSBO in GLSL. */
-#define VS_OUT_PARAM(T, name) T *name,
-VS_FUNC float vs_word_float(uint32_t w)
-{
-    float f;
-    memcpy(&f, &w, sizeof f);
-    return f;
-}
-#endif
-
 VS_FUNC vs_uint vs_lgrid_header(int grid)
 {
     return VS_UINT(VS_LGRIDS_OFF_HEADERS + grid * VS_LGRID_WORDS);

@@ -96,7 +96,13 @@ class HelpAndFlags(Base):
             (["bake", src, "-o", out], "light"),
             (base + ["--backend", "tpu"], "--backend"),
             (base + ["--quality", "extreme"], "quality"),
-            (base + ["--method", "pop"], "pop"),
+            (base + ["--method", "svd"], "svd"),
+            (base + ["--method", "pop", "--pop-res", "1"], "--pop-res"),
+            (base + ["--method", "pop", "--pop-res", "8x"], "--pop-res"),
+            (base + ["--method", "pop", "--pop-ordinates", "0"], "--pop-ordinates"),
+            (base + ["--method", "pop", "--pop-decay", "fast"], "--pop-decay"),
+            (base + ["--method", "pop", "--pop-decay", "paper", "--g", "-0.3"], "--pop-decay"),
+            (["bake", src, "-o", out, "--method", "pop", "--point", "0,0,0"], "point"),
             (base + ["--s1", "cone"], "--s1"),
             (base + ["--s1-oversample", "0"], "--s1-oversample"),
             (base + ["--s1-oversample", "2.5"], "--s1-oversample"),
@@ -384,6 +390,44 @@ class LightGrids(Base):
         self.assertLessEqual(math.sqrt(num / den), 0.01)
         meta = vdb.readAllGridMetadata(grid)[0]
         self.assertEqual(meta["vdbscatter_s1"], "grid")
+
+
+class Pop(Base):
+    def test_pop_adds_ms_to_the_exact_s1(self):
+        """bake --method pop on the cloud sample (a sun and a constant sky): radiance is the
+        single-scatter bake's S1 plus ms to float rounding, ms is positive inside the cloud, and
+        the report gives the grids, the two stages' iterations and a residual at most
+        epsilon_L = 1e-3 (the isotropic stage ran to its tolerance, not its cap)."""
+        src = os.path.join(SAMPLES, "cloud.vdb")
+        lights = ["--density-scale", "20", "--albedo", "0.99", "--g", "0.85", "--sun",
+                  "0.3,-1,0.2", "--env", "0.2,0.3,0.5", "--quality", "low", "--json"]
+        single, p = self.bake(src, *lights, out="single.vdb")
+        pop, p = self.bake(src, *lights, "--method", "pop", "--pop-res", "8", out="pop.vdb")
+        report = json.loads(p.stdout)
+        self.assertEqual(report["method"], "pop")
+        stats = report["pop"]
+        self.assertEqual(stats["grids"], 1 + 8)  # the sun and the low quality's 8 ordinates
+        self.assertEqual(stats["resolution"], 8)
+        self.assertGreater(stats["iterations_anisotropic"], 0)
+        self.assertGreater(stats["iterations_isotropic"], 0)
+        self.assertLessEqual(stats["residual"], 1e-3)
+        self.assertGreater(stats["seeded"], 0.0)
+        for stage in ["pop_seed", "pop_propagate", "pop_isotropic", "pop_merge", "pop_upsample"]:
+            self.assertGreaterEqual(report["seconds"][stage], 0.0)
+        s1 = {tuple(i.min): i.value for i in vdb.read(single, "radiance").citerOnValues()}
+        rad = {tuple(i.min): i.value for i in vdb.read(pop, "radiance").citerOnValues()}
+        ms = {tuple(i.min): i.value for i in vdb.read(pop, "ms").citerOnValues()}
+        self.assertEqual(s1.keys(), rad.keys())
+        positive = 0
+        for key, value in rad.items():
+            m = ms.get(key, (0.0, 0.0, 0.0))
+            for c in range(3):
+                self.assertAlmostEqual(value[c], s1[key][c] + m[c], delta=1e-5 * max(1.0, value[c]))
+                self.assertGreaterEqual(m[c], 0.0)
+            positive += m[1] > 0.0
+        self.assertGreater(positive, 0.5 * len(rad))
+        meta = vdb.readAllGridMetadata(pop)[0]
+        self.assertEqual(meta["vdbscatter_method"], "pop")
 
 
 class Samples(Base):

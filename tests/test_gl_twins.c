@@ -4,7 +4,8 @@
  * procedural cloud and on a real file with a rotated, non-uniform transform and active
  * tiles; the light grids' sweep and lookup; the render with light marches and with light
  * grids, also in baked mode (synthetic ms / ms_l1 grids with varying directions
- * and anisotropies) and with the GPU's passes forced small and huge. */
+ * and anisotropies) and with the GPU's passes forced small and huge; POP's propagation (one
+ * iteration to 1e-5, and 30 iterations within the bound stated there). */
 #include "testutil.h"
 
 #include <math.h>
@@ -16,10 +17,17 @@
 #include "vdbscatter/envmap.h"
 #include "vdbscatter/lightgrid.h"
 #include "vdbscatter/lights.h"
+#include "vdbscatter/pop.h"
 #include "vdbscatter/render.h"
 #include "vdbscatter/scene.h"
 #include "vdbscatter/vdbio.h"
 #include "vdbscatter/volume.h"
+
+#define PNANOVDB_C
+#include <nanovdb/PNanoVDB.h>
+
+#include "vs_common.h"
+#include "vs_pop.h"
 
 #define SIZE 32
 
@@ -383,6 +391,83 @@ static void test_render_baked_synthetic(void **state)
     vdbs_volume_free(&volume);
 }
 
+/* ---- POP propagation ---- */
+
+#define POP_N0 9
+#define POP_N1 7
+#define POP_N2 11
+#define POP_CELLS (POP_N0 * POP_N1 * POP_N2)
+
+typedef struct pop_scenario {
+    uint32_t params[VS_POP_PARAM_WORDS];
+    float sigma[POP_CELLS];
+    float state[POP_CELLS * VS_POP_STATE_WORDS];
+    int iterations;
+} pop_scenario;
+
+static void pop_scenario_make(pop_scenario *s, int iterations)
+{
+    memset(s, 0, sizeof *s);
+    const int n[3] = {POP_N0, POP_N1, POP_N2};
+    for (int a = 0; a < 3; ++a)
+        s->params[VS_POP_OFF_N + a] = (uint32_t)n[a];
+    const float h = 0.3f, g = 0.85f, albedo[3] = {0.99f, 0.9f, 0.7f};
+    memcpy(&s->params[VS_POP_OFF_H], &h, 4);
+    memcpy(&s->params[VS_POP_OFF_G], &g, 4);
+    memcpy(&s->params[VS_POP_OFF_ALBEDO], albedo, sizeof albedo);
+    s->params[VS_POP_OFF_KEEP_A] = 1u;
+    for (int c = 0; c < POP_CELLS; ++c) {
+        s->sigma[c] = (float)((c * 37) % 11) * 0.4f;
+        float *st = s->state + c * VS_POP_STATE_WORDS;
+        for (int ch = 0; ch < 3; ++ch) {
+            st[VS_POP_STATE_L + ch] = (c * 13 + ch) % 5 == 0 ? 1.0f + 0.1f * ch : 0.0f;
+            st[VS_POP_STATE_A + ch] = 0.85f - 0.05f * (float)((c + ch) % 7);
+            st[VS_POP_STATE_ACC_L + ch] = 0.5f * st[VS_POP_STATE_L + ch];
+        }
+    }
+    s->iterations = iterations;
+}
+
+static vdbs_status run_pop(vdbs_runner *runner, const void *scenario, float *out, vdbs_error *err)
+{
+    const pop_scenario *s = scenario;
+    memcpy(out, s->state, sizeof s->state);
+    int iterations = 0;
+    double left = 0.0;
+    return vdbs_pop_propagate(runner, s->params, s->sigma, POP_CELLS, out, s->iterations, 0.0,
+                              &iterations, &left, err);
+}
+
+static void test_pop_propagation(void **state)
+{
+    (void)state;
+    pop_scenario *s = malloc(sizeof *s);
+    assert_non_null(s);
+    pop_scenario_make(s, 1);
+    free(test_twin("POP, one iteration", run_pop, s, POP_CELLS * VS_POP_STATE_WORDS));
+    /* After 30 iterations float rounding (exp, FMA) has compounded through the sums: the
+     * bound is 1e-4 relative to the largest accumulated value of the channel. */
+    pop_scenario_make(s, 30);
+    {
+        vdbs_runner *gpu = test_runner(VDBS_BACKEND_GPU);
+        float *a = malloc(sizeof s->state), *b = malloc(sizeof s->state);
+        vdbs_error err;
+        assert_int_equal(run_pop(test_runner(VDBS_BACKEND_CPU), s, a, &err), VDBS_OK);
+        assert_int_equal(run_pop(gpu, s, b, &err), VDBS_OK);
+        float peak = 0.0f, worst = 0.0f;
+        for (int i = 0; i < POP_CELLS * VS_POP_STATE_WORDS; ++i)
+            peak = fmaxf(peak, fabsf(a[i]));
+        for (int i = 0; i < POP_CELLS * VS_POP_STATE_WORDS; ++i)
+            worst = fmaxf(worst, fabsf(a[i] - b[i]));
+        print_message("POP, 30 iterations: largest difference %.2e of the largest value %.3f\n",
+                      (double)worst, (double)peak);
+        assert_true(worst <= 1e-4f * peak);
+        free(a);
+        free(b);
+    }
+    free(s);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -395,6 +480,7 @@ int main(void)
         cmocka_unit_test(test_render_env_map),
         cmocka_unit_test(test_render_gpu_passes),
         cmocka_unit_test(test_render_baked_synthetic),
+        cmocka_unit_test(test_pop_propagation),
     };
     return cmocka_run_group_tests(tests, NULL, teardown);
 }

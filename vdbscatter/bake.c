@@ -60,6 +60,7 @@ static vdbs_status solve(const vdbs_bake_options *o, const vdbs_solver *solver,
     vdbs_s1_stats stats;
     memset(&stats, 0, sizeof stats);
     s->s1_stats = &stats;
+    s->pop_stats = &report->pop;
     st = solver->run(s, err);
     report->s1_grids = stats.grids;
     report->seconds_s1_lookup = stats.seconds_lookup;

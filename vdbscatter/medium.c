@@ -200,3 +200,77 @@ void vdbs_medium_pack(const vdbs_medium *medium, float table[4 * VDBS_MEDIUM_TAB
     vdbs_table_put(table + 4 * VS_MEDIUM_OFF_BOX_LO, lo[0], lo[1], lo[2], 0.0);
     vdbs_table_put(table + 4 * VS_MEDIUM_OFF_BOX_HI, hi[0], hi[1], hi[2], 0.0);
 }
+
+/* ---- box-filtered density ---- */
+
+vdbs_status vdbs_medium_box_build(const vdbs_volume *volume, int block, vdbs_medium_box *box,
+                                  vdbs_error *err)
+{
+    memset(box, 0, sizeof *box);
+    if (block < 1)
+        return vdbs_error_set(err, VDBS_ERR_INPUT, "medium box filter: block %d < 1", block);
+    float lo[3], hi[3];
+    vdbs_volume_support_box(volume, lo, hi);
+    for (int a = 0; a < 3; ++a) {
+        box->lo[a] = (int)floorf(lo[a]);
+        box->dims[a] = ((int)ceilf(hi[a]) - box->lo[a] + block - 1) / block;
+        if (box->dims[a] < 1)
+            box->dims[a] = 1;
+    }
+    box->block = block;
+    size_t cells = (size_t)box->dims[0] * box->dims[1] * box->dims[2];
+    box->density = calloc(cells, sizeof *box->density);
+    if (!box->density)
+        return vdbs_error_set(err, VDBS_ERR_NOMEM, "out of memory for the box-filtered medium");
+    pnanovdb_buf_t buf = pnanovdb_make_buf(volume->nano, volume->nano_size / 4);
+    pnanovdb_readaccessor_t acc = vs_density_accessor(buf);
+    const float inv = 1.0f / ((float)block * block * block);
+    for (size_t n = 0; n < volume->coord_count; ++n) {
+        const int32_t *c = volume->coords + 3 * n;
+        float v = vs_density_voxel(buf, &acc, vs_coord(c[0], c[1], c[2]));
+        if (!(v > 0.0f))
+            continue;
+        int k[3];
+        int inside = 1;
+        for (int a = 0; a < 3; ++a) {
+            k[a] = (c[a] - box->lo[a]) / block;
+            inside &= c[a] >= box->lo[a] && k[a] < box->dims[a];
+        }
+        if (inside)
+            box->density[((size_t)k[2] * box->dims[1] + k[1]) * box->dims[0] + k[0]] += v * inv;
+    }
+    return VDBS_OK;
+}
+
+void vdbs_medium_box_free(vdbs_medium_box *box)
+{
+    free(box->density);
+    memset(box, 0, sizeof *box);
+}
+
+double vdbs_medium_box_density(const vdbs_medium_box *box, const double index[3])
+{
+    int i0[3];
+    double f[3];
+    for (int a = 0; a < 3; ++a) {
+        double x = (index[a] - box->lo[a] + 0.5) / box->block - 0.5;
+        double fl = floor(x);
+        i0[a] = (int)fl;
+        f[a] = x - fl;
+    }
+    double sum = 0.0;
+    for (int corner = 0; corner < 8; ++corner) {
+        double w = 1.0;
+        int c[3];
+        for (int a = 0; a < 3; ++a) {
+            int bit = (corner >> a) & 1;
+            c[a] = i0[a] + bit;
+            w *= bit ? f[a] : 1.0 - f[a];
+        }
+        if (c[0] < 0 || c[1] < 0 || c[2] < 0 || c[0] >= box->dims[0] || c[1] >= box->dims[1] ||
+            c[2] >= box->dims[2] || w == 0.0)
+            continue;
+        sum += w * box->density[((size_t)c[2] * box->dims[1] + c[1]) * box->dims[0] + c[0]];
+    }
+    return sum;
+}

@@ -292,6 +292,19 @@ vdbs_status vdbs_scene_set_grid(vdbs_scene *scene, const char *spec, vdbs_error 
     return VDBS_OK;
 }
 
+vdbs_status vdbs_scene_set_pop_decay(vdbs_scene *scene, const char *name, vdbs_error *err)
+{
+    if (name && strcmp(name, "mean-cosine") == 0)
+        scene->pop_decay_paper = 0;
+    else if (name && strcmp(name, "paper") == 0)
+        scene->pop_decay_paper = 1;
+    else
+        return vdbs_error_set(err, VDBS_ERR_INPUT,
+                              "--pop-decay: unknown law '%s' (expected mean-cosine or paper)",
+                              name ? name : "");
+    return VDBS_OK;
+}
+
 void vdbs_scene_init(vdbs_scene *scene)
 {
     memset(scene, 0, sizeof *scene);
@@ -531,7 +544,8 @@ static vdbs_status parse_camera(const parse_ctx *ctx, const cJSON *cam, vdbs_sce
 
 static vdbs_status parse_solver(const parse_ctx *ctx, const cJSON *sol, vdbs_scene *s)
 {
-    static const char *const keys[] = {"method", "quality", "sky_directions", NULL};
+    static const char *const keys[] = {
+        "method", "quality", "sky_directions", "pop_res", "pop_ordinates", "pop_decay", NULL};
     vdbs_status st;
     bool found = false;
     if ((st = expect_object(ctx, sol, "solver")) != VDBS_OK ||
@@ -553,6 +567,21 @@ static vdbs_status parse_solver(const parse_ctx *ctx, const cJSON *sol, vdbs_sce
     if (s->sky_directions < 0 || s->sky_directions > VDBS_MAX_SKY_DIRECTIONS)
         return fail(ctx, "solver.sky_directions", "must be in 1..%d, got %d",
                     VDBS_MAX_SKY_DIRECTIONS, s->sky_directions);
+    if ((st = get_int(ctx, sol, "solver", "pop_res", &s->pop_resolution)) != VDBS_OK ||
+        (st = get_int(ctx, sol, "solver", "pop_ordinates", &s->pop_ordinates)) != VDBS_OK)
+        return st;
+    if (s->pop_resolution < 0 || s->pop_resolution > VDBS_MAX_POP_RESOLUTION)
+        return fail(ctx, "solver.pop_res", "must be in 2..%d, got %d", VDBS_MAX_POP_RESOLUTION,
+                    s->pop_resolution);
+    if (s->pop_ordinates < 0 || s->pop_ordinates > VDBS_MAX_SKY_DIRECTIONS)
+        return fail(ctx, "solver.pop_ordinates", "must be in 1..%d, got %d",
+                    VDBS_MAX_SKY_DIRECTIONS, s->pop_ordinates);
+    char decay[32] = "";
+    if ((st = get_string(ctx, sol, "solver", "pop_decay", decay, sizeof decay, &found)) != VDBS_OK)
+        return st;
+    if (found && vdbs_scene_set_pop_decay(s, decay, NULL) != VDBS_OK)
+        return fail(ctx, "solver.pop_decay", "unknown decay \"%s\" (expected mean-cosine or paper)",
+                    decay);
     return VDBS_OK;
 }
 
@@ -832,7 +861,10 @@ char *vdbs_scene_to_json(const vdbs_scene *s)
 
     ok = ok && (sol = cJSON_AddObjectToObject(root, "solver")) != NULL &&
          add_string(sol, "method", s->method) && add_string(sol, "quality", s->quality) &&
-         (s->sky_directions == 0 || add_int(sol, "sky_directions", s->sky_directions));
+         (s->sky_directions == 0 || add_int(sol, "sky_directions", s->sky_directions)) &&
+         (s->pop_resolution == 0 || add_int(sol, "pop_res", s->pop_resolution)) &&
+         (s->pop_ordinates == 0 || add_int(sol, "pop_ordinates", s->pop_ordinates)) &&
+         add_string(sol, "pop_decay", s->pop_decay_paper ? "paper" : "mean-cosine");
     if (ok)
         text = cJSON_PrintUnformatted(root);
     cJSON_Delete(root);

@@ -2,6 +2,7 @@
 
 #include <string.h>
 
+#include "vdbscatter/pop.h"
 #include "vdbscatter/single.h"
 
 static const vdbs_quality qualities[] = {
@@ -35,9 +36,28 @@ static vdbs_status run_single(const vdbs_solve *s, vdbs_error *err)
                                err);
 }
 
+/* Exact S1, then POP's multiple scattering from suns and skies. */
+static vdbs_status run_pop(const vdbs_solve *s, vdbs_error *err)
+{
+    vdbs_status st = run_single(s, err);
+    if (st != VDBS_OK)
+        return st;
+    vdbs_pop_desc desc = {0};
+    desc.resolution = s->scene->pop_resolution;
+    desc.ordinates = s->scene->pop_ordinates;
+    desc.decay = s->scene->pop_decay_paper ? VDBS_POP_DECAY_PAPER : VDBS_POP_DECAY_MEAN_COSINE;
+    vdbs_pop_stats stats;
+    st = vdbs_pop_solve(s, &desc, &stats, err);
+    if (s->pop_stats)
+        *s->pop_stats = stats;
+    return st;
+}
+
 static const vdbs_solver solvers[VDBS_METHOD_COUNT] = {
     {VDBS_METHOD_SINGLE, "single", "exact single scattering only (no multiple scattering)", 0,
      run_single},
+    {VDBS_METHOD_POP, "pop",
+     "exact single scattering + Principal-Ordinates Propagation (suns and skies)", 1, run_pop},
 };
 
 const vdbs_solver *vdbs_solver_find(const char *name)

@@ -4,6 +4,7 @@
 
 #include "vdbscatter/kernel.h"
 #include "vdbscatter/lightgrid.h"
+#include "vdbscatter/pop.h"
 #include "vdbscatter/scene.h"
 #include "vdbscatter/status.h"
 
@@ -38,6 +39,7 @@ typedef struct vdbs_bake_report {
     /* Light grids (grid only): sizes summed over the lights, and the time of each stage. */
     vdbs_light_grid_stats s1_grids;
     double seconds_s1_lookup;
+    vdbs_pop_stats pop; /* --method pop: grids, iterations, residual, stage times */
     double seconds_load;
     double seconds_solve;
     double seconds_write;

@@ -82,6 +82,26 @@ void vdbs_majorant_dda_init(vdbs_majorant_dda *dda, const vdbs_majorant_grid *gr
  * segment is done. Segments may be empty (ta = tb) where the ray crosses a cell edge. */
 int vdbs_majorant_dda_next(vdbs_majorant_dda *dda, double *ta, double *tb, double *maj);
 
+/* The density box-filtered onto blocks of `block`^3 voxels (index space), for solvers that
+ * work on grids coarser than the voxels (POP Sec. 4.2: "the medium parameters need to be
+ * sampled from a downscaled version of the volume"). Cell (i, j, k) holds the mean voxel
+ * value of the block whose first voxel is lo + block (i, j, k) (inactive voxels count 0);
+ * its centre is at index lo + block (i + 1/2) - 1/2. */
+typedef struct vdbs_medium_box {
+    int lo[3];
+    int dims[3];
+    int block;
+    float *density; /* dims[0] * dims[1] * dims[2], x fastest; owned */
+} vdbs_medium_box;
+
+/* Errors: block < 1 (VDBS_ERR_INPUT), out of memory. */
+vdbs_status vdbs_medium_box_build(const vdbs_volume *volume, int block, vdbs_medium_box *box,
+                                  vdbs_error *err);
+void vdbs_medium_box_free(vdbs_medium_box *box);
+/* The box-filtered density at an index-space point: trilinear between cell centres, 0 beyond
+ * the outermost cells' centres by one cell (the same ramp as the voxels'). */
+double vdbs_medium_box_density(const vdbs_medium_box *box, const double index[3]);
+
 /* Entries (4 floats each) of the kernels' medium table (shaders/vs_medium.h). */
 #define VDBS_MEDIUM_TABLE_ENTRIES 10
 

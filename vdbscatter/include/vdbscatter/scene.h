@@ -38,6 +38,8 @@ typedef struct vdbs_light {
 
 /* The most sky ordinates a scene may ask for. */
 #define VDBS_MAX_SKY_DIRECTIONS 65536
+/* Most POP cells across the largest extent (--pop-res). */
+#define VDBS_MAX_POP_RESOLUTION 512
 
 typedef struct vdbs_camera {
     int present;
@@ -66,6 +68,10 @@ typedef struct vdbs_scene {
     char quality[32];   /* "low", "medium", "high", "ultra" */
     int sky_directions; /* sky ordinates K (solver.sky_directions, --sky-directions); 0: the
                            quality's 16 / 64 / 256 / 1024 */
+    /* POP (solver.pop_res, pop_ordinates, pop_decay; --pop-*): 0 = the quality's. */
+    int pop_resolution;
+    int pop_ordinates;
+    int pop_decay_paper; /* 1: a g^(sigma_s t) ("paper"); 0: the mean-cosine law */
 } vdbs_scene;
 
 /* Defaults follow Blender Cycles' Principled Volume: density 1, albedo 0.5, g 0;
@@ -106,6 +112,10 @@ vdbs_status vdbs_scene_validate(vdbs_scene *scene, vdbs_error *err);
 /* Parses "NAME" or "NAME@INDEX" (split at the last '@'; INDEX decimal digits) into
  * scene->grid / scene->grid_index. A bad spec leaves the scene unchanged. */
 vdbs_status vdbs_scene_set_grid(vdbs_scene *scene, const char *spec, vdbs_error *err);
+
+/* Parses a POP anisotropy decay law, "mean-cosine" or "paper", into scene->pop_decay_paper
+ * (VDBS_ERR_INPUT naming --pop-decay otherwise; err may be NULL). */
+vdbs_status vdbs_scene_set_pop_decay(vdbs_scene *scene, const char *name, vdbs_error *err);
 
 /* The resolved env-map path of an env light of `scene`: "" for a constant env, and also
  * for an env_map that is not a path of this scene (vdbs_scene_validate reports that). */

@@ -31,7 +31,9 @@ const vdbs_quality *vdbs_quality_find(const char *name);
 /* Number of sky quadrature directions for a quality name, or 0 if unknown. */
 int vdbs_quality_sky_directions(const char *name);
 
-typedef enum vdbs_method { VDBS_METHOD_SINGLE = 0, VDBS_METHOD_COUNT } vdbs_method;
+typedef enum vdbs_method { VDBS_METHOD_SINGLE = 0, VDBS_METHOD_POP, VDBS_METHOD_COUNT } vdbs_method;
+
+struct vdbs_pop_stats;
 
 /* What a solver reads and writes; the bake owns every buffer. */
 typedef struct vdbs_solve {
@@ -42,7 +44,8 @@ typedef struct vdbs_solve {
     const vdbs_quality *quality;
     const vdbs_light_grid_desc *s1_grids; /* S1 from light grids; NULL: the exact march */
     vdbs_progress *progress;
-    vdbs_s1_stats *s1_stats; /* filled when S1 comes from light grids; may be NULL */
+    vdbs_s1_stats *s1_stats;          /* filled when S1 comes from light grids; may be NULL */
+    struct vdbs_pop_stats *pop_stats; /* filled by POP; may be NULL */
     /* Outputs, 3 floats per output voxel (coords order), zeroed by the caller. */
     float *radiance; /* S1 + Sms direction average */
     float *ms;       /* Sms direction average */

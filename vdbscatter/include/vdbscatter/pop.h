@@ -1,0 +1,70 @@
+/* Principal-Ordinates Propagation (Elek et al., shared/papers/pop.md Secs. 3-5) for
+ * directional light: suns, the constant sky and lat-long maps. Multiple scattering only (the
+ * exact S1 pass owns unscattered light, DESIGN.md): every sun and POP sky ordinate gets a
+ * coarse directional grid seeded with the light first scattered in each cell (from the fine S1
+ * light grid: per sub-column albedo E (T_in - T_out)), propagated cell by cell (the shared
+ * kernel shaders/vs_pop.h) until its anisotropy has decayed below epsilon_a (Eq. 10), then the
+ * residual of every grid is merged into one world-aligned grid at twice the resolution and
+ * propagated isotropically until the energy left is below epsilon_L of the seeded energy.
+ * Each grid's accumulated lobes map onto ms and ms_l1 exactly (HG self-convolution), are
+ * splatted into the merged grid (conserving energy) and upsampled to the voxels by a joint
+ * bilateral filter guided by the density. */
+#ifndef VDBSCATTER_POP_H
+#define VDBSCATTER_POP_H
+
+#include "vdbscatter/solver.h"
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+typedef enum vdbs_pop_decay {
+    VDBS_POP_DECAY_MEAN_COSINE = 0, /* a exp(-sigma_s t (1 - g)): exact first moment */
+    VDBS_POP_DECAY_PAPER = 1        /* a g^(sigma_s t) (Eq. 4; g >= 0 only) */
+} vdbs_pop_decay;
+
+/* Zero-initialise; 0 means the default. */
+typedef struct vdbs_pop_desc {
+    int resolution; /* cells across the largest extent of the support box (--pop-res) */
+    int ordinates;  /* POP sky ordinates (--pop-ordinates) */
+    vdbs_pop_decay decay;
+    int max_iterations; /* cap of the anisotropic stage per grid; default 4 x resolution */
+    double epsilon_a;   /* anisotropy below which a grid goes isotropic; default 0.1 */
+    double epsilon_l;   /* energy left, relative to the seeded energy, that stops; 1e-3 */
+} vdbs_pop_desc;
+
+/* The defaults of a quality name ("low" ... "ultra"): resolution and ordinates. */
+void vdbs_pop_quality(const char *quality, int *resolution, int *ordinates);
+
+typedef struct vdbs_pop_stats {
+    int grids;                  /* directional grids: suns + sky ordinates */
+    int resolution;             /* cells across the largest extent */
+    long long cells;            /* cells of all directional grids */
+    long long merged_cells;     /* cells of the merged (isotropic) grid */
+    int iterations_anisotropic; /* the most any directional grid ran */
+    int iterations_isotropic;
+    double seeded;   /* energy seeded (sum over cells and channels of L^0 times cell volume) */
+    double residual; /* energy left in transit at the end, relative to seeded */
+    double seconds_seed, seconds_propagate, seconds_isotropic, seconds_merge, seconds_upsample;
+} vdbs_pop_stats;
+
+/* Adds POP's ms and ms_l1 to the solve's outputs (and ms to radiance); S1 is the caller's.
+ * Errors: point lights (POP part 2), --pop-decay paper with g < 0 (VDBS_ERR_INPUT), out of
+ * memory, GPU errors. */
+vdbs_status vdbs_pop_solve(const vdbs_solve *solve, const vdbs_pop_desc *desc,
+                           vdbs_pop_stats *stats, vdbs_error *err);
+
+/* Iterations of one propagation grid through the runner (shaders/pop_propagate.comp, or the
+ * C loop over the same gather): params is the grid's VS_POP_PARAM_WORDS words, sigma its
+ * sigma_t per cell, state cells x VS_POP_STATE_WORDS floats in and out. Stops after
+ * max_iterations or once the energy in transit (sum of L) is <= tolerance; reports the
+ * iterations run and that energy. */
+vdbs_status vdbs_pop_propagate(vdbs_runner *runner, const uint32_t *params, const float *sigma,
+                               int64_t cells, float *state, int max_iterations, double tolerance,
+                               int *iterations, double *left, vdbs_error *err);
+
+#ifdef __cplusplus
+}
+#endif
+
+#endif

@@ -1,0 +1,649 @@
+#include "vdbscatter/pop.h"
+
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "vdbscatter/lightgrid.h"
+#include "vdbscatter/lights.h"
+#include "vdbscatter/medium.h"
+#include "vdbs_math.h"
+
+#define PNANOVDB_C
+#include <nanovdb/PNanoVDB.h>
+
+#include "vs_common.h"
+#include "vs_march.h"
+#include "vs_medium.h"
+#include "vs_pop.h"
+
+#define POP_DEFAULT_EPSILON_A 0.1
+#define POP_DEFAULT_EPSILON_L 1e-3
+/* Sub-columns per cell and axis that seed a cell from the fine S1 grid, at most. */
+#define POP_SEED_SUBCOLUMNS 4
+
+void vdbs_pop_quality(const char *quality, int *resolution, int *ordinates)
+{
+    static const struct {
+        const char *name;
+        int resolution, ordinates;
+    } presets[] = {{"low", 16, 8}, {"medium", 24, 16}, {"high", 32, 32}, {"ultra", 48, 64}};
+    *resolution = 24;
+    *ordinates = 16;
+    for (size_t q = 0; quality && q < sizeof presets / sizeof presets[0]; ++q)
+        if (strcmp(quality, presets[q].name) == 0) {
+            *resolution = presets[q].resolution;
+            *ordinates = presets[q].ordinates;
+        }
+}
+
+/* A propagation grid in world space: cell (i, j, k) is the cube of side h whose first corner
+ * is origin + i h axis[0] + j h axis[1] + k h axis[2]; axis[2] is the principal direction. */
+typedef struct pop_frame {
+    double origin[3];
+    double axis[3][3];
+    double h;
+    int n[3];
+} pop_frame;
+
+static double dot3(const double a[3], const double b[3])
+{
+    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+}
+
+/* The world corners of the volume's support box. */
+static void support_corners(const vdbs_volume *volume, double corners[8][3])
+{
+    float lo[3], hi[3];
+    vdbs_volume_support_box(volume, lo, hi);
+    for (int c = 0; c < 8; ++c) {
+        double p[3] = {(c & 1) ? hi[0] : lo[0], (c & 2) ? hi[1] : lo[1], (c & 4) ? hi[2] : lo[2]};
+        vdbs_volume_world_point(volume, p, corners[c]);
+    }
+}
+
+/* The frame with the given axes (orthonormal) spanning the support box with cells of side h. */
+static void frame_fit(const double corners[8][3], const double axis[3][3], double h, pop_frame *f)
+{
+    memcpy(f->axis, axis, sizeof f->axis);
+    f->h = h;
+    double lo[3] = {HUGE_VAL, HUGE_VAL, HUGE_VAL}, hi[3] = {-HUGE_VAL, -HUGE_VAL, -HUGE_VAL};
+    for (int c = 0; c < 8; ++c)
+        for (int a = 0; a < 3; ++a) {
+            double x = dot3(corners[c], axis[a]);
+            lo[a] = fmin(lo[a], x);
+            hi[a] = fmax(hi[a], x);
+        }
+    for (int k = 0; k < 3; ++k)
+        f->origin[k] = 0.0;
+    for (int a = 0; a < 3; ++a) {
+        f->n[a] = (int)ceil((hi[a] - lo[a]) / h - 1e-9);
+        if (f->n[a] < 1)
+            f->n[a] = 1;
+        for (int k = 0; k < 3; ++k)
+            f->origin[k] += lo[a] * axis[a][k];
+    }
+}
+
+/* An orthonormal frame whose third axis is the unit d (Duff et al. 2017). */
+static void basis_from(const double d[3], double axis[3][3])
+{
+    double sign = copysign(1.0, d[2]);
+    double a = -1.0 / (sign + d[2]);
+    double b = d[0] * d[1] * a;
+    double u[3] = {1.0 + sign * d[0] * d[0] * a, sign * b, -sign * d[0]};
+    double v[3] = {b, sign + d[1] * d[1] * a, -d[1]};
+    memcpy(axis[0], u, sizeof u);
+    memcpy(axis[1], v, sizeof v);
+    memcpy(axis[2], d, sizeof u);
+}
+
+static int64_t frame_cells(const pop_frame *f)
+{
+    return (int64_t)f->n[0] * f->n[1] * f->n[2];
+}
+
+/* World point at grid coordinates x (in cells, from the frame's origin). */
+static void frame_point(const pop_frame *f, const double x[3], double world[3])
+{
+    for (int k = 0; k < 3; ++k)
+        world[k] = f->origin[k] +
+                   f->h * (x[0] * f->axis[0][k] + x[1] * f->axis[1][k] + x[2] * f->axis[2][k]);
+}
+
+/* sigma_t at every cell centre from the box-filtered medium. */
+static void frame_sigma(const pop_frame *f, const vdbs_volume *volume, const vdbs_medium_box *box,
+                        double density_scale, float *sigma)
+{
+    const int64_t cells = frame_cells(f);
+#pragma omp parallel for schedule(static)
+    for (int64_t c = 0; c < cells; ++c) {
+        double x[3] = {(double)(c % f->n[0]) + 0.5, (double)((c / f->n[0]) % f->n[1]) + 0.5,
+                       (double)(c / ((int64_t)f->n[0] * f->n[1])) + 0.5};
+        double w[3], idx[3];
+        frame_point(f, x, w);
+        vdbs_volume_index_point(volume, w, idx);
+        sigma[c] = (float)(density_scale * vdbs_medium_box_density(box, idx));
+    }
+}
+
+static void pack_params(const pop_frame *f, const vdbs_scene *scene, vdbs_pop_decay decay,
+                        int keep_a, uint32_t params[VS_POP_PARAM_WORDS])
+{
+    memset(params, 0, sizeof(uint32_t) * VS_POP_PARAM_WORDS);
+    for (int a = 0; a < 3; ++a)
+        params[VS_POP_OFF_N + a] = (uint32_t)f->n[a];
+    float h = (float)f->h, g = (float)scene->g;
+    memcpy(&params[VS_POP_OFF_H], &h, sizeof h);
+    memcpy(&params[VS_POP_OFF_G], &g, sizeof g);
+    for (int c = 0; c < 3; ++c) {
+        float albedo = (float)scene->albedo[c];
+        memcpy(&params[VS_POP_OFF_ALBEDO + c], &albedo, sizeof albedo);
+    }
+    params[VS_POP_OFF_DECAY] =
+        decay == VDBS_POP_DECAY_PAPER ? VS_POP_DECAY_PAPER : VS_POP_DECAY_MEAN_COSINE;
+    params[VS_POP_OFF_KEEP_A] = keep_a ? 1u : 0u;
+}
+
+/* ---- propagation through the runner ---- */
+
+typedef struct pop_kernel {
+    const uint32_t *params;
+    const float *sigma;
+} pop_kernel;
+
+static double pop_step(void *user, int step, const void *state_in, void *state_out, uint64_t begin,
+                       uint64_t end)
+{
+    (void)step;
+    const pop_kernel *k = user;
+    double energy = 0.0;
+    for (uint64_t cell = begin; cell < end; ++cell)
+        energy += vs_pop_gather(k->params, state_in, k->sigma, (int)cell, state_out,
+                                (int)cell * VS_POP_STATE_WORDS);
+    return energy;
+}
+
+vdbs_status vdbs_pop_propagate(vdbs_runner *runner, const uint32_t *params, const float *sigma,
+                               int64_t cells, float *state, int max_iterations, double tolerance,
+                               int *iterations, double *left, vdbs_error *err)
+{
+    pop_kernel k = {params, sigma};
+    vdbs_kernel_desc desc;
+    memset(&desc, 0, sizeof desc);
+    desc.items = (uint64_t)cells;
+    desc.user = &k;
+    desc.cpu_step = pop_step;
+    desc.shader = "pop_propagate.comp";
+    desc.inputs[1] = (vdbs_kernel_input){params, sizeof(uint32_t) * VS_POP_PARAM_WORDS};
+    desc.inputs[2] = (vdbs_kernel_input){sigma, sizeof(float) * (size_t)cells};
+    desc.state_words = VS_POP_STATE_WORDS;
+    desc.state = state;
+    desc.max_iterations = max_iterations;
+    desc.tolerance = tolerance;
+    desc.reduce = VDBS_REDUCE_SUM;
+    vdbs_kernel_result result;
+    memset(&result, 0, sizeof result);
+    vdbs_status st = vdbs_kernel_iterate(runner, &desc, &result, err);
+    *iterations = result.iterations;
+    *left = result.reduction;
+    return st;
+}
+
+/* ---- merging ---- */
+
+/* Adds `values` (width doubles) at world point p into the cells of `dst` around it, by
+ * trilinear weights renormalised over the cells inside the grid, times scale. */
+static void splat(const pop_frame *dst, double *acc, int width, const double p[3],
+                  const double *values, double scale)
+{
+    double x[3];
+    int i0[3];
+    double f[3];
+    double rel[3] = {p[0] - dst->origin[0], p[1] - dst->origin[1], p[2] - dst->origin[2]};
+    for (int a = 0; a < 3; ++a) {
+        x[a] = dot3(rel, dst->axis[a]) / dst->h - 0.5;
+        double fl = floor(x[a]);
+        i0[a] = (int)fl;
+        f[a] = x[a] - fl;
+    }
+    double w[8], wsum = 0.0;
+    int64_t at[8];
+    for (int c = 0; c < 8; ++c) {
+        w[c] = 1.0;
+        int inside = 1;
+        int idx[3];
+        for (int a = 0; a < 3; ++a) {
+            int bit = (c >> a) & 1;
+            idx[a] = i0[a] + bit;
+            w[c] *= bit ? f[a] : 1.0 - f[a];
+            inside &= idx[a] >= 0 && idx[a] < dst->n[a];
+        }
+        if (!inside)
+            w[c] = 0.0;
+        at[c] = ((int64_t)idx[2] * dst->n[1] + idx[1]) * dst->n[0] + idx[0];
+        wsum += w[c];
+    }
+    if (!(wsum > 0.0)) {
+        /* Beyond the grid's outer centres on every side: the nearest cell takes it. */
+        int idx[3];
+        for (int a = 0; a < 3; ++a) {
+            idx[a] = (int)floor(x[a] + 0.5);
+            idx[a] = idx[a] < 0 ? 0 : (idx[a] >= dst->n[a] ? dst->n[a] - 1 : idx[a]);
+        }
+        w[0] = wsum = 1.0;
+        at[0] = ((int64_t)idx[2] * dst->n[1] + idx[1]) * dst->n[0] + idx[0];
+        for (int c = 1; c < 8; ++c)
+            w[c] = 0.0;
+    }
+    for (int c = 0; c < 8; ++c) {
+        if (w[c] == 0.0)
+            continue;
+        double s = scale * w[c] / wsum;
+        for (int v = 0; v < width; ++v)
+            acc[at[c] * width + v] += s * values[v];
+    }
+}
+
+/* ---- the solve ---- */
+
+/* Per merged cell: ms (3), ms_l1 x/y/z (9), residual lobe magnitude (3). */
+#define MERGED_MS 0
+#define MERGED_L1 3
+#define MERGED_RESIDUAL 12
+#define MERGED_WIDTH 15
+
+typedef struct pop_run {
+    const vdbs_solve *s;
+    vdbs_pop_desc desc;
+    vdbs_pop_stats *stats;
+    vdbs_light_table lights; /* the suns and POP's sky ordinates */
+    vdbs_light_grids fine;   /* their S1 grids */
+    vdbs_medium_box box;
+    pop_frame merged;
+    double *merged_acc; /* MERGED_WIDTH per merged cell */
+} pop_run;
+
+static void run_free(pop_run *r)
+{
+    vdbs_lights_free(&r->lights);
+    vdbs_light_grids_free(&r->fine);
+    vdbs_medium_box_free(&r->box);
+    free(r->merged_acc);
+}
+
+/* Seeds the state of one directional grid (light `l` of the POP table): per cell the mean over
+ * sub-columns of albedo E (T_in - T_out) from the fine grid, as a lobe of anisotropy a0;
+ * returns the seeded sum over cells and channels. */
+static double seed_grid(const pop_run *r, int l, const pop_frame *f, const double e[3], double a0,
+                        float *state)
+{
+    const vdbs_solve *s = r->s;
+    const double *albedo = s->scene->albedo;
+    /* Sub-columns about a voxel apart (the fine grid interpolates between its columns). */
+    int sub = (int)ceil(f->h / s->volume->mean_voxel_size);
+    sub = sub < 1 ? 1 : (sub > POP_SEED_SUBCOLUMNS ? POP_SEED_SUBCOLUMNS : sub);
+    const int n0 = f->n[0], n1 = f->n[1], n2 = f->n[2];
+    double total = 0.0;
+#pragma omp parallel for schedule(dynamic, 4) reduction(+ : total)
+    for (int col = 0; col < n0 * n1; ++col) {
+        int i = col % n0, j = col / n0;
+        for (int p = 0; p < sub * sub; ++p) {
+            double x[3] = {i + (p % sub + 0.5) / sub, j + (p / sub + 0.5) / sub, 0.0};
+            double t_prev = 1.0;
+            for (int k = 0; k < n2; ++k) {
+                double w[3], idx[3];
+                x[2] = k + 1.0;
+                frame_point(f, x, w);
+                vdbs_volume_index_point(s->volume, w, idx);
+                double t = exp(-(double)vdbs_light_grids_depth(&r->fine, l, idx));
+                double lost = (t_prev - t) / (sub * sub);
+                t_prev = t;
+                float *cell = state + ((int64_t)(k * n1 + j) * n0 + i) * VS_POP_STATE_WORDS;
+                for (int c = 0; c < 3; ++c) {
+                    double v = albedo[c] * e[c] * lost;
+                    cell[VS_POP_STATE_L + c] += (float)v;
+                    total += v;
+                }
+            }
+        }
+    }
+    const int64_t cells = frame_cells(f);
+    for (int64_t c = 0; c < cells; ++c) {
+        float *cell = state + c * VS_POP_STATE_WORDS;
+        for (int ch = 0; ch < 3; ++ch) {
+            cell[VS_POP_STATE_A + ch] = (float)a0;
+            /* Light scattered in a cell crosses half of it on average: 1/2 L^0. */
+            cell[VS_POP_STATE_ACC_L + ch] = 0.5f * cell[VS_POP_STATE_L + ch];
+            cell[VS_POP_STATE_ACC_LA + ch] = 0.5f * cell[VS_POP_STATE_L + ch] * (float)a0;
+        }
+    }
+    return total;
+}
+
+/* Eq. 10 with the chosen decay law: iterations until a0 falls below epsilon_a, at least the
+ * cells along the grid (light from the first row must cross it), at most the cap. */
+static int anisotropic_iterations(const pop_run *r, const pop_frame *f, double a0,
+                                  double mean_sigma_s)
+{
+    const double g = r->s->scene->g;
+    double m = 0.0;
+    if (fabs(a0) > r->desc.epsilon_a && mean_sigma_s > 0.0) {
+        double per_cell;
+        if (r->desc.decay == VDBS_POP_DECAY_PAPER)
+            per_cell = g > 0.0 ? -mean_sigma_s * f->h * log(g) : HUGE_VAL;
+        else
+            per_cell = mean_sigma_s * f->h * (1.0 - g);
+        m = per_cell > 0.0 ? log(fabs(a0) / r->desc.epsilon_a) / per_cell : HUGE_VAL;
+    }
+    double floor_m = f->n[2];
+    m = fmax(m, floor_m);
+    return (int)fmin(m, (double)r->desc.max_iterations);
+}
+
+static vdbs_status propagate_grid(pop_run *r, int l, const double d[3], const double e[3],
+                                  double a0, double mean_sigma_s, vdbs_error *err)
+{
+    const vdbs_solve *s = r->s;
+    double corners[8][3], axis[3][3];
+    support_corners(s->volume, corners);
+    basis_from(d, axis);
+    pop_frame f;
+    frame_fit(corners, axis, r->merged.h * 2.0, &f);
+    const int64_t cells = frame_cells(&f);
+    float *state = calloc((size_t)cells * VS_POP_STATE_WORDS, sizeof *state);
+    float *sigma = malloc(sizeof *sigma * (size_t)cells);
+    if (!state || !sigma) {
+        free(state);
+        free(sigma);
+        return vdbs_error_set(err, VDBS_ERR_NOMEM, "out of memory for a POP grid");
+    }
+    r->stats->cells += cells;
+    double t0 = vdbs_now();
+    frame_sigma(&f, s->volume, &r->box, s->scene->density_scale, sigma);
+    double seeded = seed_grid(r, l, &f, e, a0, state);
+    r->stats->seeded += seeded * f.h * f.h * f.h;
+    double t1 = vdbs_now();
+    r->stats->seconds_seed += t1 - t0;
+    uint32_t params[VS_POP_PARAM_WORDS];
+    pack_params(&f, s->scene, r->desc.decay, 1, params);
+    int iterations = 0;
+    double left = 0.0;
+    vdbs_status st = VDBS_OK;
+    if (seeded > 0.0)
+        st = vdbs_pop_propagate(s->runner, params, sigma, cells, state,
+                                anisotropic_iterations(r, &f, a0, mean_sigma_s),
+                                r->desc.epsilon_l * seeded, &iterations, &left, err);
+    double t2 = vdbs_now();
+    r->stats->seconds_propagate += t2 - t1;
+    if (iterations > r->stats->iterations_anisotropic)
+        r->stats->iterations_anisotropic = iterations;
+    if (st == VDBS_OK) {
+        /* Splat the accumulated lobes (ms, ms_l1) and the residual into the merged grid;
+         * cell volumes h^3 against (h/2)^3 keep the energy. */
+        const double scale = 8.0, g = s->scene->g;
+        for (int64_t c = 0; c < cells; ++c) {
+            const float *cell = state + c * VS_POP_STATE_WORDS;
+            double v[MERGED_WIDTH];
+            int any = 0;
+            for (int ch = 0; ch < 3; ++ch) {
+                v[MERGED_MS + ch] = cell[VS_POP_STATE_ACC_L + ch] * VS_INV_4PI;
+                for (int a = 0; a < 3; ++a)
+                    v[MERGED_L1 + 3 * a + ch] =
+                        3.0 * g * cell[VS_POP_STATE_ACC_LA + ch] * d[a] * VS_INV_4PI;
+                v[MERGED_RESIDUAL + ch] = cell[VS_POP_STATE_L + ch];
+                any |= cell[VS_POP_STATE_ACC_L + ch] != 0.0f || cell[VS_POP_STATE_L + ch] != 0.0f;
+            }
+            if (!any)
+                continue;
+            double x[3] = {(double)(c % f.n[0]) + 0.5, (double)((c / f.n[0]) % f.n[1]) + 0.5,
+                           (double)(c / ((int64_t)f.n[0] * f.n[1])) + 0.5};
+            double w[3];
+            frame_point(&f, x, w);
+            splat(&r->merged, r->merged_acc, MERGED_WIDTH, w, v, scale);
+        }
+        r->stats->seconds_merge += vdbs_now() - t2;
+    }
+    free(state);
+    free(sigma);
+    return st;
+}
+
+/* The isotropic residuum (Sec. 5.4) on the merged grid: its accumulation goes into ms. */
+static vdbs_status isotropic(pop_run *r, vdbs_error *err)
+{
+    const vdbs_solve *s = r->s;
+    const pop_frame *f = &r->merged;
+    const int64_t cells = frame_cells(f);
+    float *state = calloc((size_t)cells * VS_POP_STATE_WORDS, sizeof *state);
+    float *sigma = malloc(sizeof *sigma * (size_t)cells);
+    if (!state || !sigma) {
+        free(state);
+        free(sigma);
+        return vdbs_error_set(err, VDBS_ERR_NOMEM, "out of memory for the isotropic POP grid");
+    }
+    double t0 = vdbs_now();
+    frame_sigma(f, s->volume, &r->box, s->scene->density_scale, sigma);
+    double residual = 0.0;
+    for (int64_t c = 0; c < cells; ++c)
+        for (int ch = 0; ch < 3; ++ch) {
+            float v = (float)r->merged_acc[c * MERGED_WIDTH + MERGED_RESIDUAL + ch];
+            state[c * VS_POP_STATE_WORDS + VS_POP_STATE_L + ch] = v;
+            residual += v;
+        }
+    const double cell_volume = f->h * f->h * f->h;
+    uint32_t params[VS_POP_PARAM_WORDS];
+    pack_params(f, s->scene, r->desc.decay, 0, params);
+    int iterations = 0;
+    double left = residual;
+    vdbs_status st = VDBS_OK;
+    const double tolerance = r->desc.epsilon_l * r->stats->seeded / cell_volume;
+    if (residual > tolerance) {
+        int cap = 8 * (f->n[0] + f->n[1] + f->n[2]);
+        st = vdbs_pop_propagate(s->runner, params, sigma, cells, state, cap, tolerance, &iterations,
+                                &left, err);
+    }
+    r->stats->iterations_isotropic = iterations;
+    r->stats->residual = r->stats->seeded > 0.0 ? left * cell_volume / r->stats->seeded : 0.0;
+    if (st == VDBS_OK)
+        for (int64_t c = 0; c < cells; ++c)
+            for (int ch = 0; ch < 3; ++ch)
+                r->merged_acc[c * MERGED_WIDTH + MERGED_MS + ch] +=
+                    state[c * VS_POP_STATE_WORDS + VS_POP_STATE_ACC_L + ch] * VS_INV_4PI;
+    r->stats->seconds_isotropic += vdbs_now() - t0;
+    free(state);
+    free(sigma);
+    return st;
+}
+
+/* Joint bilateral upsampling (Sec. 4.4) of the merged grid to the output voxels: trilinear
+ * weights times a range weight on sigma_t, the cell's box-filtered one against the voxel's. */
+static void upsample(pop_run *r)
+{
+    const vdbs_solve *s = r->s;
+    const vdbs_volume *volume = s->volume;
+    const pop_frame *f = &r->merged;
+    const double scale = s->scene->density_scale;
+    const int64_t cells = frame_cells(f);
+    float *guide = malloc(sizeof *guide * (size_t)cells);
+    if (!guide)
+        return;
+    frame_sigma(f, volume, &r->box, scale, guide);
+    double sum = 0.0;
+    int64_t count = 0;
+    for (int64_t c = 0; c < cells; ++c)
+        if (guide[c] > 0.0f) {
+            sum += guide[c];
+            ++count;
+        }
+    const double range = count > 0 ? 0.5 * sum / count : 1.0;
+    pnanovdb_buf_t buf = pnanovdb_make_buf(volume->nano, volume->nano_size / 4);
+#pragma omp parallel
+    {
+        pnanovdb_readaccessor_t acc = vs_density_accessor(buf);
+#pragma omp for schedule(static)
+        for (int64_t n = 0; n < (int64_t)volume->coord_count; ++n) {
+            const int32_t *co = volume->coords + 3 * n;
+            double idx[3] = {co[0], co[1], co[2]}, w[3];
+            vdbs_volume_world_point(volume, idx, w);
+            double sv = scale * vs_density_voxel(buf, &acc, vs_coord(co[0], co[1], co[2]));
+            double rel[3] = {w[0] - f->origin[0], w[1] - f->origin[1], w[2] - f->origin[2]};
+            int i0[3];
+            double fr[3];
+            for (int a = 0; a < 3; ++a) {
+                double x = dot3(rel, f->axis[a]) / f->h - 0.5;
+                double fl = floor(x);
+                i0[a] = (int)fl;
+                fr[a] = x - fl;
+            }
+            double out[12] = {0}, wsum = 0.0;
+            for (int c = 0; c < 8; ++c) {
+                int id[3];
+                double wt = 1.0;
+                for (int a = 0; a < 3; ++a) {
+                    int bit = (c >> a) & 1;
+                    id[a] = i0[a] + bit;
+                    id[a] = id[a] < 0 ? 0 : (id[a] >= f->n[a] ? f->n[a] - 1 : id[a]);
+                    wt *= bit ? fr[a] : 1.0 - fr[a];
+                }
+                if (wt == 0.0)
+                    continue;
+                int64_t at = ((int64_t)id[2] * f->n[1] + id[1]) * f->n[0] + id[0];
+                double dr = (guide[at] - sv) / range;
+                wt *= exp(-0.5 * dr * dr) + 1e-3;
+                wsum += wt;
+                for (int v = 0; v < 12; ++v)
+                    out[v] += wt * r->merged_acc[at * MERGED_WIDTH + v];
+            }
+            if (!(wsum > 0.0))
+                continue;
+            for (int ch = 0; ch < 3; ++ch) {
+                float ms = (float)(out[MERGED_MS + ch] / wsum);
+                s->ms[3 * n + ch] += ms;
+                s->radiance[3 * n + ch] += ms;
+                for (int a = 0; a < 3; ++a)
+                    s->ms_l1[a][3 * n + ch] += (float)(out[MERGED_L1 + 3 * a + ch] / wsum);
+            }
+        }
+    }
+    free(guide);
+}
+
+/* The mean sigma_s (albedo's mean over the channels) over the voxels with density. */
+static double mean_sigma_s(const vdbs_solve *s)
+{
+    const vdbs_volume *volume = s->volume;
+    pnanovdb_buf_t buf = pnanovdb_make_buf(volume->nano, volume->nano_size / 4);
+    pnanovdb_readaccessor_t acc = vs_density_accessor(buf);
+    double sum = 0.0;
+    int64_t count = 0;
+    for (size_t n = 0; n < volume->coord_count; ++n) {
+        const int32_t *c = volume->coords + 3 * n;
+        float v = vs_density_voxel(buf, &acc, vs_coord(c[0], c[1], c[2]));
+        if (v > 0.0f) {
+            sum += v;
+            ++count;
+        }
+    }
+    const double *al = s->scene->albedo;
+    return count > 0 ? s->scene->density_scale * (sum / count) * (al[0] + al[1] + al[2]) / 3.0
+                     : 0.0;
+}
+
+vdbs_status vdbs_pop_solve(const vdbs_solve *s, const vdbs_pop_desc *desc, vdbs_pop_stats *stats,
+                           vdbs_error *err)
+{
+    memset(stats, 0, sizeof *stats);
+    pop_run r;
+    memset(&r, 0, sizeof r);
+    r.s = s;
+    r.stats = stats;
+    r.desc = desc ? *desc : (vdbs_pop_desc){0};
+    int res, ords;
+    vdbs_pop_quality(s->quality ? s->quality->name : NULL, &res, &ords);
+    if (r.desc.resolution <= 0)
+        r.desc.resolution = res;
+    if (r.desc.ordinates <= 0)
+        r.desc.ordinates = ords;
+    if (r.desc.max_iterations <= 0)
+        r.desc.max_iterations = 4 * r.desc.resolution;
+    if (!(r.desc.epsilon_a > 0.0))
+        r.desc.epsilon_a = POP_DEFAULT_EPSILON_A;
+    if (!(r.desc.epsilon_l > 0.0))
+        r.desc.epsilon_l = POP_DEFAULT_EPSILON_L;
+    if (r.desc.decay == VDBS_POP_DECAY_PAPER && s->scene->g < 0.0)
+        return vdbs_error_set(err, VDBS_ERR_INPUT,
+                              "--pop-decay paper needs g >= 0 (g^(sigma_s t) is undefined for "
+                              "g = %g); use --pop-decay mean-cosine",
+                              s->scene->g);
+    stats->resolution = r.desc.resolution;
+    for (int i = 0; i < s->scene->light_count; ++i)
+        if (s->scene->lights[i].type == VDBS_LIGHT_POINT)
+            return vdbs_error_set(err, VDBS_ERR_INPUT,
+                                  "--method pop: point lights are not supported yet (POP part 2, "
+                                  "radial grids); use --method single");
+
+    vdbs_lights_desc ld = {0};
+    ld.sky_ordinates = r.desc.ordinates;
+    vdbs_status st = vdbs_lights_build(s->volume, s->scene, &ld, &r.lights, err);
+    if (st != VDBS_OK)
+        return st;
+    const int count = r.lights.direct_count + r.lights.ordinate_count;
+    stats->grids = count;
+    double corners[8][3];
+    support_corners(s->volume, corners);
+    double lo[3] = {HUGE_VAL, HUGE_VAL, HUGE_VAL}, hi[3] = {-HUGE_VAL, -HUGE_VAL, -HUGE_VAL};
+    for (int c = 0; c < 8; ++c)
+        for (int a = 0; a < 3; ++a) {
+            lo[a] = fmin(lo[a], corners[c][a]);
+            hi[a] = fmax(hi[a], corners[c][a]);
+        }
+    const double extent = fmax(hi[0] - lo[0], fmax(hi[1] - lo[1], hi[2] - lo[2]));
+    const double h = extent / r.desc.resolution;
+    const double world_axes[3][3] = {{1, 0, 0}, {0, 1, 0}, {0, 0, 1}};
+    frame_fit(corners, world_axes, 0.5 * h, &r.merged);
+    stats->merged_cells = frame_cells(&r.merged);
+    int block = (int)floor(0.5 * h / s->volume->mean_voxel_size);
+    vdbs_light_grid_desc fine_desc = {0};
+    if (s->s1_grids)
+        fine_desc = *s->s1_grids;
+    r.merged_acc = calloc((size_t)stats->merged_cells * MERGED_WIDTH, sizeof *r.merged_acc);
+    if (!r.merged_acc)
+        st = vdbs_error_set(err, VDBS_ERR_NOMEM, "out of memory for the merged POP grid");
+    if (st == VDBS_OK)
+        st = vdbs_medium_box_build(s->volume, block < 1 ? 1 : block, &r.box, err);
+    if (st == VDBS_OK)
+        st = vdbs_light_grids_build(s->runner, s->volume, s->scene, &r.lights, 0, count, &fine_desc,
+                                    &r.fine, err);
+    const double sigma_s = mean_sigma_s(s), g = s->scene->g;
+    for (int l = 0; l < count && st == VDBS_OK; ++l) {
+        double d[3], e[3], a0;
+        if (l < r.lights.direct_count) {
+            const vdbs_direct_light *dl = &r.lights.direct[l];
+            memcpy(d, dl->world, sizeof d);
+            memcpy(e, dl->color, sizeof e);
+            a0 = g; /* a delta beam scattered once: HG(g) about d */
+        } else {
+            /* A sky ordinate stands for a patch of solid angle w: as a cap, its light's mean
+             * cosine about the ordinate is (1 + cos theta) / 2 with 2 pi (1 - cos theta) = w,
+             * and one scattering multiplies it by g (the prefiltered initial anisotropy). */
+            const vdbs_sky_ordinate *o = &r.lights.ordinates[l - r.lights.direct_count];
+            for (int k = 0; k < 3; ++k) {
+                d[k] = -o->world[k];
+                e[k] = o->radiance[k] * o->weight;
+            }
+            double cos_theta = fmax(-1.0, 1.0 - o->weight / (2.0 * VDBS_PI));
+            a0 = g * 0.5 * (1.0 + cos_theta);
+        }
+        st = propagate_grid(&r, l, d, e, a0, sigma_s, err);
+    }
+    if (st == VDBS_OK)
+        st = isotropic(&r, err);
+    if (st == VDBS_OK) {
+        double t0 = vdbs_now();
+        upsample(&r);
+        stats->seconds_upsample = vdbs_now() - t0;
+    }
+    run_free(&r);
+    return st;
+}
