@@ -103,6 +103,8 @@ static cJSON *report_json(const char *input, const char *output, const vdbs_scen
         cJSON_AddNumberToObject(pj, "iterations_isotropic", p->iterations_isotropic);
         cJSON_AddNumberToObject(pj, "seeded", p->seeded);
         cJSON_AddNumberToObject(pj, "residual", p->residual);
+        cJSON_AddNumberToObject(pj, "merge_in", p->merge_in);
+        cJSON_AddNumberToObject(pj, "merge_out", p->merge_out);
         cJSON_AddStringToObject(pj, "decay", scene->pop_decay_paper ? "paper" : "mean-cosine");
     }
     double rmax[3] = {r->radiance_max[0], r->radiance_max[1], r->radiance_max[2]};

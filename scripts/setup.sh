@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Installs every Debian 12 package vdbscatter needs to build, test and run.
+# Installs every Debian 12 package vdbscatter needs to build, test, run and bench (plots).
 # Safe to run again: apt-get skips what is already installed.
 set -euo pipefail
 
@@ -9,6 +9,7 @@ packages=(
   libegl-dev libegl-mesa0 libgl1-mesa-dri libgl-dev libepoxy-dev
   libglfw3-dev xvfb xauth libpng-dev libstb-dev libopenexr-dev openexr
   liblapacke-dev libopenblas0-pthread libcjson-dev libcmocka-dev
+  python3-matplotlib
 )
 
 missing=()

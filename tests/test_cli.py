@@ -412,6 +412,8 @@ class Pop(Base):
         self.assertGreater(stats["iterations_isotropic"], 0)
         self.assertLessEqual(stats["residual"], 1e-3)
         self.assertGreater(stats["seeded"], 0.0)
+        # The merge conserves: fluence x volume before and after the splat.
+        self.assertAlmostEqual(stats["merge_out"], stats["merge_in"], delta=1e-9 * stats["merge_in"])
         for stage in ["pop_seed", "pop_propagate", "pop_isotropic", "pop_merge", "pop_upsample"]:
             self.assertGreaterEqual(report["seconds"][stage], 0.0)
         s1 = {tuple(i.min): i.value for i in vdb.read(single, "radiance").citerOnValues()}

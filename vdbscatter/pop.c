@@ -341,6 +341,24 @@ static int anisotropic_iterations(const pop_run *r, const pop_frame *f, double a
     return (int)fmin(m, (double)r->desc.max_iterations);
 }
 
+/* A grid's zeroed state and its sigma_t per cell (the caller frees both). */
+static vdbs_status grid_arrays(const pop_run *r, const pop_frame *f, float **state, float **sigma,
+                               vdbs_error *err)
+{
+    const int64_t cells = frame_cells(f);
+    *state = calloc((size_t)cells * VS_POP_STATE_WORDS, sizeof **state);
+    *sigma = malloc(sizeof **sigma * (size_t)cells);
+    if (!*state || !*sigma) {
+        free(*state);
+        free(*sigma);
+        *state = *sigma = NULL;
+        return vdbs_error_set(err, VDBS_ERR_NOMEM, "out of memory for a POP grid of %lld cells",
+                              (long long)cells);
+    }
+    frame_sigma(f, r->s->volume, &r->box, r->s->scene->density_scale, *sigma);
+    return VDBS_OK;
+}
+
 static vdbs_status propagate_grid(pop_run *r, int l, const double d[3], const double e[3],
                                   double a0, double mean_sigma_s, vdbs_error *err)
 {
@@ -351,16 +369,12 @@ static vdbs_status propagate_grid(pop_run *r, int l, const double d[3], const do
     pop_frame f;
     frame_fit(corners, axis, r->merged.h * 2.0, &f);
     const int64_t cells = frame_cells(&f);
-    float *state = calloc((size_t)cells * VS_POP_STATE_WORDS, sizeof *state);
-    float *sigma = malloc(sizeof *sigma * (size_t)cells);
-    if (!state || !sigma) {
-        free(state);
-        free(sigma);
-        return vdbs_error_set(err, VDBS_ERR_NOMEM, "out of memory for a POP grid");
-    }
-    r->stats->cells += cells;
     double t0 = vdbs_now();
-    frame_sigma(&f, s->volume, &r->box, s->scene->density_scale, sigma);
+    float *state, *sigma;
+    vdbs_status st = grid_arrays(r, &f, &state, &sigma, err);
+    if (st != VDBS_OK)
+        return st;
+    r->stats->cells += cells;
     double seeded = seed_grid(r, l, &f, e, a0, state);
     r->stats->seeded += seeded * f.h * f.h * f.h;
     double t1 = vdbs_now();
@@ -369,7 +383,6 @@ static vdbs_status propagate_grid(pop_run *r, int l, const double d[3], const do
     pack_params(&f, s->scene, r->desc.decay, 1, params);
     int iterations = 0;
     double left = 0.0;
-    vdbs_status st = VDBS_OK;
     if (seeded > 0.0)
         st = vdbs_pop_propagate(s->runner, params, sigma, cells, state,
                                 anisotropic_iterations(r, &f, a0, mean_sigma_s),
@@ -387,7 +400,7 @@ static vdbs_status propagate_grid(pop_run *r, int l, const double d[3], const do
             double v[MERGED_WIDTH];
             int any = 0;
             for (int ch = 0; ch < 3; ++ch) {
-                v[MERGED_MS + ch] = cell[VS_POP_STATE_ACC_L + ch] * VS_INV_4PI;
+                v[MERGED_MS + ch] = cell[VS_POP_STATE_ACC_L + ch] / (4.0 * VDBS_PI);
                 for (int a = 0; a < 3; ++a)
                     v[MERGED_L1 + 3 * a + ch] =
                         3.0 * g * cell[VS_POP_STATE_ACC_LA + ch] * d[a] * VS_INV_4PI;
@@ -396,6 +409,8 @@ static vdbs_status propagate_grid(pop_run *r, int l, const double d[3], const do
             }
             if (!any)
                 continue;
+            for (int ch = 0; ch < 3; ++ch)
+                r->stats->merge_in += cell[VS_POP_STATE_ACC_L + ch] * f.h * f.h * f.h;
             double x[3] = {(double)(c % f.n[0]) + 0.5, (double)((c / f.n[0]) % f.n[1]) + 0.5,
                            (double)(c / ((int64_t)f.n[0] * f.n[1])) + 0.5};
             double w[3];
@@ -415,28 +430,26 @@ static vdbs_status isotropic(pop_run *r, vdbs_error *err)
     const vdbs_solve *s = r->s;
     const pop_frame *f = &r->merged;
     const int64_t cells = frame_cells(f);
-    float *state = calloc((size_t)cells * VS_POP_STATE_WORDS, sizeof *state);
-    float *sigma = malloc(sizeof *sigma * (size_t)cells);
-    if (!state || !sigma) {
-        free(state);
-        free(sigma);
-        return vdbs_error_set(err, VDBS_ERR_NOMEM, "out of memory for the isotropic POP grid");
-    }
     double t0 = vdbs_now();
-    frame_sigma(f, s->volume, &r->box, s->scene->density_scale, sigma);
+    float *state, *sigma;
+    vdbs_status st = grid_arrays(r, f, &state, &sigma, err);
+    if (st != VDBS_OK)
+        return st;
+    const double cell_volume = f->h * f->h * f->h;
     double residual = 0.0;
     for (int64_t c = 0; c < cells; ++c)
         for (int ch = 0; ch < 3; ++ch) {
+            /* What the directional grids' splats brought, before the residuum adds its own. */
+            r->stats->merge_out +=
+                4.0 * VDBS_PI * r->merged_acc[c * MERGED_WIDTH + MERGED_MS + ch] * cell_volume;
             float v = (float)r->merged_acc[c * MERGED_WIDTH + MERGED_RESIDUAL + ch];
             state[c * VS_POP_STATE_WORDS + VS_POP_STATE_L + ch] = v;
             residual += v;
         }
-    const double cell_volume = f->h * f->h * f->h;
     uint32_t params[VS_POP_PARAM_WORDS];
     pack_params(f, s->scene, r->desc.decay, 0, params);
     int iterations = 0;
     double left = residual;
-    vdbs_status st = VDBS_OK;
     const double tolerance = r->desc.epsilon_l * r->stats->seeded / cell_volume;
     if (residual > tolerance) {
         int cap = 8 * (f->n[0] + f->n[1] + f->n[2]);

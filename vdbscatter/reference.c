@@ -89,15 +89,26 @@ static void normalize3(double v[3])
             v[a] /= len;
 }
 
-/* Turns the unit vector w by an angle of cosine mu at azimuth 2 pi u (orthonormal basis
- * of Duff et al. 2017, continuous everywhere). */
-static void scatter_dir(double w[3], double mu, double sin_theta, double u)
+/* Two unit vectors completing the unit vector w to an orthonormal basis (Duff et al.
+ * 2017, continuous everywhere). */
+static void ortho_basis(const double w[3], double t1[3], double t2[3])
 {
     double sign = copysign(1.0, w[2]);
     double a = -1.0 / (sign + w[2]);
     double b = w[0] * w[1] * a;
-    double t1[3] = {1.0 + sign * w[0] * w[0] * a, sign * b, -sign * w[0]};
-    double t2[3] = {b, sign + w[1] * w[1] * a, -w[1]};
+    t1[0] = 1.0 + sign * w[0] * w[0] * a;
+    t1[1] = sign * b;
+    t1[2] = -sign * w[0];
+    t2[0] = b;
+    t2[1] = sign + w[1] * w[1] * a;
+    t2[2] = -w[1];
+}
+
+/* Turns the unit vector w by an angle of cosine mu at azimuth 2 pi u. */
+static void scatter_dir(double w[3], double mu, double sin_theta, double u)
+{
+    double t1[3], t2[3];
+    ortho_basis(w, t1, t2);
     double phi = 2.0 * VDBS_PI * u;
     double c = sin_theta * cos(phi), s = sin_theta * sin(phi);
     double out[3];
@@ -244,6 +255,25 @@ static vdbs_status ctx_init(const vdbs_volume *volume, const vdbs_scene *scene, 
     if (st != VDBS_OK)
         ctx_free(ctx);
     return st;
+}
+
+/* A world-space sphere holding the majorant grid's support box: its centre and the
+ * half-diagonal of the box's world-space bounding box. */
+static void support_sphere(const ref_ctx *ctx, double centre[3], double *radius)
+{
+    double ci[3], half[3], r2 = 0.0;
+    for (int a = 0; a < 3; ++a) {
+        ci[a] = 0.5 * (ctx->grid.lo[a] + ctx->grid.hi[a]);
+        half[a] = 0.5 * (ctx->grid.hi[a] - ctx->grid.lo[a]);
+    }
+    vdbs_volume_world_point(ctx->volume, ci, centre);
+    for (int r = 0; r < 3; ++r) {
+        double e = 0.0;
+        for (int a = 0; a < 3; ++a)
+            e += fabs(ctx->volume->index_to_world[r][a]) * half[a];
+        r2 += e * e;
+    }
+    *radius = sqrt(r2);
 }
 
 static void tracker_init(const ref_ctx *ctx, ref_tracker *tr)
@@ -584,36 +614,14 @@ vdbs_status vdbs_reference_tally_sun(const vdbs_volume *volume, const vdbs_scene
         }
     }
     /* Start far enough back along the sun that every start is outside the support box. */
-    double box_centre[3], box_radius = 0.0;
-    {
-        double ci[3], half[3];
-        for (int a = 0; a < 3; ++a) {
-            ci[a] = 0.5 * (ctx.grid.lo[a] + ctx.grid.hi[a]);
-            half[a] = 0.5 * (ctx.grid.hi[a] - ctx.grid.lo[a]);
-        }
-        vdbs_volume_world_point(volume, ci, box_centre);
-        for (int r = 0; r < 3; ++r) {
-            double e = 0.0;
-            for (int a = 0; a < 3; ++a)
-                e += fabs(volume->index_to_world[r][a]) * half[a];
-            box_radius += e * e;
-        }
-        box_radius = sqrt(box_radius);
-    }
+    double box_centre[3], box_radius;
+    support_sphere(&ctx, box_centre, &box_radius);
     double dc = 0.0;
     for (int a = 0; a < 3; ++a)
         dc += (centre[a] - box_centre[a]) * (centre[a] - box_centre[a]);
     double back = sqrt(dc) + box_radius + radius + 1.0;
     double u1[3], u2[3];
-    {
-        double sign = copysign(1.0, s[2]);
-        double a = -1.0 / (sign + s[2]);
-        double b = s[0] * s[1] * a;
-        double t1[3] = {1.0 + sign * s[0] * s[0] * a, sign * b, -sign * s[0]};
-        double t2[3] = {b, sign + s[1] * s[1] * a, -s[1]};
-        memcpy(u1, t1, sizeof u1);
-        memcpy(u2, t2, sizeof u2);
-    }
+    ortho_basis(s, u1, u2);
     double sun_index[3];
     vdbs_volume_index_vector(volume, s, sun_index);
     const double albedo = ctx.medium.albedo[0];

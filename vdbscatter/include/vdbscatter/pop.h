@@ -45,6 +45,9 @@ typedef struct vdbs_pop_stats {
     int iterations_isotropic;
     double seeded;   /* energy seeded (sum over cells and channels of L^0 times cell volume) */
     double residual; /* energy left in transit at the end, relative to seeded */
+    /* The merge's balance: accumulated fluence times cell volume summed over the directional
+     * grids' cells, and over the merged grid's after the splat (equal up to rounding). */
+    double merge_in, merge_out;
     double seconds_seed, seconds_propagate, seconds_isotropic, seconds_merge, seconds_upsample;
 } vdbs_pop_stats;
 

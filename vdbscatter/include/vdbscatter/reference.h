@@ -87,6 +87,71 @@ vdbs_status vdbs_reference_tally_sun(const vdbs_volume *volume, const vdbs_scene
                                      int max_bounces, uint64_t seed, vdbs_reference_tally *tally,
                                      vdbs_error *err);
 
+/* A Monte-Carlo probe of the multiply-scattered source at given points: the direct oracle
+ * for every solver's `ms` and `ms_l1` grids (DESIGN.md "The lit VDB"), for tests and
+ * benches. With Lms(x, w) the radiance at x that has scattered at least once (and at most
+ * max_bounces times), it estimates per RGB channel
+ *   ms    = (1 / 4 pi) integral Lms dw       = phi_ms / 4 pi   (phi_ms: fluence)
+ *   ms_l1 = (3 g / 4 pi) integral Lms w dw   = 3 g J_ms / 4 pi (J_ms: net flux vector)
+ * averaged over a ball of world radius `radius` around each point (the ball average, not
+ * the point value: the two differ by about radius^2 / 10 times the fluence's Laplacian).
+ *
+ * Estimator: light tracing with a track-length tally. Photons leave the lights, chosen
+ * at random in proportion to their power (the mean of its RGB channels), and are tracked
+ * with the renderer's delta tracking, analog collisions weighted by the RGB albedo, exact
+ * HG sampling and Russian roulette after the third scattering event:
+ *   - a sun: from a point uniform over a disc perpendicular to its travel direction that
+ *     covers the bounding sphere (radius R) of the volume's support box, power E pi R^2;
+ *   - a constant sky (the scene's env colours): travel direction uniform over the sphere,
+ *     start point on such a disc, power 4 pi L pi R^2;
+ *   - an environment map: travel direction drawn from the map's luminance x solid angle
+ *     distribution (envmap.h), weight texel radiance / pdf x pi R^2 (the map as lighting,
+ *     its texels, as in the reference renderer);
+ *   - a point light: from its position, direction uniform, power 4 pi I; the renderer's
+ *     clamp of 1/r^2 at half a voxel is honoured by scaling a photon whose first collision
+ *     lies at r < r_min by (r / r_min)^2.
+ * Suns with angular_diameter_deg > 0 are delta lights, as in the renderer. After the
+ * first scattering event every straight flight (to the next real collision, or out of the
+ * volume to infinity) adds, for each ball it crosses, weight x chord length / ball volume
+ * to that ball's fluence and weight x chord x direction / volume to its flux. A path ends
+ * at a collision after max_bounces scattering events (that flight still counts), when
+ * roulette kills it, or at the renderer's step guard (its last flight is then lost).
+ * Balls are found through a uniform grid of the points, so many points cost little more
+ * than a few.
+ *
+ * Standard errors: the photons are split into fixed batches of at most 4096 (at least 64
+ * batches when there are 64 photons or more); with X_k the batch sums of m_k photons,
+ * S1 = sum X_k, S2 = sum X_k^2 / m_k and K batches, the per-photon variance is estimated
+ * as (S2 - S1^2 / N) / (K - 1) and se = sqrt(that / N) (0 with a single batch).
+ * Results are deterministic for a seed whatever the thread count: random streams are
+ * keyed by photon index and batches are merged in order.
+ *
+ * Memory: about 130 bytes per point per thread plus 200 per point. */
+typedef struct vdbs_reference_probe_options {
+    int64_t photons;         /* photons traced from all lights together; 0: 1 << 20 */
+    double radius;           /* world radius of the probe balls; 0: 2 x the mean voxel size */
+    int max_bounces;         /* scattering events per photon path; 0: 1000 (as render's) */
+    uint64_t seed;           /* 0 is a seed like any other */
+    vdbs_progress *progress; /* may be NULL; updated with the finished fraction of the
+                                photons times progress->total */
+} vdbs_reference_probe_options;
+
+/* Probes `count` world-space points (points[3 i + a], a = x, y, z). Outputs (each may be
+ * NULL; the caller allocates them):
+ *   ms[3 i + c]          ms of point i, channel c (R, G, B)
+ *   ms_l1[9 i + 3 a + c] component a (x, y, z) of ms_l1 of point i, channel c: the values
+ *                        of the lit VDB's grid ms_l1x (a = 0), ms_l1y, ms_l1z at point i
+ *   ms_se, ms_l1_se      their standard errors, in the same layouts
+ * With g = 0, ms_l1 and its se are 0. `options` may be NULL (all defaults). All lights
+ * are supported (suns, point lights, constant skies and an environment map); a scene
+ * without light gives zeros. Errors (VDBS_ERR_INPUT): negative photons, radius or
+ * max_bounces, a radius or point that is not finite, count > 0 with points NULL; an
+ * environment map that cannot be used (lights.h); out of memory. */
+vdbs_status vdbs_reference_probe(const vdbs_volume *volume, const vdbs_scene *scene,
+                                 const vdbs_reference_probe_options *options,
+                                 const double *points, size_t count, double *ms, double *ms_l1,
+                                 double *ms_se, double *ms_l1_se, vdbs_error *err);
+
 /* The cosine mu between incident and scattered propagation directions drawn from the HG
  * phase of anisotropy g for a uniform number u in [0, 1): the exact inverse of its CDF,
  * in a form without division by g (finite and accurate for g = 0 and |g| <= 0.999); the
