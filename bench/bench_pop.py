@@ -72,6 +72,7 @@ def main():
         for r in resolutions:
             e, _, seconds = error("pop", ["--pop-res", str(r)])
             errs.append(e)
+            print(f"  {label}: single {single:.3f}, POP {r}: {e:.3f} ({seconds:.1f} s)", flush=True)
         row = (f"| {label} | {se:.4f} | {single:.3f} | " + " | ".join(f"{e:.3f}" for e in errs) +
                f" | {seconds:.1f} |")
         lines.append(row)
