@@ -247,11 +247,10 @@ static void splat(const pop_frame *dst, double *acc, int width, const double p[3
 
 /* ---- the solve ---- */
 
-/* Per merged cell: ms (3), ms_l1 x/y/z (9), residual lobe magnitude (3). */
+/* Per merged cell: ms (3), ms_l1 x/y/z (9). */
 #define MERGED_MS 0
 #define MERGED_L1 3
-#define MERGED_RESIDUAL 12
-#define MERGED_WIDTH 15
+#define MERGED_WIDTH 12
 
 typedef struct pop_run {
     const vdbs_solve *s;
@@ -260,8 +259,11 @@ typedef struct pop_run {
     vdbs_light_table lights; /* the suns and POP's sky ordinates */
     vdbs_light_grids fine;   /* their S1 grids */
     vdbs_medium_box box;
-    pop_frame merged;
-    double *merged_acc; /* MERGED_WIDTH per merged cell */
+    double h;             /* cell side of the directional grids */
+    pop_frame merged;     /* world-aligned, side h / 2: the accumulated ms and ms_l1 */
+    double *merged_acc;   /* MERGED_WIDTH per merged cell */
+    pop_frame iso;        /* world-aligned, side h: the isotropic residuum */
+    double *iso_residual; /* 3 per iso cell: the directional grids' light still in transit */
 } pop_run;
 
 static void run_free(pop_run *r)
@@ -270,6 +272,7 @@ static void run_free(pop_run *r)
     vdbs_light_grids_free(&r->fine);
     vdbs_medium_box_free(&r->box);
     free(r->merged_acc);
+    free(r->iso_residual);
 }
 
 /* Seeds the state of one directional grid (light `l` of the POP table): per cell the mean over
@@ -367,7 +370,7 @@ static vdbs_status propagate_grid(pop_run *r, int l, const double d[3], const do
     support_corners(s->volume, corners);
     basis_from(d, axis);
     pop_frame f;
-    frame_fit(corners, axis, r->merged.h * 2.0, &f);
+    frame_fit(corners, axis, r->h, &f);
     const int64_t cells = frame_cells(&f);
     double t0 = vdbs_now();
     float *state, *sigma;
@@ -392,9 +395,9 @@ static vdbs_status propagate_grid(pop_run *r, int l, const double d[3], const do
     if (iterations > r->stats->iterations_anisotropic)
         r->stats->iterations_anisotropic = iterations;
     if (st == VDBS_OK) {
-        /* Splat the accumulated lobes (ms, ms_l1) and the residual into the merged grid;
-         * cell volumes h^3 against (h/2)^3 keep the energy. */
-        const double scale = 8.0, g = s->scene->g;
+        /* Splat the accumulated lobes (ms, ms_l1) into the merged grid and the light still in
+         * transit into the isotropic one; the ratio of cell volumes keeps the energy. */
+        const double scale = pow(f.h / r->merged.h, 3.0), g = s->scene->g;
         for (int64_t c = 0; c < cells; ++c) {
             const float *cell = state + c * VS_POP_STATE_WORDS;
             double v[MERGED_WIDTH];
@@ -404,7 +407,6 @@ static vdbs_status propagate_grid(pop_run *r, int l, const double d[3], const do
                 for (int a = 0; a < 3; ++a)
                     v[MERGED_L1 + 3 * a + ch] =
                         3.0 * g * cell[VS_POP_STATE_ACC_LA + ch] * d[a] * VS_INV_4PI;
-                v[MERGED_RESIDUAL + ch] = cell[VS_POP_STATE_L + ch];
                 any |= cell[VS_POP_STATE_ACC_L + ch] != 0.0f || cell[VS_POP_STATE_L + ch] != 0.0f;
             }
             if (!any)
@@ -416,6 +418,10 @@ static vdbs_status propagate_grid(pop_run *r, int l, const double d[3], const do
             double w[3];
             frame_point(&f, x, w);
             splat(&r->merged, r->merged_acc, MERGED_WIDTH, w, v, scale);
+            double residual[3] = {cell[VS_POP_STATE_L], cell[VS_POP_STATE_L + 1],
+                                  cell[VS_POP_STATE_L + 2]};
+            if (residual[0] != 0.0 || residual[1] != 0.0 || residual[2] != 0.0)
+                splat(&r->iso, r->iso_residual, 3, w, residual, pow(f.h / r->iso.h, 3.0));
         }
         r->stats->seconds_merge += vdbs_now() - t2;
     }
@@ -424,13 +430,22 @@ static vdbs_status propagate_grid(pop_run *r, int l, const double d[3], const do
     return st;
 }
 
-/* The isotropic residuum (Sec. 5.4) on the merged grid: its accumulation goes into ms. */
+/* The isotropic residuum (Sec. 5.4), on a world-aligned grid with the directional grids' cell
+ * side (not the merged grid's half: a lattice walk of step h diffuses like a medium with
+ * sigma_tr h near 2, so finer cells spread isotropic light faster; on the issue's check
+ * scene the half-size grid tripled POP's image error). Its accumulation is splatted into the
+ * merged grid's ms. */
 static vdbs_status isotropic(pop_run *r, vdbs_error *err)
 {
     const vdbs_solve *s = r->s;
-    const pop_frame *f = &r->merged;
+    const pop_frame *f = &r->iso;
     const int64_t cells = frame_cells(f);
     double t0 = vdbs_now();
+    const double merged_volume = r->merged.h * r->merged.h * r->merged.h;
+    for (int64_t c = 0; c < frame_cells(&r->merged); ++c)
+        for (int ch = 0; ch < 3; ++ch)
+            r->stats->merge_out +=
+                4.0 * VDBS_PI * r->merged_acc[c * MERGED_WIDTH + MERGED_MS + ch] * merged_volume;
     float *state, *sigma;
     vdbs_status st = grid_arrays(r, f, &state, &sigma, err);
     if (st != VDBS_OK)
@@ -439,10 +454,7 @@ static vdbs_status isotropic(pop_run *r, vdbs_error *err)
     double residual = 0.0;
     for (int64_t c = 0; c < cells; ++c)
         for (int ch = 0; ch < 3; ++ch) {
-            /* What the directional grids' splats brought, before the residuum adds its own. */
-            r->stats->merge_out +=
-                4.0 * VDBS_PI * r->merged_acc[c * MERGED_WIDTH + MERGED_MS + ch] * cell_volume;
-            float v = (float)r->merged_acc[c * MERGED_WIDTH + MERGED_RESIDUAL + ch];
+            float v = (float)r->iso_residual[c * 3 + ch];
             state[c * VS_POP_STATE_WORDS + VS_POP_STATE_L + ch] = v;
             residual += v;
         }
@@ -458,11 +470,22 @@ static vdbs_status isotropic(pop_run *r, vdbs_error *err)
     }
     r->stats->iterations_isotropic = iterations;
     r->stats->residual = r->stats->seeded > 0.0 ? left * cell_volume / r->stats->seeded : 0.0;
-    if (st == VDBS_OK)
-        for (int64_t c = 0; c < cells; ++c)
+    if (st == VDBS_OK) {
+        const double scale = pow(f->h / r->merged.h, 3.0);
+        for (int64_t c = 0; c < cells; ++c) {
+            const float *cell = state + c * VS_POP_STATE_WORDS;
+            double v[MERGED_WIDTH] = {0};
             for (int ch = 0; ch < 3; ++ch)
-                r->merged_acc[c * MERGED_WIDTH + MERGED_MS + ch] +=
-                    state[c * VS_POP_STATE_WORDS + VS_POP_STATE_ACC_L + ch] * VS_INV_4PI;
+                v[MERGED_MS + ch] = cell[VS_POP_STATE_ACC_L + ch] / (4.0 * VDBS_PI);
+            if (v[0] == 0.0 && v[1] == 0.0 && v[2] == 0.0)
+                continue;
+            double x[3] = {(double)(c % f->n[0]) + 0.5, (double)((c / f->n[0]) % f->n[1]) + 0.5,
+                           (double)(c / ((int64_t)f->n[0] * f->n[1])) + 0.5};
+            double w[3];
+            frame_point(f, x, w);
+            splat(&r->merged, r->merged_acc, MERGED_WIDTH, w, v, scale);
+        }
+    }
     r->stats->seconds_isotropic += vdbs_now() - t0;
     free(state);
     free(sigma);
@@ -613,15 +636,18 @@ vdbs_status vdbs_pop_solve(const vdbs_solve *s, const vdbs_pop_desc *desc, vdbs_
         }
     const double extent = fmax(hi[0] - lo[0], fmax(hi[1] - lo[1], hi[2] - lo[2]));
     const double h = extent / r.desc.resolution;
+    r.h = h;
     const double world_axes[3][3] = {{1, 0, 0}, {0, 1, 0}, {0, 0, 1}};
     frame_fit(corners, world_axes, 0.5 * h, &r.merged);
+    frame_fit(corners, world_axes, h, &r.iso);
     stats->merged_cells = frame_cells(&r.merged);
     int block = (int)floor(0.5 * h / s->volume->mean_voxel_size);
     vdbs_light_grid_desc fine_desc = {0};
     if (s->s1_grids)
         fine_desc = *s->s1_grids;
     r.merged_acc = calloc((size_t)stats->merged_cells * MERGED_WIDTH, sizeof *r.merged_acc);
-    if (!r.merged_acc)
+    r.iso_residual = calloc((size_t)frame_cells(&r.iso) * 3, sizeof *r.iso_residual);
+    if (!r.merged_acc || !r.iso_residual)
         st = vdbs_error_set(err, VDBS_ERR_NOMEM, "out of memory for the merged POP grid");
     if (st == VDBS_OK)
         st = vdbs_medium_box_build(s->volume, block < 1 ? 1 : block, &r.box, err);

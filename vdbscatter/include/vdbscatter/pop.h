@@ -4,11 +4,11 @@
  * coarse directional grid seeded with the light first scattered in each cell (from the fine S1
  * light grid: per sub-column albedo E (T_in - T_out)), propagated cell by cell (the shared
  * kernel shaders/vs_pop.h) until its anisotropy has decayed below epsilon_a (Eq. 10), then the
- * residual of every grid is merged into one world-aligned grid at twice the resolution and
+ * residual of every grid is merged into one world-aligned grid of the same cell side and
  * propagated isotropically until the energy left is below epsilon_L of the seeded energy.
  * Each grid's accumulated lobes map onto ms and ms_l1 exactly (HG self-convolution), are
- * splatted into the merged grid (conserving energy) and upsampled to the voxels by a joint
- * bilateral filter guided by the density. */
+ * splatted into a world-aligned grid at twice the resolution (conserving energy) and upsampled
+ * to the voxels by a joint bilateral filter guided by the density. */
 #ifndef VDBSCATTER_POP_H
 #define VDBSCATTER_POP_H
 
@@ -40,7 +40,7 @@ typedef struct vdbs_pop_stats {
     int grids;                  /* directional grids: suns + sky ordinates */
     int resolution;             /* cells across the largest extent */
     long long cells;            /* cells of all directional grids */
-    long long merged_cells;     /* cells of the merged (isotropic) grid */
+    long long merged_cells;     /* cells of the merged grid (half the cell side) */
     int iterations_anisotropic; /* the most any directional grid ran */
     int iterations_isotropic;
     double seeded;   /* energy seeded (sum over cells and channels of L^0 times cell volume) */
