@@ -397,7 +397,8 @@ class Pop(Base):
         """bake --method pop on the cloud sample (a sun and a constant sky): radiance is the
         single-scatter bake's S1 plus ms to float rounding, ms is positive inside the cloud, and
         the report gives the grids, the two stages' iterations and a residual at most
-        epsilon_L = 1e-3 (the isotropic stage ran to its tolerance, not its cap)."""
+        epsilon_L (1e-2 at --quality low: the isotropic stage ran to its tolerance, not its
+        cap)."""
         src = os.path.join(SAMPLES, "cloud.vdb")
         lights = ["--density-scale", "20", "--albedo", "0.99", "--g", "0.85", "--sun",
                   "0.3,-1,0.2", "--env", "0.2,0.3,0.5", "--quality", "low", "--json"]
@@ -410,7 +411,7 @@ class Pop(Base):
         self.assertEqual(stats["resolution"], 8)
         self.assertGreater(stats["iterations_anisotropic"], 0)
         self.assertGreater(stats["iterations_isotropic"], 0)
-        self.assertLessEqual(stats["residual"], 1e-3)
+        self.assertLessEqual(stats["residual"], 1e-2)
         self.assertGreater(stats["seeded"], 0.0)
         # The merge conserves: fluence x volume before and after the splat.
         self.assertAlmostEqual(stats["merge_out"], stats["merge_in"], delta=1e-9 * stats["merge_in"])

@@ -18,22 +18,22 @@
 #include "vs_pop.h"
 
 #define POP_DEFAULT_EPSILON_A 0.1
-#define POP_DEFAULT_EPSILON_L 1e-3
 /* Sub-columns per cell and axis that seed a cell from the fine S1 grid, at most. */
 #define POP_SEED_SUBCOLUMNS 4
 
-void vdbs_pop_quality(const char *quality, int *resolution, int *ordinates)
+void vdbs_pop_quality(const char *quality, int *ordinates, double *epsilon_l)
 {
     static const struct {
         const char *name;
-        int resolution, ordinates;
-    } presets[] = {{"low", 16, 8}, {"medium", 24, 16}, {"high", 32, 32}, {"ultra", 48, 64}};
-    *resolution = 24;
+        int ordinates;
+        double epsilon_l;
+    } presets[] = {{"low", 8, 1e-2}, {"medium", 16, 1e-3}, {"high", 32, 1e-4}, {"ultra", 64, 1e-5}};
     *ordinates = 16;
+    *epsilon_l = 1e-3;
     for (size_t q = 0; quality && q < sizeof presets / sizeof presets[0]; ++q)
         if (strcmp(quality, presets[q].name) == 0) {
-            *resolution = presets[q].resolution;
             *ordinates = presets[q].ordinates;
+            *epsilon_l = presets[q].epsilon_l;
         }
 }
 
@@ -565,8 +565,8 @@ static void upsample(pop_run *r)
     free(guide);
 }
 
-/* The mean sigma_s (albedo's mean over the channels) over the voxels with density. */
-static double mean_sigma_s(const vdbs_solve *s)
+/* The mean sigma_t over the voxels with density. */
+static double mean_sigma_t(const vdbs_solve *s)
 {
     const vdbs_volume *volume = s->volume;
     pnanovdb_buf_t buf = pnanovdb_make_buf(volume->nano, volume->nano_size / 4);
@@ -581,9 +581,16 @@ static double mean_sigma_s(const vdbs_solve *s)
             ++count;
         }
     }
-    const double *al = s->scene->albedo;
-    return count > 0 ? s->scene->density_scale * (sum / count) * (al[0] + al[1] + al[2]) / 3.0
-                     : 0.0;
+    return count > 0 ? s->scene->density_scale * (sum / count) : 0.0;
+}
+
+/* The default resolution: about one transport mean free path, 1 / (sigma_t (1 - albedo g)) at
+ * the mean sigma_t of the occupied voxels, per cell (bench/RESULTS.md: POP's error grows as
+ * its cells shrink below that), at least 2 and at most 64 cells across. */
+static int resolution_rule(double extent, double sigma_t, double albedo, double g)
+{
+    double n = extent * sigma_t * (1.0 - albedo * g);
+    return n < 2.0 ? 2 : (n > 64.0 ? 64 : (int)lround(n));
 }
 
 vdbs_status vdbs_pop_solve(const vdbs_solve *s, const vdbs_pop_desc *desc, vdbs_pop_stats *stats,
@@ -595,24 +602,20 @@ vdbs_status vdbs_pop_solve(const vdbs_solve *s, const vdbs_pop_desc *desc, vdbs_
     r.s = s;
     r.stats = stats;
     r.desc = desc ? *desc : (vdbs_pop_desc){0};
-    int res, ords;
-    vdbs_pop_quality(s->quality ? s->quality->name : NULL, &res, &ords);
-    if (r.desc.resolution <= 0)
-        r.desc.resolution = res;
+    int ords;
+    double eps_l;
+    vdbs_pop_quality(s->quality ? s->quality->name : NULL, &ords, &eps_l);
     if (r.desc.ordinates <= 0)
         r.desc.ordinates = ords;
-    if (r.desc.max_iterations <= 0)
-        r.desc.max_iterations = 4 * r.desc.resolution;
     if (!(r.desc.epsilon_a > 0.0))
         r.desc.epsilon_a = POP_DEFAULT_EPSILON_A;
     if (!(r.desc.epsilon_l > 0.0))
-        r.desc.epsilon_l = POP_DEFAULT_EPSILON_L;
+        r.desc.epsilon_l = eps_l;
     if (r.desc.decay == VDBS_POP_DECAY_PAPER && s->scene->g < 0.0)
         return vdbs_error_set(err, VDBS_ERR_INPUT,
                               "--pop-decay paper needs g >= 0 (g^(sigma_s t) is undefined for "
                               "g = %g); use --pop-decay mean-cosine",
                               s->scene->g);
-    stats->resolution = r.desc.resolution;
     for (int i = 0; i < s->scene->light_count; ++i)
         if (s->scene->lights[i].type == VDBS_LIGHT_POINT)
             return vdbs_error_set(err, VDBS_ERR_INPUT,
@@ -635,6 +638,13 @@ vdbs_status vdbs_pop_solve(const vdbs_solve *s, const vdbs_pop_desc *desc, vdbs_
             hi[a] = fmax(hi[a], corners[c][a]);
         }
     const double extent = fmax(hi[0] - lo[0], fmax(hi[1] - lo[1], hi[2] - lo[2]));
+    const double sigma_t = mean_sigma_t(s), g = s->scene->g;
+    const double albedo = (s->scene->albedo[0] + s->scene->albedo[1] + s->scene->albedo[2]) / 3.0;
+    if (r.desc.resolution <= 0)
+        r.desc.resolution = resolution_rule(extent, sigma_t, albedo, g);
+    if (r.desc.max_iterations <= 0)
+        r.desc.max_iterations = r.desc.resolution < 16 ? 64 : 4 * r.desc.resolution;
+    stats->resolution = r.desc.resolution;
     const double h = extent / r.desc.resolution;
     r.h = h;
     const double world_axes[3][3] = {{1, 0, 0}, {0, 1, 0}, {0, 0, 1}};
@@ -654,7 +664,7 @@ vdbs_status vdbs_pop_solve(const vdbs_solve *s, const vdbs_pop_desc *desc, vdbs_
     if (st == VDBS_OK)
         st = vdbs_light_grids_build(s->runner, s->volume, s->scene, &r.lights, 0, count, &fine_desc,
                                     &r.fine, err);
-    const double sigma_s = mean_sigma_s(s), g = s->scene->g;
+    const double sigma_s = sigma_t * albedo;
     for (int l = 0; l < count && st == VDBS_OK; ++l) {
         double d[3], e[3], a0;
         if (l < r.lights.direct_count) {

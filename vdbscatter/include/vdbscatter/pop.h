@@ -25,16 +25,21 @@ typedef enum vdbs_pop_decay {
 
 /* Zero-initialise; 0 means the default. */
 typedef struct vdbs_pop_desc {
-    int resolution; /* cells across the largest extent of the support box (--pop-res) */
-    int ordinates;  /* POP sky ordinates (--pop-ordinates) */
+    int resolution; /* cells across the largest extent of the support box (--pop-res);
+                       default: one transport mean free path per cell, extent x mean
+                       sigma_t x (1 - albedo g), clamped to 2..64 */
+    int ordinates;  /* POP sky ordinates (--pop-ordinates); default: the quality's */
     vdbs_pop_decay decay;
-    int max_iterations; /* cap of the anisotropic stage per grid; default 4 x resolution */
+    int max_iterations; /* cap of the anisotropic stage per grid; default 4 x resolution,
+                           at least 64 */
     double epsilon_a;   /* anisotropy below which a grid goes isotropic; default 0.1 */
-    double epsilon_l;   /* energy left, relative to the seeded energy, that stops; 1e-3 */
+    double epsilon_l;   /* energy left, relative to the seeded energy, that stops; default:
+                           the quality's */
 } vdbs_pop_desc;
 
-/* The defaults of a quality name ("low" ... "ultra"): resolution and ordinates. */
-void vdbs_pop_quality(const char *quality, int *resolution, int *ordinates);
+/* The defaults of a quality name ("low" ... "ultra"): sky ordinates 8 / 16 / 32 / 64 and
+ * epsilon_L 1e-2 / 1e-3 / 1e-4 / 1e-5 (the resolution follows the medium, not the quality). */
+void vdbs_pop_quality(const char *quality, int *ordinates, double *epsilon_l);
 
 typedef struct vdbs_pop_stats {
     int grids;                  /* directional grids: suns + sky ordinates */
