@@ -101,6 +101,7 @@ static cJSON *report_json(const char *input, const char *output, const vdbs_scen
         cJSON_AddNumberToObject(pj, "merged_cells", (double)p->merged_cells);
         cJSON_AddNumberToObject(pj, "iterations_anisotropic", p->iterations_anisotropic);
         cJSON_AddNumberToObject(pj, "iterations_isotropic", p->iterations_isotropic);
+        cJSON_AddNumberToObject(pj, "cell_updates", p->cell_updates);
         cJSON_AddNumberToObject(pj, "seeded", p->seeded);
         cJSON_AddNumberToObject(pj, "residual", p->residual);
         cJSON_AddNumberToObject(pj, "merge_in", p->merge_in);

@@ -18,6 +18,12 @@
 #include "vs_pop.h"
 
 #define POP_DEFAULT_EPSILON_A 0.1
+/* The default resolution, cells across the largest extent. POP's image error grows as its
+ * cells shrink on every scene measured (bench/pop.md: the sphere and cloud samples, g 0 / 0.5 /
+ * 0.85, and the issue's check scene), and no mean-free-path rule follows the optimum (it sits
+ * at 2-4 cells while sigma_tr spans 0.5 to 14 per unit); 3 was best or within 0.07 of it on
+ * all seven, and below the single-only bake's error on all seven. */
+#define POP_DEFAULT_RESOLUTION 3
 /* Sub-columns per cell and axis that seed a cell from the fine S1 grid, at most. */
 #define POP_SEED_SUBCOLUMNS 4
 
@@ -392,6 +398,7 @@ static vdbs_status propagate_grid(pop_run *r, int l, const double d[3], const do
                                 r->desc.epsilon_l * seeded, &iterations, &left, err);
     double t2 = vdbs_now();
     r->stats->seconds_propagate += t2 - t1;
+    r->stats->cell_updates += (double)cells * iterations;
     if (iterations > r->stats->iterations_anisotropic)
         r->stats->iterations_anisotropic = iterations;
     if (st == VDBS_OK) {
@@ -469,6 +476,7 @@ static vdbs_status isotropic(pop_run *r, vdbs_error *err)
                                 &left, err);
     }
     r->stats->iterations_isotropic = iterations;
+    r->stats->cell_updates += (double)cells * iterations;
     r->stats->residual = r->stats->seeded > 0.0 ? left * cell_volume / r->stats->seeded : 0.0;
     if (st == VDBS_OK) {
         const double scale = pow(f->h / r->merged.h, 3.0);
@@ -584,15 +592,6 @@ static double mean_sigma_t(const vdbs_solve *s)
     return count > 0 ? s->scene->density_scale * (sum / count) : 0.0;
 }
 
-/* The default resolution: about one transport mean free path, 1 / (sigma_t (1 - albedo g)) at
- * the mean sigma_t of the occupied voxels, per cell (bench/RESULTS.md: POP's error grows as
- * its cells shrink below that), at least 2 and at most 64 cells across. */
-static int resolution_rule(double extent, double sigma_t, double albedo, double g)
-{
-    double n = extent * sigma_t * (1.0 - albedo * g);
-    return n < 2.0 ? 2 : (n > 64.0 ? 64 : (int)lround(n));
-}
-
 vdbs_status vdbs_pop_solve(const vdbs_solve *s, const vdbs_pop_desc *desc, vdbs_pop_stats *stats,
                            vdbs_error *err)
 {
@@ -641,7 +640,7 @@ vdbs_status vdbs_pop_solve(const vdbs_solve *s, const vdbs_pop_desc *desc, vdbs_
     const double sigma_t = mean_sigma_t(s), g = s->scene->g;
     const double albedo = (s->scene->albedo[0] + s->scene->albedo[1] + s->scene->albedo[2]) / 3.0;
     if (r.desc.resolution <= 0)
-        r.desc.resolution = resolution_rule(extent, sigma_t, albedo, g);
+        r.desc.resolution = POP_DEFAULT_RESOLUTION;
     if (r.desc.max_iterations <= 0)
         r.desc.max_iterations = r.desc.resolution < 16 ? 64 : 4 * r.desc.resolution;
     stats->resolution = r.desc.resolution;

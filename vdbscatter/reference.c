@@ -723,3 +723,561 @@ vdbs_status vdbs_reference_tally_sun(const vdbs_volume *volume, const vdbs_scene
     }
     return VDBS_OK;
 }
+
+/* ---- probe: light tracing with a track-length tally of the scattered light ---- */
+
+/* Photons per batch of the probe (batches fix the merge order and give the errors). */
+#define PROBE_BATCH 4096
+/* The probe asks for at least this many batches (when it has that many photons). */
+#define PROBE_MIN_BATCHES 64
+/* Cells of the grid that finds the balls a flight crosses. */
+#define PROBE_GRID_MAX_CELLS (1 << 22)
+#define PROBE_GRID_MAX_DIM 1024
+
+enum { PROBE_SUN, PROBE_POINT, PROBE_SKY, PROBE_ENV };
+
+typedef struct probe_source {
+    int kind;
+    const vdbs_direct_light *light; /* suns and points */
+    double power[3];                /* RGB power (W) */
+    double cdf;                     /* selection CDF up to and including this source */
+} probe_source;
+
+/* The balls binned into a uniform world-space grid of cubic cells of side h: cell c holds
+ * items[start[c] .. start[c + 1]), every ball whose bounding box meets the cell. */
+typedef struct probe_grid {
+    double lo[3], h;
+    int dims[3];
+    size_t *start;
+    size_t *items;
+} probe_grid;
+
+typedef struct probe_ctx {
+    const ref_ctx *ref;
+    const double *points;
+    size_t count;
+    double radius, radius2;
+    probe_grid grid;
+    probe_source sources[VDBS_MAX_LIGHTS + 2];
+    int source_count;
+    double centre[3], disc_radius; /* the support box's bounding sphere */
+    double disc_area;              /* pi disc_radius^2 */
+} probe_ctx;
+
+/* One thread's sums for the batch it works on. */
+typedef struct probe_thread {
+    double *acc;          /* 12 per point: fluence per channel, then flux x, y, z per channel */
+    uint64_t *batch_mark; /* batch index + 1 that last touched the point */
+    uint64_t *seg_mark;   /* flight number that last visited the point */
+    size_t *touched;      /* points touched in this batch */
+    size_t touched_count;
+    uint64_t batch, seg;
+} probe_thread;
+
+/* A finished batch's sums over the points it touched, waiting for its turn to merge. */
+typedef struct probe_result {
+    size_t n;       /* points touched */
+    double photons; /* in the batch */
+    size_t *idx;    /* n points */
+    double *val;    /* 12 n sums, as probe_thread.acc */
+} probe_result;
+
+/* Moves the thread's sums for its batch into a new result (NULL when out of memory: the
+ * sums are dropped) and clears them. */
+static probe_result *probe_pack(probe_thread *th, double photons)
+{
+    size_t n = th->touched_count;
+    probe_result *r = malloc(sizeof *r + n * (sizeof *r->idx + 12 * sizeof *r->val));
+    if (r) {
+        r->n = n;
+        r->photons = photons;
+        r->val = (double *)(r + 1);
+        r->idx = (size_t *)(r->val + 12 * n);
+    }
+    for (size_t j = 0; j < n; ++j) {
+        size_t i = th->touched[j];
+        if (r) {
+            r->idx[j] = i;
+            memcpy(r->val + 12 * j, th->acc + 12 * i, 12 * sizeof *r->val);
+        }
+        memset(th->acc + 12 * i, 0, 12 * sizeof *th->acc);
+    }
+    th->touched_count = 0;
+    return r;
+}
+
+static void probe_grid_free(probe_grid *g)
+{
+    free(g->start);
+    free(g->items);
+    memset(g, 0, sizeof *g);
+}
+
+static vdbs_status probe_grid_build(probe_grid *g, const double *p, size_t n, double r,
+                                    vdbs_error *err)
+{
+    memset(g, 0, sizeof *g);
+    double lo[3], hi[3];
+    for (int a = 0; a < 3; ++a) {
+        lo[a] = HUGE_VAL;
+        hi[a] = -HUGE_VAL;
+    }
+    for (size_t i = 0; i < n; ++i)
+        for (int a = 0; a < 3; ++a) {
+            lo[a] = fmin(lo[a], p[3 * i + a] - r);
+            hi[a] = fmax(hi[a], p[3 * i + a] + r);
+        }
+    double ext[3], vol = 1.0, big = 0.0;
+    for (int a = 0; a < 3; ++a) {
+        /* A margin keeps balls on the box's faces inside it after rounding. */
+        double m = 1e-9 * (hi[a] - lo[a]) + 1e-300;
+        lo[a] -= m;
+        hi[a] += m;
+        ext[a] = hi[a] - lo[a];
+        vol *= ext[a];
+        big = fmax(big, ext[a]);
+    }
+    /* About one ball per cell, and cells no smaller than a ball (at most 8 cells a ball). */
+    double h = fmax(2.0 * r, cbrt(vol / (double)n));
+    if (!(h > 0.0))
+        h = big > 0.0 ? big : 1.0;
+    for (;;) {
+        double cells = 1.0;
+        int fits = 1;
+        for (int a = 0; a < 3; ++a) {
+            double d = fmax(1.0, ceil(ext[a] / h));
+            fits &= d <= PROBE_GRID_MAX_DIM;
+            cells *= d;
+            g->dims[a] = (int)fmin(d, PROBE_GRID_MAX_DIM + 1.0);
+        }
+        if (fits && cells <= PROBE_GRID_MAX_CELLS)
+            break;
+        h *= 1.25;
+    }
+    g->h = h;
+    memcpy(g->lo, lo, sizeof lo);
+    const size_t cells = (size_t)g->dims[0] * g->dims[1] * g->dims[2];
+    g->start = calloc(cells + 1, sizeof *g->start);
+    if (!g->start)
+        return vdbs_error_set(err, VDBS_ERR_NOMEM, "out of memory for the probe grid");
+    for (int pass = 0; pass < 2; ++pass) {
+        for (size_t i = 0; i < n; ++i) {
+            int c0[3], c1[3];
+            for (int a = 0; a < 3; ++a) {
+                double x = p[3 * i + a] - g->lo[a];
+                c0[a] = (int)fmax(0.0, floor((x - r) / h));
+                c1[a] = (int)fmin(g->dims[a] - 1.0, floor((x + r) / h));
+            }
+            for (int z = c0[2]; z <= c1[2]; ++z)
+                for (int y = c0[1]; y <= c1[1]; ++y)
+                    for (int x = c0[0]; x <= c1[0]; ++x) {
+                        size_t c = (size_t)x + (size_t)g->dims[0] * (y + (size_t)g->dims[1] * z);
+                        if (pass == 0)
+                            ++g->start[c + 1];
+                        else
+                            g->items[g->start[c]++] = i;
+                    }
+        }
+        if (pass == 0) {
+            for (size_t c = 0; c < cells; ++c)
+                g->start[c + 1] += g->start[c];
+            g->items = malloc(sizeof *g->items * (g->start[cells] > 0 ? g->start[cells] : 1));
+            if (!g->items) {
+                probe_grid_free(g);
+                return vdbs_error_set(err, VDBS_ERR_NOMEM, "out of memory for the probe grid");
+            }
+        } else {
+            /* The fill advanced each start to the next cell's: shift them back. */
+            for (size_t c = cells; c > 0; --c)
+                g->start[c] = g->start[c - 1];
+            g->start[0] = 0;
+        }
+    }
+    return VDBS_OK;
+}
+
+/* Adds the flight o + t w (world, w unit), t in [0, tmax], carrying the RGB weight f, to
+ * every ball it crosses: chord x f to the fluence sums, chord x f x w to the flux sums. */
+static void probe_flight(const probe_ctx *pc, probe_thread *th, const double o[3],
+                         const double w[3], double tmax, const double f[3])
+{
+    const probe_grid *g = &pc->grid;
+    double t0 = 0.0, t1 = tmax;
+    for (int a = 0; a < 3; ++a) {
+        double lo = g->lo[a], hi = g->lo[a] + g->h * g->dims[a];
+        if (w[a] != 0.0) {
+            double ta = (lo - o[a]) / w[a], tb = (hi - o[a]) / w[a];
+            t0 = fmax(t0, fmin(ta, tb));
+            t1 = fmin(t1, fmax(ta, tb));
+        } else if (o[a] < lo || o[a] > hi) {
+            return;
+        }
+    }
+    if (!(t0 <= t1))
+        return;
+    const uint64_t seg = ++th->seg;
+    int c[3], step[3];
+    double next[3], delta[3];
+    for (int a = 0; a < 3; ++a) {
+        double x = (o[a] + w[a] * t0 - g->lo[a]) / g->h;
+        c[a] = (int)fmin(fmax(floor(x), 0.0), g->dims[a] - 1.0);
+        if (w[a] > 0.0) {
+            step[a] = 1;
+            next[a] = (g->lo[a] + (c[a] + 1) * g->h - o[a]) / w[a];
+            delta[a] = g->h / w[a];
+        } else if (w[a] < 0.0) {
+            step[a] = -1;
+            next[a] = (g->lo[a] + c[a] * g->h - o[a]) / w[a];
+            delta[a] = -g->h / w[a];
+        } else {
+            step[a] = 0;
+            next[a] = delta[a] = HUGE_VAL;
+        }
+    }
+    for (;;) {
+        size_t cell = (size_t)c[0] + (size_t)g->dims[0] * (c[1] + (size_t)g->dims[1] * c[2]);
+        for (size_t k = g->start[cell]; k < g->start[cell + 1]; ++k) {
+            size_t i = g->items[k];
+            if (th->seg_mark[i] == seg)
+                continue;
+            th->seg_mark[i] = seg;
+            const double *p = pc->points + 3 * i;
+            double v[3] = {p[0] - o[0], p[1] - o[1], p[2] - o[2]};
+            double b = v[0] * w[0] + v[1] * w[1] + v[2] * w[2];
+            double q[3] = {v[0] - b * w[0], v[1] - b * w[1], v[2] - b * w[2]};
+            double h2 = q[0] * q[0] + q[1] * q[1] + q[2] * q[2];
+            if (!(h2 < pc->radius2))
+                continue;
+            double s = sqrt(pc->radius2 - h2);
+            double len = fmin(tmax, b + s) - fmax(0.0, b - s);
+            if (!(len > 0.0))
+                continue;
+            if (th->batch_mark[i] != th->batch + 1) {
+                th->batch_mark[i] = th->batch + 1;
+                th->touched[th->touched_count++] = i;
+            }
+            double *acc = th->acc + 12 * i;
+            for (int ch = 0; ch < 3; ++ch) {
+                double x = f[ch] * len;
+                acc[ch] += x;
+                for (int a = 0; a < 3; ++a)
+                    acc[3 + 3 * a + ch] += x * w[a];
+            }
+        }
+        int a = next[0] < next[1] ? (next[0] < next[2] ? 0 : 2) : (next[1] < next[2] ? 1 : 2);
+        if (next[a] > t1)
+            break;
+        c[a] += step[a];
+        if (c[a] < 0 || c[a] >= g->dims[a])
+            break;
+        next[a] += delta[a];
+    }
+}
+
+/* A direction uniform over the sphere. */
+static void uniform_dir(ref_rng *rng, double w[3])
+{
+    double z = 1.0 - 2.0 * rng_next(rng), phi = 2.0 * VDBS_PI * rng_next(rng);
+    double r = sqrt(fmax(0.0, 1.0 - z * z));
+    w[0] = r * cos(phi);
+    w[1] = r * sin(phi);
+    w[2] = z;
+}
+
+/* One photon: emission, then tracking with the tally of every flight after a scattering. */
+static void probe_photon(const probe_ctx *pc, ref_tracker *tr, ref_rng *rng, probe_thread *th)
+{
+    const ref_ctx *ctx = pc->ref;
+    /* Sources are chosen in proportion to their power; a photon carries power / choice. */
+    double u = rng_next(rng);
+    int k = 0;
+    while (k < pc->source_count - 1 && !(u < pc->sources[k].cdf))
+        ++k;
+    const probe_source *src = &pc->sources[k];
+    const double select = src->cdf - (k > 0 ? pc->sources[k - 1].cdf : 0.0);
+    double power[3], xw[3], w[3];
+    for (int c = 0; c < 3; ++c)
+        power[c] = src->power[c] / select;
+    if (src->kind == PROBE_POINT) {
+        memcpy(xw, src->light->world, sizeof xw);
+        uniform_dir(rng, w);
+    } else {
+        if (src->kind == PROBE_SUN) {
+            memcpy(w, src->light->world, sizeof w);
+        } else if (src->kind == PROBE_SKY) {
+            uniform_dir(rng, w);
+        } else {
+            double from[3], radiance[3];
+            double pdf =
+                vdbs_envmap_sampler_draw(&ctx->env, rng_next(rng), rng_next(rng), from, radiance);
+            if (!(pdf > 0.0))
+                return;
+            for (int a = 0; a < 3; ++a)
+                w[a] = -from[a];
+            normalize3(w);
+            /* The map's power through the disc, sampled by its luminance. */
+            for (int c = 0; c < 3; ++c)
+                power[c] = radiance[c] / pdf * pc->disc_area / select;
+        }
+        double t1[3], t2[3];
+        ortho_basis(w, t1, t2);
+        double rr = pc->disc_radius * sqrt(rng_next(rng)), phi = 2.0 * VDBS_PI * rng_next(rng);
+        double c1 = rr * cos(phi), c2 = rr * sin(phi);
+        for (int a = 0; a < 3; ++a)
+            xw[a] = pc->centre[a] + c1 * t1[a] + c2 * t2[a] - 2.0 * pc->disc_radius * w[a];
+    }
+    double xi[3], d[3];
+    vdbs_volume_index_point(ctx->volume, xw, xi);
+    vdbs_volume_index_vector(ctx->volume, w, d);
+    double beta[3] = {1.0, 1.0, 1.0};
+    tr->budget = REF_PATH_STEPS;
+    for (int bounce = 0;; ++bounce) {
+        double t;
+        int axis;
+        int r = delta_track(tr, rng, xi, d, HUGE_VAL, &t, &axis);
+        if (r == TRACK_GAVE_UP)
+            return;
+        if (bounce > 0) {
+            double f[3] = {power[0] * beta[0], power[1] * beta[1], power[2] * beta[2]};
+            probe_flight(pc, th, xw, w, r == TRACK_ESCAPED ? HUGE_VAL : t, f);
+        }
+        if (r == TRACK_ESCAPED || bounce >= ctx->max_bounces)
+            return;
+        for (int a = 0; a < 3; ++a) {
+            xw[a] += w[a] * t;
+            xi[a] += d[a] * t;
+        }
+        if (bounce == 0 && src->kind == PROBE_POINT && t < ctx->lights.min_distance) {
+            double s = t / ctx->lights.min_distance;
+            for (int c = 0; c < 3; ++c)
+                beta[c] *= s * s;
+        }
+        for (int c = 0; c < 3; ++c)
+            beta[c] *= ctx->medium.albedo[c];
+        double bmax = fmax(beta[0], fmax(beta[1], beta[2]));
+        if (!(bmax > 0.0))
+            return;
+        double mu, sin_theta;
+        vs_hg_sample_d(ctx->medium.g, rng_next(rng), &mu, &sin_theta);
+        scatter_dir(w, mu, sin_theta, rng_next(rng));
+        vdbs_volume_index_vector(ctx->volume, w, d);
+        if (bounce + 1 >= REF_RR_START && bmax < 1.0) {
+            if (rng_next(rng) >= bmax)
+                return;
+            for (int c = 0; c < 3; ++c)
+                beta[c] /= bmax;
+        }
+    }
+}
+
+static double mean3(const double v[3])
+{
+    return (v[0] + v[1] + v[2]) / 3.0;
+}
+
+/* The lights as photon sources (those with power), with their selection CDF; returns the
+ * total power's mean channel (0: nothing to trace). An env map's power is its integral
+ * over the sphere times the disc's area. */
+static double probe_sources(probe_ctx *pc)
+{
+    const ref_ctx *ctx = pc->ref;
+    const double disc = pc->disc_area;
+    probe_source cand[VDBS_MAX_LIGHTS + 2];
+    int n = 0;
+    memset(cand, 0, sizeof cand);
+    for (int i = 0; i < ctx->lights.direct_count && n < VDBS_MAX_LIGHTS; ++i) {
+        const vdbs_direct_light *l = &ctx->lights.direct[i];
+        probe_source *s = &cand[n++];
+        s->light = l;
+        s->kind = l->type == VDBS_LIGHT_SUN ? PROBE_SUN : PROBE_POINT;
+        for (int c = 0; c < 3; ++c)
+            s->power[c] = l->color[c] * (s->kind == PROBE_SUN ? disc : 4.0 * VDBS_PI);
+    }
+    if (ctx->lights.has_sky) {
+        probe_source *s = &cand[n++];
+        s->kind = PROBE_SKY;
+        for (int c = 0; c < 3; ++c)
+            s->power[c] = 4.0 * VDBS_PI * ctx->lights.sky[c] * disc;
+    }
+    if (ctx->lights.env && ctx->env.total > 0.0) {
+        const vdbs_envmap *map = ctx->lights.env;
+        probe_source *s = &cand[n++];
+        s->kind = PROBE_ENV;
+        for (int y = 0; y < map->height; ++y)
+            for (int x = 0; x < map->width; ++x) {
+                double omega = vdbs_envmap_texel_solid_angle(map, x, y);
+                const float *t = map->rgb + 3 * ((size_t)y * map->width + x);
+                for (int c = 0; c < 3; ++c)
+                    s->power[c] += t[c] * omega * disc;
+            }
+    }
+    double total = 0.0;
+    pc->source_count = 0;
+    for (int k = 0; k < n; ++k)
+        if (mean3(cand[k].power) > 0.0) {
+            total += mean3(cand[k].power);
+            pc->sources[pc->source_count] = cand[k];
+            pc->sources[pc->source_count++].cdf = total;
+        }
+    for (int k = 0; k < pc->source_count; ++k)
+        pc->sources[k].cdf /= total;
+    if (pc->source_count > 0)
+        pc->sources[pc->source_count - 1].cdf = 1.0;
+    return total;
+}
+
+vdbs_status vdbs_reference_probe(const vdbs_volume *volume, const vdbs_scene *scene,
+                                 const vdbs_reference_probe_options *options, const double *points,
+                                 size_t count, double *ms, double *ms_l1, double *ms_se,
+                                 double *ms_l1_se, vdbs_error *err)
+{
+    const vdbs_reference_probe_options defaults = {0};
+    const vdbs_reference_probe_options *o = options ? options : &defaults;
+    if (o->photons < 0 || o->max_bounces < 0 || !(o->radius >= 0.0) || !isfinite(o->radius))
+        return vdbs_error_set(err, VDBS_ERR_INPUT,
+                              "probe: photons (%lld), radius (%g) and max_bounces (%d) must be "
+                              ">= 0 and finite (0: default)",
+                              (long long)o->photons, o->radius, o->max_bounces);
+    if (count > 0 && !points)
+        return vdbs_error_set(err, VDBS_ERR_INPUT, "probe: %zu points but no coordinates", count);
+    for (size_t i = 0; i < 3 * count; ++i)
+        if (!isfinite(points[i]))
+            return vdbs_error_set(err, VDBS_ERR_INPUT, "probe: point %zu is not finite", i / 3);
+    const int64_t photons = o->photons > 0 ? o->photons : (int64_t)1 << 20;
+    const int max_bounces = o->max_bounces > 0 ? o->max_bounces : 1000;
+    const double radius = o->radius > 0.0 ? o->radius : 2.0 * volume->mean_voxel_size;
+    if (ms)
+        memset(ms, 0, sizeof *ms * 3 * count);
+    if (ms_l1)
+        memset(ms_l1, 0, sizeof *ms_l1 * 9 * count);
+    if (ms_se)
+        memset(ms_se, 0, sizeof *ms_se * 3 * count);
+    if (ms_l1_se)
+        memset(ms_l1_se, 0, sizeof *ms_l1_se * 9 * count);
+
+    ref_ctx ctx;
+    vdbs_status st = ctx_init(volume, scene, max_bounces, 1, &ctx, err);
+    if (st != VDBS_OK)
+        return st;
+    probe_ctx pc;
+    memset(&pc, 0, sizeof pc);
+    pc.ref = &ctx;
+    pc.points = points;
+    pc.count = count;
+    pc.radius = radius;
+    pc.radius2 = radius * radius;
+    support_sphere(&ctx, pc.centre, &pc.disc_radius);
+    pc.disc_area = VDBS_PI * pc.disc_radius * pc.disc_radius;
+    if (count == 0 || !(probe_sources(&pc) > 0.0) || !(radius > 0.0)) {
+        ctx_free(&ctx);
+        return VDBS_OK;
+    }
+    if ((st = probe_grid_build(&pc.grid, points, count, radius, err)) != VDBS_OK) {
+        ctx_free(&ctx);
+        return st;
+    }
+
+    /* Batches of at most PROBE_BATCH photons, at least PROBE_MIN_BATCHES of them when
+     * there are that many photons; fixed by the photon count alone. */
+    int64_t batch = photons / PROBE_MIN_BATCHES;
+    batch = batch < 1 ? 1 : batch > PROBE_BATCH ? PROBE_BATCH : batch;
+    const int64_t batches = (photons + batch - 1) / batch;
+    const int threads = omp_get_max_threads();
+    double *s1 = calloc(12 * count, sizeof *s1), *s2 = calloc(12 * count, sizeof *s2);
+    probe_thread *th = calloc((size_t)threads, sizeof *th);
+    probe_result **pending = calloc((size_t)batches, sizeof *pending);
+    int ok = s1 && s2 && th && pending;
+    for (int k = 0; ok && k < threads; ++k) {
+        th[k].acc = calloc(12 * count, sizeof *th[k].acc);
+        th[k].batch_mark = calloc(count, sizeof *th[k].batch_mark);
+        th[k].seg_mark = calloc(count, sizeof *th[k].seg_mark);
+        th[k].touched = malloc(count * sizeof *th[k].touched);
+        ok = th[k].acc && th[k].batch_mark && th[k].seg_mark && th[k].touched;
+    }
+    if (ok) {
+        vdbs_progress *progress = o->progress;
+        probe_result lost = {0}; /* stands for a batch whose sums could not be kept */
+        int64_t next = 0;        /* the next batch to merge */
+#pragma omp parallel
+        {
+            probe_thread *me = &th[omp_get_thread_num()];
+            ref_tracker tr;
+            tracker_init(&ctx, &tr);
+#pragma omp for schedule(dynamic, 1)
+            for (int64_t k = 0; k < batches; ++k) {
+                int64_t first = k * batch, end = first + batch < photons ? first + batch : photons;
+                me->batch = (uint64_t)k;
+                for (int64_t n = first; n < end; ++n) {
+                    ref_rng rng = rng_make(o->seed, UINT64_C(0x9b0be), (uint64_t)n);
+                    probe_photon(&pc, &tr, &rng, me);
+                }
+                probe_result *res = probe_pack(me, (double)(end - first));
+                /* Batches merge in their order (a finished batch waits in `pending` for the
+                 * ones before it, and no thread waits for another), so the sums do not
+                 * depend on the threads. */
+#pragma omp critical(vdbs_probe_merge)
+                {
+                    pending[k] = res ? res : &lost;
+                    if (!res)
+                        ok = 0;
+                    while (next < batches && pending[next]) {
+                        probe_result *r = pending[next];
+                        for (size_t j = 0; j < r->n; ++j)
+                            for (int q = 0; q < 12; ++q) {
+                                double x = r->val[12 * j + q];
+                                s1[12 * r->idx[j] + q] += x;
+                                s2[12 * r->idx[j] + q] += x * x / r->photons;
+                            }
+                        if (r != &lost)
+                            free(r);
+                        pending[next++] = NULL;
+                    }
+                    if (progress)
+                        vdbs_progress_update(progress,
+                                             (uint64_t)((double)progress->total * next / batches));
+                }
+            }
+        }
+    }
+    if (ok) {
+        const double n = (double)photons,
+                     volume_ball = 4.0 / 3.0 * VDBS_PI * radius * radius * radius;
+        const double k_phi = 1.0 / (4.0 * VDBS_PI * volume_ball * n);
+        const double k_l1 = 3.0 * ctx.medium.g / (4.0 * VDBS_PI * volume_ball * n);
+        for (size_t i = 0; i < count; ++i)
+            for (int q = 0; q < 12; ++q) {
+                double sum = s1[12 * i + q];
+                double var = batches > 1
+                                 ? fmax(0.0, s2[12 * i + q] - sum * sum / n) / (double)(batches - 1)
+                                 : 0.0;
+                /* se of the sum: sqrt(n var). */
+                double se = sqrt(n * var);
+                if (q < 3) {
+                    if (ms)
+                        ms[3 * i + q] = sum * k_phi;
+                    if (ms_se)
+                        ms_se[3 * i + q] = se * k_phi;
+                } else {
+                    if (ms_l1)
+                        ms_l1[9 * i + q - 3] = sum * k_l1;
+                    if (ms_l1_se)
+                        ms_l1_se[9 * i + q - 3] = se * fabs(k_l1);
+                }
+            }
+    }
+    for (int k = 0; th && k < threads; ++k) {
+        free(th[k].acc);
+        free(th[k].batch_mark);
+        free(th[k].seg_mark);
+        free(th[k].touched);
+    }
+    free(th);
+    free(pending);
+    free(s1);
+    free(s2);
+    probe_grid_free(&pc.grid);
+    ctx_free(&ctx);
+    if (!ok)
+        return vdbs_error_set(err, VDBS_ERR_NOMEM, "out of memory for the probe's sums");
+    return VDBS_OK;
+}

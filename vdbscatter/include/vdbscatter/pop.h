@@ -26,8 +26,7 @@ typedef enum vdbs_pop_decay {
 /* Zero-initialise; 0 means the default. */
 typedef struct vdbs_pop_desc {
     int resolution; /* cells across the largest extent of the support box (--pop-res);
-                       default: one transport mean free path per cell, extent x mean
-                       sigma_t x (1 - albedo g), clamped to 2..64 */
+                       default 3, the measured best (pop.c, bench/pop.md) */
     int ordinates;  /* POP sky ordinates (--pop-ordinates); default: the quality's */
     vdbs_pop_decay decay;
     int max_iterations; /* cap of the anisotropic stage per grid; default 4 x resolution,
@@ -48,8 +47,9 @@ typedef struct vdbs_pop_stats {
     long long merged_cells;     /* cells of the merged grid (half the cell side) */
     int iterations_anisotropic; /* the most any directional grid ran */
     int iterations_isotropic;
-    double seeded;   /* energy seeded (sum over cells and channels of L^0 times cell volume) */
-    double residual; /* energy left in transit at the end, relative to seeded */
+    double cell_updates; /* cells x iterations over every grid, directional and isotropic */
+    double seeded;       /* energy seeded (sum over cells and channels of L^0 times cell volume) */
+    double residual;     /* energy left in transit at the end, relative to seeded */
     /* The merge's balance: accumulated fluence times cell volume summed over the directional
      * grids' cells, and over the merged grid's after the splat (equal up to rounding). */
     double merge_in, merge_out;

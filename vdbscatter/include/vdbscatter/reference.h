@@ -21,6 +21,7 @@
 #ifndef VDBSCATTER_REFERENCE_H
 #define VDBSCATTER_REFERENCE_H
 
+#include <stddef.h>
 #include <stdint.h>
 
 #include "vdbscatter/camera.h"
@@ -119,14 +120,17 @@ vdbs_status vdbs_reference_tally_sun(const vdbs_volume *volume, const vdbs_scene
  * Balls are found through a uniform grid of the points, so many points cost little more
  * than a few.
  *
- * Standard errors: the photons are split into fixed batches of at most 4096 (at least 64
- * batches when there are 64 photons or more); with X_k the batch sums of m_k photons,
- * S1 = sum X_k, S2 = sum X_k^2 / m_k and K batches, the per-photon variance is estimated
- * as (S2 - S1^2 / N) / (K - 1) and se = sqrt(that / N) (0 with a single batch).
- * Results are deterministic for a seed whatever the thread count: random streams are
- * keyed by photon index and batches are merged in order.
+ * Standard errors: the photons are split into batches fixed by their count alone (at
+ * most 4096 photons each, at least 64 batches when there are 64 photons or more). With
+ * X_k the sum of the scores of batch k's m_k photons, N photons in K batches,
+ * S1 = sum X_k and S2 = sum X_k^2 / m_k, the estimate is S1 / N, the per-photon variance
+ * (S2 - S1^2 / N) / (K - 1) (unbiased for batches of any sizes) and se = sqrt(variance /
+ * N); 0 with a single batch. Results are bit-identical for a seed whatever the thread
+ * count: random streams are keyed by photon index, and batches are merged in their order
+ * (a finished batch waits, sparse, for the ones before it; no thread waits).
  *
- * Memory: about 130 bytes per point per thread plus 200 per point. */
+ * Memory: about 120 bytes per point per thread, 250 per point, and the finished batches
+ * waiting to merge (96 bytes per point a batch touched). */
 typedef struct vdbs_reference_probe_options {
     int64_t photons;         /* photons traced from all lights together; 0: 1 << 20 */
     double radius;           /* world radius of the probe balls; 0: 2 x the mean voxel size */
@@ -148,9 +152,9 @@ typedef struct vdbs_reference_probe_options {
  * max_bounces, a radius or point that is not finite, count > 0 with points NULL; an
  * environment map that cannot be used (lights.h); out of memory. */
 vdbs_status vdbs_reference_probe(const vdbs_volume *volume, const vdbs_scene *scene,
-                                 const vdbs_reference_probe_options *options,
-                                 const double *points, size_t count, double *ms, double *ms_l1,
-                                 double *ms_se, double *ms_l1_se, vdbs_error *err);
+                                 const vdbs_reference_probe_options *options, const double *points,
+                                 size_t count, double *ms, double *ms_l1, double *ms_se,
+                                 double *ms_l1_se, vdbs_error *err);
 
 /* The cosine mu between incident and scattered propagation directions drawn from the HG
  * phase of anisotropy g for a uniform number u in [0, 1): the exact inverse of its CDF,
