@@ -35,6 +35,8 @@ static const char help[] =
     "                           POP cells 16/24/32/48 across and sky ordinates 8/16/32/64)\n"
     "  --pop-res N              POP: cells across the largest extent of the volume\n"
     "  --pop-ordinates N        POP: propagation grids for the sky (importance-sampled)\n"
+    "  --pop-iterations N       POP: cap of each sun's or ordinate's iterations before the\n"
+    "                           isotropic residuum (default: Eq. 10, at most max(64, 4 x res))\n"
     "  --pop-decay LAW          POP anisotropy decay: mean-cosine (default; a exp(-sigma_s t\n"
     "                           (1 - g)), exact first moment) or paper (a g^(sigma_s t))\n"
     "\n"
@@ -57,6 +59,7 @@ static const cli_option options[] = {
     {"--pop-res", CLI_VALUE},
     {"--pop-ordinates", CLI_VALUE},
     {"--pop-decay", CLI_VALUE},
+    {"--pop-iterations", CLI_VALUE},
     {NULL, CLI_FLAG},
 };
 
@@ -89,6 +92,7 @@ static cJSON *report_json(const char *input, const char *output, const vdbs_scen
     }
     if (strcmp(scene->method, "pop") == 0) {
         const vdbs_pop_stats *p = &r->pop;
+        cJSON_AddNumberToObject(t, "pop_sweep", p->seconds_sweep);
         cJSON_AddNumberToObject(t, "pop_seed", p->seconds_seed);
         cJSON_AddNumberToObject(t, "pop_propagate", p->seconds_propagate);
         cJSON_AddNumberToObject(t, "pop_isotropic", p->seconds_isotropic);

@@ -214,6 +214,10 @@ vdbs_status cli_build_scene(const cli_args *args, vdbs_scene *scene, int allow_n
             st = cli_integer(name, v, res ? 2 : 1,
                              res ? VDBS_MAX_POP_RESOLUTION : VDBS_MAX_SKY_DIRECTIONS, &k, err);
             *(res ? &scene->pop_resolution : &scene->pop_ordinates) = (int)k;
+        } else if (strcmp(name, "--pop-iterations") == 0) {
+            long k = 0;
+            st = cli_integer(name, v, 1, VDBS_MAX_POP_ITERATIONS, &k, err);
+            scene->pop_iterations = (int)k;
         } else if (strcmp(name, "--pop-decay") == 0) {
             st = vdbs_scene_set_pop_decay(scene, v, err);
         } else if (strcmp(name, "--method") == 0 || strcmp(name, "--quality") == 0) {

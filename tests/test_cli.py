@@ -101,6 +101,7 @@ class HelpAndFlags(Base):
             (base + ["--method", "pop", "--pop-res", "8x"], "--pop-res"),
             (base + ["--method", "pop", "--pop-ordinates", "0"], "--pop-ordinates"),
             (base + ["--method", "pop", "--pop-decay", "fast"], "--pop-decay"),
+            (base + ["--method", "pop", "--pop-iterations", "0"], "--pop-iterations"),
             (base + ["--method", "pop", "--pop-decay", "paper", "--g", "-0.3"], "--pop-decay"),
             (["bake", src, "-o", out, "--method", "pop", "--point", "0,0,0"], "point"),
             (base + ["--s1", "cone"], "--s1"),
@@ -415,7 +416,7 @@ class Pop(Base):
         self.assertGreater(stats["seeded"], 0.0)
         # The merge conserves: fluence x volume before and after the splat.
         self.assertAlmostEqual(stats["merge_out"], stats["merge_in"], delta=1e-9 * stats["merge_in"])
-        for stage in ["pop_seed", "pop_propagate", "pop_isotropic", "pop_merge", "pop_upsample"]:
+        for stage in ["pop_sweep", "pop_seed", "pop_propagate", "pop_isotropic", "pop_merge", "pop_upsample"]:
             self.assertGreaterEqual(report["seconds"][stage], 0.0)
         s1 = {tuple(i.min): i.value for i in vdb.read(single, "radiance").citerOnValues()}
         rad = {tuple(i.min): i.value for i in vdb.read(pop, "radiance").citerOnValues()}

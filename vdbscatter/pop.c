@@ -660,9 +660,11 @@ vdbs_status vdbs_pop_solve(const vdbs_solve *s, const vdbs_pop_desc *desc, vdbs_
         st = vdbs_error_set(err, VDBS_ERR_NOMEM, "out of memory for the merged POP grid");
     if (st == VDBS_OK)
         st = vdbs_medium_box_build(s->volume, block < 1 ? 1 : block, &r.box, err);
+    double t_sweep = vdbs_now();
     if (st == VDBS_OK)
         st = vdbs_light_grids_build(s->runner, s->volume, s->scene, &r.lights, 0, count, &fine_desc,
                                     &r.fine, err);
+    stats->seconds_sweep = vdbs_now() - t_sweep;
     const double sigma_s = sigma_t * albedo;
     for (int l = 0; l < count && st == VDBS_OK; ++l) {
         double d[3], e[3], a0;

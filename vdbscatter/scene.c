@@ -544,8 +544,8 @@ static vdbs_status parse_camera(const parse_ctx *ctx, const cJSON *cam, vdbs_sce
 
 static vdbs_status parse_solver(const parse_ctx *ctx, const cJSON *sol, vdbs_scene *s)
 {
-    static const char *const keys[] = {
-        "method", "quality", "sky_directions", "pop_res", "pop_ordinates", "pop_decay", NULL};
+    static const char *const keys[] = {"method",        "quality",   "sky_directions", "pop_res",
+                                       "pop_ordinates", "pop_decay", "pop_iterations", NULL};
     vdbs_status st;
     bool found = false;
     if ((st = expect_object(ctx, sol, "solver")) != VDBS_OK ||
@@ -568,8 +568,12 @@ static vdbs_status parse_solver(const parse_ctx *ctx, const cJSON *sol, vdbs_sce
         return fail(ctx, "solver.sky_directions", "must be in 1..%d, got %d",
                     VDBS_MAX_SKY_DIRECTIONS, s->sky_directions);
     if ((st = get_int(ctx, sol, "solver", "pop_res", &s->pop_resolution)) != VDBS_OK ||
-        (st = get_int(ctx, sol, "solver", "pop_ordinates", &s->pop_ordinates)) != VDBS_OK)
+        (st = get_int(ctx, sol, "solver", "pop_ordinates", &s->pop_ordinates)) != VDBS_OK ||
+        (st = get_int(ctx, sol, "solver", "pop_iterations", &s->pop_iterations)) != VDBS_OK)
         return st;
+    if (s->pop_iterations < 0 || s->pop_iterations > VDBS_MAX_POP_ITERATIONS)
+        return fail(ctx, "solver.pop_iterations", "must be in 1..%d, got %d",
+                    VDBS_MAX_POP_ITERATIONS, s->pop_iterations);
     if (s->pop_resolution < 0 || s->pop_resolution > VDBS_MAX_POP_RESOLUTION)
         return fail(ctx, "solver.pop_res", "must be in 2..%d, got %d", VDBS_MAX_POP_RESOLUTION,
                     s->pop_resolution);
@@ -864,6 +868,7 @@ char *vdbs_scene_to_json(const vdbs_scene *s)
          (s->sky_directions == 0 || add_int(sol, "sky_directions", s->sky_directions)) &&
          (s->pop_resolution == 0 || add_int(sol, "pop_res", s->pop_resolution)) &&
          (s->pop_ordinates == 0 || add_int(sol, "pop_ordinates", s->pop_ordinates)) &&
+         (s->pop_iterations == 0 || add_int(sol, "pop_iterations", s->pop_iterations)) &&
          add_string(sol, "pop_decay", s->pop_decay_paper ? "paper" : "mean-cosine");
     if (ok)
         text = cJSON_PrintUnformatted(root);

@@ -45,6 +45,7 @@ static vdbs_status run_pop(const vdbs_solve *s, vdbs_error *err)
     vdbs_pop_desc desc = {0};
     desc.resolution = s->scene->pop_resolution;
     desc.ordinates = s->scene->pop_ordinates;
+    desc.max_iterations = s->scene->pop_iterations;
     desc.decay = s->scene->pop_decay_paper ? VDBS_POP_DECAY_PAPER : VDBS_POP_DECAY_MEAN_COSINE;
     vdbs_pop_stats stats;
     st = vdbs_pop_solve(s, &desc, &stats, err);

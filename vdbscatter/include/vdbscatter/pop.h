@@ -53,7 +53,10 @@ typedef struct vdbs_pop_stats {
     /* The merge's balance: accumulated fluence times cell volume summed over the directional
      * grids' cells, and over the merged grid's after the splat (equal up to rounding). */
     double merge_in, merge_out;
-    double seconds_seed, seconds_propagate, seconds_isotropic, seconds_merge, seconds_upsample;
+    /* Stage times: sweep (the fine S1 grids of the POP lights, for seeding), seed (sigma per
+     * cell and the seed), propagate (directional grids), isotropic, merge, upsample. */
+    double seconds_sweep, seconds_seed, seconds_propagate, seconds_isotropic, seconds_merge,
+        seconds_upsample;
 } vdbs_pop_stats;
 
 /* Adds POP's ms and ms_l1 to the solve's outputs (and ms to radiance); S1 is the caller's.

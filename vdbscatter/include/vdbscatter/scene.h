@@ -40,6 +40,8 @@ typedef struct vdbs_light {
 #define VDBS_MAX_SKY_DIRECTIONS 65536
 /* Most POP cells across the largest extent (--pop-res). */
 #define VDBS_MAX_POP_RESOLUTION 512
+/* Most iterations of a POP directional grid (--pop-iterations). */
+#define VDBS_MAX_POP_ITERATIONS 100000
 
 typedef struct vdbs_camera {
     int present;
@@ -71,6 +73,7 @@ typedef struct vdbs_scene {
     /* POP (solver.pop_res, pop_ordinates, pop_decay; --pop-*): 0 = the quality's. */
     int pop_resolution;
     int pop_ordinates;
+    int pop_iterations;  /* cap of each directional grid's iterations; 0: the default */
     int pop_decay_paper; /* 1: a g^(sigma_s t) ("paper"); 0: the mean-cosine law */
 } vdbs_scene;
 
