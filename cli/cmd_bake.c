@@ -106,7 +106,9 @@ static cJSON *report_json(const char *input, const char *output, const vdbs_scen
         cJSON_AddNumberToObject(pj, "iterations_anisotropic", p->iterations_anisotropic);
         cJSON_AddNumberToObject(pj, "iterations_isotropic", p->iterations_isotropic);
         cJSON_AddNumberToObject(pj, "cell_updates", p->cell_updates);
+        cJSON_AddNumberToObject(pj, "cell_side", p->cell_side);
         cJSON_AddNumberToObject(pj, "seeded", p->seeded);
+        cJSON_AddNumberToObject(pj, "beam_loss", p->beam_loss);
         cJSON_AddNumberToObject(pj, "residual", p->residual);
         cJSON_AddNumberToObject(pj, "merge_in", p->merge_in);
         cJSON_AddNumberToObject(pj, "merge_out", p->merge_out);

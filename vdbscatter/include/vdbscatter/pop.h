@@ -48,8 +48,12 @@ typedef struct vdbs_pop_stats {
     int iterations_anisotropic; /* the most any directional grid ran */
     int iterations_isotropic;
     double cell_updates; /* cells x iterations over every grid, directional and isotropic */
+    double cell_side;    /* world side of a directional grid's cell */
     double seeded;       /* energy seeded (sum over cells and channels of L^0 times cell volume) */
-    double residual;     /* energy left in transit at the end, relative to seeded */
+    /* The same sum from each sub-column's whole loss, albedo E (1 - T) (pop.c seed_grid):
+     * equal to seeded when every grid holds all of the medium. */
+    double beam_loss;
+    double residual; /* energy left in transit at the end, relative to seeded */
     /* The merge's balance: accumulated fluence times cell volume summed over the directional
      * grids' cells, and over the merged grid's after the splat (equal up to rounding). */
     double merge_in, merge_out;
