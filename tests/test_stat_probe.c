@@ -125,28 +125,6 @@ static void check(const char *what, double est, double se, double exact, double 
 
 /* ---- quadrature ---- */
 
-static void gauss_legendre(int n, double a, double b, double *x, double *w)
-{
-    for (int i = 0; i < n; ++i) {
-        double z = cos(PI * (i + 0.75) / (n + 0.5)), pp = 0.0;
-        for (int it = 0; it < 100; ++it) {
-            double p0 = 1.0, p1 = 0.0;
-            for (int k = 1; k <= n; ++k) {
-                double p2 = p1;
-                p1 = p0;
-                p0 = ((2.0 * k - 1.0) * z * p1 - (k - 1.0) * p2) / k;
-            }
-            pp = n * (z * p0 - p1) / (z * z - 1.0);
-            double dz = p0 / pp;
-            z -= dz;
-            if (fabs(dz) < 1e-15)
-                break;
-        }
-        x[i] = a + 0.5 * (b - a) * (1.0 - z);
-        w[i] = (b - a) / ((1.0 - z * z) * pp * pp);
-    }
-}
-
 static double hg(double g, double mu)
 {
     double d = 1.0 + g * g - 2.0 * g * mu;
@@ -159,7 +137,7 @@ static double ball_average_y(double (*f)(double y, const void *ctx), const void 
                              double r)
 {
     double x[24], w[24], s = 0.0;
-    gauss_legendre(24, -r, r, x, w);
+    test_gauss_legendre(24, -r, r, x, w);
     for (int i = 0; i < 24; ++i)
         s += w[i] * (r * r - x[i] * x[i]) * f(yc + x[i], ctx);
     return 0.75 * s / (r * r * r);
@@ -189,7 +167,7 @@ static double slab1_at(double y, const void *ctx)
     enum { PANELS = 400, NODES = 8 };
     double x[NODES], w[NODES], sum = 0.0;
     for (int k = 0; k < PANELS; ++k) {
-        gauss_legendre(NODES, (double)k / PANELS, (k + 1.0) / PANELS, x, w);
+        test_gauss_legendre(NODES, (double)k / PANELS, (k + 1.0) / PANELS, x, w);
         for (int i = 0; i < NODES; ++i) {
             double m = x[i];
             double fd = exp(-tau) * -expm1(-tau * (1.0 - m) / m) / (1.0 - m);
@@ -304,14 +282,15 @@ static double point1_phi(const point1 *p, double r)
     enum { PANELS = 24, NODES = 8 };
     double x[NODES], w[NODES], sum = 0.0;
     /* [0, rc]: smooth. */
-    gauss_legendre(NODES, 0.0, p->rc, x, w);
+    test_gauss_legendre(NODES, 0.0, p->rc, x, w);
     for (int i = 0; i < NODES; ++i)
         sum += w[i] * point1_kernel(p, r, x[i]);
     /* [rc, r) and (r, r + V^2]: s = r -+ v^2 tames the logarithm at s = r. */
     double vmax[2] = {sqrt(r - p->rc), sqrt(40.0 / p->sigma)};
     for (int side = 0; side < 2; ++side)
         for (int k = 0; k < PANELS; ++k) {
-            gauss_legendre(NODES, vmax[side] * k / PANELS, vmax[side] * (k + 1.0) / PANELS, x, w);
+            test_gauss_legendre(NODES, vmax[side] * k / PANELS, vmax[side] * (k + 1.0) / PANELS, x,
+                                w);
             for (int i = 0; i < NODES; ++i) {
                 double v = x[i], s = side == 0 ? r - v * v : r + v * v;
                 sum += w[i] * 2.0 * v * point1_kernel(p, r, s);
@@ -324,7 +303,7 @@ static double point1_ball(const point1 *p, double d, double rb)
 {
     enum { NODES = 32 };
     double x[NODES], w[NODES], sum = 0.0;
-    gauss_legendre(NODES, d - rb, d + rb, x, w);
+    test_gauss_legendre(NODES, d - rb, d + rb, x, w);
     for (int i = 0; i < NODES; ++i) {
         double s = x[i];
         sum += w[i] * point1_phi(p, s) * PI * s * (rb * rb - (s - d) * (s - d)) / d;
@@ -450,7 +429,7 @@ static void furnace_exact(const box_profile *b, const double c[3], double rb, do
     vdbs_sphere_directions(ND, dirs);
     vdbs_sphere_directions(NB, bdirs);
     double xr[NR], wr[NR];
-    gauss_legendre(NR, 0.0, 1.0, xr, wr);
+    test_gauss_legendre(NR, 0.0, 1.0, xr, wr);
     double tsum = 0.0, fsum[3] = {0.0, 0.0, 0.0};
     for (int i = 0; i < NR; ++i) {
         double rad = rb * cbrt(xr[i]);
@@ -672,9 +651,9 @@ static void test_escape_energy(void **state)
         enum { NQ = 16 };
         double xs[3 * NQ], ws[3 * NQ];
         const double c = box.core[0], rr = box.ramp[0];
-        gauss_legendre(NQ, -c - rr, -c, xs, ws);
-        gauss_legendre(NQ, -c, c, xs + NQ, ws + NQ);
-        gauss_legendre(NQ, c, c + rr, xs + 2 * NQ, ws + 2 * NQ);
+        test_gauss_legendre(NQ, -c - rr, -c, xs, ws);
+        test_gauss_legendre(NQ, -c, c, xs + NQ, ws + NQ);
+        test_gauss_legendre(NQ, c, c + rr, xs + 2 * NQ, ws + 2 * NQ);
         for (int i = 0; i < 3 * NQ; ++i)
             for (int j = 0; j < 3 * NQ; ++j)
                 p_col += ws[i] * ws[j] *

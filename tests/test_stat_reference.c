@@ -39,28 +39,6 @@
  * the voxelised slab's half-voxel ramps do not change the answer. */
 #define NQ 64
 
-static void gauss_legendre01(int n, double *x, double *w)
-{
-    for (int i = 0; i < n; ++i) {
-        double z = cos(PI * (i + 0.75) / (n + 0.5)), pp = 0.0;
-        for (int it = 0; it < 100; ++it) {
-            double p0 = 1.0, p1 = 0.0;
-            for (int k = 1; k <= n; ++k) {
-                double p2 = p1;
-                p1 = p0;
-                p0 = ((2.0 * k - 1.0) * z * p1 - (k - 1.0) * p2) / k;
-            }
-            pp = n * (z * p0 - p1) / (z * z - 1.0);
-            double dz = p0 / pp;
-            z -= dz;
-            if (fabs(dz) < 1e-15)
-                break;
-        }
-        x[i] = 0.5 * (1.0 - z);
-        w[i] = 1.0 / ((1.0 - z * z) * pp * pp);
-    }
-}
-
 static double hg_naive(double g, double mu)
 {
     double d = 1.0 + g * g - 2.0 * g * mu;
@@ -146,7 +124,7 @@ static double thin_transmission(double delta, double mi, double mj)
 
 /* Fractions of a normal beam of irradiance 1 reflected and transmitted (direct
  * included) by a slab; r_rad and t_rad (NULL or NQ values) receive the diffusely
- * reflected and transmitted radiance at the cosines of gauss_legendre01(NQ).
+ * reflected and transmitted radiance at the cosines of test_gauss_legendre(NQ, 0, 1).
  *
  * n_extra further cosines mu_extra (any values in (0, 1]) ride along as directions of
  * quadrature weight zero: each keeps a row of the layer's reflection and transmission
@@ -163,7 +141,7 @@ static void adding_doubling_dirs(double tau, double albedo, double g, double *re
 {
     const int doublings = 27;
     double mu[NQ], wq[NQ];
-    gauss_legendre01(NQ, mu, wq);
+    test_gauss_legendre(NQ, 0.0, 1.0, mu, wq);
     size_t bytes = sizeof(double) * NQ * NQ;
     double *pf = malloc(bytes), *pb = malloc(bytes), *r = malloc(bytes), *t = malloc(bytes);
     double *q = malloc(bytes), *tmp = malloc(bytes), *tmp2 = malloc(bytes), *tq = malloc(bytes);
@@ -569,7 +547,7 @@ static void test_slab_radiance(void **state)
     vdbs_volume volume;
     make_slab(16, 64, &volume);
     double mu_q[NQ], w_q[NQ];
-    gauss_legendre01(NQ, mu_q, w_q);
+    test_gauss_legendre(NQ, 0.0, 1.0, mu_q, w_q);
     int node = 0;
     for (int i = 0; i < NQ; ++i)
         if (fabs(mu_q[i] - 0.7) < fabs(mu_q[node] - 0.7))
@@ -637,7 +615,7 @@ static void test_slab_radiance_angles(void **state)
     const double tau = 1.0, albedo = 1.0, g = 0.75, mus[3] = {1.0, 0.5, 0.1};
     const int size = 16, spp = 65536, npix = 16 * 16;
     double mu_q[NQ], w_q[NQ];
-    gauss_legendre01(NQ, mu_q, w_q);
+    test_gauss_legendre(NQ, 0.0, 1.0, mu_q, w_q);
 
     /* The extra directions against the solver: at nodes, at mu = 1 / 0.5 / 0.1 in the
      * single-scattering limit, and integrated into fluxes. */
@@ -645,7 +623,7 @@ static void test_slab_radiance_angles(void **state)
         enum { NG = 96, NX = 3 + 2 + NG };
         double x_mu[NX], x_r[NX], x_t[NX], r_flux, t_flux, r_rad[NQ], t_rad[NQ];
         double mu_g[NG], w_g[NG];
-        gauss_legendre01(NG, mu_g, w_g);
+        test_gauss_legendre(NG, 0.0, 1.0, mu_g, w_g);
         const int nodes[2] = {0, NQ / 2};
         for (int i = 0; i < 3; ++i)
             x_mu[i] = mus[i];

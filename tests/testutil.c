@@ -152,3 +152,26 @@ void test_sample_volume(const char *name, int res, unsigned seed, vdbs_volume *v
         vdbs_volume_from_density(density, volume, &err) != VDBS_OK)
         fail_msg("sample %s: %s", name, err.message);
 }
+
+void test_gauss_legendre(int n, double a, double b, double *x, double *w)
+{
+    const double pi = 3.14159265358979323846;
+    for (int i = 0; i < n; ++i) {
+        double z = cos(pi * (i + 0.75) / (n + 0.5)), pp = 0.0;
+        for (int it = 0; it < 100; ++it) {
+            double p0 = 1.0, p1 = 0.0;
+            for (int k = 1; k <= n; ++k) {
+                double p2 = p1;
+                p1 = p0;
+                p0 = ((2.0 * k - 1.0) * z * p1 - (k - 1.0) * p2) / k;
+            }
+            pp = n * (z * p0 - p1) / (z * z - 1.0);
+            double dz = p0 / pp;
+            z -= dz;
+            if (fabs(dz) < 1e-15)
+                break;
+        }
+        x[i] = a + 0.5 * (b - a) * (1.0 - z);
+        w[i] = (b - a) / ((1.0 - z * z) * pp * pp);
+    }
+}

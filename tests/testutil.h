@@ -56,4 +56,8 @@ typedef vdbs_status (*test_twin_fn)(vdbs_runner *runner, const void *scenario, f
                                     vdbs_error *err);
 float *test_twin(const char *label, test_twin_fn run, const void *scenario, size_t n);
 
+/* n-point Gauss-Legendre nodes x and weights w on [a, b] (Newton on the Legendre recurrence,
+ * to 1e-15). */
+void test_gauss_legendre(int n, double a, double b, double *x, double *w);
+
 #endif

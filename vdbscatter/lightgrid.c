@@ -68,32 +68,6 @@ typedef struct grid_plan {
     uint32_t *live; /* directional: a bit per column that may meet density (vs_lightgrid.h) */
 } grid_plan;
 
-/* An orthonormal frame around unit w (Duff et al. 2017, continuous everywhere). */
-static void frame(const double w[3], double u[3], double v[3])
-{
-    double sign = copysign(1.0, w[2]);
-    double a = -1.0 / (sign + w[2]);
-    double b = w[0] * w[1] * a;
-    u[0] = 1.0 + sign * w[0] * w[0] * a;
-    u[1] = sign * b;
-    u[2] = -sign * w[0];
-    v[0] = b;
-    v[1] = sign + w[1] * w[1] * a;
-    v[2] = -w[1];
-}
-
-/* The support box's eight corners, world. */
-static void box_corners(const vdbs_volume *volume, double corners[8][3])
-{
-    float lo[3], hi[3];
-    vdbs_volume_support_box(volume, lo, hi);
-    for (int corner = 0; corner < 8; ++corner) {
-        double idx[3] = {corner & 1 ? hi[0] : lo[0], corner & 2 ? hi[1] : lo[1],
-                         corner & 4 ? hi[2] : lo[2]};
-        vdbs_volume_world_point(volume, idx, corners[corner]);
-    }
-}
-
 /* Bricks of BRICK^3 voxels that hold output voxels, over the support box. */
 #define BRICK 8
 
@@ -169,13 +143,13 @@ static vdbs_status plan_directional(const vdbs_volume *volume, const double trav
     double axes[3][3];
     for (int a = 0; a < 3; ++a)
         axes[2][a] = travel[a] / len;
-    frame(axes[2], axes[0], axes[1]);
+    vdbs_ortho_basis(axes[2], axes[0], axes[1]);
     g->kind = VS_LGRID_DIRECTIONAL;
     g->spacing = min_voxel_length(volume) / F;
     /* The corners in the frame, relative to the box's lowest corner (a voxel centre), so that
      * aligned samples fall on voxel centres. */
     double corners[8][3];
-    box_corners(volume, corners);
+    vdbs_volume_support_corners(volume, corners);
     double cmin[3] = {HUGE_VAL, HUGE_VAL, HUGE_VAL}, cmax[3] = {-HUGE_VAL, -HUGE_VAL, -HUGE_VAL};
     for (int corner = 0; corner < 8; ++corner) {
         double d[3];
@@ -225,7 +199,7 @@ static vdbs_status plan_radial(const vdbs_volume *volume, const double position[
     g->kind = VS_LGRID_RADIAL;
     double h = min_voxel_length(volume) / F;
     double corners[8][3], r_max = 0.0;
-    box_corners(volume, corners);
+    vdbs_volume_support_corners(volume, corners);
     for (int corner = 0; corner < 8; ++corner) {
         double d[3];
         for (int a = 0; a < 3; ++a)

@@ -57,17 +57,6 @@ static double dot3(const double a[3], const double b[3])
     return a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
 }
 
-/* The world corners of the volume's support box. */
-static void support_corners(const vdbs_volume *volume, double corners[8][3])
-{
-    float lo[3], hi[3];
-    vdbs_volume_support_box(volume, lo, hi);
-    for (int c = 0; c < 8; ++c) {
-        double p[3] = {(c & 1) ? hi[0] : lo[0], (c & 2) ? hi[1] : lo[1], (c & 4) ? hi[2] : lo[2]};
-        vdbs_volume_world_point(volume, p, corners[c]);
-    }
-}
-
 /* The frame with the given axes (orthonormal) spanning the support box with cells of side h. */
 static void frame_fit(const double corners[8][3], const double axis[3][3], double h, pop_frame *f)
 {
@@ -89,19 +78,6 @@ static void frame_fit(const double corners[8][3], const double axis[3][3], doubl
         for (int k = 0; k < 3; ++k)
             f->origin[k] += lo[a] * axis[a][k];
     }
-}
-
-/* An orthonormal frame whose third axis is the unit d (Duff et al. 2017). */
-static void basis_from(const double d[3], double axis[3][3])
-{
-    double sign = copysign(1.0, d[2]);
-    double a = -1.0 / (sign + d[2]);
-    double b = d[0] * d[1] * a;
-    double u[3] = {1.0 + sign * d[0] * d[0] * a, sign * b, -sign * d[0]};
-    double v[3] = {b, sign + d[1] * d[1] * a, -d[1]};
-    memcpy(axis[0], u, sizeof u);
-    memcpy(axis[1], v, sizeof v);
-    memcpy(axis[2], d, sizeof u);
 }
 
 static int64_t frame_cells(const pop_frame *f)
@@ -384,8 +360,9 @@ static vdbs_status propagate_grid(pop_run *r, int l, const double d[3], const do
 {
     const vdbs_solve *s = r->s;
     double corners[8][3], axis[3][3];
-    support_corners(s->volume, corners);
-    basis_from(d, axis);
+    vdbs_volume_support_corners(s->volume, corners);
+    memcpy(axis[2], d, sizeof axis[2]);
+    vdbs_ortho_basis(d, axis[0], axis[1]);
     pop_frame f;
     frame_fit(corners, axis, r->h, &f);
     const int64_t cells = frame_cells(&f);
@@ -642,7 +619,7 @@ vdbs_status vdbs_pop_solve(const vdbs_solve *s, const vdbs_pop_desc *desc, vdbs_
     const int count = r.lights.direct_count + r.lights.ordinate_count;
     stats->grids = count;
     double corners[8][3];
-    support_corners(s->volume, corners);
+    vdbs_volume_support_corners(s->volume, corners);
     double lo[3] = {HUGE_VAL, HUGE_VAL, HUGE_VAL}, hi[3] = {-HUGE_VAL, -HUGE_VAL, -HUGE_VAL};
     for (int c = 0; c < 8; ++c)
         for (int a = 0; a < 3; ++a) {

@@ -89,26 +89,11 @@ static void normalize3(double v[3])
             v[a] /= len;
 }
 
-/* Two unit vectors completing the unit vector w to an orthonormal basis (Duff et al.
- * 2017, continuous everywhere). */
-static void ortho_basis(const double w[3], double t1[3], double t2[3])
-{
-    double sign = copysign(1.0, w[2]);
-    double a = -1.0 / (sign + w[2]);
-    double b = w[0] * w[1] * a;
-    t1[0] = 1.0 + sign * w[0] * w[0] * a;
-    t1[1] = sign * b;
-    t1[2] = -sign * w[0];
-    t2[0] = b;
-    t2[1] = sign + w[1] * w[1] * a;
-    t2[2] = -w[1];
-}
-
 /* Turns the unit vector w by an angle of cosine mu at azimuth 2 pi u. */
 static void scatter_dir(double w[3], double mu, double sin_theta, double u)
 {
     double t1[3], t2[3];
-    ortho_basis(w, t1, t2);
+    vdbs_ortho_basis(w, t1, t2);
     double phi = 2.0 * VDBS_PI * u;
     double c = sin_theta * cos(phi), s = sin_theta * sin(phi);
     double out[3];
@@ -621,7 +606,7 @@ vdbs_status vdbs_reference_tally_sun(const vdbs_volume *volume, const vdbs_scene
         dc += (centre[a] - box_centre[a]) * (centre[a] - box_centre[a]);
     double back = sqrt(dc) + box_radius + radius + 1.0;
     double u1[3], u2[3];
-    ortho_basis(s, u1, u2);
+    vdbs_ortho_basis(s, u1, u2);
     double sun_index[3];
     vdbs_volume_index_vector(volume, s, sun_index);
     const double albedo = ctx.medium.albedo[0];
@@ -1020,7 +1005,7 @@ static void probe_photon(const probe_ctx *pc, ref_tracker *tr, ref_rng *rng, pro
                 power[c] = radiance[c] / pdf * pc->disc_area / select;
         }
         double t1[3], t2[3];
-        ortho_basis(w, t1, t2);
+        vdbs_ortho_basis(w, t1, t2);
         double rr = pc->disc_radius * sqrt(rng_next(rng)), phi = 2.0 * VDBS_PI * rng_next(rng);
         double c1 = rr * cos(phi), c2 = rr * sin(phi);
         for (int a = 0; a < 3; ++a)

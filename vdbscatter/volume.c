@@ -173,3 +173,13 @@ void vdbs_volume_thickness(const vdbs_volume *volume, double density_scale, vdbs
         out->axis_mean[axis] = out->axis_rays_hit[axis] ? sum / out->axis_rays_hit[axis] : 0.0;
     }
 }
+
+void vdbs_volume_support_corners(const vdbs_volume *volume, double corners[8][3])
+{
+    float lo[3], hi[3];
+    vdbs_volume_support_box(volume, lo, hi);
+    for (int c = 0; c < 8; ++c) {
+        double idx[3] = {c & 1 ? hi[0] : lo[0], c & 2 ? hi[1] : lo[1], c & 4 ? hi[2] : lo[2]};
+        vdbs_volume_world_point(volume, idx, corners[c]);
+    }
+}

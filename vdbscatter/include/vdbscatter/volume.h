@@ -48,6 +48,9 @@ int vdbs_volume_sun_step(const vdbs_volume *volume, const double direction[3], d
 /* Index-space box outside which the interpolated density is 0: the active bounding
  * box grown by one voxel (the trilinear ramp beyond the outermost centres). */
 void vdbs_volume_support_box(const vdbs_volume *volume, float lo[3], float hi[3]);
+/* The support box's eight corners in world space (corner c takes hi on axis a where bit a of c
+ * is set). */
+void vdbs_volume_support_corners(const vdbs_volume *volume, double corners[8][3]);
 
 /* Marches one compute-shader invocation may run in one dispatch under the loop limit that
  * shaders/vs_pass.h explains (the runner's first guess of units per pass). A march crosses
