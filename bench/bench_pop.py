@@ -6,7 +6,10 @@ density 25, albedo 0.99, g 0.85, one sun straight down). C path. Writes a Markdo
 PNG plot of error against cells across.
 
 usage: bench/bench_pop.py BUILD_DIR [--out bench/pop.md] [--plot bench/pop_error.png]
-       [--res 4,8,16,32] [--ref-seconds 40] [--size 96x72] [--cases all|issue]"""
+       [--res 4,8,16,32] [--qualities low,...] [--ref-seconds 40] [--size 96x72]
+       [--cases all|issue|sun-sky]
+With --qualities, POP at the default resolution is also baked at each quality (columns
+"POP <quality>"), beside the --pop-res columns."""
 import argparse
 import os
 import tempfile
@@ -39,15 +42,17 @@ def main():
     ap.add_argument("--ref-seconds", type=float, default=40.0)
     ap.add_argument("--size", default="96x72")
     ap.add_argument("--cases", default="all")
+    ap.add_argument("--qualities", default="")
     args = ap.parse_args()
     exe = os.path.join(args.build, "vdbscatter")
     tmp = tempfile.mkdtemp(prefix="bench-pop-")
     resolutions = [int(x) for x in args.res.split(",")]
-    cases = CASES[:1] if args.cases == "issue" else CASES
+    cases = {"issue": CASES[:1], "sun-sky": CASES[1:]}.get(args.cases, CASES)
+    qualities = [q for q in args.qualities.split(",") if q]
     header = ("| scene | reference se | single | " +
-              " | ".join(f"POP {r}" for r in resolutions) + " | POP s at " +
-              str(resolutions[-1]) + " |")
-    lines = [header, "|" + "---|" * (4 + len(resolutions))]
+              " | ".join([f"POP {r}" for r in resolutions] + [f"POP {q}" for q in qualities]) +
+              " | POP s at " + str(resolutions[-1]) + " |")
+    lines = [header, "|" + "---|" * (4 + len(resolutions) + len(qualities))]
     curves = []
     for label, sample, scale, g, lights in cases:
         vdb = os.path.join(SAMPLES, sample + ".vdb")
@@ -73,8 +78,13 @@ def main():
             e, _, seconds = error("pop", ["--pop-res", str(r)])
             errs.append(e)
             print(f"  {label}: single {single:.3f}, POP {r}: {e:.3f} ({seconds:.1f} s)", flush=True)
-        row = (f"| {label} | {se:.4f} | {single:.3f} | " + " | ".join(f"{e:.3f}" for e in errs) +
-               f" | {seconds:.1f} |")
+        quality_errs = []
+        for q in qualities:
+            e, _, _ = error("pop", ["--quality", q])
+            quality_errs.append(e)
+            print(f"  {label}: POP at quality {q}: {e:.3f}", flush=True)
+        row = (f"| {label} | {se:.4f} | {single:.3f} | " +
+               " | ".join(f"{e:.3f}" for e in errs + quality_errs) + f" | {seconds:.1f} |")
         lines.append(row)
         print(row, flush=True)
         curves.append((label, single, errs))
