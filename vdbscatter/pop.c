@@ -93,6 +93,32 @@ static void frame_point(const pop_frame *f, const double x[3], double world[3])
                    f->h * (x[0] * f->axis[0][k] + x[1] * f->axis[1][k] + x[2] * f->axis[2][k]);
 }
 
+/* World centre of cell c (x fastest, then y, then z). */
+static void frame_cell_centre(const pop_frame *f, int64_t c, double world[3])
+{
+    double x[3] = {(double)(c % f->n[0]) + 0.5, (double)((c / f->n[0]) % f->n[1]) + 0.5,
+                   (double)(c / ((int64_t)f->n[0] * f->n[1])) + 0.5};
+    frame_point(f, x, world);
+}
+
+/* The trilinear footing of world point p: the lower of the 8 cell centres around it and
+ * the fractions towards the upper ones (coordinates may fall outside the grid). */
+static void frame_trilinear(const pop_frame *f, const double p[3], int i0[3], double frac[3])
+{
+    double rel[3] = {p[0] - f->origin[0], p[1] - f->origin[1], p[2] - f->origin[2]};
+    for (int a = 0; a < 3; ++a) {
+        double x = dot3(rel, f->axis[a]) / f->h - 0.5;
+        double fl = floor(x);
+        i0[a] = (int)fl;
+        frac[a] = x - fl;
+    }
+}
+
+static int64_t frame_index(const pop_frame *f, const int idx[3])
+{
+    return ((int64_t)idx[2] * f->n[1] + idx[1]) * f->n[0] + idx[0];
+}
+
 /* sigma_t at every cell centre from the box-filtered medium. */
 static void frame_sigma(const pop_frame *f, const vdbs_volume *volume, const vdbs_medium_box *box,
                         double density_scale, float *sigma)
@@ -100,10 +126,8 @@ static void frame_sigma(const pop_frame *f, const vdbs_volume *volume, const vdb
     const int64_t cells = frame_cells(f);
 #pragma omp parallel for schedule(static)
     for (int64_t c = 0; c < cells; ++c) {
-        double x[3] = {(double)(c % f->n[0]) + 0.5, (double)((c / f->n[0]) % f->n[1]) + 0.5,
-                       (double)(c / ((int64_t)f->n[0] * f->n[1])) + 0.5};
         double w[3], idx[3];
-        frame_point(f, x, w);
+        frame_cell_centre(f, c, w);
         vdbs_volume_index_point(volume, w, idx);
         sigma[c] = (float)(density_scale * vdbs_medium_box_density(box, idx));
     }
@@ -179,16 +203,9 @@ vdbs_status vdbs_pop_propagate(vdbs_runner *runner, const uint32_t *params, cons
 static void splat(const pop_frame *dst, double *acc, int width, const double p[3],
                   const double *values, double scale)
 {
-    double x[3];
     int i0[3];
     double f[3];
-    double rel[3] = {p[0] - dst->origin[0], p[1] - dst->origin[1], p[2] - dst->origin[2]};
-    for (int a = 0; a < 3; ++a) {
-        x[a] = dot3(rel, dst->axis[a]) / dst->h - 0.5;
-        double fl = floor(x[a]);
-        i0[a] = (int)fl;
-        f[a] = x[a] - fl;
-    }
+    frame_trilinear(dst, p, i0, f);
     double w[8], wsum = 0.0;
     int64_t at[8];
     for (int c = 0; c < 8; ++c) {
@@ -203,18 +220,18 @@ static void splat(const pop_frame *dst, double *acc, int width, const double p[3
         }
         if (!inside)
             w[c] = 0.0;
-        at[c] = ((int64_t)idx[2] * dst->n[1] + idx[1]) * dst->n[0] + idx[0];
+        at[c] = frame_index(dst, idx);
         wsum += w[c];
     }
     if (!(wsum > 0.0)) {
         /* Beyond the grid's outer centres on every side: the nearest cell takes it. */
         int idx[3];
         for (int a = 0; a < 3; ++a) {
-            idx[a] = (int)floor(x[a] + 0.5);
+            idx[a] = i0[a] + (f[a] >= 0.5);
             idx[a] = idx[a] < 0 ? 0 : (idx[a] >= dst->n[a] ? dst->n[a] - 1 : idx[a]);
         }
         w[0] = wsum = 1.0;
-        at[0] = ((int64_t)idx[2] * dst->n[1] + idx[1]) * dst->n[0] + idx[0];
+        at[0] = frame_index(dst, idx);
         for (int c = 1; c < 8; ++c)
             w[c] = 0.0;
     }
@@ -400,20 +417,18 @@ static vdbs_status propagate_grid(pop_run *r, int l, const double d[3], const do
             double v[MERGED_WIDTH];
             int any = 0;
             for (int ch = 0; ch < 3; ++ch) {
-                v[MERGED_MS + ch] = cell[VS_POP_STATE_ACC_L + ch] / (4.0 * VDBS_PI);
+                v[MERGED_MS + ch] = cell[VS_POP_STATE_ACC_L + ch] * VDBS_INV_4PI;
                 for (int a = 0; a < 3; ++a)
                     v[MERGED_L1 + 3 * a + ch] =
-                        3.0 * g * cell[VS_POP_STATE_ACC_LA + ch] * d[a] * VS_INV_4PI;
+                        3.0 * g * cell[VS_POP_STATE_ACC_LA + ch] * d[a] * VDBS_INV_4PI;
                 any |= cell[VS_POP_STATE_ACC_L + ch] != 0.0f || cell[VS_POP_STATE_L + ch] != 0.0f;
             }
             if (!any)
                 continue;
             for (int ch = 0; ch < 3; ++ch)
                 r->stats->merge_in += cell[VS_POP_STATE_ACC_L + ch] * f.h * f.h * f.h;
-            double x[3] = {(double)(c % f.n[0]) + 0.5, (double)((c / f.n[0]) % f.n[1]) + 0.5,
-                           (double)(c / ((int64_t)f.n[0] * f.n[1])) + 0.5};
             double w[3];
-            frame_point(&f, x, w);
+            frame_cell_centre(&f, c, w);
             splat(&r->merged, r->merged_acc, MERGED_WIDTH, w, v, scale);
             double residual[3] = {cell[VS_POP_STATE_L], cell[VS_POP_STATE_L + 1],
                                   cell[VS_POP_STATE_L + 2]};
@@ -474,13 +489,11 @@ static vdbs_status isotropic(pop_run *r, vdbs_error *err)
             const float *cell = state + c * VS_POP_STATE_WORDS;
             double v[MERGED_WIDTH] = {0};
             for (int ch = 0; ch < 3; ++ch)
-                v[MERGED_MS + ch] = cell[VS_POP_STATE_ACC_L + ch] / (4.0 * VDBS_PI);
+                v[MERGED_MS + ch] = cell[VS_POP_STATE_ACC_L + ch] * VDBS_INV_4PI;
             if (v[0] == 0.0 && v[1] == 0.0 && v[2] == 0.0)
                 continue;
-            double x[3] = {(double)(c % f->n[0]) + 0.5, (double)((c / f->n[0]) % f->n[1]) + 0.5,
-                           (double)(c / ((int64_t)f->n[0] * f->n[1])) + 0.5};
             double w[3];
-            frame_point(f, x, w);
+            frame_cell_centre(f, c, w);
             splat(&r->merged, r->merged_acc, MERGED_WIDTH, w, v, scale);
         }
     }
@@ -492,7 +505,7 @@ static vdbs_status isotropic(pop_run *r, vdbs_error *err)
 
 /* Joint bilateral upsampling (Sec. 4.4) of the merged grid to the output voxels: trilinear
  * weights times a range weight on sigma_t, the cell's box-filtered one against the voxel's. */
-static void upsample(pop_run *r)
+static vdbs_status upsample(pop_run *r, vdbs_error *err)
 {
     const vdbs_solve *s = r->s;
     const vdbs_volume *volume = s->volume;
@@ -501,7 +514,7 @@ static void upsample(pop_run *r)
     const int64_t cells = frame_cells(f);
     float *guide = malloc(sizeof *guide * (size_t)cells);
     if (!guide)
-        return;
+        return vdbs_error_set(err, VDBS_ERR_NOMEM, "out of memory for POP's upsampling guide");
     frame_sigma(f, volume, &r->box, scale, guide);
     double sum = 0.0;
     int64_t count = 0;
@@ -521,15 +534,9 @@ static void upsample(pop_run *r)
             double idx[3] = {co[0], co[1], co[2]}, w[3];
             vdbs_volume_world_point(volume, idx, w);
             double sv = scale * vs_density_voxel(buf, &acc, vs_coord(co[0], co[1], co[2]));
-            double rel[3] = {w[0] - f->origin[0], w[1] - f->origin[1], w[2] - f->origin[2]};
             int i0[3];
             double fr[3];
-            for (int a = 0; a < 3; ++a) {
-                double x = dot3(rel, f->axis[a]) / f->h - 0.5;
-                double fl = floor(x);
-                i0[a] = (int)fl;
-                fr[a] = x - fl;
-            }
+            frame_trilinear(f, w, i0, fr);
             double out[12] = {0}, wsum = 0.0;
             for (int c = 0; c < 8; ++c) {
                 int id[3];
@@ -542,7 +549,7 @@ static void upsample(pop_run *r)
                 }
                 if (wt == 0.0)
                     continue;
-                int64_t at = ((int64_t)id[2] * f->n[1] + id[1]) * f->n[0] + id[0];
+                int64_t at = frame_index(f, id);
                 double dr = (guide[at] - sv) / range;
                 wt *= exp(-0.5 * dr * dr) + 1e-3;
                 wsum += wt;
@@ -561,6 +568,7 @@ static void upsample(pop_run *r)
         }
     }
     free(guide);
+    return VDBS_OK;
 }
 
 /* The mean sigma_t over the voxels with density. */
@@ -682,7 +690,7 @@ vdbs_status vdbs_pop_solve(const vdbs_solve *s, const vdbs_pop_desc *desc, vdbs_
         st = isotropic(&r, err);
     if (st == VDBS_OK) {
         double t0 = vdbs_now();
-        upsample(&r);
+        st = upsample(&r, err);
         stats->seconds_upsample = vdbs_now() - t0;
     }
     run_free(&r);

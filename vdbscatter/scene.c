@@ -159,6 +159,25 @@ static vdbs_status get_int(const parse_ctx *ctx, const cJSON *obj, const char *p
     return VDBS_OK;
 }
 
+/* An integer key that, when present, must lie in lo..hi (absent keeps *out: the default). */
+static vdbs_status get_int_in(const parse_ctx *ctx, const cJSON *obj, const char *parent,
+                              const char *key, int lo, int hi, int *out)
+{
+    if (!cJSON_GetObjectItemCaseSensitive(obj, key))
+        return VDBS_OK;
+    int v = 0;
+    vdbs_status st = get_int(ctx, obj, parent, key, &v);
+    if (st != VDBS_OK)
+        return st;
+    if (v < lo || v > hi) {
+        char path[PATH_LEN];
+        join_path(path, parent, key);
+        return fail(ctx, path, "must be in %d..%d, got %d", lo, hi, v);
+    }
+    *out = v;
+    return VDBS_OK;
+}
+
 /* A 3-vector; with allow_scalar a single number stands for all three components
  * (colours and albedo). */
 static vdbs_status get_vec3(const parse_ctx *ctx, const cJSON *obj, const char *parent,
@@ -562,24 +581,15 @@ static vdbs_status parse_solver(const parse_ctx *ctx, const cJSON *sol, vdbs_sce
     if (found && !vdbs_quality_find(s->quality))
         return fail(ctx, "solver.quality",
                     "unknown quality \"%s\" (expected low, medium, high or ultra)", s->quality);
-    if ((st = get_int(ctx, sol, "solver", "sky_directions", &s->sky_directions)) != VDBS_OK)
+    if ((st = get_int_in(ctx, sol, "solver", "sky_directions", 1, VDBS_MAX_SKY_DIRECTIONS,
+                         &s->sky_directions)) != VDBS_OK ||
+        (st = get_int_in(ctx, sol, "solver", "pop_res", 2, VDBS_MAX_POP_RESOLUTION,
+                         &s->pop_resolution)) != VDBS_OK ||
+        (st = get_int_in(ctx, sol, "solver", "pop_ordinates", 1, VDBS_MAX_SKY_DIRECTIONS,
+                         &s->pop_ordinates)) != VDBS_OK ||
+        (st = get_int_in(ctx, sol, "solver", "pop_iterations", 1, VDBS_MAX_POP_ITERATIONS,
+                         &s->pop_iterations)) != VDBS_OK)
         return st;
-    if (s->sky_directions < 0 || s->sky_directions > VDBS_MAX_SKY_DIRECTIONS)
-        return fail(ctx, "solver.sky_directions", "must be in 1..%d, got %d",
-                    VDBS_MAX_SKY_DIRECTIONS, s->sky_directions);
-    if ((st = get_int(ctx, sol, "solver", "pop_res", &s->pop_resolution)) != VDBS_OK ||
-        (st = get_int(ctx, sol, "solver", "pop_ordinates", &s->pop_ordinates)) != VDBS_OK ||
-        (st = get_int(ctx, sol, "solver", "pop_iterations", &s->pop_iterations)) != VDBS_OK)
-        return st;
-    if (s->pop_iterations < 0 || s->pop_iterations > VDBS_MAX_POP_ITERATIONS)
-        return fail(ctx, "solver.pop_iterations", "must be in 1..%d, got %d",
-                    VDBS_MAX_POP_ITERATIONS, s->pop_iterations);
-    if (s->pop_resolution < 0 || s->pop_resolution > VDBS_MAX_POP_RESOLUTION)
-        return fail(ctx, "solver.pop_res", "must be in 2..%d, got %d", VDBS_MAX_POP_RESOLUTION,
-                    s->pop_resolution);
-    if (s->pop_ordinates < 0 || s->pop_ordinates > VDBS_MAX_SKY_DIRECTIONS)
-        return fail(ctx, "solver.pop_ordinates", "must be in 1..%d, got %d",
-                    VDBS_MAX_SKY_DIRECTIONS, s->pop_ordinates);
     char decay[32] = "";
     if ((st = get_string(ctx, sol, "solver", "pop_decay", decay, sizeof decay, &found)) != VDBS_OK)
         return st;

@@ -149,7 +149,7 @@ vdbs_status vdbs_single_scatter_grids(vdbs_runner *runner, const vdbs_volume *vo
     }
     if (st == VDBS_OK)
         for (size_t v = 0; v < 3 * n; ++v)
-            radiance[v] = (float)(fluence[v] * (1.0 / (4.0 * VDBS_PI)));
+            radiance[v] = (float)(fluence[v] * VDBS_INV_4PI);
     free(fluence);
     free(depth);
     return st;

@@ -7,6 +7,7 @@
 #include <math.h>
 
 #define VDBS_PI 3.14159265358979323846
+#define VDBS_INV_4PI (1.0 / (4.0 * VDBS_PI))
 
 /* Two unit vectors completing the unit vector w to an orthonormal basis (u, v, w) (Duff et
  * al. 2017, continuous everywhere). */
