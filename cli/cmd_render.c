@@ -111,51 +111,6 @@ static vdbs_status parse_size(const char *text, int *width, int *height, vdbs_er
                           "--size: expected WxH with integers in [1, 16384], got '%s'", text);
 }
 
-/* "PX,PY,PZ:TX,TY,TZ:FOV"; up is +Y unless the view is vertical. */
-static vdbs_status parse_camera(const char *text, vdbs_camera *camera, vdbs_error *err)
-{
-    char buf[512];
-    if (strlen(text) >= sizeof buf)
-        return vdbs_error_set(err, VDBS_ERR_INPUT, "--camera: value too long");
-    strcpy(buf, text);
-    char *parts[4] = {NULL, NULL, NULL, NULL};
-    int n = 0;
-    char *p = buf;
-    while (n < 4) {
-        parts[n++] = p;
-        char *colon = strchr(p, ':');
-        if (!colon)
-            break;
-        *colon = '\0';
-        p = colon + 1;
-    }
-    memset(camera, 0, sizeof *camera);
-    if (n != 3 || cli_triple("--camera", parts[0], 0, camera->position, NULL) != VDBS_OK ||
-        cli_triple("--camera", parts[1], 0, camera->target, NULL) != VDBS_OK ||
-        cli_number("--camera", parts[2], &camera->fov_deg, NULL) != VDBS_OK)
-        return vdbs_error_set(err, VDBS_ERR_INPUT,
-                              "--camera: expected PX,PY,PZ:TX,TY,TZ:FOV_DEG, got '%s'", text);
-    if (!(camera->fov_deg > 0.0 && camera->fov_deg < 180.0))
-        return vdbs_error_set(err, VDBS_ERR_INPUT,
-                              "--camera: the field of view must be in (0, 180) degrees, got %g",
-                              camera->fov_deg);
-    double f[3], len2 = 0.0;
-    for (int a = 0; a < 3; ++a) {
-        f[a] = camera->target[a] - camera->position[a];
-        len2 += f[a] * f[a];
-    }
-    if (!(len2 > 0.0))
-        return vdbs_error_set(err, VDBS_ERR_INPUT, "--camera: the position equals the target");
-    camera->present = 1;
-    camera->up[1] = 1.0;
-    /* A vertical view has no horizon to keep level: put -Z at the top of the image. */
-    if (f[0] * f[0] + f[2] * f[2] <= 1e-12 * len2) {
-        camera->up[1] = 0.0;
-        camera->up[2] = -1.0;
-    }
-    return VDBS_OK;
-}
-
 static int has_suffix(const char *path, const char *suffix)
 {
     size_t n = strlen(path), m = strlen(suffix);
@@ -195,7 +150,7 @@ static vdbs_status parse_args(const cli_args *args, render_args *r, vdbs_error *
             return st;
         r->size_given = 1;
     }
-    if ((v = cli_value(args, "--camera")) && (st = parse_camera(v, &r->camera, err)) != VDBS_OK)
+    if ((v = cli_value(args, "--camera")) && (st = cli_camera(v, &r->camera, err)) != VDBS_OK)
         return st;
     r->spp = 64;
     if ((v = cli_value(args, "--spp"))) {

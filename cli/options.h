@@ -55,6 +55,9 @@ vdbs_status cli_integer(const char *flag, const char *text, long lo, long hi, lo
 /* "X,Y,Z" (or one number repeated when allow_scalar). */
 vdbs_status cli_triple(const char *flag, const char *text, int allow_scalar, double out[3],
                        vdbs_error *err);
+/* --camera PX,PY,PZ:TX,TY,TZ:FOV_DEG: position, target, vertical field of view; up is +Y
+ * unless the view is vertical (then -Z is up). width and height stay 0. */
+vdbs_status cli_camera(const char *text, vdbs_camera *camera, vdbs_error *err);
 
 /* The scene options shared by bake and render (and the later tradeoff): --scene, --grid,
  * --density-scale, --albedo, --g, --sun, --point, --env, --method, --quality; a

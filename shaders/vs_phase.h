@@ -116,4 +116,24 @@ VS_FUNC double vs_hg_eval_d(double g, double one_minus_mu)
 }
 #endif
 
+/* Sms toward wo for one colour channel from ms and its first-moment vector l1 (the
+ * reconstruction of DESIGN.md, the render's and the radiance_view grid's):
+ * n = l1/|l1|, b = min(|l1| / (3 ms), 0.999), Sms = 4 pi ms f_hg(wo.n, b); 0 where ms <= 0,
+ * ms itself (isotropic) where l1 = 0. |l1| is computed on the largest component's scale
+ * so that it neither overflows nor underflows. */
+VS_FUNC float vs_ms_channel(float ms, float lx, float ly, float lz, pnanovdb_vec3_t wo)
+{
+    if (!(ms > 0.0f))
+        return 0.0f;
+    float m = vs_max(vs_abs(lx), vs_max(vs_abs(ly), vs_abs(lz)));
+    if (!(m > 0.0f))
+        return ms;
+    pnanovdb_vec3_t u = vs_vec3(lx / m, ly / m, lz / m);
+    float r = vs_sqrt(vs_vec3_dot(u, u));
+    float len = m * r;
+    float b = vs_min(len / (3.0f * ms), 0.999f);
+    pnanovdb_vec3_t n = vs_vec3_scale(u, 1.0f / r);
+    return 4.0f * VS_PI * ms * vs_hg_dirs(b, n, wo);
+}
+
 #endif

@@ -178,25 +178,6 @@ VS_FUNC float vs_one_minus_exp_neg(float x)
     return 1.0f - vs_exp(-x);
 }
 
-/* Sms toward wo for one colour channel from ms and its first-moment vector l1:
- * n = l1/|l1|, b = min(|l1| / (3 ms), 0.999), Sms = 4 pi ms f_hg(wo.n, b); 0 where ms <= 0,
- * ms itself (isotropic) where l1 = 0. |l1| is computed on the largest component's scale
- * so that it neither overflows nor underflows. */
-VS_FUNC float vs_ms_channel(float ms, float lx, float ly, float lz, pnanovdb_vec3_t wo)
-{
-    if (!(ms > 0.0f))
-        return 0.0f;
-    float m = vs_max(vs_abs(lx), vs_max(vs_abs(ly), vs_abs(lz)));
-    if (!(m > 0.0f))
-        return ms;
-    pnanovdb_vec3_t u = vs_vec3(lx / m, ly / m, lz / m);
-    float r = vs_sqrt(vs_vec3_dot(u, u));
-    float len = m * r;
-    float b = vs_min(len / (3.0f * ms), 0.999f);
-    pnanovdb_vec3_t n = vs_vec3_scale(u, 1.0f / r);
-    return 4.0f * VS_PI * ms * vs_hg_dirs(b, n, wo);
-}
-
 /* Sms at index-space point p toward the world direction wo, from the baked grids. */
 VS_FUNC pnanovdb_vec3_t vs_render_ms(pnanovdb_buf_t buf, PNANOVDB_INOUT(vs_render_accessors) accs,
                                      pnanovdb_vec3_t p, pnanovdb_vec3_t wo)

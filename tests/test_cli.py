@@ -104,6 +104,9 @@ class HelpAndFlags(Base):
             (base + ["--method", "pop", "--pop-iterations", "0"], "--pop-iterations"),
             (base + ["--method", "pop", "--pop-decay", "paper", "--g", "-0.3"], "--pop-decay"),
             (["bake", src, "-o", out, "--method", "pop", "--point", "0,0,0"], "point"),
+            (base + ["--camera", "0,0,4:0,0,0"], "--camera"),
+            (base + ["--camera", "0,0,4:0,0,4:35"], "--camera"),
+            (base + ["--camera", "0,0,4:0,0,0:180"], "--camera"),
             (base + ["--s1", "cone"], "--s1"),
             (base + ["--s1-oversample", "0"], "--s1-oversample"),
             (base + ["--s1-oversample", "2.5"], "--s1-oversample"),
@@ -391,6 +394,111 @@ class LightGrids(Base):
         self.assertLessEqual(math.sqrt(num / den), 0.01)
         meta = vdb.readAllGridMetadata(grid)[0]
         self.assertEqual(meta["vdbscatter_s1"], "grid")
+
+
+def hg(g, mu):
+    return (1 - g * g) / (4 * math.pi * (1 + g * g - 2 * g * mu) ** 1.5)
+
+
+def unit(v):
+    n = math.sqrt(sum(x * x for x in v))
+    return [x / n for x in v]
+
+
+def toward(grid, key, eye):
+    """Unit direction from the centre of voxel key to the world point eye."""
+    w = grid.transform.indexToWorld(key)
+    return unit([eye[a] - w[a] for a in range(3)])
+
+
+def values(path, name):
+    return {tuple(i.min): i.value for i in vdb.read(path, name).citerOnValues()}
+
+
+class RadianceView(Base):
+    """radiance_view: S(x, wo) toward the camera, written only when there is a camera."""
+
+    EYE = [0.5, 0.8, 4.0]
+    CAMERA = "0.5,0.8,4:0,0,0:35"
+
+    def test_single_is_the_phase_toward_the_camera(self):
+        """One sun, g 0.7: radiance_view = 4 pi radiance HG(d . wo) at every voxel (radiance
+        is E T / 4 pi), to float rounding; without a camera the grid is absent."""
+        src = os.path.join(SAMPLES, "sphere.vdb")
+        lights = ["--sun", "0.3,-1,0.2:2,2,2", "--g", "0.7", "--density-scale", "3"]
+        out, p = self.bake(src, *lights, "--camera", self.CAMERA, "--json")
+        self.assertEqual(p.returncode, 0, p.stderr)
+        self.assertIn("radiance_view", json.loads(p.stdout)["grids"])
+        rad = values(out, "radiance")
+        grid = vdb.read(out, "radiance_view")
+        d = unit([0.3, -1, 0.2])
+        checked = 0
+        for it in grid.citerOnValues():
+            key = tuple(it.min)
+            mu = sum(a * b for a, b in zip(d, toward(grid, key, self.EYE)))
+            for c in range(3):
+                want = 4 * math.pi * rad[key][c] * hg(0.7, mu)
+                self.assertAlmostEqual(it.value[c], want, delta=2e-6 * max(want, 1e-3))
+            checked += rad[key][0] > 1e-3
+        self.assertGreater(checked, 1000)
+        plain, p = self.bake(src, *lights, out="plain.vdb")
+        self.assertNotIn("radiance_view", [g.name for g in vdb.readAllGridMetadata(plain)])
+
+    def test_pop_adds_the_reconstructed_ms(self):
+        """POP on the cloud (sun + sky, g 0.85): radiance_view minus the single-only bake's is
+        the DESIGN.md reconstruction 4 pi ms HG(wo . n, b) of the ms grids, per channel, to
+        float rounding; with g 0 it equals radiance (isotropic: no moment, HG = 1/4pi)."""
+        src = os.path.join(SAMPLES, "cloud.vdb")
+        for g in [0.85, 0.0]:
+            lights = ["--sun", "0.3,-1,0.2", "--env", "0.2,0.3,0.5", "--g", str(g),
+                      "--density-scale", "20", "--albedo", "0.99", "--quality", "low",
+                      "--camera", self.CAMERA]
+            single, _ = self.bake(src, *lights, out="single.vdb")
+            pop, p = self.bake(src, *lights, "--method", "pop", out="pop.vdb")
+            self.assertEqual(p.returncode, 0, p.stderr)
+            grid = vdb.read(pop, "radiance_view")
+            s1 = values(single, "radiance_view")
+            ms = values(pop, "ms")
+            l1 = [values(pop, "ms_l1" + a) for a in "xyz"]
+            rad = values(pop, "radiance")
+            lit = 0
+            for it in grid.citerOnValues():
+                key = tuple(it.min)
+                wo = toward(grid, key, self.EYE)
+                for c in range(3):
+                    if g == 0.0:
+                        self.assertAlmostEqual(it.value[c], rad[key][c], delta=2e-6 * max(rad[key][c], 1e-3))
+                        continue
+                    m = ms.get(key, (0, 0, 0))[c]
+                    v = [l1[a].get(key, (0, 0, 0))[c] for a in range(3)]
+                    length = math.sqrt(sum(x * x for x in v))
+                    if m <= 0:
+                        want = 0.0
+                    elif length == 0:
+                        want = m
+                    else:
+                        b = min(length / (3 * m), 0.999)
+                        mu = sum(x * y for x, y in zip(v, wo)) / length
+                        want = 4 * math.pi * m * hg(b, mu)
+                    got = it.value[c] - s1[key][c]
+                    self.assertAlmostEqual(got, want, delta=1e-5 * max(it.value[c], 1e-2))
+                lit += ms.get(key, (0, 0, 0))[1] > 0
+            self.assertGreater(lit, 1000)
+
+    def test_march_agrees_with_the_light_grids(self):
+        """--s1 march takes radiance_view's S1 from light grids (the march has no per-light
+        output): g 0 makes it the fluence / 4pi, within 1% RMS of the march's radiance."""
+        src = os.path.join(SAMPLES, "sphere.vdb")
+        out, p = self.bake(src, "--sun", "0.3,-1,0.2", "--env", "0.2,0.3,0.5", "--density-scale",
+                           "3", "--s1", "march", "--quality", "low", "--camera", self.CAMERA)
+        self.assertEqual(p.returncode, 0, p.stderr)
+        rad = values(out, "radiance")
+        view = values(out, "radiance_view")
+        num = den = 0.0
+        for key, want in rad.items():
+            num += sum((view[key][c] - want[c]) ** 2 for c in range(3))
+            den += sum(w * w for w in want)
+        self.assertLessEqual(math.sqrt(num / den), 0.01)
 
 
 class Pop(Base):

@@ -11,6 +11,7 @@
 #include "vdbscatter/progress.h"
 #include "vdbscatter/solver.h"
 #include "vdbscatter/vdbio.h"
+#include "vdbscatter/view.h"
 #include "vdbscatter/volume.h"
 
 #ifndef VDBSCATTER_VERSION
@@ -62,6 +63,14 @@ static vdbs_status solve(const vdbs_bake_options *o, const vdbs_solver *solver,
     s->s1_stats = &stats;
     s->pop_stats = &report->pop;
     st = solver->run(s, err);
+    if (st == VDBS_OK && s->radiance_view && solver->writes_ms) {
+        float *wo = vdbs_view_directions(volume, o->scene->camera.position);
+        if (wo)
+            vdbs_view_add_ms(volume, wo, s->ms, s->ms_l1, s->radiance_view);
+        else
+            st = vdbs_error_set(err, VDBS_ERR_NOMEM, "out of memory for the view directions");
+        free(wo);
+    }
     report->s1_grids = stats.grids;
     report->seconds_s1_lookup = stats.seconds_lookup;
     if (st == VDBS_OK)
@@ -135,9 +144,11 @@ vdbs_status vdbs_bake(const vdbs_bake_options *o, vdbs_bake_report *report, vdbs
     /* Without multiple scattering the four ms grids are one array of zeros. */
     for (int a = 0; a < 3; ++a)
         outputs.ms_l1[a] = solver->writes_ms ? calloc(3 * n, sizeof(float)) : outputs.ms;
+    if (scene->camera.present)
+        outputs.radiance_view = calloc(3 * n, sizeof(float));
     char *scene_json = vdbs_scene_to_json(scene);
     if (!radiance || !outputs.ms || !outputs.ms_l1[0] || !outputs.ms_l1[1] || !outputs.ms_l1[2] ||
-        !scene_json) {
+        (scene->camera.present && !outputs.radiance_view) || !scene_json) {
         st = vdbs_error_set(err, VDBS_ERR_NOMEM, "out of memory for %zu output voxels", n);
         goto done;
     }
@@ -172,15 +183,18 @@ vdbs_status vdbs_bake(const vdbs_bake_options *o, vdbs_bake_report *report, vdbs
         {"vdbscatter_scene", scene_json},
     };
     vdbio_vec3_grid grids[] = {
-        {"radiance", radiance},       {"ms", outputs.ms},           {"ms_l1x", outputs.ms_l1[0]},
-        {"ms_l1y", outputs.ms_l1[1]}, {"ms_l1z", outputs.ms_l1[2]},
+        {"radiance", radiance},       {"ms", outputs.ms},
+        {"ms_l1x", outputs.ms_l1[0]}, {"ms_l1y", outputs.ms_l1[1]},
+        {"ms_l1z", outputs.ms_l1[2]}, {"radiance_view", outputs.radiance_view},
     };
     vdbio_write_request request = {0};
     request.density = volume.density;
     request.coords = volume.coords;
     request.coord_count = volume.coord_count;
     request.vec3_grids = grids;
-    request.vec3_grid_count = (int)(sizeof grids / sizeof grids[0]);
+    /* radiance_view, the last, only with a camera */
+    request.vec3_grid_count =
+        (int)(sizeof grids / sizeof grids[0]) - (outputs.radiance_view ? 0 : 1);
     request.file_meta = meta;
     request.file_meta_count = (int)(sizeof meta / sizeof meta[0]);
     request.half = o->half;
@@ -198,6 +212,7 @@ done:
         if (outputs.ms_l1[a] != outputs.ms)
             free(outputs.ms_l1[a]);
     free(outputs.ms);
+    free(outputs.radiance_view);
     free(radiance);
     vdbs_volume_free(&volume);
     return st;

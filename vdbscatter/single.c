@@ -7,6 +7,7 @@
 #include <string.h>
 
 #include "vdbscatter/medium.h"
+#include "vdbscatter/view.h"
 
 #include "vdbs_math.h"
 
@@ -17,6 +18,7 @@
 #include "vs_medium.h"
 #include "vs_lights.h"
 #include "vs_march.h"
+#include "vs_phase.h"
 #include "vs_single.h"
 
 typedef struct single_job {
@@ -72,25 +74,52 @@ vdbs_status vdbs_single_scatter(vdbs_runner *runner, const vdbs_volume *volume,
     return vdbs_kernel_run(runner, &desc, NULL, err);
 }
 
-/* Adds colour * exp(-depth) (over r^2 for a point light at `point`, else NULL) to every
- * output voxel's fluence. */
-static void add_light(const vdbs_volume *volume, const float *depth, const double color[3],
-                      const double *point, double min_distance, double *fluence)
+/* One light's share of S1, by the light grids' optical depth at every output voxel. */
+typedef struct light_share {
+    const double *color;  /* RGB; a sky ordinate's radiance times its solid angle */
+    const double *point;  /* a point light's world position, else NULL */
+    const double *travel; /* a sun's or ordinate's unit direction of travel (point: NULL) */
+} light_share;
+
+/* Adds colour * exp(-depth) (over r^2 for a point light) to every output voxel's fluence,
+ * and, with view directions wo, the same times the phase toward wo to view. */
+static void add_light(const vdbs_volume *volume, const float *depth, light_share light,
+                      double min_distance, double g, const float *wo, double *fluence, double *view)
 {
     const int64_t count = (int64_t)volume->coord_count;
 #pragma omp parallel for schedule(static)
     for (int64_t n = 0; n < count; ++n) {
         double weight = exp(-(double)depth[n]);
-        if (point) {
+        double travel[3] = {0.0, 0.0, 1.0};
+        if (light.point) {
             const int32_t *c = volume->coords + 3 * n;
             double index[3] = {c[0], c[1], c[2]}, world[3];
             vdbs_volume_world_point(volume, index, world);
-            double d[3] = {world[0] - point[0], world[1] - point[1], world[2] - point[2]};
-            double rc = fmax(sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]), min_distance);
+            double d[3] = {world[0] - light.point[0], world[1] - light.point[1],
+                           world[2] - light.point[2]};
+            double r = sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
+            double rc = fmax(r, min_distance);
             weight /= rc * rc;
+            for (int a = 0; a < 3 && r > 0.0; ++a)
+                travel[a] = d[a] / r;
+        } else {
+            memcpy(travel, light.travel, sizeof travel);
         }
-        for (int ch = 0; ch < 3; ++ch)
-            fluence[3 * n + ch] += color[ch] * weight;
+        double phase = 0.0;
+        if (view) {
+            /* 1 - mu from |travel - wo|^2 / 2 keeps the forward peak's digits. */
+            double s = 0.0;
+            for (int a = 0; a < 3; ++a) {
+                double e = travel[a] - (double)wo[3 * n + a];
+                s += e * e;
+            }
+            phase = vs_hg_eval_d(g, 0.5 * s);
+        }
+        for (int ch = 0; ch < 3; ++ch) {
+            fluence[3 * n + ch] += light.color[ch] * weight;
+            if (view)
+                view[3 * n + ch] += light.color[ch] * weight * phase;
+        }
     }
 }
 
@@ -99,6 +128,16 @@ vdbs_status vdbs_single_scatter_grids(vdbs_runner *runner, const vdbs_volume *vo
                                       const vdbs_light_grid_desc *grids, float *radiance,
                                       vdbs_s1_stats *stats, vdbs_progress *progress,
                                       vdbs_error *err)
+{
+    return vdbs_single_scatter_grids_view(runner, volume, scene, lights, grids, radiance, NULL,
+                                          stats, progress, err);
+}
+
+vdbs_status vdbs_single_scatter_grids_view(vdbs_runner *runner, const vdbs_volume *volume,
+                                           const vdbs_scene *scene, const vdbs_light_table *lights,
+                                           const vdbs_light_grid_desc *grids, float *radiance,
+                                           float *radiance_view, vdbs_s1_stats *stats,
+                                           vdbs_progress *progress, vdbs_error *err)
 {
     vdbs_s1_stats local;
     if (!stats)
@@ -109,9 +148,13 @@ vdbs_status vdbs_single_scatter_grids(vdbs_runner *runner, const vdbs_volume *vo
         return VDBS_OK; /* an empty grid: nothing to light, no grid to build */
     double *fluence = calloc(3 * n, sizeof *fluence);
     float *depth = malloc(n * sizeof *depth);
-    if (!fluence || !depth) {
+    double *view = radiance_view ? calloc(3 * n, sizeof *view) : NULL;
+    float *wo = radiance_view ? vdbs_view_directions(volume, scene->camera.position) : NULL;
+    if (!fluence || !depth || (radiance_view && (!view || !wo))) {
         free(fluence);
         free(depth);
+        free(view);
+        free(wo);
         return vdbs_error_set(err, VDBS_ERR_NOMEM, "out of memory for %zu voxels", n);
     }
     vdbs_status st = VDBS_OK;
@@ -124,18 +167,22 @@ vdbs_status vdbs_single_scatter_grids(vdbs_runner *runner, const vdbs_volume *vo
         double t0 = omp_get_wtime();
         st = vdbs_light_grids_lookup_voxels(runner, volume, &set, 0, depth, err);
         if (st == VDBS_OK) {
-            double color[3];
-            const double *point = NULL;
+            double color[3], travel[3];
+            light_share share = {color, NULL, travel};
             if (d < lights->direct_count) {
-                memcpy(color, lights->direct[d].color, sizeof color);
-                if (lights->direct[d].type == VDBS_LIGHT_POINT)
-                    point = lights->direct[d].world;
+                const vdbs_direct_light *dl = &lights->direct[d];
+                memcpy(color, dl->color, sizeof color);
+                memcpy(travel, dl->world, sizeof travel);
+                if (dl->type == VDBS_LIGHT_POINT)
+                    share.point = dl->world;
             } else {
                 const vdbs_sky_ordinate *o = &lights->ordinates[d - lights->direct_count];
-                for (int a = 0; a < 3; ++a)
+                for (int a = 0; a < 3; ++a) {
                     color[a] = o->radiance[a] * o->weight;
+                    travel[a] = -o->world[a];
+                }
             }
-            add_light(volume, depth, color, point, lights->min_distance, fluence);
+            add_light(volume, depth, share, lights->min_distance, scene->g, wo, fluence, view);
         }
         stats->seconds_lookup += omp_get_wtime() - t0;
         stats->grids.cells += set.stats.cells;
@@ -147,10 +194,15 @@ vdbs_status vdbs_single_scatter_grids(vdbs_runner *runner, const vdbs_volume *vo
         if (progress)
             vdbs_progress_update(progress, (uint64_t)n * (uint64_t)(d + 1) / (uint64_t)total);
     }
-    if (st == VDBS_OK)
-        for (size_t v = 0; v < 3 * n; ++v)
+    for (size_t v = 0; st == VDBS_OK && v < 3 * n; ++v) {
+        if (radiance)
             radiance[v] = (float)(fluence[v] * VDBS_INV_4PI);
+        if (radiance_view)
+            radiance_view[v] = (float)view[v];
+    }
     free(fluence);
     free(depth);
+    free(view);
+    free(wo);
     return st;
 }

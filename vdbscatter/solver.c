@@ -26,14 +26,23 @@ int vdbs_quality_sky_directions(const char *name)
     return q ? q->sky_directions : 0;
 }
 
-/* Single scattering only: S1 into radiance; ms and its moments stay 0. */
+/* Single scattering only: S1 into radiance (and toward the camera); ms and its moments
+ * stay 0. */
 static vdbs_status run_single(const vdbs_solve *s, vdbs_error *err)
 {
     if (s->s1_grids)
-        return vdbs_single_scatter_grids(s->runner, s->volume, s->scene, s->lights, s->s1_grids,
-                                         s->radiance, s->s1_stats, s->progress, err);
-    return vdbs_single_scatter(s->runner, s->volume, s->scene, s->lights, s->radiance, s->progress,
-                               err);
+        return vdbs_single_scatter_grids_view(s->runner, s->volume, s->scene, s->lights,
+                                              s->s1_grids, s->radiance, s->radiance_view,
+                                              s->s1_stats, s->progress, err);
+    vdbs_status st = vdbs_single_scatter(s->runner, s->volume, s->scene, s->lights, s->radiance,
+                                         s->progress, err);
+    if (st != VDBS_OK || !s->radiance_view)
+        return st;
+    /* The march has no per-light output: S1 toward the camera comes from light grids at
+     * their default oversampling (a second S1 pass; README "radiance_view"). */
+    vdbs_light_grid_desc grids = {0};
+    return vdbs_single_scatter_grids_view(s->runner, s->volume, s->scene, s->lights, &grids, NULL,
+                                          s->radiance_view, NULL, NULL, err);
 }
 
 /* Exact S1, then POP's multiple scattering from suns and skies. */

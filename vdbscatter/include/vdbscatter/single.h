@@ -39,6 +39,15 @@ vdbs_status vdbs_single_scatter_grids(vdbs_runner *runner, const vdbs_volume *vo
                                       vdbs_s1_stats *stats, vdbs_progress *progress,
                                       vdbs_error *err);
 
+/* The same, also writing S1 toward the scene's camera into radiance_view (view.h; the
+ * scene must have a camera): per light its fluence times HG(g) between its direction of
+ * travel and wo. radiance may be NULL (only the view is wanted). */
+vdbs_status vdbs_single_scatter_grids_view(vdbs_runner *runner, const vdbs_volume *volume,
+                                           const vdbs_scene *scene, const vdbs_light_table *lights,
+                                           const vdbs_light_grid_desc *grids, float *radiance,
+                                           float *radiance_view, vdbs_s1_stats *stats,
+                                           vdbs_progress *progress, vdbs_error *err);
+
 #ifdef __cplusplus
 }
 #endif

@@ -47,9 +47,11 @@ typedef struct vdbs_solve {
     vdbs_s1_stats *s1_stats;          /* filled when S1 comes from light grids; may be NULL */
     struct vdbs_pop_stats *pop_stats; /* filled by POP; may be NULL */
     /* Outputs, 3 floats per output voxel (coords order), zeroed by the caller. */
-    float *radiance; /* S1 + Sms direction average */
-    float *ms;       /* Sms direction average */
-    float *ms_l1[3]; /* first moment of Sms, x / y / z components per channel */
+    float *radiance;      /* S1 + Sms direction average */
+    float *ms;            /* Sms direction average */
+    float *ms_l1[3];      /* first moment of Sms, x / y / z components per channel */
+    float *radiance_view; /* S1 toward the scene's camera (view.h), NULL without one; the
+                             bake adds Sms toward it after the solver */
     /* (ms and ms_l1 alias one array when the solver's writes_ms is 0) */
 } vdbs_solve;
 
