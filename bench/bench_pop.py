@@ -7,8 +7,9 @@ PNG plot of error against cells across.
 
 usage: bench/bench_pop.py BUILD_DIR [--out bench/pop.md] [--plot bench/pop_error.png]
        [--res 4,8,16,32] [--qualities low,...] [--ref-seconds 40] [--size 96x72]
-       [--cases all|issue|sun-sky]
-With --qualities, POP at the default resolution is also baked at each quality (columns
+       [--cases all|issue|sun-sky] [--tallies chord,cell]
+Each resolution is baked with every --pop-tally listed (columns "POP r" for the first, the
+default chord, and "POP r cell" for the paper's tally). With --qualities, POP at the default resolution is also baked at each quality (columns
 "POP <quality>"), beside the --pop-res columns."""
 import argparse
 import os
@@ -43,16 +44,20 @@ def main():
     ap.add_argument("--size", default="96x72")
     ap.add_argument("--cases", default="all")
     ap.add_argument("--qualities", default="")
+    ap.add_argument("--tallies", default="chord")
     args = ap.parse_args()
     exe = os.path.join(args.build, "vdbscatter")
     tmp = tempfile.mkdtemp(prefix="bench-pop-")
     resolutions = [int(x) for x in args.res.split(",")]
     cases = {"issue": CASES[:1], "sun-sky": CASES[1:]}.get(args.cases, CASES)
     qualities = [q for q in args.qualities.split(",") if q]
+    tallies = args.tallies.split(",")
+    labels = [f"POP {r}" + ("" if t == tallies[0] else f" {t}") for t in tallies
+              for r in resolutions]
     header = ("| scene | reference se | single | " +
-              " | ".join([f"POP {r}" for r in resolutions] + [f"POP {q}" for q in qualities]) +
+              " | ".join(labels + [f"POP {q}" for q in qualities]) +
               " | POP s at " + str(resolutions[-1]) + " |")
-    lines = [header, "|" + "---|" * (4 + len(resolutions) + len(qualities))]
+    lines = [header, "|" + "---|" * (4 + len(labels) + len(qualities))]
     curves = []
     for label, sample, scale, g, lights in cases:
         vdb = os.path.join(SAMPLES, sample + ".vdb")
@@ -74,10 +79,12 @@ def main():
         single, se, _ = error("single", [])
         errs = []
         seconds = 0.0
-        for r in resolutions:
-            e, _, seconds = error("pop", ["--pop-res", str(r)])
-            errs.append(e)
-            print(f"  {label}: single {single:.3f}, POP {r}: {e:.3f} ({seconds:.1f} s)", flush=True)
+        for t in tallies:
+            for r in resolutions:
+                e, _, seconds = error("pop", ["--pop-res", str(r), "--pop-tally", t])
+                errs.append(e)
+                print(f"  {label}: single {single:.3f}, POP {r} {t}: {e:.3f} ({seconds:.1f} s)",
+                      flush=True)
         quality_errs = []
         for q in qualities:
             e, _, _ = error("pop", ["--quality", q])
@@ -96,13 +103,18 @@ def main():
         import matplotlib.pyplot as plt
         fig, ax = plt.subplots(figsize=(7, 4.5))
         for label, single, errs in curves:
-            line, = ax.plot(resolutions, errs, marker="o", label=label)
+            line, = ax.plot(resolutions, errs[:len(resolutions)], marker="o", label=label)
+            for k in range(1, len(tallies)):
+                ax.plot(resolutions, errs[k * len(resolutions):(k + 1) * len(resolutions)],
+                        marker="x", linestyle="--", color=line.get_color(), linewidth=0.8)
             ax.axhline(single, color=line.get_color(), linestyle=":", linewidth=0.8)
         ax.set_xscale("log", base=2)
         ax.set_yscale("log")
         ax.set_xlabel("--pop-res (cells across the largest extent)")
         ax.set_ylabel("image relative RMSE against the reference")
-        ax.set_title("POP error (dotted: single-scattering bake)")
+        ax.set_title("POP error (dashed: --pop-tally " + ",".join(tallies[1:]) +
+                     "; dotted: single-scattering bake)" if len(tallies) > 1 else
+                     "POP error (dotted: single-scattering bake)")
         ax.legend(fontsize=7)
         fig.tight_layout()
         fig.savefig(args.plot, dpi=110)

@@ -24,7 +24,7 @@
  *
  * usage: bench_pop_probe [--out bench/pop_probe.md] [--res 2,3,4,8] [--g 0,0.5,0.85]
  *        [--scenes sphere,cloud] [--points 300] [--radius-voxels 2] [--photons-sphere N]
- *        [--photons-cloud N] [--quality medium] [--seed 1] */
+ *        [--photons-cloud N] [--quality medium] [--seed 1] [--tally chord|cell] */
 #include <math.h>
 #include <stdint.h>
 #include <stdio.h>
@@ -57,6 +57,7 @@ typedef struct options {
     double g[MAX_LIST];
     int g_count;
     int points;
+    int tally_cell; /* --tally cell: the paper's one cell side per crossing */
     double radius_voxels;
     const char *quality;
     uint64_t seed;
@@ -153,6 +154,8 @@ static void parse_args(int argc, char **argv, options *o)
             o->quality = v;
         else if (strcmp(a, "--seed") == 0)
             o->seed = strtoull(v, NULL, 10);
+        else if (strcmp(a, "--tally") == 0 && (!strcmp(v, "chord") || !strcmp(v, "cell")))
+            o->tally_cell = strcmp(v, "cell") == 0;
         else
             usage();
     }
@@ -458,6 +461,7 @@ static void run_scene(const scene_def *def, const options *o, vdbs_runner *runne
 
         for (int ri = 0; ri < o->res_count; ++ri) {
             scene.pop_resolution = o->res[ri];
+            scene.pop_tally_cell = o->tally_cell;
             const vdbs_solver *solver = vdbs_solver_find("pop");
             vdbs_lights_desc ld = {0};
             ld.sky_ordinates =

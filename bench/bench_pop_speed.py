@@ -5,11 +5,15 @@ A. the cloud sample scene (samples/cloud.json: a sun and a constant sky) per qua
    the reference itself needs to reach the same error (spp doubled from 1);
 B. a 24-frame camera orbit: one bake + 24 baked renders against 24 reference renders to the
    same error (from A's reference time per frame);
-C. the stage breakdown and cell updates per second for the cloud at 64^3 / 128^3 / 256^3 under
-   one sun (S1 of one light, so POP's own stages show).
+C. per quality, the stage breakdown of the cloud at 64^3 / 128^3 / 256^3 under the sample's
+   sun and sky, on the C path and the compute shader (--gpu; llvmpipe where there is no
+   GPU), with the baked image's error against a reference of the same volume beside it;
+D. the paper's configuration (64 ordinates, 20 cells, 10 iterations) on the C path.
 
-usage: bench/bench_pop_speed.py BUILD_DIR [--out bench/pop_speed.md] [--size 320x180]
-       [--ref-seconds 120] [--res 64,128,256] [--qualities low,medium,high,ultra]"""
+usage: bench/bench_pop_speed.py BUILD_DIR [--out bench/pop_speed.md] [--size 1280x720]
+       [--ref-seconds 120] [--orbit-quality low] [--res 64,128,256]
+       [--qualities low,medium,high,ultra] [--stage-qualities 64:low,medium,high,ultra;...]
+       [--gpu 64:low,medium;...] [--stage-size 160x90] [--stage-ref-seconds 30]"""
 import argparse
 import math
 import os
@@ -35,9 +39,15 @@ def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("build")
     ap.add_argument("--out", default=os.path.join(HERE, "pop_speed.md"))
-    ap.add_argument("--size", default="320x180")
+    ap.add_argument("--size", default="1280x720")
+    ap.add_argument("--orbit-quality", default="low")
+    ap.add_argument("--stage-qualities", default="64:low,medium,high,ultra;128:low,medium,high;"
+                    "256:low,medium")
+    ap.add_argument("--gpu", default="64:low,medium,high;128:low,medium;256:low")
+    ap.add_argument("--stage-size", default="160x90")
+    ap.add_argument("--stage-ref-seconds", type=float, default=30.0)
+    ap.add_argument("--skip", default="", help="sections to skip, e.g. AB")
     ap.add_argument("--ref-seconds", type=float, default=120.0)
-    ap.add_argument("--res", default="64,128,256")
     ap.add_argument("--qualities", default="low,medium,high,ultra")
     args = ap.parse_args()
     exe = os.path.join(args.build, "vdbscatter")
@@ -47,6 +57,19 @@ def main():
     lines = []
 
     # A: per quality, against the reference's time to the same error.
+    per_quality = {}
+    if "A" not in args.skip:
+        section_a(args, exe, tmp, scene, view, lines, per_quality)
+    if "B" not in args.skip and per_quality:
+        section_b(args, exe, tmp, view, lines, per_quality)
+    section_c(args, exe, tmp, scene, lines)
+    section_d(exe, tmp, lines)
+    with open(args.out, "w") as fh:
+        fh.write("\n".join(lines) + "\n")
+    print(open(args.out).read())
+
+
+def section_a(args, exe, tmp, scene, view, lines, per_quality):
     ref = os.path.join(tmp, "ref.exr")
     run_json([exe, "render", "--scene", scene, "-o", ref, "--mode", "reference", "--time",
               str(args.ref_seconds), *view, "--json", "-q"])
@@ -54,7 +77,6 @@ def main():
               f"{args.ref_seconds:.0f} s.", "",
               "| quality | bake s | render s | POP error | reference spp to that error | "
               "reference s | bake + render / reference |", "|---|---|---|---|---|---|---|"]
-    per_quality = {}
     for q in args.qualities.split(","):
         lit = os.path.join(tmp, f"{q}.vdb")
         img = os.path.join(tmp, f"{q}.exr")
@@ -78,8 +100,11 @@ def main():
         lines.append(row)
         print(row, flush=True)
 
-    # B: a 24-frame orbit at medium.
-    q = "medium" if "medium" in per_quality else next(iter(per_quality))
+
+
+def section_b(args, exe, tmp, view, lines, per_quality):
+    """A 24-frame orbit at --orbit-quality."""
+    q = args.orbit_quality if args.orbit_quality in per_quality else next(iter(per_quality))
     bake_s, _, ref_s = per_quality[q]
     lit = os.path.join(tmp, f"{q}.vdb")
     renders = 0.0
@@ -94,26 +119,56 @@ def main():
               f"{(bake_s + renders) / (24 * ref_s):.2f}).", ""]
     print(lines[-2], flush=True)
 
-    # C: stage breakdown per resolution under one sun.
-    lines += ["C. cloud sample at N^3, density 20, albedo 0.99, g 0.85, one sun (0.3,-1,0.2), "
-              "C path, default POP (3 cells).", "",
-              "| N^3 | active voxels | solve s | " + " | ".join(STAGES) +
-              " | cell updates | updates per s |", "|---" * (5 + len(STAGES)) + "|"]
-    for n in [int(x) for x in args.res.split(",")]:
+
+
+def parse_plan(text):
+    """"64:low,medium;128:low" -> [(64, ["low", "medium"]), (128, ["low"])]."""
+    plan = []
+    for part in filter(None, text.split(";")):
+        n, qs = part.split(":")
+        plan.append((int(n), qs.split(",")))
+    return plan
+
+
+def section_c(args, exe, tmp, scene, lines):
+    """Stage times per size, quality and backend, the baked image's error beside them."""
+    lines += ["", f"C. cloud sample at N^3 under samples/cloud.json's lights (density 20, "
+              f"albedo 0.99, g 0.85, a sun and a constant sky), default POP (3 cells); error: "
+              f"the baked render at {args.stage_size} against a {args.stage_ref_seconds:.0f} s "
+              "reference of the same volume (reference se in the header of each size).", "",
+              "| N^3 | active voxels | quality | backend | solve s | s1 | " +
+              " | ".join(STAGES) + " | POP error |", "|---" * (7 + len(STAGES)) + "|"]
+    gpu = dict(parse_plan(args.gpu))
+    view = ["--size", args.stage_size]
+    for n, qualities in parse_plan(args.stage_qualities):
         vdb = os.path.join(tmp, f"cloud{n}.vdb")
         subprocess.run([exe, "sample", "cloud", "--res", str(n), "-o", vdb, "-q"], check=True)
-        rep = run_json([exe, "bake", vdb, "-o", os.path.join(tmp, "c.vdb"), "--method", "pop",
-                        "--backend", "cpu", "--density-scale", "20", "--albedo", "0.99", "--g",
-                        "0.85", "--sun", "0.3,-1,0.2", "--json", "-q"])
-        sec = rep["seconds"]
-        prop = sec["pop_propagate"] + sec["pop_isotropic"]
-        updates = rep["pop"]["cell_updates"]
-        row = (f"| {n} | {rep['active_voxels']} | {sec['solve']:.2f} | " +
-               " | ".join(f"{sec[s]:.3f}" for s in STAGES) +
-               f" | {updates:.3g} | {updates / prop if prop > 0 else 0:.3g} |")
-        lines.append(row)
-        print(row, flush=True)
-    # D: the paper's configuration: 64 ordinates of a constant sky, 20 cells, 10 iterations.
+        ref = os.path.join(tmp, f"ref{n}.exr")
+        run_json([exe, "render", vdb, "--scene", scene, "-o", ref, "--mode", "reference",
+                  "--time", str(args.stage_ref_seconds), *view, "--json", "-q"])
+        for q in qualities:
+            for backend in ["cpu", "gpu"]:
+                if backend == "gpu" and q not in gpu.get(n, []):
+                    continue
+                lit = os.path.join(tmp, "c.vdb")
+                rep = run_json([exe, "bake", vdb, "--scene", scene, "-o", lit, "--method", "pop",
+                                "--quality", q, "--backend", backend, "--json", "-q"])
+                img = os.path.join(tmp, "c.exr")
+                run_json([exe, "render", lit, "-o", img, "--backend", "cpu", *view, "--json",
+                          "-q"])
+                cmp = run_json([exe, "compare", img, ref, "--json"])
+                err = cmp["relrmse"]
+                sec = rep["seconds"]
+                s1 = sec["solve"] - sum(sec[s] for s in STAGES)
+                row = (f"| {n} | {rep['active_voxels']} | {q} | {backend} | {sec['solve']:.2f} | "
+                       f"{s1:.2f} | " + " | ".join(f"{sec[s]:.3f}" for s in STAGES) +
+                       f" | {err:.3f} | {cmp['se_b']:.4f} |")
+                lines.append(row)
+                print(row, flush=True)
+
+
+def section_d(exe, tmp, lines):
+    """The paper's configuration: 64 ordinates of a constant sky, 20 cells, 10 iterations."""
     rep = run_json([exe, "bake", os.path.join(SAMPLES, "cloud.vdb"), "-o",
                     os.path.join(tmp, "p.vdb"), "--method", "pop", "--backend", "cpu",
                     "--density-scale", "20", "--albedo", "0.99", "--g", "0.85", "--env",
@@ -129,9 +184,6 @@ def main():
               f"{p['iterations_isotropic']} isotropic iterations in {sec['pop_isotropic']:.3f} s; "
               f"whole solve {sec['solve']:.2f} s (S1 with 16 sky directions included)."]
     print(lines[-1], flush=True)
-    with open(args.out, "w") as fh:
-        fh.write("\n".join(lines) + "\n")
-    print(open(args.out).read())
 
 
 if __name__ == "__main__":

@@ -36,12 +36,15 @@ static const char help[] =
     "  --quality Q              low | medium | high | ultra (sky directions 16/64/256/1024;\n"
     "                           POP sky ordinates 8/16/32/64, epsilon_L 1e-2 .. 1e-5)\n"
     "  --pop-res N              POP: cells across the largest extent of the volume\n"
-    "                           (default 3: POP's bias grows as its cells shrink)\n"
+    "                           (default 4: POP's bias grows as its cells shrink)\n"
     "  --pop-ordinates N        POP: propagation grids for the sky (importance-sampled)\n"
     "  --pop-iterations N       POP: cap of each sun's or ordinate's iterations before the\n"
     "                           isotropic residuum (default: Eq. 10, at most max(64, 4 x res))\n"
     "  --pop-decay LAW          POP anisotropy decay: mean-cosine (default; a exp(-sigma_s t\n"
     "                           (1 - g)), exact first moment) or paper (a g^(sigma_s t))\n"
+    "  --pop-tally T            POP fluence per cell crossing: chord (default; the lobe's\n"
+    "                           mean chord, 2/3 of a cell for isotropic light) or cell (the\n"
+    "                           paper's one cell side)\n"
     "\n"
     "other options:\n"
     "  -o, --output FILE        lit VDB to write (refused if equal to the input)\n"
@@ -63,6 +66,7 @@ static const cli_option options[] = {
     {"--pop-ordinates", CLI_VALUE},
     {"--pop-decay", CLI_VALUE},
     {"--pop-iterations", CLI_VALUE},
+    {"--pop-tally", CLI_VALUE},
     {"--camera", CLI_VALUE},
     {NULL, CLI_FLAG},
 };
@@ -117,6 +121,7 @@ static cJSON *report_json(const char *input, const char *output, const vdbs_scen
         cJSON_AddNumberToObject(pj, "merge_in", p->merge_in);
         cJSON_AddNumberToObject(pj, "merge_out", p->merge_out);
         cJSON_AddStringToObject(pj, "decay", scene->pop_decay_paper ? "paper" : "mean-cosine");
+        cJSON_AddStringToObject(pj, "tally", scene->pop_tally_cell ? "cell" : "chord");
     }
     double rmax[3] = {r->radiance_max[0], r->radiance_max[1], r->radiance_max[2]};
     cJSON_AddItemToObject(j, "radiance_max", cli_json_triple(rmax));

@@ -220,6 +220,8 @@ vdbs_status cli_build_scene(const cli_args *args, vdbs_scene *scene, int allow_n
             scene->pop_iterations = (int)k;
         } else if (strcmp(name, "--pop-decay") == 0) {
             st = vdbs_scene_set_pop_decay(scene, v, err);
+        } else if (strcmp(name, "--pop-tally") == 0) {
+            st = vdbs_scene_set_pop_tally(scene, v, err);
         } else if (strcmp(name, "--method") == 0 || strcmp(name, "--quality") == 0) {
             char *dst = name[2] == 'm' ? scene->method : scene->quality;
             if (strlen(v) >= sizeof scene->method)

@@ -101,6 +101,7 @@ class HelpAndFlags(Base):
             (base + ["--method", "pop", "--pop-res", "8x"], "--pop-res"),
             (base + ["--method", "pop", "--pop-ordinates", "0"], "--pop-ordinates"),
             (base + ["--method", "pop", "--pop-decay", "fast"], "--pop-decay"),
+            (base + ["--method", "pop", "--pop-tally", "voxel"], "--pop-tally"),
             (base + ["--method", "pop", "--pop-iterations", "0"], "--pop-iterations"),
             (base + ["--method", "pop", "--pop-decay", "paper", "--g", "-0.3"], "--pop-decay"),
             (["bake", src, "-o", out, "--method", "pop", "--point", "0,0,0"], "point"),

@@ -416,6 +416,7 @@ static void pop_scenario_make(pop_scenario *s, int iterations)
     memcpy(&s->params[VS_POP_OFF_G], &g, 4);
     memcpy(&s->params[VS_POP_OFF_ALBEDO], albedo, sizeof albedo);
     s->params[VS_POP_OFF_KEEP_A] = 1u;
+    s->params[VS_POP_OFF_CHORD] = 1u;
     for (int c = 0; c < POP_CELLS; ++c) {
         s->sigma[c] = (float)((c * 37) % 11) * 0.4f;
         float *st = s->state + c * VS_POP_STATE_WORDS;

@@ -262,6 +262,8 @@ static void test_parse_errors(void **state)
         {"{\"solver\": {\"pop_decay\": \"linear\"}}",
          "scene: solver.pop_decay: unknown decay \"linear\""},
         {"{\"solver\": {\"pop_decay\": 2}}", "scene: solver.pop_decay: expected a string"},
+        {"{\"solver\": {\"pop_tally\": \"voxel\"}}",
+         "scene: solver.pop_tally: unknown tally \"voxel\""},
         {"{\"solver\": {\"pop_re\": 3}}", "scene: solver: unknown key \"pop_re\""},
         /* non-finite numbers: JSON has no NaN, but a huge exponent overflows to Inf */
         {"{\"volume\": {\"density_scale\": 1e999}}",
@@ -430,6 +432,12 @@ static void assert_scene_equal(const vdbs_scene *a, const vdbs_scene *b)
     assert_int_equal(a->camera.height, b->camera.height);
     assert_string_equal(a->method, b->method);
     assert_string_equal(a->quality, b->quality);
+    assert_int_equal(a->sky_directions, b->sky_directions);
+    assert_int_equal(a->pop_resolution, b->pop_resolution);
+    assert_int_equal(a->pop_ordinates, b->pop_ordinates);
+    assert_int_equal(a->pop_iterations, b->pop_iterations);
+    assert_int_equal(a->pop_decay_paper, b->pop_decay_paper);
+    assert_int_equal(a->pop_tally_cell, b->pop_tally_cell);
 }
 
 static void round_trip(const vdbs_scene *s)
@@ -476,6 +484,14 @@ static void test_round_trip(void **state)
     s->camera.height = 16384;
     snprintf(s->method, sizeof s->method, "%s", "inet");
     snprintf(s->quality, sizeof s->quality, "%s", "ultra");
+    round_trip(s);
+
+    /* every POP setting away from its default */
+    s->pop_resolution = 7;
+    s->pop_ordinates = 24;
+    s->pop_iterations = 99;
+    s->pop_decay_paper = 1;
+    s->pop_tally_cell = 1;
     round_trip(s);
 
     /* grid names with an index, and with an '@' of their own */

@@ -25,9 +25,9 @@ def run(*args):
 
 class PopAgainstReference(unittest.TestCase):
     """The issue's check scene for POP: the cloud sample at density 25, albedo 0.99, g 0.85, one
-    sun straight down. A bake at --quality high (the default 3 cells across) rendered in baked
+    sun straight down. A bake at --quality high (the defaults: 4 cells across, chord tally) rendered in baked
     mode against a converged reference of all orders: image relative RMSE at most 0.6 and below
-    the single-scattering bake's (bench/pop.md: 0.584 and 0.966 at 96x72; the reference's own
+    the single-scattering bake's (bench/pop.md at 96x72; the reference's own
     noise, se_b, stays under 0.15 so it cannot decide the outcome)."""
 
     def setUp(self):
@@ -55,7 +55,8 @@ class PopAgainstReference(unittest.TestCase):
             self.assertLess(m["se_b"], 0.15, m)
             errors[method] = m["relrmse"]
             if method == "pop":
-                self.assertEqual(report["pop"]["resolution"], 3)
+                self.assertEqual(report["pop"]["resolution"], 4)
+                self.assertEqual(report["pop"]["tally"], "chord")
         print(f"POP high on the issue scene: relative RMSE {errors['pop']:.3f}, single "
               f"{errors['single']:.3f}")
         self.assertLessEqual(errors["pop"], 0.6)

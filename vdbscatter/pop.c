@@ -4,6 +4,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "vdbscatter/coarse.h"
 #include "vdbscatter/lightgrid.h"
 #include "vdbscatter/lights.h"
 #include "vdbscatter/medium.h"
@@ -21,9 +22,10 @@
 /* The default resolution, cells across the largest extent. POP's image error grows as its
  * cells shrink on every scene measured (bench/pop.md: the sphere and cloud samples, g 0 / 0.5 /
  * 0.85, and the issue's check scene), and no mean-free-path rule follows the optimum (it sits
- * at 2-4 cells while sigma_tr spans 0.5 to 14 per unit); 3 was best or within 0.07 of it on
- * all seven, and below the single-only bake's error on all seven. */
-#define POP_DEFAULT_RESOLUTION 3
+ * at 2-4 cells while sigma_tr spans 0.5 to 14 per unit). With the chord tally, 3 cells is
+ * best on six of the seven scenes but 0.07 worse than 4 on the check scene; 4 has the lowest
+ * worst case and beats the paper's tally at its best default (3) on all seven. */
+#define POP_DEFAULT_RESOLUTION 4
 /* Sub-columns per cell and axis that seed a cell from the fine S1 grid, at most. */
 #define POP_SEED_SUBCOLUMNS 64
 
@@ -43,98 +45,8 @@ void vdbs_pop_quality(const char *quality, int *ordinates, double *epsilon_l)
         }
 }
 
-/* A propagation grid in world space: cell (i, j, k) is the cube of side h whose first corner
- * is origin + i h axis[0] + j h axis[1] + k h axis[2]; axis[2] is the principal direction. */
-typedef struct pop_frame {
-    double origin[3];
-    double axis[3][3];
-    double h;
-    int n[3];
-} pop_frame;
-
-static double dot3(const double a[3], const double b[3])
-{
-    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
-}
-
-/* The frame with the given axes (orthonormal) spanning the support box with cells of side h. */
-static void frame_fit(const double corners[8][3], const double axis[3][3], double h, pop_frame *f)
-{
-    memcpy(f->axis, axis, sizeof f->axis);
-    f->h = h;
-    double lo[3] = {HUGE_VAL, HUGE_VAL, HUGE_VAL}, hi[3] = {-HUGE_VAL, -HUGE_VAL, -HUGE_VAL};
-    for (int c = 0; c < 8; ++c)
-        for (int a = 0; a < 3; ++a) {
-            double x = dot3(corners[c], axis[a]);
-            lo[a] = fmin(lo[a], x);
-            hi[a] = fmax(hi[a], x);
-        }
-    for (int k = 0; k < 3; ++k)
-        f->origin[k] = 0.0;
-    for (int a = 0; a < 3; ++a) {
-        f->n[a] = (int)ceil((hi[a] - lo[a]) / h - 1e-9);
-        if (f->n[a] < 1)
-            f->n[a] = 1;
-        for (int k = 0; k < 3; ++k)
-            f->origin[k] += lo[a] * axis[a][k];
-    }
-}
-
-static int64_t frame_cells(const pop_frame *f)
-{
-    return (int64_t)f->n[0] * f->n[1] * f->n[2];
-}
-
-/* World point at grid coordinates x (in cells, from the frame's origin). */
-static void frame_point(const pop_frame *f, const double x[3], double world[3])
-{
-    for (int k = 0; k < 3; ++k)
-        world[k] = f->origin[k] +
-                   f->h * (x[0] * f->axis[0][k] + x[1] * f->axis[1][k] + x[2] * f->axis[2][k]);
-}
-
-/* World centre of cell c (x fastest, then y, then z). */
-static void frame_cell_centre(const pop_frame *f, int64_t c, double world[3])
-{
-    double x[3] = {(double)(c % f->n[0]) + 0.5, (double)((c / f->n[0]) % f->n[1]) + 0.5,
-                   (double)(c / ((int64_t)f->n[0] * f->n[1])) + 0.5};
-    frame_point(f, x, world);
-}
-
-/* The trilinear footing of world point p: the lower of the 8 cell centres around it and
- * the fractions towards the upper ones (coordinates may fall outside the grid). */
-static void frame_trilinear(const pop_frame *f, const double p[3], int i0[3], double frac[3])
-{
-    double rel[3] = {p[0] - f->origin[0], p[1] - f->origin[1], p[2] - f->origin[2]};
-    for (int a = 0; a < 3; ++a) {
-        double x = dot3(rel, f->axis[a]) / f->h - 0.5;
-        double fl = floor(x);
-        i0[a] = (int)fl;
-        frac[a] = x - fl;
-    }
-}
-
-static int64_t frame_index(const pop_frame *f, const int idx[3])
-{
-    return ((int64_t)idx[2] * f->n[1] + idx[1]) * f->n[0] + idx[0];
-}
-
-/* sigma_t at every cell centre from the box-filtered medium. */
-static void frame_sigma(const pop_frame *f, const vdbs_volume *volume, const vdbs_medium_box *box,
-                        double density_scale, float *sigma)
-{
-    const int64_t cells = frame_cells(f);
-#pragma omp parallel for schedule(static)
-    for (int64_t c = 0; c < cells; ++c) {
-        double w[3], idx[3];
-        frame_cell_centre(f, c, w);
-        vdbs_volume_index_point(volume, w, idx);
-        sigma[c] = (float)(density_scale * vdbs_medium_box_density(box, idx));
-    }
-}
-
-static void pack_params(const pop_frame *f, const vdbs_scene *scene, vdbs_pop_decay decay,
-                        int keep_a, uint32_t params[VS_POP_PARAM_WORDS])
+static void pack_params(const vdbs_coarse_frame *f, const vdbs_scene *scene,
+                        const vdbs_pop_desc *desc, int keep_a, uint32_t params[VS_POP_PARAM_WORDS])
 {
     memset(params, 0, sizeof(uint32_t) * VS_POP_PARAM_WORDS);
     for (int a = 0; a < 3; ++a)
@@ -147,8 +59,9 @@ static void pack_params(const pop_frame *f, const vdbs_scene *scene, vdbs_pop_de
         memcpy(&params[VS_POP_OFF_ALBEDO + c], &albedo, sizeof albedo);
     }
     params[VS_POP_OFF_DECAY] =
-        decay == VDBS_POP_DECAY_PAPER ? VS_POP_DECAY_PAPER : VS_POP_DECAY_MEAN_COSINE;
+        desc->decay == VDBS_POP_DECAY_PAPER ? VS_POP_DECAY_PAPER : VS_POP_DECAY_MEAN_COSINE;
     params[VS_POP_OFF_KEEP_A] = keep_a ? 1u : 0u;
+    params[VS_POP_OFF_CHORD] = desc->tally_cell ? 0u : 1u;
 }
 
 /* ---- propagation through the runner ---- */
@@ -198,58 +111,7 @@ vdbs_status vdbs_pop_propagate(vdbs_runner *runner, const uint32_t *params, cons
 
 /* ---- merging ---- */
 
-/* Adds `values` (width doubles) at world point p into the cells of `dst` around it, by
- * trilinear weights renormalised over the cells inside the grid, times scale. */
-static void splat(const pop_frame *dst, double *acc, int width, const double p[3],
-                  const double *values, double scale)
-{
-    int i0[3];
-    double f[3];
-    frame_trilinear(dst, p, i0, f);
-    double w[8], wsum = 0.0;
-    int64_t at[8];
-    for (int c = 0; c < 8; ++c) {
-        w[c] = 1.0;
-        int inside = 1;
-        int idx[3];
-        for (int a = 0; a < 3; ++a) {
-            int bit = (c >> a) & 1;
-            idx[a] = i0[a] + bit;
-            w[c] *= bit ? f[a] : 1.0 - f[a];
-            inside &= idx[a] >= 0 && idx[a] < dst->n[a];
-        }
-        if (!inside)
-            w[c] = 0.0;
-        at[c] = frame_index(dst, idx);
-        wsum += w[c];
-    }
-    if (!(wsum > 0.0)) {
-        /* Beyond the grid's outer centres on every side: the nearest cell takes it. */
-        int idx[3];
-        for (int a = 0; a < 3; ++a) {
-            idx[a] = i0[a] + (f[a] >= 0.5);
-            idx[a] = idx[a] < 0 ? 0 : (idx[a] >= dst->n[a] ? dst->n[a] - 1 : idx[a]);
-        }
-        w[0] = wsum = 1.0;
-        at[0] = frame_index(dst, idx);
-        for (int c = 1; c < 8; ++c)
-            w[c] = 0.0;
-    }
-    for (int c = 0; c < 8; ++c) {
-        if (w[c] == 0.0)
-            continue;
-        double s = scale * w[c] / wsum;
-        for (int v = 0; v < width; ++v)
-            acc[at[c] * width + v] += s * values[v];
-    }
-}
-
 /* ---- the solve ---- */
-
-/* Per merged cell: ms (3), ms_l1 x/y/z (9). */
-#define MERGED_MS 0
-#define MERGED_L1 3
-#define MERGED_WIDTH 12
 
 typedef struct pop_run {
     const vdbs_solve *s;
@@ -258,11 +120,11 @@ typedef struct pop_run {
     vdbs_light_table lights; /* the suns and POP's sky ordinates */
     vdbs_light_grids fine;   /* their S1 grids */
     vdbs_medium_box box;
-    double h;             /* cell side of the directional grids */
-    pop_frame merged;     /* world-aligned, side h / 2: the accumulated ms and ms_l1 */
-    double *merged_acc;   /* MERGED_WIDTH per merged cell */
-    pop_frame iso;        /* world-aligned, side h: the isotropic residuum */
-    double *iso_residual; /* 3 per iso cell: the directional grids' light still in transit */
+    double h;                 /* cell side of the directional grids */
+    vdbs_coarse_frame merged; /* world-aligned, side h / 2: the accumulated ms and ms_l1 */
+    double *merged_acc;       /* VDBS_COARSE_WIDTH per merged cell */
+    vdbs_coarse_frame iso;    /* world-aligned, side h: the isotropic residuum */
+    double *iso_residual;     /* 3 per iso cell: the directional grids' light still in transit */
 } pop_run;
 
 static void run_free(pop_run *r)
@@ -279,8 +141,8 @@ static void run_free(pop_run *r)
  * returns the seeded sum over cells and channels, and in *beam the same sum of what the beam
  * loses over each whole sub-column, albedo E (1 - T) with T looked up far beyond the grid's
  * end (equal when the grid holds all of the medium and no cell's share is lost). */
-static double seed_grid(const pop_run *r, int l, const pop_frame *f, const double e[3], double a0,
-                        float *state, double *beam)
+static double seed_grid(const pop_run *r, int l, const vdbs_coarse_frame *f, const double e[3],
+                        double a0, float *state, double *beam)
 {
     const vdbs_solve *s = r->s;
     const double *albedo = s->scene->albedo;
@@ -299,7 +161,7 @@ static double seed_grid(const pop_run *r, int l, const pop_frame *f, const doubl
             for (int k = 0; k < n2; ++k) {
                 double w[3], idx[3];
                 x[2] = k + 1.0;
-                frame_point(f, x, w);
+                vdbs_coarse_point(f, x, w);
                 vdbs_volume_index_point(s->volume, w, idx);
                 double t = exp(-(double)vdbs_light_grids_depth(&r->fine, l, idx));
                 double lost = (t_prev - t) / (sub * sub);
@@ -313,7 +175,7 @@ static double seed_grid(const pop_run *r, int l, const pop_frame *f, const doubl
             }
             double w[3], idx[3];
             x[2] = n2 + 4.0;
-            frame_point(f, x, w);
+            vdbs_coarse_point(f, x, w);
             vdbs_volume_index_point(s->volume, w, idx);
             double lost = -expm1(-(double)vdbs_light_grids_depth(&r->fine, l, idx)) / (sub * sub);
             for (int c = 0; c < 3; ++c)
@@ -321,14 +183,16 @@ static double seed_grid(const pop_run *r, int l, const pop_frame *f, const doubl
         }
     }
     *beam = beam_total;
-    const int64_t cells = frame_cells(f);
+    const int64_t cells = vdbs_coarse_cells(f);
+    /* Light scattered in a cell travels half a crossing on average: 1/2 L^0 (times the
+     * lobe's mean chord with the chord tally, as every later crossing). */
+    const float first = 0.5f * (r->desc.tally_cell ? 1.0f : vs_pop_chord((float)a0));
     for (int64_t c = 0; c < cells; ++c) {
         float *cell = state + c * VS_POP_STATE_WORDS;
         for (int ch = 0; ch < 3; ++ch) {
             cell[VS_POP_STATE_A + ch] = (float)a0;
-            /* Light scattered in a cell crosses half of it on average: 1/2 L^0. */
-            cell[VS_POP_STATE_ACC_L + ch] = 0.5f * cell[VS_POP_STATE_L + ch];
-            cell[VS_POP_STATE_ACC_LA + ch] = 0.5f * cell[VS_POP_STATE_L + ch] * (float)a0;
+            cell[VS_POP_STATE_ACC_L + ch] = first * cell[VS_POP_STATE_L + ch];
+            cell[VS_POP_STATE_ACC_LA + ch] = first * cell[VS_POP_STATE_L + ch] * (float)a0;
         }
     }
     return total;
@@ -336,7 +200,7 @@ static double seed_grid(const pop_run *r, int l, const pop_frame *f, const doubl
 
 /* Eq. 10 with the chosen decay law: iterations until a0 falls below epsilon_a, at least the
  * cells along the grid (light from the first row must cross it), at most the cap. */
-static int anisotropic_iterations(const pop_run *r, const pop_frame *f, double a0,
+static int anisotropic_iterations(const pop_run *r, const vdbs_coarse_frame *f, double a0,
                                   double mean_sigma_s)
 {
     const double g = r->s->scene->g;
@@ -355,10 +219,10 @@ static int anisotropic_iterations(const pop_run *r, const pop_frame *f, double a
 }
 
 /* A grid's zeroed state and its sigma_t per cell (the caller frees both). */
-static vdbs_status grid_arrays(const pop_run *r, const pop_frame *f, float **state, float **sigma,
-                               vdbs_error *err)
+static vdbs_status grid_arrays(const pop_run *r, const vdbs_coarse_frame *f, float **state,
+                               float **sigma, vdbs_error *err)
 {
-    const int64_t cells = frame_cells(f);
+    const int64_t cells = vdbs_coarse_cells(f);
     *state = calloc((size_t)cells * VS_POP_STATE_WORDS, sizeof **state);
     *sigma = malloc(sizeof **sigma * (size_t)cells);
     if (!*state || !*sigma) {
@@ -368,7 +232,7 @@ static vdbs_status grid_arrays(const pop_run *r, const pop_frame *f, float **sta
         return vdbs_error_set(err, VDBS_ERR_NOMEM, "out of memory for a POP grid of %lld cells",
                               (long long)cells);
     }
-    frame_sigma(f, r->s->volume, &r->box, r->s->scene->density_scale, *sigma);
+    vdbs_coarse_sigma(f, r->s->volume, &r->box, r->s->scene->density_scale, *sigma);
     return VDBS_OK;
 }
 
@@ -380,9 +244,9 @@ static vdbs_status propagate_grid(pop_run *r, int l, const double d[3], const do
     vdbs_volume_support_corners(s->volume, corners);
     memcpy(axis[2], d, sizeof axis[2]);
     vdbs_ortho_basis(d, axis[0], axis[1]);
-    pop_frame f;
-    frame_fit(corners, axis, r->h, &f);
-    const int64_t cells = frame_cells(&f);
+    vdbs_coarse_frame f;
+    vdbs_coarse_fit(corners, axis, r->h, &f);
+    const int64_t cells = vdbs_coarse_cells(&f);
     double t0 = vdbs_now();
     float *state, *sigma;
     vdbs_status st = grid_arrays(r, &f, &state, &sigma, err);
@@ -396,7 +260,7 @@ static vdbs_status propagate_grid(pop_run *r, int l, const double d[3], const do
     double t1 = vdbs_now();
     r->stats->seconds_seed += t1 - t0;
     uint32_t params[VS_POP_PARAM_WORDS];
-    pack_params(&f, s->scene, r->desc.decay, 1, params);
+    pack_params(&f, s->scene, &r->desc, 1, params);
     int iterations = 0;
     double left = 0.0;
     if (seeded > 0.0)
@@ -414,12 +278,12 @@ static vdbs_status propagate_grid(pop_run *r, int l, const double d[3], const do
         const double scale = pow(f.h / r->merged.h, 3.0), g = s->scene->g;
         for (int64_t c = 0; c < cells; ++c) {
             const float *cell = state + c * VS_POP_STATE_WORDS;
-            double v[MERGED_WIDTH];
+            double v[VDBS_COARSE_WIDTH];
             int any = 0;
             for (int ch = 0; ch < 3; ++ch) {
-                v[MERGED_MS + ch] = cell[VS_POP_STATE_ACC_L + ch] * VDBS_INV_4PI;
+                v[VDBS_COARSE_MS + ch] = cell[VS_POP_STATE_ACC_L + ch] * VDBS_INV_4PI;
                 for (int a = 0; a < 3; ++a)
-                    v[MERGED_L1 + 3 * a + ch] =
+                    v[VDBS_COARSE_L1 + 3 * a + ch] =
                         3.0 * g * cell[VS_POP_STATE_ACC_LA + ch] * d[a] * VDBS_INV_4PI;
                 any |= cell[VS_POP_STATE_ACC_L + ch] != 0.0f || cell[VS_POP_STATE_L + ch] != 0.0f;
             }
@@ -428,12 +292,13 @@ static vdbs_status propagate_grid(pop_run *r, int l, const double d[3], const do
             for (int ch = 0; ch < 3; ++ch)
                 r->stats->merge_in += cell[VS_POP_STATE_ACC_L + ch] * f.h * f.h * f.h;
             double w[3];
-            frame_cell_centre(&f, c, w);
-            splat(&r->merged, r->merged_acc, MERGED_WIDTH, w, v, scale);
+            vdbs_coarse_cell_centre(&f, c, w);
+            vdbs_coarse_splat(&r->merged, r->merged_acc, VDBS_COARSE_WIDTH, w, v, scale);
             double residual[3] = {cell[VS_POP_STATE_L], cell[VS_POP_STATE_L + 1],
                                   cell[VS_POP_STATE_L + 2]};
             if (residual[0] != 0.0 || residual[1] != 0.0 || residual[2] != 0.0)
-                splat(&r->iso, r->iso_residual, 3, w, residual, pow(f.h / r->iso.h, 3.0));
+                vdbs_coarse_splat(&r->iso, r->iso_residual, 3, w, residual,
+                                  pow(f.h / r->iso.h, 3.0));
         }
         r->stats->seconds_merge += vdbs_now() - t2;
     }
@@ -450,14 +315,15 @@ static vdbs_status propagate_grid(pop_run *r, int l, const double d[3], const do
 static vdbs_status isotropic(pop_run *r, vdbs_error *err)
 {
     const vdbs_solve *s = r->s;
-    const pop_frame *f = &r->iso;
-    const int64_t cells = frame_cells(f);
+    const vdbs_coarse_frame *f = &r->iso;
+    const int64_t cells = vdbs_coarse_cells(f);
     double t0 = vdbs_now();
     const double merged_volume = r->merged.h * r->merged.h * r->merged.h;
-    for (int64_t c = 0; c < frame_cells(&r->merged); ++c)
+    for (int64_t c = 0; c < vdbs_coarse_cells(&r->merged); ++c)
         for (int ch = 0; ch < 3; ++ch)
-            r->stats->merge_out +=
-                4.0 * VDBS_PI * r->merged_acc[c * MERGED_WIDTH + MERGED_MS + ch] * merged_volume;
+            r->stats->merge_out += 4.0 * VDBS_PI *
+                                   r->merged_acc[c * VDBS_COARSE_WIDTH + VDBS_COARSE_MS + ch] *
+                                   merged_volume;
     float *state, *sigma;
     vdbs_status st = grid_arrays(r, f, &state, &sigma, err);
     if (st != VDBS_OK)
@@ -471,7 +337,7 @@ static vdbs_status isotropic(pop_run *r, vdbs_error *err)
             residual += v;
         }
     uint32_t params[VS_POP_PARAM_WORDS];
-    pack_params(f, s->scene, r->desc.decay, 0, params);
+    pack_params(f, s->scene, &r->desc, 0, params);
     int iterations = 0;
     double left = residual;
     const double tolerance = r->desc.epsilon_l * r->stats->seeded / cell_volume;
@@ -487,88 +353,20 @@ static vdbs_status isotropic(pop_run *r, vdbs_error *err)
         const double scale = pow(f->h / r->merged.h, 3.0);
         for (int64_t c = 0; c < cells; ++c) {
             const float *cell = state + c * VS_POP_STATE_WORDS;
-            double v[MERGED_WIDTH] = {0};
+            double v[VDBS_COARSE_WIDTH] = {0};
             for (int ch = 0; ch < 3; ++ch)
-                v[MERGED_MS + ch] = cell[VS_POP_STATE_ACC_L + ch] * VDBS_INV_4PI;
+                v[VDBS_COARSE_MS + ch] = cell[VS_POP_STATE_ACC_L + ch] * VDBS_INV_4PI;
             if (v[0] == 0.0 && v[1] == 0.0 && v[2] == 0.0)
                 continue;
             double w[3];
-            frame_cell_centre(f, c, w);
-            splat(&r->merged, r->merged_acc, MERGED_WIDTH, w, v, scale);
+            vdbs_coarse_cell_centre(f, c, w);
+            vdbs_coarse_splat(&r->merged, r->merged_acc, VDBS_COARSE_WIDTH, w, v, scale);
         }
     }
     r->stats->seconds_isotropic += vdbs_now() - t0;
     free(state);
     free(sigma);
     return st;
-}
-
-/* Joint bilateral upsampling (Sec. 4.4) of the merged grid to the output voxels: trilinear
- * weights times a range weight on sigma_t, the cell's box-filtered one against the voxel's. */
-static vdbs_status upsample(pop_run *r, vdbs_error *err)
-{
-    const vdbs_solve *s = r->s;
-    const vdbs_volume *volume = s->volume;
-    const pop_frame *f = &r->merged;
-    const double scale = s->scene->density_scale;
-    const int64_t cells = frame_cells(f);
-    float *guide = malloc(sizeof *guide * (size_t)cells);
-    if (!guide)
-        return vdbs_error_set(err, VDBS_ERR_NOMEM, "out of memory for POP's upsampling guide");
-    frame_sigma(f, volume, &r->box, scale, guide);
-    double sum = 0.0;
-    int64_t count = 0;
-    for (int64_t c = 0; c < cells; ++c)
-        if (guide[c] > 0.0f) {
-            sum += guide[c];
-            ++count;
-        }
-    const double range = count > 0 ? 0.5 * sum / count : 1.0;
-    pnanovdb_buf_t buf = pnanovdb_make_buf(volume->nano, volume->nano_size / 4);
-#pragma omp parallel
-    {
-        pnanovdb_readaccessor_t acc = vs_density_accessor(buf);
-#pragma omp for schedule(static)
-        for (int64_t n = 0; n < (int64_t)volume->coord_count; ++n) {
-            const int32_t *co = volume->coords + 3 * n;
-            double idx[3] = {co[0], co[1], co[2]}, w[3];
-            vdbs_volume_world_point(volume, idx, w);
-            double sv = scale * vs_density_voxel(buf, &acc, vs_coord(co[0], co[1], co[2]));
-            int i0[3];
-            double fr[3];
-            frame_trilinear(f, w, i0, fr);
-            double out[12] = {0}, wsum = 0.0;
-            for (int c = 0; c < 8; ++c) {
-                int id[3];
-                double wt = 1.0;
-                for (int a = 0; a < 3; ++a) {
-                    int bit = (c >> a) & 1;
-                    id[a] = i0[a] + bit;
-                    id[a] = id[a] < 0 ? 0 : (id[a] >= f->n[a] ? f->n[a] - 1 : id[a]);
-                    wt *= bit ? fr[a] : 1.0 - fr[a];
-                }
-                if (wt == 0.0)
-                    continue;
-                int64_t at = frame_index(f, id);
-                double dr = (guide[at] - sv) / range;
-                wt *= exp(-0.5 * dr * dr) + 1e-3;
-                wsum += wt;
-                for (int v = 0; v < 12; ++v)
-                    out[v] += wt * r->merged_acc[at * MERGED_WIDTH + v];
-            }
-            if (!(wsum > 0.0))
-                continue;
-            for (int ch = 0; ch < 3; ++ch) {
-                float ms = (float)(out[MERGED_MS + ch] / wsum);
-                s->ms[3 * n + ch] += ms;
-                s->radiance[3 * n + ch] += ms;
-                for (int a = 0; a < 3; ++a)
-                    s->ms_l1[a][3 * n + ch] += (float)(out[MERGED_L1 + 3 * a + ch] / wsum);
-            }
-        }
-    }
-    free(guide);
-    return VDBS_OK;
 }
 
 /* The mean sigma_t over the voxels with density. */
@@ -646,15 +444,15 @@ vdbs_status vdbs_pop_solve(const vdbs_solve *s, const vdbs_pop_desc *desc, vdbs_
     stats->cell_side = h;
     r.h = h;
     const double world_axes[3][3] = {{1, 0, 0}, {0, 1, 0}, {0, 0, 1}};
-    frame_fit(corners, world_axes, 0.5 * h, &r.merged);
-    frame_fit(corners, world_axes, h, &r.iso);
-    stats->merged_cells = frame_cells(&r.merged);
+    vdbs_coarse_fit(corners, world_axes, 0.5 * h, &r.merged);
+    vdbs_coarse_fit(corners, world_axes, h, &r.iso);
+    stats->merged_cells = vdbs_coarse_cells(&r.merged);
     int block = (int)floor(0.5 * h / s->volume->mean_voxel_size);
     vdbs_light_grid_desc fine_desc = {0};
     if (s->s1_grids)
         fine_desc = *s->s1_grids;
-    r.merged_acc = calloc((size_t)stats->merged_cells * MERGED_WIDTH, sizeof *r.merged_acc);
-    r.iso_residual = calloc((size_t)frame_cells(&r.iso) * 3, sizeof *r.iso_residual);
+    r.merged_acc = calloc((size_t)stats->merged_cells * VDBS_COARSE_WIDTH, sizeof *r.merged_acc);
+    r.iso_residual = calloc((size_t)vdbs_coarse_cells(&r.iso) * 3, sizeof *r.iso_residual);
     if (!r.merged_acc || !r.iso_residual)
         st = vdbs_error_set(err, VDBS_ERR_NOMEM, "out of memory for the merged POP grid");
     if (st == VDBS_OK)
@@ -690,7 +488,8 @@ vdbs_status vdbs_pop_solve(const vdbs_solve *s, const vdbs_pop_desc *desc, vdbs_
         st = isotropic(&r, err);
     if (st == VDBS_OK) {
         double t0 = vdbs_now();
-        st = upsample(&r, err);
+        st = vdbs_coarse_upsample(&r.merged, r.merged_acc, s->volume, &r.box,
+                                  s->scene->density_scale, s->ms, s->ms_l1, s->radiance, err);
         stats->seconds_upsample = vdbs_now() - t0;
     }
     run_free(&r);

@@ -311,17 +311,30 @@ vdbs_status vdbs_scene_set_grid(vdbs_scene *scene, const char *spec, vdbs_error 
     return VDBS_OK;
 }
 
+/* One of two named choices of a flag: *out = 0 for names[0], 1 for names[1]. */
+static vdbs_status set_choice(const char *flag, const char *const names[2], const char *name,
+                              int *out, vdbs_error *err)
+{
+    for (int i = 0; i < 2; ++i)
+        if (name && strcmp(name, names[i]) == 0) {
+            *out = i;
+            return VDBS_OK;
+        }
+    return vdbs_error_set(err, VDBS_ERR_INPUT, "%s: unknown value '%s' (expected %s or %s)", flag,
+                          name ? name : "", names[0], names[1]);
+}
+
+static const char *const pop_decay_names[2] = {"mean-cosine", "paper"};
+static const char *const pop_tally_names[2] = {"chord", "cell"};
+
 vdbs_status vdbs_scene_set_pop_decay(vdbs_scene *scene, const char *name, vdbs_error *err)
 {
-    if (name && strcmp(name, "mean-cosine") == 0)
-        scene->pop_decay_paper = 0;
-    else if (name && strcmp(name, "paper") == 0)
-        scene->pop_decay_paper = 1;
-    else
-        return vdbs_error_set(err, VDBS_ERR_INPUT,
-                              "--pop-decay: unknown law '%s' (expected mean-cosine or paper)",
-                              name ? name : "");
-    return VDBS_OK;
+    return set_choice("--pop-decay", pop_decay_names, name, &scene->pop_decay_paper, err);
+}
+
+vdbs_status vdbs_scene_set_pop_tally(vdbs_scene *scene, const char *name, vdbs_error *err)
+{
+    return set_choice("--pop-tally", pop_tally_names, name, &scene->pop_tally_cell, err);
 }
 
 void vdbs_scene_init(vdbs_scene *scene)
@@ -563,8 +576,9 @@ static vdbs_status parse_camera(const parse_ctx *ctx, const cJSON *cam, vdbs_sce
 
 static vdbs_status parse_solver(const parse_ctx *ctx, const cJSON *sol, vdbs_scene *s)
 {
-    static const char *const keys[] = {"method",        "quality",   "sky_directions", "pop_res",
-                                       "pop_ordinates", "pop_decay", "pop_iterations", NULL};
+    static const char *const keys[] = {"method",         "quality",       "sky_directions",
+                                       "pop_res",        "pop_ordinates", "pop_decay",
+                                       "pop_iterations", "pop_tally",     NULL};
     vdbs_status st;
     bool found = false;
     if ((st = expect_object(ctx, sol, "solver")) != VDBS_OK ||
@@ -590,12 +604,17 @@ static vdbs_status parse_solver(const parse_ctx *ctx, const cJSON *sol, vdbs_sce
         (st = get_int_in(ctx, sol, "solver", "pop_iterations", 1, VDBS_MAX_POP_ITERATIONS,
                          &s->pop_iterations)) != VDBS_OK)
         return st;
-    char decay[32] = "";
-    if ((st = get_string(ctx, sol, "solver", "pop_decay", decay, sizeof decay, &found)) != VDBS_OK)
+    char value[32] = "";
+    if ((st = get_string(ctx, sol, "solver", "pop_decay", value, sizeof value, &found)) != VDBS_OK)
         return st;
-    if (found && vdbs_scene_set_pop_decay(s, decay, NULL) != VDBS_OK)
+    if (found && vdbs_scene_set_pop_decay(s, value, NULL) != VDBS_OK)
         return fail(ctx, "solver.pop_decay", "unknown decay \"%s\" (expected mean-cosine or paper)",
-                    decay);
+                    value);
+    if ((st = get_string(ctx, sol, "solver", "pop_tally", value, sizeof value, &found)) != VDBS_OK)
+        return st;
+    if (found && vdbs_scene_set_pop_tally(s, value, NULL) != VDBS_OK)
+        return fail(ctx, "solver.pop_tally", "unknown tally \"%s\" (expected chord or cell)",
+                    value);
     return VDBS_OK;
 }
 
@@ -879,7 +898,8 @@ char *vdbs_scene_to_json(const vdbs_scene *s)
          (s->pop_resolution == 0 || add_int(sol, "pop_res", s->pop_resolution)) &&
          (s->pop_ordinates == 0 || add_int(sol, "pop_ordinates", s->pop_ordinates)) &&
          (s->pop_iterations == 0 || add_int(sol, "pop_iterations", s->pop_iterations)) &&
-         add_string(sol, "pop_decay", s->pop_decay_paper ? "paper" : "mean-cosine");
+         add_string(sol, "pop_decay", pop_decay_names[s->pop_decay_paper != 0]) &&
+         add_string(sol, "pop_tally", pop_tally_names[s->pop_tally_cell != 0]);
     if (ok)
         text = cJSON_PrintUnformatted(root);
     cJSON_Delete(root);

@@ -56,6 +56,7 @@ static vdbs_status run_pop(const vdbs_solve *s, vdbs_error *err)
     desc.ordinates = s->scene->pop_ordinates;
     desc.max_iterations = s->scene->pop_iterations;
     desc.decay = s->scene->pop_decay_paper ? VDBS_POP_DECAY_PAPER : VDBS_POP_DECAY_MEAN_COSINE;
+    desc.tally_cell = s->scene->pop_tally_cell;
     vdbs_pop_stats stats;
     st = vdbs_pop_solve(s, &desc, &stats, err);
     if (s->pop_stats)

@@ -26,9 +26,11 @@ typedef enum vdbs_pop_decay {
 /* Zero-initialise; 0 means the default. */
 typedef struct vdbs_pop_desc {
     int resolution; /* cells across the largest extent of the support box (--pop-res);
-                       default 3, the measured best (pop.c, bench/pop.md) */
+                       default 4, the measured best (pop.c, bench/pop.md) */
     int ordinates;  /* POP sky ordinates (--pop-ordinates); default: the quality's */
     vdbs_pop_decay decay;
+    int tally_cell;     /* 1: a crossing deposits the fluence of one cell side (the paper's);
+                           0: of the lobe's mean chord (shaders/vs_pop.h vs_pop_chord) */
     int max_iterations; /* cap of the anisotropic stage per grid; default 4 x resolution,
                            at least 64 */
     double epsilon_a;   /* anisotropy below which a grid goes isotropic; default 0.1 */

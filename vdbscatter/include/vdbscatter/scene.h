@@ -75,6 +75,8 @@ typedef struct vdbs_scene {
     int pop_ordinates;
     int pop_iterations;  /* cap of each directional grid's iterations; 0: the default */
     int pop_decay_paper; /* 1: a g^(sigma_s t) ("paper"); 0: the mean-cosine law */
+    int pop_tally_cell;  /* 1: a crossing counts one cell side ("cell", the paper's); 0: the
+                            lobe's mean chord ("chord") */
 } vdbs_scene;
 
 /* Defaults follow Blender Cycles' Principled Volume: density 1, albedo 0.5, g 0;
@@ -119,6 +121,8 @@ vdbs_status vdbs_scene_set_grid(vdbs_scene *scene, const char *spec, vdbs_error 
 /* Parses a POP anisotropy decay law, "mean-cosine" or "paper", into scene->pop_decay_paper
  * (VDBS_ERR_INPUT naming --pop-decay otherwise; err may be NULL). */
 vdbs_status vdbs_scene_set_pop_decay(vdbs_scene *scene, const char *name, vdbs_error *err);
+/* --pop-tally / solver.pop_tally: "chord" or "cell". */
+vdbs_status vdbs_scene_set_pop_tally(vdbs_scene *scene, const char *name, vdbs_error *err);
 
 /* The resolved env-map path of an env light of `scene`: "" for a constant env, and also
  * for an env_map that is not a path of this scene (vdbs_scene_validate reports that). */

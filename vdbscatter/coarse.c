@@ -1,0 +1,201 @@
+#include "vdbscatter/coarse.h"
+
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+#define PNANOVDB_C
+#include <nanovdb/PNanoVDB.h>
+
+#include "vs_common.h"
+#include "vs_march.h"
+#include "vs_medium.h"
+
+static double dot3(const double a[3], const double b[3])
+{
+    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+}
+
+void vdbs_coarse_fit(const double corners[8][3], const double axis[3][3], double h,
+                     vdbs_coarse_frame *f)
+{
+    memcpy(f->axis, axis, sizeof f->axis);
+    f->h = h;
+    double lo[3] = {HUGE_VAL, HUGE_VAL, HUGE_VAL}, hi[3] = {-HUGE_VAL, -HUGE_VAL, -HUGE_VAL};
+    for (int c = 0; c < 8; ++c)
+        for (int a = 0; a < 3; ++a) {
+            double x = dot3(corners[c], axis[a]);
+            lo[a] = fmin(lo[a], x);
+            hi[a] = fmax(hi[a], x);
+        }
+    for (int k = 0; k < 3; ++k)
+        f->origin[k] = 0.0;
+    for (int a = 0; a < 3; ++a) {
+        f->n[a] = (int)ceil((hi[a] - lo[a]) / h - 1e-9);
+        if (f->n[a] < 1)
+            f->n[a] = 1;
+        for (int k = 0; k < 3; ++k)
+            f->origin[k] += lo[a] * axis[a][k];
+    }
+}
+
+int64_t vdbs_coarse_cells(const vdbs_coarse_frame *f)
+{
+    return (int64_t)f->n[0] * f->n[1] * f->n[2];
+}
+
+void vdbs_coarse_point(const vdbs_coarse_frame *f, const double x[3], double world[3])
+{
+    for (int k = 0; k < 3; ++k)
+        world[k] = f->origin[k] +
+                   f->h * (x[0] * f->axis[0][k] + x[1] * f->axis[1][k] + x[2] * f->axis[2][k]);
+}
+
+void vdbs_coarse_cell_centre(const vdbs_coarse_frame *f, int64_t c, double world[3])
+{
+    double x[3] = {(double)(c % f->n[0]) + 0.5, (double)((c / f->n[0]) % f->n[1]) + 0.5,
+                   (double)(c / ((int64_t)f->n[0] * f->n[1])) + 0.5};
+    vdbs_coarse_point(f, x, world);
+}
+
+/* The trilinear footing of world point p: the lower of the 8 cell centres around it and
+ * the fractions towards the upper ones (coordinates may fall outside the grid). */
+static void coarse_trilinear(const vdbs_coarse_frame *f, const double p[3], int i0[3],
+                             double frac[3])
+{
+    double rel[3] = {p[0] - f->origin[0], p[1] - f->origin[1], p[2] - f->origin[2]};
+    for (int a = 0; a < 3; ++a) {
+        double x = dot3(rel, f->axis[a]) / f->h - 0.5;
+        double fl = floor(x);
+        i0[a] = (int)fl;
+        frac[a] = x - fl;
+    }
+}
+
+static int64_t coarse_index(const vdbs_coarse_frame *f, const int idx[3])
+{
+    return ((int64_t)idx[2] * f->n[1] + idx[1]) * f->n[0] + idx[0];
+}
+
+void vdbs_coarse_sigma(const vdbs_coarse_frame *f, const vdbs_volume *volume,
+                       const vdbs_medium_box *box, double density_scale, float *sigma)
+{
+    const int64_t cells = vdbs_coarse_cells(f);
+#pragma omp parallel for schedule(static)
+    for (int64_t c = 0; c < cells; ++c) {
+        double w[3], idx[3];
+        vdbs_coarse_cell_centre(f, c, w);
+        vdbs_volume_index_point(volume, w, idx);
+        sigma[c] = (float)(density_scale * vdbs_medium_box_density(box, idx));
+    }
+}
+
+void vdbs_coarse_splat(const vdbs_coarse_frame *dst, double *acc, int width, const double p[3],
+                       const double *values, double scale)
+{
+    int i0[3];
+    double f[3];
+    coarse_trilinear(dst, p, i0, f);
+    double w[8], wsum = 0.0;
+    int64_t at[8];
+    for (int c = 0; c < 8; ++c) {
+        w[c] = 1.0;
+        int inside = 1;
+        int idx[3];
+        for (int a = 0; a < 3; ++a) {
+            int bit = (c >> a) & 1;
+            idx[a] = i0[a] + bit;
+            w[c] *= bit ? f[a] : 1.0 - f[a];
+            inside &= idx[a] >= 0 && idx[a] < dst->n[a];
+        }
+        if (!inside)
+            w[c] = 0.0;
+        at[c] = coarse_index(dst, idx);
+        wsum += w[c];
+    }
+    if (!(wsum > 0.0)) {
+        /* Beyond the grid's outer centres on every side: the nearest cell takes it. */
+        int idx[3];
+        for (int a = 0; a < 3; ++a) {
+            idx[a] = i0[a] + (f[a] >= 0.5);
+            idx[a] = idx[a] < 0 ? 0 : (idx[a] >= dst->n[a] ? dst->n[a] - 1 : idx[a]);
+        }
+        w[0] = wsum = 1.0;
+        at[0] = coarse_index(dst, idx);
+        for (int c = 1; c < 8; ++c)
+            w[c] = 0.0;
+    }
+    for (int c = 0; c < 8; ++c) {
+        if (w[c] == 0.0)
+            continue;
+        double s = scale * w[c] / wsum;
+        for (int v = 0; v < width; ++v)
+            acc[at[c] * width + v] += s * values[v];
+    }
+}
+
+vdbs_status vdbs_coarse_upsample(const vdbs_coarse_frame *f, const double *values,
+                                 const vdbs_volume *volume, const vdbs_medium_box *box,
+                                 double density_scale, float *ms, float *const ms_l1[3],
+                                 float *radiance, vdbs_error *err)
+{
+    const double scale = density_scale;
+    const int64_t cells = vdbs_coarse_cells(f);
+    float *guide = malloc(sizeof *guide * (size_t)cells);
+    if (!guide)
+        return vdbs_error_set(err, VDBS_ERR_NOMEM, "out of memory for the upsampling guide");
+    vdbs_coarse_sigma(f, volume, box, scale, guide);
+    double sum = 0.0;
+    int64_t count = 0;
+    for (int64_t c = 0; c < cells; ++c)
+        if (guide[c] > 0.0f) {
+            sum += guide[c];
+            ++count;
+        }
+    const double range = count > 0 ? 0.5 * sum / count : 1.0;
+    pnanovdb_buf_t buf = pnanovdb_make_buf(volume->nano, volume->nano_size / 4);
+#pragma omp parallel
+    {
+        pnanovdb_readaccessor_t acc = vs_density_accessor(buf);
+#pragma omp for schedule(static)
+        for (int64_t n = 0; n < (int64_t)volume->coord_count; ++n) {
+            const int32_t *co = volume->coords + 3 * n;
+            double idx[3] = {co[0], co[1], co[2]}, w[3];
+            vdbs_volume_world_point(volume, idx, w);
+            double sv = scale * vs_density_voxel(buf, &acc, vs_coord(co[0], co[1], co[2]));
+            int i0[3];
+            double fr[3];
+            coarse_trilinear(f, w, i0, fr);
+            double out[VDBS_COARSE_WIDTH] = {0}, wsum = 0.0;
+            for (int c = 0; c < 8; ++c) {
+                int id[3];
+                double wt = 1.0;
+                for (int a = 0; a < 3; ++a) {
+                    int bit = (c >> a) & 1;
+                    id[a] = i0[a] + bit;
+                    id[a] = id[a] < 0 ? 0 : (id[a] >= f->n[a] ? f->n[a] - 1 : id[a]);
+                    wt *= bit ? fr[a] : 1.0 - fr[a];
+                }
+                if (wt == 0.0)
+                    continue;
+                int64_t at = coarse_index(f, id);
+                double dr = (guide[at] - sv) / range;
+                wt *= exp(-0.5 * dr * dr) + 1e-3;
+                wsum += wt;
+                for (int v = 0; v < VDBS_COARSE_WIDTH; ++v)
+                    out[v] += wt * values[at * VDBS_COARSE_WIDTH + v];
+            }
+            if (!(wsum > 0.0))
+                continue;
+            for (int ch = 0; ch < 3; ++ch) {
+                float v = (float)(out[VDBS_COARSE_MS + ch] / wsum);
+                ms[3 * n + ch] += v;
+                radiance[3 * n + ch] += v;
+                for (int a = 0; a < 3; ++a)
+                    ms_l1[a][3 * n + ch] += (float)(out[VDBS_COARSE_L1 + 3 * a + ch] / wsum);
+            }
+        }
+    }
+    free(guide);
+    return VDBS_OK;
+}

@@ -1,0 +1,61 @@
+/* Coarse world-space grids that the multiple-scattering solvers work on (POP's directional
+ * and merged grids, later FLD's), and the way back to the output voxels: frames of cubic
+ * cells at any orientation over the support box, the medium sampled per cell, energy-keeping
+ * splats between frames and joint bilateral upsampling (Elek et al. Sec. 4.4). */
+#ifndef VDBSCATTER_COARSE_H
+#define VDBSCATTER_COARSE_H
+
+#include <stdint.h>
+
+#include "vdbscatter/medium.h"
+#include "vdbscatter/status.h"
+#include "vdbscatter/volume.h"
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+/* Cell (i, j, k) is the cube of side h whose first corner is origin + i h axis[0] +
+ * j h axis[1] + k h axis[2]; item (k n1 + j) n0 + i. */
+typedef struct vdbs_coarse_frame {
+    double origin[3];
+    double axis[3][3]; /* orthonormal */
+    double h;
+    int n[3];
+} vdbs_coarse_frame;
+
+/* The frame with the given axes spanning the box with these corners in cells of side h. */
+void vdbs_coarse_fit(const double corners[8][3], const double axis[3][3], double h,
+                     vdbs_coarse_frame *f);
+int64_t vdbs_coarse_cells(const vdbs_coarse_frame *f);
+/* World point at grid coordinates x (in cells from the origin); a cell's centre. */
+void vdbs_coarse_point(const vdbs_coarse_frame *f, const double x[3], double world[3]);
+void vdbs_coarse_cell_centre(const vdbs_coarse_frame *f, int64_t c, double world[3]);
+/* sigma_t (density_scale times the box-filtered density) at every cell centre. */
+void vdbs_coarse_sigma(const vdbs_coarse_frame *f, const vdbs_volume *volume,
+                       const vdbs_medium_box *box, double density_scale, float *sigma);
+/* Adds `values` (width doubles) at world point p into the cells of `dst` around it by
+ * trilinear weights renormalised over the cells inside the grid, times scale: the sum over
+ * the cells gains exactly scale x values. */
+void vdbs_coarse_splat(const vdbs_coarse_frame *dst, double *acc, int width, const double p[3],
+                       const double *values, double scale);
+
+/* Per cell of the grid that is upsampled: ms (3 channels), then ms_l1 x, y, z (3 each). */
+#define VDBS_COARSE_MS 0
+#define VDBS_COARSE_L1 3
+#define VDBS_COARSE_WIDTH 12
+
+/* Joint bilateral upsampling of `values` (VDBS_COARSE_WIDTH per cell of f) to the output
+ * voxels: trilinear weights times a Gaussian on sigma_t, the cell's box-filtered value against
+ * the voxel's (width half the mean non-zero cell value, plus 1e-3 so that no weight
+ * vanishes). Adds ms to ms and radiance, and the moments to ms_l1. */
+vdbs_status vdbs_coarse_upsample(const vdbs_coarse_frame *f, const double *values,
+                                 const vdbs_volume *volume, const vdbs_medium_box *box,
+                                 double density_scale, float *ms, float *const ms_l1[3],
+                                 float *radiance, vdbs_error *err);
+
+#ifdef __cplusplus
+}
+#endif
+
+#endif
