@@ -45,6 +45,10 @@ static const char help[] =
     "  --pop-tally T            POP fluence per cell crossing: chord (default; the lobe's\n"
     "                           mean chord, 2/3 of a cell for isotropic light) or cell (the\n"
     "                           paper's one cell side)\n"
+    "  --fld-res N              FLD: cells across the largest extent (default: the\n"
+    "                           quality's 24/32/48/64, never finer than the voxels)\n"
+    "  --fld-limiter on|off     FLD: Levermore-Pomraning flux limiter (default on) or\n"
+    "                           classic diffusion\n"
     "\n"
     "other options:\n"
     "  -o, --output FILE        lit VDB to write (refused if equal to the input)\n"
@@ -67,6 +71,8 @@ static const cli_option options[] = {
     {"--pop-decay", CLI_VALUE},
     {"--pop-iterations", CLI_VALUE},
     {"--pop-tally", CLI_VALUE},
+    {"--fld-res", CLI_VALUE},
+    {"--fld-limiter", CLI_VALUE},
     {"--camera", CLI_VALUE},
     {NULL, CLI_FLAG},
 };
@@ -122,6 +128,23 @@ static cJSON *report_json(const char *input, const char *output, const vdbs_scen
         cJSON_AddNumberToObject(pj, "merge_out", p->merge_out);
         cJSON_AddStringToObject(pj, "decay", scene->pop_decay_paper ? "paper" : "mean-cosine");
         cJSON_AddStringToObject(pj, "tally", scene->pop_tally_cell ? "cell" : "chord");
+    }
+    if (strcmp(scene->method, "fld") == 0) {
+        const vdbs_fld_stats *f = &r->fld;
+        cJSON_AddNumberToObject(t, "fld_source", f->seconds_source);
+        cJSON_AddNumberToObject(t, "fld_solve", f->seconds_solve);
+        cJSON_AddNumberToObject(t, "fld_upsample", f->seconds_upsample);
+        cJSON *fj = cJSON_AddObjectToObject(j, "fld");
+        cJSON_AddNumberToObject(fj, "resolution", f->resolution);
+        cJSON_AddNumberToObject(fj, "cells", (double)f->cells);
+        cJSON_AddNumberToObject(fj, "cell_side", f->cell_side);
+        cJSON_AddNumberToObject(fj, "updates", f->updates);
+        cJSON_AddNumberToObject(fj, "cg_iterations", f->cg_iterations);
+        cJSON_AddNumberToObject(fj, "residual", f->residual);
+        cJSON_AddNumberToObject(fj, "source", f->source);
+        cJSON_AddNumberToObject(fj, "absorbed", f->absorbed);
+        cJSON_AddNumberToObject(fj, "leaked", f->leaked);
+        cJSON_AddStringToObject(fj, "limiter", scene->fld_limiter_off ? "off" : "on");
     }
     double rmax[3] = {r->radiance_max[0], r->radiance_max[1], r->radiance_max[2]};
     cJSON_AddItemToObject(j, "radiance_max", cli_json_triple(rmax));

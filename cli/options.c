@@ -222,6 +222,12 @@ vdbs_status cli_build_scene(const cli_args *args, vdbs_scene *scene, int allow_n
             st = vdbs_scene_set_pop_decay(scene, v, err);
         } else if (strcmp(name, "--pop-tally") == 0) {
             st = vdbs_scene_set_pop_tally(scene, v, err);
+        } else if (strcmp(name, "--fld-res") == 0) {
+            long k = 0;
+            st = cli_integer(name, v, 2, VDBS_MAX_FLD_RESOLUTION, &k, err);
+            scene->fld_resolution = (int)k;
+        } else if (strcmp(name, "--fld-limiter") == 0) {
+            st = vdbs_scene_set_fld_limiter(scene, v, err);
         } else if (strcmp(name, "--method") == 0 || strcmp(name, "--quality") == 0) {
             char *dst = name[2] == 'm' ? scene->method : scene->quality;
             if (strlen(v) >= sizeof scene->method)

@@ -62,6 +62,7 @@ static vdbs_status solve(const vdbs_bake_options *o, const vdbs_solver *solver,
     memset(&stats, 0, sizeof stats);
     s->s1_stats = &stats;
     s->pop_stats = &report->pop;
+    s->fld_stats = &report->fld;
     st = solver->run(s, err);
     if (st == VDBS_OK && s->radiance_view && solver->writes_ms) {
         float *wo = vdbs_view_directions(volume, o->scene->camera.position);

@@ -109,8 +109,6 @@ vdbs_status vdbs_pop_propagate(vdbs_runner *runner, const uint32_t *params, cons
     return st;
 }
 
-/* ---- merging ---- */
-
 /* ---- the solve ---- */
 
 typedef struct pop_run {

@@ -19,7 +19,7 @@
 #define PATH_LEN 160
 #define SCENE_FILE_MAX (64L * 1024 * 1024)
 
-static const char *const method_names[] = {"single", "pop", "svd", "inet", NULL};
+static const char *const method_names[] = {"single", "pop", "fld", "svd", "inet", NULL};
 
 typedef struct parse_ctx {
     const char *prefix; /* "scene" or "scene FILE" */
@@ -337,6 +337,13 @@ vdbs_status vdbs_scene_set_pop_tally(vdbs_scene *scene, const char *name, vdbs_e
     return set_choice("--pop-tally", pop_tally_names, name, &scene->pop_tally_cell, err);
 }
 
+static const char *const fld_limiter_names[2] = {"on", "off"};
+
+vdbs_status vdbs_scene_set_fld_limiter(vdbs_scene *scene, const char *name, vdbs_error *err)
+{
+    return set_choice("--fld-limiter", fld_limiter_names, name, &scene->fld_limiter_off, err);
+}
+
 void vdbs_scene_init(vdbs_scene *scene)
 {
     memset(scene, 0, sizeof *scene);
@@ -576,9 +583,10 @@ static vdbs_status parse_camera(const parse_ctx *ctx, const cJSON *cam, vdbs_sce
 
 static vdbs_status parse_solver(const parse_ctx *ctx, const cJSON *sol, vdbs_scene *s)
 {
-    static const char *const keys[] = {"method",         "quality",       "sky_directions",
-                                       "pop_res",        "pop_ordinates", "pop_decay",
-                                       "pop_iterations", "pop_tally",     NULL};
+    static const char *const keys[] = {
+        "method",    "quality",        "sky_directions", "pop_res", "pop_ordinates",
+        "pop_decay", "pop_iterations", "pop_tally",      "fld_res", "fld_limiter",
+        NULL};
     vdbs_status st;
     bool found = false;
     if ((st = expect_object(ctx, sol, "solver")) != VDBS_OK ||
@@ -588,7 +596,7 @@ static vdbs_status parse_solver(const parse_ctx *ctx, const cJSON *sol, vdbs_sce
         return st;
     if (found && !in_list(s->method, method_names))
         return fail(ctx, "solver.method",
-                    "unknown method \"%s\" (expected single, pop, svd or inet)", s->method);
+                    "unknown method \"%s\" (expected single, pop, fld, svd or inet)", s->method);
     if ((st = get_string(ctx, sol, "solver", "quality", s->quality, sizeof s->quality, &found)) !=
         VDBS_OK)
         return st;
@@ -602,7 +610,9 @@ static vdbs_status parse_solver(const parse_ctx *ctx, const cJSON *sol, vdbs_sce
         (st = get_int_in(ctx, sol, "solver", "pop_ordinates", 1, VDBS_MAX_SKY_DIRECTIONS,
                          &s->pop_ordinates)) != VDBS_OK ||
         (st = get_int_in(ctx, sol, "solver", "pop_iterations", 1, VDBS_MAX_POP_ITERATIONS,
-                         &s->pop_iterations)) != VDBS_OK)
+                         &s->pop_iterations)) != VDBS_OK ||
+        (st = get_int_in(ctx, sol, "solver", "fld_res", 2, VDBS_MAX_FLD_RESOLUTION,
+                         &s->fld_resolution)) != VDBS_OK)
         return st;
     char value[32] = "";
     if ((st = get_string(ctx, sol, "solver", "pop_decay", value, sizeof value, &found)) != VDBS_OK)
@@ -614,6 +624,12 @@ static vdbs_status parse_solver(const parse_ctx *ctx, const cJSON *sol, vdbs_sce
         return st;
     if (found && vdbs_scene_set_pop_tally(s, value, NULL) != VDBS_OK)
         return fail(ctx, "solver.pop_tally", "unknown tally \"%s\" (expected chord or cell)",
+                    value);
+    if ((st = get_string(ctx, sol, "solver", "fld_limiter", value, sizeof value, &found)) !=
+        VDBS_OK)
+        return st;
+    if (found && vdbs_scene_set_fld_limiter(s, value, NULL) != VDBS_OK)
+        return fail(ctx, "solver.fld_limiter", "unknown limiter \"%s\" (expected on or off)",
                     value);
     return VDBS_OK;
 }
@@ -899,7 +915,9 @@ char *vdbs_scene_to_json(const vdbs_scene *s)
          (s->pop_ordinates == 0 || add_int(sol, "pop_ordinates", s->pop_ordinates)) &&
          (s->pop_iterations == 0 || add_int(sol, "pop_iterations", s->pop_iterations)) &&
          add_string(sol, "pop_decay", pop_decay_names[s->pop_decay_paper != 0]) &&
-         add_string(sol, "pop_tally", pop_tally_names[s->pop_tally_cell != 0]);
+         add_string(sol, "pop_tally", pop_tally_names[s->pop_tally_cell != 0]) &&
+         (s->fld_resolution == 0 || add_int(sol, "fld_res", s->fld_resolution)) &&
+         add_string(sol, "fld_limiter", fld_limiter_names[s->fld_limiter_off != 0]);
     if (ok)
         text = cJSON_PrintUnformatted(root);
     cJSON_Delete(root);
@@ -1046,7 +1064,7 @@ vdbs_status vdbs_scene_validate(vdbs_scene *s, vdbs_error *err)
         return st;
     if (!in_list(s->method, method_names))
         return fail(&ctx, "solver.method",
-                    "unknown method \"%s\" (expected single, pop, svd or inet)", s->method);
+                    "unknown method \"%s\" (expected single, pop, fld, svd or inet)", s->method);
     if (!vdbs_quality_find(s->quality))
         return fail(&ctx, "solver.quality",
                     "unknown quality \"%s\" (expected low, medium, high or ultra)", s->quality);

@@ -2,6 +2,7 @@
 
 #include <string.h>
 
+#include "vdbscatter/fld.h"
 #include "vdbscatter/pop.h"
 #include "vdbscatter/single.h"
 
@@ -64,11 +65,29 @@ static vdbs_status run_pop(const vdbs_solve *s, vdbs_error *err)
     return st;
 }
 
+/* Exact S1, then flux-limited diffusion of the first-scattered light. */
+static vdbs_status run_fld(const vdbs_solve *s, vdbs_error *err)
+{
+    vdbs_status st = run_single(s, err);
+    if (st != VDBS_OK)
+        return st;
+    vdbs_fld_desc desc = {0};
+    desc.resolution = s->scene->fld_resolution;
+    desc.limiter_off = s->scene->fld_limiter_off;
+    vdbs_fld_stats stats;
+    st = vdbs_fld_solve(s, &desc, &stats, err);
+    if (s->fld_stats)
+        *s->fld_stats = stats;
+    return st;
+}
+
 static const vdbs_solver solvers[VDBS_METHOD_COUNT] = {
     {VDBS_METHOD_SINGLE, "single", "exact single scattering only (no multiple scattering)", 0,
      run_single},
     {VDBS_METHOD_POP, "pop",
      "exact single scattering + Principal-Ordinates Propagation (suns and skies)", 1, run_pop},
+    {VDBS_METHOD_FLD, "fld",
+     "exact single scattering + flux-limited diffusion of the first-scattered light", 1, run_fld},
 };
 
 const vdbs_solver *vdbs_solver_find(const char *name)

@@ -4,6 +4,7 @@
 
 #include "vdbscatter/kernel.h"
 #include "vdbscatter/lightgrid.h"
+#include "vdbscatter/fld.h"
 #include "vdbscatter/pop.h"
 #include "vdbscatter/scene.h"
 #include "vdbscatter/status.h"
@@ -40,6 +41,7 @@ typedef struct vdbs_bake_report {
     vdbs_light_grid_stats s1_grids;
     double seconds_s1_lookup;
     vdbs_pop_stats pop; /* --method pop: grids, iterations, residual, stage times */
+    vdbs_fld_stats fld; /* --method fld: cells, iterations, residual, energy, stage times */
     double seconds_load;
     double seconds_solve;
     double seconds_write;

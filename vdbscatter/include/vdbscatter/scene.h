@@ -42,6 +42,8 @@ typedef struct vdbs_light {
 #define VDBS_MAX_POP_RESOLUTION 512
 /* Most iterations of a POP directional grid (--pop-iterations). */
 #define VDBS_MAX_POP_ITERATIONS 100000
+/* Most FLD cells across the largest extent (--fld-res). */
+#define VDBS_MAX_FLD_RESOLUTION 1024
 
 typedef struct vdbs_camera {
     int present;
@@ -77,6 +79,9 @@ typedef struct vdbs_scene {
     int pop_decay_paper; /* 1: a g^(sigma_s t) ("paper"); 0: the mean-cosine law */
     int pop_tally_cell;  /* 1: a crossing counts one cell side ("cell", the paper's); 0: the
                             lobe's mean chord ("chord") */
+    /* FLD (solver.fld_res, fld_limiter; --fld-*): 0 = the default. */
+    int fld_resolution;  /* cells across the largest extent; 0: the quality's */
+    int fld_limiter_off; /* 1: classic diffusion (no flux limiter) */
 } vdbs_scene;
 
 /* Defaults follow Blender Cycles' Principled Volume: density 1, albedo 0.5, g 0;
@@ -123,6 +128,8 @@ vdbs_status vdbs_scene_set_grid(vdbs_scene *scene, const char *spec, vdbs_error 
 vdbs_status vdbs_scene_set_pop_decay(vdbs_scene *scene, const char *name, vdbs_error *err);
 /* --pop-tally / solver.pop_tally: "chord" or "cell". */
 vdbs_status vdbs_scene_set_pop_tally(vdbs_scene *scene, const char *name, vdbs_error *err);
+/* --fld-limiter / solver.fld_limiter: "on" or "off". */
+vdbs_status vdbs_scene_set_fld_limiter(vdbs_scene *scene, const char *name, vdbs_error *err);
 
 /* The resolved env-map path of an env light of `scene`: "" for a constant env, and also
  * for an env_map that is not a path of this scene (vdbs_scene_validate reports that). */

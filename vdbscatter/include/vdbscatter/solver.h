@@ -31,9 +31,15 @@ const vdbs_quality *vdbs_quality_find(const char *name);
 /* Number of sky quadrature directions for a quality name, or 0 if unknown. */
 int vdbs_quality_sky_directions(const char *name);
 
-typedef enum vdbs_method { VDBS_METHOD_SINGLE = 0, VDBS_METHOD_POP, VDBS_METHOD_COUNT } vdbs_method;
+typedef enum vdbs_method {
+    VDBS_METHOD_SINGLE = 0,
+    VDBS_METHOD_POP,
+    VDBS_METHOD_FLD,
+    VDBS_METHOD_COUNT
+} vdbs_method;
 
 struct vdbs_pop_stats;
+struct vdbs_fld_stats;
 
 /* What a solver reads and writes; the bake owns every buffer. */
 typedef struct vdbs_solve {
@@ -46,6 +52,7 @@ typedef struct vdbs_solve {
     vdbs_progress *progress;
     vdbs_s1_stats *s1_stats;          /* filled when S1 comes from light grids; may be NULL */
     struct vdbs_pop_stats *pop_stats; /* filled by POP; may be NULL */
+    struct vdbs_fld_stats *fld_stats; /* filled by FLD; may be NULL */
     /* Outputs, 3 floats per output voxel (coords order), zeroed by the caller. */
     float *radiance;      /* S1 + Sms direction average */
     float *ms;            /* Sms direction average */

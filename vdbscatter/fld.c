@@ -1,0 +1,523 @@
+#include "vdbscatter/fld.h"
+
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "vdbscatter/coarse.h"
+#include "vdbscatter/medium.h"
+#include "vdbs_math.h"
+
+#define PNANOVDB_C
+#include <nanovdb/PNanoVDB.h>
+
+#include "vs_common.h"
+#include "vs_march.h"
+#include "vs_medium.h"
+#include "vs_fld.h"
+
+#define FLD_DEFAULT_UPDATES 6
+/* CG keeps a recursively updated residual; every so many iterations it is replaced by the
+ * true one, b - A x in double, so that the float operator's rounding cannot stall it. */
+#define FLD_RESIDUAL_REPLACEMENT 32
+
+void vdbs_fld_quality(const char *quality, int *resolution, double *tolerance)
+{
+    static const struct {
+        const char *name;
+        int resolution;
+        double tolerance;
+    } presets[] = {
+        {"low", 24, 1e-4}, {"medium", 32, 1e-5}, {"high", 48, 1e-6}, {"ultra", 64, 1e-7}};
+    *resolution = 32;
+    *tolerance = 1e-5;
+    for (size_t q = 0; quality && q < sizeof presets / sizeof presets[0]; ++q)
+        if (strcmp(quality, presets[q].name) == 0) {
+            *resolution = presets[q].resolution;
+            *tolerance = presets[q].tolerance;
+        }
+}
+
+/* ---- the operator through the runner ---- */
+
+typedef struct fld_kernel {
+    const uint32_t *params;
+    const float *coef;
+} fld_kernel;
+
+static double fld_step(void *user, int step, const void *state_in, void *state_out, uint64_t begin,
+                       uint64_t end)
+{
+    (void)step;
+    const fld_kernel *k = user;
+    const float *x = state_in;
+    float *y = state_out;
+    double xax = 0.0;
+    for (uint64_t cell = begin; cell < end; ++cell) {
+        y[cell] = vs_fld_apply(k->params, k->coef, x, (int)cell);
+        xax += (double)x[cell] * y[cell];
+    }
+    return xax;
+}
+
+vdbs_status vdbs_fld_operator(vdbs_runner *runner, const uint32_t *params, const float *coef,
+                              int64_t cells, const float *x, float *y, double *xax, vdbs_error *err)
+{
+    fld_kernel k = {params, coef};
+    memcpy(y, x, sizeof(float) * (size_t)cells);
+    vdbs_kernel_desc desc;
+    memset(&desc, 0, sizeof desc);
+    desc.items = (uint64_t)cells;
+    desc.user = &k;
+    desc.cpu_step = fld_step;
+    desc.shader = "fld_apply.comp";
+    desc.inputs[1] = (vdbs_kernel_input){params, sizeof(uint32_t) * VS_FLD_PARAM_WORDS};
+    desc.inputs[2] =
+        (vdbs_kernel_input){coef, sizeof(float) * VS_FLD_COEF_WORDS * 3 * (size_t)cells};
+    desc.state_words = 1;
+    desc.state = y;
+    desc.max_iterations = 1;
+    desc.reduce = VDBS_REDUCE_SUM;
+    vdbs_kernel_result result;
+    memset(&result, 0, sizeof result);
+    vdbs_status st = vdbs_kernel_iterate(runner, &desc, &result, err);
+    if (xax)
+        *xax = result.reduction;
+    return st;
+}
+
+/* ---- the discrete system ---- */
+
+typedef struct fld_system {
+    const vdbs_fld_grid *grid;
+    int64_t cells;
+    double d_max; /* cap of D: a medium with sigma_tr = 1 / (the grid's largest extent) */
+    double *d;    /* 3 per cell: the diffusion coefficient in use */
+    float *coef;  /* VS_FLD_COEF_WORDS per cell and channel */
+    double *leak; /* 3 per cell: the boundary faces' Marshak leak per volume, summed */
+} fld_system;
+
+static double sigma_tr(const vdbs_fld_grid *g, int64_t c, int ch)
+{
+    return (double)g->sigma_t[c] * (1.0 - g->albedo[ch] * g->g);
+}
+
+/* |grad phi| of one channel at cell c by central differences (one-sided at the faces). */
+static double grad_norm(const vdbs_fld_grid *g, const double *phi, int64_t c, int ch)
+{
+    const int64_t stride[3] = {1, g->n[0], (int64_t)g->n[0] * g->n[1]};
+    const int at[3] = {(int)(c % g->n[0]), (int)((c / g->n[0]) % g->n[1]),
+                       (int)(c / ((int64_t)g->n[0] * g->n[1]))};
+    double sum = 0.0;
+    for (int a = 0; a < 3; ++a) {
+        int lo = at[a] > 0, hi = at[a] + 1 < g->n[a];
+        if (!lo && !hi)
+            continue;
+        double up = phi[3 * (c + (hi ? stride[a] : 0)) + ch];
+        double down = phi[3 * (c - (lo ? stride[a] : 0)) + ch];
+        double d = (up - down) / ((lo + hi) * g->h);
+        sum += d * d;
+    }
+    return sqrt(sum);
+}
+
+/* D per cell and channel: classic diffusion without phi (or with the limiter off), else the
+ * Levermore-Pomraning limiter written so that it stays finite where sigma_tr or phi vanish:
+ * with s = sigma_tr phi and G = |grad phi|, lambda(R) / sigma_tr = phi (2 s + G) /
+ * (6 s^2 + 3 s G + G^2) (free streaming, phi / G, in empty cells). */
+static void update_d(fld_system *sys, const double *phi, int limiter)
+{
+    const vdbs_fld_grid *g = sys->grid;
+#pragma omp parallel for schedule(static)
+    for (int64_t c = 0; c < sys->cells; ++c)
+        for (int ch = 0; ch < 3; ++ch) {
+            double st = sigma_tr(g, c, ch), d = sys->d_max;
+            if (!limiter || !phi) {
+                if (st > 0.0)
+                    d = 1.0 / (3.0 * st);
+            } else {
+                double p = phi[3 * c + ch], grad = grad_norm(g, phi, c, ch);
+                double s = st * p, den = 6.0 * s * s + 3.0 * s * grad + grad * grad;
+                if (p > 0.0 && den > 0.0)
+                    d = p * (2.0 * s + grad) / den;
+            }
+            sys->d[3 * c + ch] = fmin(d, sys->d_max);
+        }
+}
+
+/* The coefficients of every channel from D: couplings by the harmonic mean of the two cells'
+ * D over h^2; a boundary face leaks phi 2 D / (h + 4 D) per area (Marshak: no light enters). */
+static void build_coef(fld_system *sys)
+{
+    const vdbs_fld_grid *g = sys->grid;
+    const double h = g->h;
+    const int64_t stride[3] = {1, g->n[0], (int64_t)g->n[0] * g->n[1]};
+    const int k_axis[3] = {VS_FLD_COEF_X, VS_FLD_COEF_Y, VS_FLD_COEF_Z};
+#pragma omp parallel for schedule(static)
+    for (int64_t c = 0; c < sys->cells; ++c) {
+        const int at[3] = {(int)(c % g->n[0]), (int)((c / g->n[0]) % g->n[1]),
+                           (int)(c / ((int64_t)g->n[0] * g->n[1]))};
+        for (int ch = 0; ch < 3; ++ch) {
+            double di = sys->d[3 * c + ch];
+            double diag = (double)g->sigma_t[c] * (1.0 - g->albedo[ch]), leak = 0.0;
+            for (int a = 0; a < 3; ++a) {
+                double up = 0.0, down = 0.0;
+                if (at[a] + 1 < g->n[a]) {
+                    double dj = sys->d[3 * (c + stride[a]) + ch];
+                    up = di + dj > 0.0 ? 2.0 * di * dj / (di + dj) / (h * h) : 0.0;
+                    diag += up;
+                } else {
+                    leak += 2.0 * di / ((h + 4.0 * di) * h);
+                }
+                if (at[a] > 0) {
+                    double dj = sys->d[3 * (c - stride[a]) + ch];
+                    down = di + dj > 0.0 ? 2.0 * di * dj / (di + dj) / (h * h) : 0.0;
+                    diag += down;
+                } else {
+                    leak += 2.0 * di / ((h + 4.0 * di) * h);
+                }
+                sys->coef[vs_fld_coef_at((int)c, ch, k_axis[a])] = (float)up;
+            }
+            sys->coef[vs_fld_coef_at((int)c, ch, VS_FLD_COEF_DIAG)] = (float)(diag + leak);
+            sys->leak[3 * c + ch] = leak;
+        }
+    }
+}
+
+/* r = b - A x for one channel in double from the float coefficients: the true residual that
+ * CG's recursive one is replaced by, and that the energy tallies rest on. */
+static double true_residual(const fld_system *sys, int ch, const double *b, const double *x,
+                            double *r)
+{
+    const vdbs_fld_grid *g = sys->grid;
+    const int64_t stride[3] = {1, g->n[0], (int64_t)g->n[0] * g->n[1]};
+    const int k_axis[3] = {VS_FLD_COEF_X, VS_FLD_COEF_Y, VS_FLD_COEF_Z};
+    double norm = 0.0;
+#pragma omp parallel for schedule(static) reduction(+ : norm)
+    for (int64_t c = 0; c < sys->cells; ++c) {
+        const int at[3] = {(int)(c % g->n[0]), (int)((c / g->n[0]) % g->n[1]),
+                           (int)(c / ((int64_t)g->n[0] * g->n[1]))};
+        double y = (double)sys->coef[vs_fld_coef_at((int)c, ch, VS_FLD_COEF_DIAG)] * x[c];
+        for (int a = 0; a < 3; ++a) {
+            if (at[a] + 1 < g->n[a])
+                y -= (double)sys->coef[vs_fld_coef_at((int)c, ch, k_axis[a])] * x[c + stride[a]];
+            if (at[a] > 0)
+                y -= (double)sys->coef[vs_fld_coef_at((int)(c - stride[a]), ch, k_axis[a])] *
+                     x[c - stride[a]];
+        }
+        r[c] = b[c] - y;
+        norm += r[c] * r[c];
+    }
+    return sqrt(norm);
+}
+
+/* Jacobi-preconditioned CG for one channel: x in (first guess) and out. Returns the
+ * iterations; *relative the final true relative residual. */
+static vdbs_status solve_channel(vdbs_runner *runner, const fld_system *sys, int ch,
+                                 const double *b, double *x, double tolerance, int max_iterations,
+                                 int *iterations, double *relative, vdbs_error *err)
+{
+    const int64_t n = sys->cells;
+    double *r = malloc(sizeof *r * (size_t)n), *z = malloc(sizeof *z * (size_t)n);
+    double *p = malloc(sizeof *p * (size_t)n);
+    float *pf = malloc(sizeof *pf * (size_t)n), *apf = malloc(sizeof *apf * (size_t)n);
+    vdbs_status st = VDBS_OK;
+    if (!r || !z || !p || !pf || !apf) {
+        st =
+            vdbs_error_set(err, VDBS_ERR_NOMEM, "out of memory for FLD's %lld cells", (long long)n);
+        goto done;
+    }
+    uint32_t params[VS_FLD_PARAM_WORDS] = {0};
+    for (int a = 0; a < 3; ++a)
+        params[VS_FLD_OFF_N + a] = (uint32_t)sys->grid->n[a];
+    params[VS_FLD_OFF_CHANNEL] = (uint32_t)ch;
+    double b_norm = 0.0;
+    for (int64_t c = 0; c < n; ++c)
+        b_norm += b[c] * b[c];
+    b_norm = sqrt(b_norm);
+    *iterations = 0;
+    *relative = 0.0;
+    if (!(b_norm > 0.0)) {
+        memset(x, 0, sizeof *x * (size_t)n);
+        goto done;
+    }
+    double rz = 0.0;
+    int since_true = FLD_RESIDUAL_REPLACEMENT;
+    for (;;) {
+        if (since_true >= FLD_RESIDUAL_REPLACEMENT) {
+            /* (Re)start from the true residual. */
+            *relative = true_residual(sys, ch, b, x, r) / b_norm;
+            if (*relative <= tolerance || *iterations >= max_iterations)
+                break;
+            rz = 0.0;
+            for (int64_t c = 0; c < n; ++c) {
+                double diag = sys->coef[vs_fld_coef_at((int)c, ch, VS_FLD_COEF_DIAG)];
+                z[c] = diag > 0.0 ? r[c] / diag : r[c];
+                p[c] = z[c];
+                rz += r[c] * z[c];
+            }
+            since_true = 0;
+        }
+        for (int64_t c = 0; c < n; ++c)
+            pf[c] = (float)p[c];
+        st = vdbs_fld_operator(runner, params, sys->coef, n, pf, apf, NULL, err);
+        if (st != VDBS_OK)
+            break;
+        double pap = 0.0;
+        for (int64_t c = 0; c < n; ++c)
+            pap += p[c] * apf[c];
+        ++*iterations;
+        ++since_true;
+        if (!(pap > 0.0)) {
+            since_true = FLD_RESIDUAL_REPLACEMENT; /* lost conjugacy: restart */
+            continue;
+        }
+        double alpha = rz / pap, rz_new = 0.0, r_norm = 0.0;
+        for (int64_t c = 0; c < n; ++c) {
+            x[c] += alpha * p[c];
+            r[c] -= alpha * apf[c];
+            double diag = sys->coef[vs_fld_coef_at((int)c, ch, VS_FLD_COEF_DIAG)];
+            z[c] = diag > 0.0 ? r[c] / diag : r[c];
+            rz_new += r[c] * z[c];
+            r_norm += r[c] * r[c];
+        }
+        /* The recursive residual says done: check it against the true one. */
+        if (sqrt(r_norm) <= tolerance * b_norm || *iterations >= max_iterations) {
+            since_true = FLD_RESIDUAL_REPLACEMENT;
+            continue;
+        }
+        double beta = rz_new / rz;
+        rz = rz_new;
+        for (int64_t c = 0; c < n; ++c)
+            p[c] = z[c] + beta * p[c];
+    }
+done:
+    free(r);
+    free(z);
+    free(p);
+    free(pf);
+    free(apf);
+    return st;
+}
+
+/* Energy tallies from phi in double: source, absorbed and leaked power (summed channels). */
+static void tally(const fld_system *sys, const double *phi, vdbs_fld_stats *stats)
+{
+    const vdbs_fld_grid *g = sys->grid;
+    const double volume = g->h * g->h * g->h;
+    double source = 0.0, absorbed = 0.0, leaked = 0.0;
+    for (int64_t c = 0; c < sys->cells; ++c)
+        for (int ch = 0; ch < 3; ++ch) {
+            source += g->source[3 * c + ch] * volume;
+            absorbed += (double)g->sigma_t[c] * (1.0 - g->albedo[ch]) * phi[3 * c + ch] * volume;
+            leaked += sys->leak[3 * c + ch] * phi[3 * c + ch] * volume;
+        }
+    stats->source = source;
+    stats->absorbed = absorbed;
+    stats->leaked = leaked;
+}
+
+vdbs_status vdbs_fld_solve_grid(vdbs_runner *runner, const vdbs_fld_grid *grid,
+                                const vdbs_fld_desc *desc, double *phi, double *flux,
+                                vdbs_fld_stats *stats, vdbs_error *err)
+{
+    vdbs_fld_stats local;
+    if (!stats)
+        stats = &local;
+    vdbs_fld_desc d = desc ? *desc : (vdbs_fld_desc){0};
+    if (d.max_updates <= 0)
+        d.max_updates = FLD_DEFAULT_UPDATES;
+    if (!(d.tolerance > 0.0))
+        d.tolerance = 1e-5;
+    fld_system sys;
+    memset(&sys, 0, sizeof sys);
+    sys.grid = grid;
+    sys.cells = (int64_t)grid->n[0] * grid->n[1] * grid->n[2];
+    const int largest = grid->n[0] > grid->n[1]
+                            ? (grid->n[0] > grid->n[2] ? grid->n[0] : grid->n[2])
+                            : (grid->n[1] > grid->n[2] ? grid->n[1] : grid->n[2]);
+    sys.d_max = largest * grid->h / 3.0;
+    stats->cells = sys.cells;
+    stats->cell_side = grid->h;
+    const size_t n3 = 3 * (size_t)sys.cells;
+    sys.d = malloc(sizeof *sys.d * n3);
+    sys.leak = malloc(sizeof *sys.leak * n3);
+    sys.coef = malloc(sizeof *sys.coef * n3 * VS_FLD_COEF_WORDS);
+    double *b = malloc(sizeof *b * (size_t)sys.cells), *x = malloc(sizeof *x * (size_t)sys.cells);
+    vdbs_status st = VDBS_OK;
+    if (!sys.d || !sys.leak || !sys.coef || !b || !x)
+        st = vdbs_error_set(err, VDBS_ERR_NOMEM, "out of memory for FLD's %lld cells",
+                            (long long)sys.cells);
+    /* Without a first guess the first solve is classic diffusion; the limiter then needs phi. */
+    int have_phi = 0;
+    for (size_t v = 0; v < n3 && !have_phi; ++v)
+        have_phi = phi[v] != 0.0;
+    const int cap = 20 * largest + 200;
+    stats->cg_iterations = 0;
+    stats->updates = 0;
+    for (int u = 0; u < (d.limiter_off ? 1 : d.max_updates) && st == VDBS_OK; ++u) {
+        update_d(&sys, have_phi ? phi : NULL, !d.limiter_off);
+        build_coef(&sys);
+        double worst = 0.0;
+        for (int ch = 0; ch < 3 && st == VDBS_OK; ++ch) {
+            for (int64_t c = 0; c < sys.cells; ++c) {
+                b[c] = grid->source[3 * c + ch];
+                x[c] = phi[3 * c + ch];
+            }
+            int iterations = 0;
+            double relative = 0.0;
+            st = solve_channel(runner, &sys, ch, b, x, d.tolerance, cap, &iterations, &relative,
+                               err);
+            stats->cg_iterations += iterations;
+            worst = fmax(worst, relative);
+            for (int64_t c = 0; c < sys.cells; ++c)
+                phi[3 * c + ch] = x[c];
+        }
+        have_phi = 1;
+        stats->updates = u + 1;
+        stats->residual = worst;
+    }
+    if (st == VDBS_OK) {
+        tally(&sys, phi, stats);
+        if (flux) {
+            const int64_t stride[3] = {1, grid->n[0], (int64_t)grid->n[0] * grid->n[1]};
+            for (int64_t c = 0; c < sys.cells; ++c) {
+                const int at[3] = {(int)(c % grid->n[0]), (int)((c / grid->n[0]) % grid->n[1]),
+                                   (int)(c / ((int64_t)grid->n[0] * grid->n[1]))};
+                for (int ch = 0; ch < 3; ++ch)
+                    for (int a = 0; a < 3; ++a) {
+                        int lo = at[a] > 0, hi = at[a] + 1 < grid->n[a];
+                        double up = phi[3 * (c + (hi ? stride[a] : 0)) + ch];
+                        double down = phi[3 * (c - (lo ? stride[a] : 0)) + ch];
+                        double gradient = lo + hi ? (up - down) / ((lo + hi) * grid->h) : 0.0;
+                        flux[9 * c + 3 * a + ch] = -sys.d[3 * c + ch] * gradient;
+                    }
+            }
+        }
+    }
+    free(sys.d);
+    free(sys.leak);
+    free(sys.coef);
+    free(b);
+    free(x);
+    return st;
+}
+
+/* ---- the bake ---- */
+
+/* |det| of the index-to-world map: a voxel's world volume. */
+static double voxel_volume(const vdbs_volume *volume)
+{
+    const double(*m)[4] = volume->index_to_world;
+    return fabs(m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1]) -
+                m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0]) +
+                m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0]));
+}
+
+/* Q per cell: every voxel's first-scattered power, sigma_s 4 pi S1 times its volume, splatted
+ * into the cells (trilinear, renormalised: the total is kept) over the cell volume. */
+static void gather_source(const vdbs_solve *s, const vdbs_coarse_frame *f, double *source)
+{
+    const vdbs_volume *volume = s->volume;
+    pnanovdb_buf_t buf = pnanovdb_make_buf(volume->nano, volume->nano_size / 4);
+    pnanovdb_readaccessor_t acc = vs_density_accessor(buf);
+    const double scale = voxel_volume(volume) / (f->h * f->h * f->h) * 4.0 * VDBS_PI;
+    for (size_t n = 0; n < volume->coord_count; ++n) {
+        const int32_t *c = volume->coords + 3 * n;
+        double density = vs_density_voxel(buf, &acc, vs_coord(c[0], c[1], c[2]));
+        if (!(density > 0.0))
+            continue;
+        double q[3], idx[3] = {c[0], c[1], c[2]}, w[3];
+        for (int ch = 0; ch < 3; ++ch)
+            q[ch] = s->scene->density_scale * density * s->scene->albedo[ch] *
+                    (double)s->radiance[3 * n + ch];
+        vdbs_volume_world_point(volume, idx, w);
+        vdbs_coarse_splat(f, source, 3, w, q, scale);
+    }
+}
+
+vdbs_status vdbs_fld_solve(const vdbs_solve *s, const vdbs_fld_desc *desc, vdbs_fld_stats *stats,
+                           vdbs_error *err)
+{
+    vdbs_fld_stats local;
+    if (!stats)
+        stats = &local;
+    memset(stats, 0, sizeof *stats);
+    vdbs_fld_desc d = desc ? *desc : (vdbs_fld_desc){0};
+    int resolution;
+    double tolerance;
+    vdbs_fld_quality(s->quality ? s->quality->name : NULL, &resolution, &tolerance);
+    if (d.resolution <= 0)
+        d.resolution = resolution;
+    if (!(d.tolerance > 0.0))
+        d.tolerance = tolerance;
+    double corners[8][3];
+    vdbs_volume_support_corners(s->volume, corners);
+    double lo[3] = {HUGE_VAL, HUGE_VAL, HUGE_VAL}, hi[3] = {-HUGE_VAL, -HUGE_VAL, -HUGE_VAL};
+    for (int c = 0; c < 8; ++c)
+        for (int a = 0; a < 3; ++a) {
+            lo[a] = fmin(lo[a], corners[c][a]);
+            hi[a] = fmax(hi[a], corners[c][a]);
+        }
+    const double extent = fmax(hi[0] - lo[0], fmax(hi[1] - lo[1], hi[2] - lo[2]));
+    /* Never finer than the voxels: a cell of at least one mean voxel length. */
+    const int voxels_across = (int)ceil(extent / s->volume->mean_voxel_size - 1e-9);
+    if (d.resolution > voxels_across)
+        d.resolution = voxels_across > 1 ? voxels_across : 1;
+    const double h = extent / d.resolution;
+    const double world_axes[3][3] = {{1, 0, 0}, {0, 1, 0}, {0, 0, 1}};
+    vdbs_coarse_frame f;
+    vdbs_coarse_fit(corners, world_axes, h, &f);
+    const int64_t cells = vdbs_coarse_cells(&f);
+    stats->resolution = d.resolution;
+    double t0 = vdbs_now();
+    vdbs_medium_box box;
+    int block = (int)floor(h / s->volume->mean_voxel_size);
+    vdbs_status st = vdbs_medium_box_build(s->volume, block < 1 ? 1 : block, &box, err);
+    if (st != VDBS_OK)
+        return st;
+    float *sigma = malloc(sizeof *sigma * (size_t)cells);
+    double *source = calloc(3 * (size_t)cells, sizeof *source);
+    double *phi = calloc(3 * (size_t)cells, sizeof *phi);
+    double *flux = d.write_l1 ? calloc(9 * (size_t)cells, sizeof *flux) : NULL;
+    double *values = calloc(VDBS_COARSE_WIDTH * (size_t)cells, sizeof *values);
+    if (!sigma || !source || !phi || (d.write_l1 && !flux) || !values)
+        st = vdbs_error_set(err, VDBS_ERR_NOMEM, "out of memory for FLD's %lld cells",
+                            (long long)cells);
+    if (st == VDBS_OK) {
+        vdbs_coarse_sigma(&f, s->volume, &box, s->scene->density_scale, sigma);
+        gather_source(s, &f, source);
+        stats->seconds_source = vdbs_now() - t0;
+        vdbs_fld_grid grid = {{f.n[0], f.n[1], f.n[2]},
+                              h,
+                              sigma,
+                              {s->scene->albedo[0], s->scene->albedo[1], s->scene->albedo[2]},
+                              s->scene->g,
+                              source};
+        double t1 = vdbs_now();
+        st = vdbs_fld_solve_grid(s->runner, &grid, &d, phi, flux, stats, err);
+        stats->seconds_solve = vdbs_now() - t1;
+    }
+    if (st == VDBS_OK) {
+        double t2 = vdbs_now();
+        const double l1 = 3.0 * s->scene->g * VDBS_INV_4PI;
+        for (int64_t c = 0; c < cells; ++c)
+            for (int ch = 0; ch < 3; ++ch) {
+                values[VDBS_COARSE_WIDTH * c + VDBS_COARSE_MS + ch] =
+                    fmax(phi[3 * c + ch], 0.0) * VDBS_INV_4PI;
+                for (int a = 0; flux && a < 3; ++a)
+                    values[VDBS_COARSE_WIDTH * c + VDBS_COARSE_L1 + 3 * a + ch] =
+                        l1 * flux[9 * c + 3 * a + ch];
+            }
+        st = vdbs_coarse_upsample(&f, values, s->volume, &box, s->scene->density_scale, s->ms,
+                                  s->ms_l1, s->radiance, err);
+        stats->seconds_upsample = vdbs_now() - t2;
+    }
+    vdbs_medium_box_free(&box);
+    free(sigma);
+    free(source);
+    free(phi);
+    free(flux);
+    free(values);
+    return st;
+}

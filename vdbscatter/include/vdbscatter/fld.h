@@ -1,0 +1,85 @@
+/* Flux-limited diffusion (Koerner, Portsmouth, Sadlo, Ertl, Eberhardt 2014): multiple
+ * scattering as the steady diffusion of the first-scattered light,
+ *   -div(D grad phi) + sigma_a phi = Q,   D = lambda(R) / sigma_tr,
+ * with the reduced coefficient sigma_tr = sigma_a + sigma_s (1 - g) and the Levermore-Pomraning
+ * limiter lambda(R) = (2 + R) / (6 + 3 R + R^2), R = |grad phi| / (sigma_tr phi), on a
+ * world-aligned grid of cubic cells over the support box (coarse.h). Cell-centred finite
+ * volumes, face coefficients by harmonic mean, a Marshak vacuum condition at the boundary;
+ * each channel's symmetric system is solved by Jacobi-preconditioned conjugate gradients whose
+ * operator runs through the kernel runner (shaders/vs_fld.h, fld_apply.comp), the limiter
+ * updated between solves. Q is the light scattered for the first time, sigma_s times the
+ * S1 pass's fluence at every voxel, gathered into the cells; ms = phi / 4 pi. */
+#ifndef VDBSCATTER_FLD_H
+#define VDBSCATTER_FLD_H
+
+#include <stdint.h>
+
+#include "vdbscatter/kernel.h"
+#include "vdbscatter/solver.h"
+#include "vdbscatter/status.h"
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+/* Zero-initialise; 0 means the default. */
+typedef struct vdbs_fld_desc {
+    int resolution;   /* cells across the largest extent (--fld-res); default: the quality's,
+                         never finer than the voxels */
+    int limiter_off;  /* 1: classic diffusion, D = 1 / (3 sigma_tr) */
+    int max_updates;  /* solves with the limiter updated in between; default 6 */
+    double tolerance; /* relative residual |b - A phi| / |b| of every solve; default: the
+                         quality's */
+    int write_l1;     /* 1: ms_l1 from the diffusive flux, (3 g / 4 pi) (-D grad phi) */
+} vdbs_fld_desc;
+
+/* The defaults of a quality name: cells across 24 / 32 / 48 / 64 and tolerance 1e-4 / 1e-5 /
+ * 1e-6 / 1e-7. */
+void vdbs_fld_quality(const char *quality, int *resolution, double *tolerance);
+
+/* A medium on a grid of n[0] x n[1] x n[2] cells of side h (item (k n1 + j) n0 + i). */
+typedef struct vdbs_fld_grid {
+    int n[3];
+    double h;
+    const float *sigma_t; /* per cell */
+    double albedo[3];
+    double g;
+    const double *source; /* Q per cell and channel (3 per cell): power per volume */
+} vdbs_fld_grid;
+
+typedef struct vdbs_fld_stats {
+    int resolution;
+    int64_t cells;
+    double cell_side;
+    int updates;       /* solves run (limiter updates + 1) */
+    int cg_iterations; /* summed over channels and solves */
+    double residual;   /* the last solve's relative residual, worst channel, in double */
+    /* Power summed over the channels: source sum Q V, absorbed sum sigma_a phi V, leaked
+     * through the boundary (Marshak), all from phi in double. */
+    double source, absorbed, leaked;
+    double seconds_source, seconds_solve, seconds_upsample;
+} vdbs_fld_stats;
+
+/* Solves the grid's system: phi (3 per cell) in and out (in: the first guess, 0 if unknown);
+ * flux (9 per cell: x, y, z components of the R, G, B diffusive flux -D grad phi) may be NULL.
+ * stats may be NULL. Errors: out of memory, the runner's. */
+vdbs_status vdbs_fld_solve_grid(vdbs_runner *runner, const vdbs_fld_grid *grid,
+                                const vdbs_fld_desc *desc, double *phi, double *flux,
+                                vdbs_fld_stats *stats, vdbs_error *err);
+
+/* One application y = A x of the operator (shaders/vs_fld.h) on the runner, for the twin
+ * tests; *xax = x . A x (the kernel's reduction). */
+vdbs_status vdbs_fld_operator(vdbs_runner *runner, const uint32_t *params, const float *coef,
+                              int64_t cells, const float *x, float *y, double *xax,
+                              vdbs_error *err);
+
+/* The bake's FLD: after the S1 pass (s->radiance holds S1), adds ms (and with write_l1 the
+ * moments) to s->ms, s->ms_l1 and s->radiance. stats may be NULL. */
+vdbs_status vdbs_fld_solve(const vdbs_solve *s, const vdbs_fld_desc *desc, vdbs_fld_stats *stats,
+                           vdbs_error *err);
+
+#ifdef __cplusplus
+}
+#endif
+
+#endif
