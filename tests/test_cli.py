@@ -102,6 +102,9 @@ class HelpAndFlags(Base):
             (base + ["--method", "pop", "--pop-ordinates", "0"], "--pop-ordinates"),
             (base + ["--method", "pop", "--pop-decay", "fast"], "--pop-decay"),
             (base + ["--method", "pop", "--pop-tally", "voxel"], "--pop-tally"),
+            (base + ["--method", "fld", "--fld-res", "1"], "--fld-res"),
+            (base + ["--method", "fld", "--fld-res", "x"], "--fld-res"),
+            (base + ["--method", "fld", "--fld-limiter", "maybe"], "--fld-limiter"),
             (base + ["--method", "pop", "--pop-iterations", "0"], "--pop-iterations"),
             (base + ["--method", "pop", "--pop-decay", "paper", "--g", "-0.3"], "--pop-decay"),
             (["bake", src, "-o", out, "--method", "pop", "--point", "0,0,0"], "point"),
@@ -500,6 +503,47 @@ class RadianceView(Base):
             num += sum((view[key][c] - want[c]) ** 2 for c in range(3))
             den += sum(w * w for w in want)
         self.assertLessEqual(math.sqrt(num / den), 0.01)
+
+
+class Fld(Base):
+    def test_fld_adds_ms_and_balances_energy(self):
+        """bake --method fld on the cloud sample (a sun and a constant sky, albedo 0.99, g 0.85)
+        at --quality low: radiance is the single-scatter bake's S1 plus ms to float rounding,
+        ms is non-negative and positive inside the cloud; the report's absorbed + leaked power
+        equals the source power to 1e-6 (the last solve runs until the residual's sum is 1e-7
+        of the source's, whatever the quality's tolerance), the source equals sigma_s 4 pi S1
+        summed over the voxels times their volume (the gather keeps it) to 1e-4, and the
+        resolution is the quality's 24 cells across."""
+        src = os.path.join(SAMPLES, "cloud.vdb")
+        lights = ["--density-scale", "20", "--albedo", "0.99", "--g", "0.85", "--sun",
+                  "0.3,-1,0.2", "--env", "0.2,0.3,0.5", "--quality", "low", "--json"]
+        single, _ = self.bake(src, *lights, out="single.vdb")
+        fld, p = self.bake(src, *lights, "--method", "fld", out="fld.vdb")
+        self.assertEqual(p.returncode, 0, p.stderr)
+        report = json.loads(p.stdout)
+        stats = report["fld"]
+        self.assertEqual(stats["resolution"], 24)
+        self.assertLessEqual(stats["residual"], 1e-4)
+        self.assertAlmostEqual(stats["absorbed"] + stats["leaked"], stats["source"],
+                               delta=1e-6 * stats["source"])
+        for stage in ["fld_source", "fld_solve", "fld_upsample"]:
+            self.assertGreaterEqual(report["seconds"][stage], 0.0)
+        s1 = values(single, "radiance")
+        rad = values(fld, "radiance")
+        ms = values(fld, "ms")
+        density = vdb.read(src, "density")
+        voxel = density.transform.voxelSize()[0] ** 3
+        dens = {tuple(i.min): i.value for i in density.citerOnValues()}
+        source = sum(20 * d * 0.99 * 4 * math.pi * sum(s1[k]) for k, d in dens.items() if d > 0)
+        self.assertAlmostEqual(source * voxel, stats["source"], delta=1e-4 * stats["source"])
+        positive = 0
+        for key, value in rad.items():
+            m = ms.get(key, (0.0, 0.0, 0.0))
+            for c in range(3):
+                self.assertAlmostEqual(value[c], s1[key][c] + m[c], delta=1e-5 * max(1.0, value[c]))
+                self.assertGreaterEqual(m[c], 0.0)
+            positive += m[1] > 0.0 and dens.get(key, 0.0) > 0.0
+        self.assertGreater(positive, 0.5 * len(dens))
 
 
 class Pop(Base):

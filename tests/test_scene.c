@@ -262,6 +262,10 @@ static void test_parse_errors(void **state)
         {"{\"solver\": {\"pop_decay\": \"linear\"}}",
          "scene: solver.pop_decay: unknown decay \"linear\""},
         {"{\"solver\": {\"pop_decay\": 2}}", "scene: solver.pop_decay: expected a string"},
+        {"{\"solver\": {\"fld_res\": 1}}", "scene: solver.fld_res: must be in 2..1024, got 1"},
+        {"{\"solver\": {\"fld_limiter\": true}}", "scene: solver.fld_limiter: expected a string"},
+        {"{\"solver\": {\"fld_limiter\": \"auto\"}}",
+         "scene: solver.fld_limiter: unknown limiter \"auto\""},
         {"{\"solver\": {\"pop_tally\": \"voxel\"}}",
          "scene: solver.pop_tally: unknown tally \"voxel\""},
         {"{\"solver\": {\"pop_re\": 3}}", "scene: solver: unknown key \"pop_re\""},
@@ -438,6 +442,8 @@ static void assert_scene_equal(const vdbs_scene *a, const vdbs_scene *b)
     assert_int_equal(a->pop_iterations, b->pop_iterations);
     assert_int_equal(a->pop_decay_paper, b->pop_decay_paper);
     assert_int_equal(a->pop_tally_cell, b->pop_tally_cell);
+    assert_int_equal(a->fld_resolution, b->fld_resolution);
+    assert_int_equal(a->fld_limiter_off, b->fld_limiter_off);
 }
 
 static void round_trip(const vdbs_scene *s)
@@ -492,6 +498,8 @@ static void test_round_trip(void **state)
     s->pop_iterations = 99;
     s->pop_decay_paper = 1;
     s->pop_tally_cell = 1;
+    s->fld_resolution = 40;
+    s->fld_limiter_off = 1;
     round_trip(s);
 
     /* grid names with an index, and with an '@' of their own */

@@ -20,6 +20,13 @@
 /* CG keeps a recursively updated residual; every so many iterations it is replaced by the
  * true one, b - A x in double, so that the float operator's rounding cannot stall it. */
 #define FLD_RESIDUAL_REPLACEMENT 32
+/* The final solve also runs until absorbed + leaked power misses the source by at most this
+ * (relative): an L2 residual bound alone does not bound the sum of the residual. */
+#define FLD_BALANCE 1e-7
+/* Solves before the last, whose D changes anyway, stop at this relative residual; the limiter
+ * has settled once phi changes by less than FLD_SETTLED between solves. */
+#define FLD_EARLY_TOLERANCE 1e-3
+#define FLD_SETTLED 1e-2
 
 void vdbs_fld_quality(const char *quality, int *resolution, double *tolerance)
 {
@@ -88,13 +95,20 @@ vdbs_status vdbs_fld_operator(vdbs_runner *runner, const uint32_t *params, const
 
 /* ---- the discrete system ---- */
 
+/* vs_fld_coef_at with 64-bit cells (the kernel's int indexing holds for any grid the GPU
+ * can store). */
+static size_t coef_at(int64_t cell, int channel, int k)
+{
+    return ((size_t)cell * 3 + (size_t)channel) * VS_FLD_COEF_WORDS + (size_t)k;
+}
+
 typedef struct fld_system {
     const vdbs_fld_grid *grid;
     int64_t cells;
     double d_max; /* cap of D: a medium with sigma_tr = 1 / (the grid's largest extent) */
     double *d;    /* 3 per cell: the diffusion coefficient in use */
     float *coef;  /* VS_FLD_COEF_WORDS per cell and channel */
-    double *leak; /* 3 per cell: the boundary faces' Marshak leak per volume, summed */
+    double *diag; /* 3 per cell: the operator's diagonal, for the Jacobi preconditioner */
 } fld_system;
 
 static double sigma_tr(const vdbs_fld_grid *g, int64_t c, int ch)
@@ -146,7 +160,8 @@ static void update_d(fld_system *sys, const double *phi, int limiter)
 }
 
 /* The coefficients of every channel from D: couplings by the harmonic mean of the two cells'
- * D over h^2; a boundary face leaks phi 2 D / (h + 4 D) per area (Marshak: no light enters). */
+ * D over h^2; a boundary face leaks phi 2 D / (h + 4 D) per area (Marshak: no light enters).
+ * Also the Jacobi preconditioner's diagonal (double, from the float coefficients). */
 static void build_coef(fld_system *sys)
 {
     const vdbs_fld_grid *g = sys->grid;
@@ -158,28 +173,38 @@ static void build_coef(fld_system *sys)
         const int at[3] = {(int)(c % g->n[0]), (int)((c / g->n[0]) % g->n[1]),
                            (int)(c / ((int64_t)g->n[0] * g->n[1]))};
         for (int ch = 0; ch < 3; ++ch) {
-            double di = sys->d[3 * c + ch];
-            double diag = (double)g->sigma_t[c] * (1.0 - g->albedo[ch]), leak = 0.0;
+            double di = sys->d[3 * c + ch], leak = 0.0;
             for (int a = 0; a < 3; ++a) {
-                double up = 0.0, down = 0.0;
+                double up = 0.0;
                 if (at[a] + 1 < g->n[a]) {
                     double dj = sys->d[3 * (c + stride[a]) + ch];
                     up = di + dj > 0.0 ? 2.0 * di * dj / (di + dj) / (h * h) : 0.0;
-                    diag += up;
                 } else {
                     leak += 2.0 * di / ((h + 4.0 * di) * h);
                 }
-                if (at[a] > 0) {
-                    double dj = sys->d[3 * (c - stride[a]) + ch];
-                    down = di + dj > 0.0 ? 2.0 * di * dj / (di + dj) / (h * h) : 0.0;
-                    diag += down;
-                } else {
+                if (at[a] == 0)
                     leak += 2.0 * di / ((h + 4.0 * di) * h);
-                }
-                sys->coef[vs_fld_coef_at((int)c, ch, k_axis[a])] = (float)up;
+                sys->coef[coef_at(c, ch, k_axis[a])] = (float)up;
             }
-            sys->coef[vs_fld_coef_at((int)c, ch, VS_FLD_COEF_DIAG)] = (float)(diag + leak);
-            sys->leak[3 * c + ch] = leak;
+            sys->coef[coef_at(c, ch, VS_FLD_COEF_ABSORB)] =
+                (float)((double)g->sigma_t[c] * (1.0 - g->albedo[ch]));
+            sys->coef[coef_at(c, ch, VS_FLD_COEF_LEAK)] = (float)leak;
+        }
+    }
+#pragma omp parallel for schedule(static)
+    for (int64_t c = 0; c < sys->cells; ++c) {
+        const int at[3] = {(int)(c % g->n[0]), (int)((c / g->n[0]) % g->n[1]),
+                           (int)(c / ((int64_t)g->n[0] * g->n[1]))};
+        for (int ch = 0; ch < 3; ++ch) {
+            double diag = (double)sys->coef[coef_at(c, ch, VS_FLD_COEF_ABSORB)] +
+                          (double)sys->coef[coef_at(c, ch, VS_FLD_COEF_LEAK)];
+            for (int a = 0; a < 3; ++a) {
+                if (at[a] + 1 < g->n[a])
+                    diag += sys->coef[coef_at(c, ch, k_axis[a])];
+                if (at[a] > 0)
+                    diag += sys->coef[coef_at(c - stride[a], ch, k_axis[a])];
+            }
+            sys->diag[3 * c + ch] = diag;
         }
     }
 }
@@ -187,35 +212,42 @@ static void build_coef(fld_system *sys)
 /* r = b - A x for one channel in double from the float coefficients: the true residual that
  * CG's recursive one is replaced by, and that the energy tallies rest on. */
 static double true_residual(const fld_system *sys, int ch, const double *b, const double *x,
-                            double *r)
+                            double *r, double *sum)
 {
     const vdbs_fld_grid *g = sys->grid;
     const int64_t stride[3] = {1, g->n[0], (int64_t)g->n[0] * g->n[1]};
     const int k_axis[3] = {VS_FLD_COEF_X, VS_FLD_COEF_Y, VS_FLD_COEF_Z};
-    double norm = 0.0;
-#pragma omp parallel for schedule(static) reduction(+ : norm)
+    double norm = 0.0, total = 0.0;
+#pragma omp parallel for schedule(static) reduction(+ : norm, total)
     for (int64_t c = 0; c < sys->cells; ++c) {
         const int at[3] = {(int)(c % g->n[0]), (int)((c / g->n[0]) % g->n[1]),
                            (int)(c / ((int64_t)g->n[0] * g->n[1]))};
-        double y = (double)sys->coef[vs_fld_coef_at((int)c, ch, VS_FLD_COEF_DIAG)] * x[c];
+        double y = ((double)sys->coef[coef_at(c, ch, VS_FLD_COEF_ABSORB)] +
+                    (double)sys->coef[coef_at(c, ch, VS_FLD_COEF_LEAK)]) *
+                   x[c];
         for (int a = 0; a < 3; ++a) {
             if (at[a] + 1 < g->n[a])
-                y -= (double)sys->coef[vs_fld_coef_at((int)c, ch, k_axis[a])] * x[c + stride[a]];
+                y += (double)sys->coef[coef_at(c, ch, k_axis[a])] * (x[c] - x[c + stride[a]]);
             if (at[a] > 0)
-                y -= (double)sys->coef[vs_fld_coef_at((int)(c - stride[a]), ch, k_axis[a])] *
-                     x[c - stride[a]];
+                y += (double)sys->coef[coef_at(c - stride[a], ch, k_axis[a])] *
+                     (x[c] - x[c - stride[a]]);
         }
         r[c] = b[c] - y;
         norm += r[c] * r[c];
+        total += r[c];
     }
+    *sum = total;
     return sqrt(norm);
 }
 
-/* Jacobi-preconditioned CG for one channel: x in (first guess) and out. Returns the
+/* Jacobi-preconditioned CG for one channel: x in (first guess) and out, until the true
+ * relative residual is at most `tolerance` and, with `balance`, the residual's sum (the power
+ * that absorbed + leaked misses, per volume) at most FLD_BALANCE of the source's. Returns the
  * iterations; *relative the final true relative residual. */
 static vdbs_status solve_channel(vdbs_runner *runner, const fld_system *sys, int ch,
-                                 const double *b, double *x, double tolerance, int max_iterations,
-                                 int *iterations, double *relative, vdbs_error *err)
+                                 const double *b, double *x, double tolerance, int balance,
+                                 int max_iterations, int *iterations, double *relative,
+                                 vdbs_error *err)
 {
     const int64_t n = sys->cells;
     double *r = malloc(sizeof *r * (size_t)n), *z = malloc(sizeof *z * (size_t)n);
@@ -231,9 +263,11 @@ static vdbs_status solve_channel(vdbs_runner *runner, const fld_system *sys, int
     for (int a = 0; a < 3; ++a)
         params[VS_FLD_OFF_N + a] = (uint32_t)sys->grid->n[a];
     params[VS_FLD_OFF_CHANNEL] = (uint32_t)ch;
-    double b_norm = 0.0;
-    for (int64_t c = 0; c < n; ++c)
+    double b_norm = 0.0, b_sum = 0.0;
+    for (int64_t c = 0; c < n; ++c) {
         b_norm += b[c] * b[c];
+        b_sum += fabs(b[c]);
+    }
     b_norm = sqrt(b_norm);
     *iterations = 0;
     *relative = 0.0;
@@ -246,12 +280,14 @@ static vdbs_status solve_channel(vdbs_runner *runner, const fld_system *sys, int
     for (;;) {
         if (since_true >= FLD_RESIDUAL_REPLACEMENT) {
             /* (Re)start from the true residual. */
-            *relative = true_residual(sys, ch, b, x, r) / b_norm;
-            if (*relative <= tolerance || *iterations >= max_iterations)
+            double r_sum = 0.0;
+            *relative = true_residual(sys, ch, b, x, r, &r_sum) / b_norm;
+            int balanced = !balance || fabs(r_sum) <= FLD_BALANCE * b_sum;
+            if ((*relative <= tolerance && balanced) || *iterations >= max_iterations)
                 break;
             rz = 0.0;
             for (int64_t c = 0; c < n; ++c) {
-                double diag = sys->coef[vs_fld_coef_at((int)c, ch, VS_FLD_COEF_DIAG)];
+                double diag = sys->diag[3 * c + ch];
                 z[c] = diag > 0.0 ? r[c] / diag : r[c];
                 p[c] = z[c];
                 rz += r[c] * z[c];
@@ -276,12 +312,12 @@ static vdbs_status solve_channel(vdbs_runner *runner, const fld_system *sys, int
         for (int64_t c = 0; c < n; ++c) {
             x[c] += alpha * p[c];
             r[c] -= alpha * apf[c];
-            double diag = sys->coef[vs_fld_coef_at((int)c, ch, VS_FLD_COEF_DIAG)];
+            double diag = sys->diag[3 * c + ch];
             z[c] = diag > 0.0 ? r[c] / diag : r[c];
             rz_new += r[c] * z[c];
             r_norm += r[c] * r[c];
         }
-        /* The recursive residual says done: check it against the true one. */
+        /* The recursive residual says done (or the replacement is due): check the true one. */
         if (sqrt(r_norm) <= tolerance * b_norm || *iterations >= max_iterations) {
             since_true = FLD_RESIDUAL_REPLACEMENT;
             continue;
@@ -309,8 +345,10 @@ static void tally(const fld_system *sys, const double *phi, vdbs_fld_stats *stat
     for (int64_t c = 0; c < sys->cells; ++c)
         for (int ch = 0; ch < 3; ++ch) {
             source += g->source[3 * c + ch] * volume;
-            absorbed += (double)g->sigma_t[c] * (1.0 - g->albedo[ch]) * phi[3 * c + ch] * volume;
-            leaked += sys->leak[3 * c + ch] * phi[3 * c + ch] * volume;
+            absorbed +=
+                (double)sys->coef[coef_at(c, ch, VS_FLD_COEF_ABSORB)] * phi[3 * c + ch] * volume;
+            leaked +=
+                (double)sys->coef[coef_at(c, ch, VS_FLD_COEF_LEAK)] * phi[3 * c + ch] * volume;
         }
     stats->source = source;
     stats->absorbed = absorbed;
@@ -341,24 +379,27 @@ vdbs_status vdbs_fld_solve_grid(vdbs_runner *runner, const vdbs_fld_grid *grid,
     stats->cell_side = grid->h;
     const size_t n3 = 3 * (size_t)sys.cells;
     sys.d = malloc(sizeof *sys.d * n3);
-    sys.leak = malloc(sizeof *sys.leak * n3);
+    sys.diag = malloc(sizeof *sys.diag * n3);
     sys.coef = malloc(sizeof *sys.coef * n3 * VS_FLD_COEF_WORDS);
     double *b = malloc(sizeof *b * (size_t)sys.cells), *x = malloc(sizeof *x * (size_t)sys.cells);
     vdbs_status st = VDBS_OK;
-    if (!sys.d || !sys.leak || !sys.coef || !b || !x)
+    if (!sys.d || !sys.diag || !sys.coef || !b || !x)
         st = vdbs_error_set(err, VDBS_ERR_NOMEM, "out of memory for FLD's %lld cells",
                             (long long)sys.cells);
     /* Without a first guess the first solve is classic diffusion; the limiter then needs phi. */
     int have_phi = 0;
     for (size_t v = 0; v < n3 && !have_phi; ++v)
         have_phi = phi[v] != 0.0;
-    const int cap = 20 * largest + 200;
+    const int cap = 200 * largest + 200;
     stats->cg_iterations = 0;
     stats->updates = 0;
-    for (int u = 0; u < (d.limiter_off ? 1 : d.max_updates) && st == VDBS_OK; ++u) {
+    int last = 0;
+    for (int u = 0; !last && st == VDBS_OK; ++u) {
+        last = d.limiter_off || u + 1 >= d.max_updates;
         update_d(&sys, have_phi ? phi : NULL, !d.limiter_off);
         build_coef(&sys);
-        double worst = 0.0;
+        const double tolerance = last ? d.tolerance : fmax(d.tolerance, FLD_EARLY_TOLERANCE);
+        double worst = 0.0, change = 0.0, norm = 0.0;
         for (int ch = 0; ch < 3 && st == VDBS_OK; ++ch) {
             for (int64_t c = 0; c < sys.cells; ++c) {
                 b[c] = grid->source[3 * c + ch];
@@ -366,13 +407,20 @@ vdbs_status vdbs_fld_solve_grid(vdbs_runner *runner, const vdbs_fld_grid *grid,
             }
             int iterations = 0;
             double relative = 0.0;
-            st = solve_channel(runner, &sys, ch, b, x, d.tolerance, cap, &iterations, &relative,
+            st = solve_channel(runner, &sys, ch, b, x, tolerance, last, cap, &iterations, &relative,
                                err);
             stats->cg_iterations += iterations;
             worst = fmax(worst, relative);
-            for (int64_t c = 0; c < sys.cells; ++c)
+            for (int64_t c = 0; c < sys.cells; ++c) {
+                double delta = x[c] - phi[3 * c + ch];
+                change += delta * delta;
+                norm += x[c] * x[c];
                 phi[3 * c + ch] = x[c];
+            }
         }
+        /* Once the limiter has settled, one more solve at the full tolerance ends it. */
+        if (have_phi && change <= FLD_SETTLED * FLD_SETTLED * norm)
+            d.max_updates = u + 2;
         have_phi = 1;
         stats->updates = u + 1;
         stats->residual = worst;
@@ -396,7 +444,7 @@ vdbs_status vdbs_fld_solve_grid(vdbs_runner *runner, const vdbs_fld_grid *grid,
         }
     }
     free(sys.d);
-    free(sys.leak);
+    free(sys.diag);
     free(sys.coef);
     free(b);
     free(x);

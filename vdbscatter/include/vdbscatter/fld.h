@@ -26,7 +26,9 @@ extern "C" {
 typedef struct vdbs_fld_desc {
     int resolution;   /* cells across the largest extent (--fld-res); default: the quality's,
                          never finer than the voxels */
-    int limiter_off;  /* 1: classic diffusion, D = 1 / (3 sigma_tr) */
+    int limiter_off;  /* 1: classic diffusion, D = 1 / (3 sigma_tr); with the limiter or
+                         without, D is capped at (the grid's largest extent) / 3, the D of a
+                         medium one transport mean free path across the grid (empty cells) */
     int max_updates;  /* solves with the limiter updated in between; default 6 */
     double tolerance; /* relative residual |b - A phi| / |b| of every solve; default: the
                          quality's */
