@@ -338,10 +338,16 @@ vdbs_status vdbs_scene_set_pop_tally(vdbs_scene *scene, const char *name, vdbs_e
 }
 
 static const char *const fld_limiter_names[2] = {"on", "off"};
+static const char *const fld_l1_names[2] = {"off", "on"};
 
 vdbs_status vdbs_scene_set_fld_limiter(vdbs_scene *scene, const char *name, vdbs_error *err)
 {
     return set_choice("--fld-limiter", fld_limiter_names, name, &scene->fld_limiter_off, err);
+}
+
+vdbs_status vdbs_scene_set_fld_l1(vdbs_scene *scene, const char *name, vdbs_error *err)
+{
+    return set_choice("--fld-l1", fld_l1_names, name, &scene->fld_l1, err);
 }
 
 void vdbs_scene_init(vdbs_scene *scene)
@@ -583,10 +589,10 @@ static vdbs_status parse_camera(const parse_ctx *ctx, const cJSON *cam, vdbs_sce
 
 static vdbs_status parse_solver(const parse_ctx *ctx, const cJSON *sol, vdbs_scene *s)
 {
-    static const char *const keys[] = {
-        "method",    "quality",        "sky_directions", "pop_res", "pop_ordinates",
-        "pop_decay", "pop_iterations", "pop_tally",      "fld_res", "fld_limiter",
-        NULL};
+    static const char *const keys[] = {"method",         "quality",       "sky_directions",
+                                       "pop_res",        "pop_ordinates", "pop_decay",
+                                       "pop_iterations", "pop_tally",     "fld_res",
+                                       "fld_limiter",    "fld_l1",        NULL};
     vdbs_status st;
     bool found = false;
     if ((st = expect_object(ctx, sol, "solver")) != VDBS_OK ||
@@ -631,6 +637,10 @@ static vdbs_status parse_solver(const parse_ctx *ctx, const cJSON *sol, vdbs_sce
     if (found && vdbs_scene_set_fld_limiter(s, value, NULL) != VDBS_OK)
         return fail(ctx, "solver.fld_limiter", "unknown limiter \"%s\" (expected on or off)",
                     value);
+    if ((st = get_string(ctx, sol, "solver", "fld_l1", value, sizeof value, &found)) != VDBS_OK)
+        return st;
+    if (found && vdbs_scene_set_fld_l1(s, value, NULL) != VDBS_OK)
+        return fail(ctx, "solver.fld_l1", "unknown value \"%s\" (expected on or off)", value);
     return VDBS_OK;
 }
 
@@ -917,7 +927,8 @@ char *vdbs_scene_to_json(const vdbs_scene *s)
          add_string(sol, "pop_decay", pop_decay_names[s->pop_decay_paper != 0]) &&
          add_string(sol, "pop_tally", pop_tally_names[s->pop_tally_cell != 0]) &&
          (s->fld_resolution == 0 || add_int(sol, "fld_res", s->fld_resolution)) &&
-         add_string(sol, "fld_limiter", fld_limiter_names[s->fld_limiter_off != 0]);
+         add_string(sol, "fld_limiter", fld_limiter_names[s->fld_limiter_off != 0]) &&
+         add_string(sol, "fld_l1", fld_l1_names[s->fld_l1 != 0]);
     if (ok)
         text = cJSON_PrintUnformatted(root);
     cJSON_Delete(root);

@@ -1,0 +1,97 @@
+#!/usr/bin/python3
+"""FLD (issue 10): image error against the Monte-Carlo reference on the sphere and cloud samples
+(albedo 0.99, a sun and a constant sky; g = 0, 0.5, 0.85: bench_pop.py's scenes), beside the
+single-scattering bake and POP at its defaults: FLD with its grid at the voxels / 2x / 4x
+coarser (--fld-res), with the limiter off, and with ms_l1 written from the flux (--fld-l1 on).
+C path, quality medium. Writes a Markdown table and a PNG of error against cells across.
+
+usage: bench/bench_fld.py BUILD_DIR [--out bench/fld.md] [--plot bench/fld_error.png]
+       [--ref-seconds 40] [--size 96x72] [--quality medium]"""
+import argparse
+import os
+import tempfile
+
+from bench_pop import CASES, SAMPLES
+from benchlib import run_json
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+VOXELS = {"sphere": 32, "cloud": 64}  # voxels across the samples' largest extent
+
+
+def main():
+    ap = argparse.ArgumentParser()
+    ap.add_argument("build")
+    ap.add_argument("--out", default=os.path.join(HERE, "fld.md"))
+    ap.add_argument("--plot", default=os.path.join(HERE, "fld_error.png"))
+    ap.add_argument("--ref-seconds", type=float, default=40.0)
+    ap.add_argument("--size", default="96x72")
+    ap.add_argument("--quality", default="medium")
+    args = ap.parse_args()
+    exe = os.path.join(args.build, "vdbscatter")
+    tmp = tempfile.mkdtemp(prefix="bench-fld-")
+    header = ("| scene | reference se | single | POP | FLD 4x coarser | FLD 2x | FLD voxels | "
+              "FLD limiter off | FLD --fld-l1 on | FLD s (voxels) | CG iterations |")
+    lines = [f"`bench/bench_fld.py BUILD --ref-seconds {args.ref_seconds:g} --size {args.size} "
+             f"--quality {args.quality}` (C path)", "", header, "|---" * 11 + "|"]
+    curves = []
+    for label, sample, scale, g, lights in CASES[1:]:
+        vdb = os.path.join(SAMPLES, sample + ".vdb")
+        medium = ["--density-scale", str(scale), "--albedo", "0.99", "--g", str(g), *lights]
+        view = ["--size", args.size]
+        ref = os.path.join(tmp, "ref.exr")
+        run_json([exe, "render", vdb, "-o", ref, "--mode", "reference", "--time",
+                  str(args.ref_seconds), *medium, *view, "--json", "-q"])
+
+        def error(method, extra):
+            lit = os.path.join(tmp, "lit.vdb")
+            rep = run_json([exe, "bake", vdb, "-o", lit, "--backend", "cpu", "--method", method,
+                            "--quality", args.quality, *medium, *extra, "--json", "-q"])
+            img = os.path.join(tmp, "img.exr")
+            run_json([exe, "render", lit, "-o", img, "--backend", "cpu", *view, "--json", "-q"])
+            cmp = run_json([exe, "compare", img, ref, "--json"])
+            return cmp["relrmse"], cmp["se_b"], rep
+
+        single, se, _ = error("single", [])
+        pop, _, _ = error("pop", [])
+        n = VOXELS[sample]
+        res = [n // 4, n // 2, n]
+        errs = []
+        for r in res:
+            e, _, rep = error("fld", ["--fld-res", str(r)])
+            errs.append(e)
+            print(f"  {label}: FLD {r} cells: {e:.3f} ({rep['seconds']['fld_solve']:.1f} s)",
+                  flush=True)
+        off, _, _ = error("fld", ["--fld-res", str(n), "--fld-limiter", "off"])
+        l1, _, _ = error("fld", ["--fld-res", str(n), "--fld-l1", "on"])
+        row = (f"| {label} | {se:.4f} | {single:.3f} | {pop:.3f} | " +
+               " | ".join(f"{e:.3f}" for e in errs) +
+               f" | {off:.3f} | {l1:.3f} | {rep['seconds']['fld_solve']:.1f} | "
+               f"{rep['fld']['cg_iterations']} |")
+        lines.append(row)
+        print(row, flush=True)
+        curves.append((label, single, pop, res, errs))
+    with open(args.out, "w") as f:
+        f.write("\n".join(lines) + "\n")
+    try:
+        import matplotlib
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+        fig, ax = plt.subplots(figsize=(7, 4.5))
+        for label, single, pop, res, errs in curves:
+            line, = ax.plot(res, errs, marker="o", label=label)
+            ax.axhline(pop, color=line.get_color(), linestyle="--", linewidth=0.8)
+            ax.axhline(single, color=line.get_color(), linestyle=":", linewidth=0.8)
+        ax.set_xscale("log", base=2)
+        ax.set_xlabel("--fld-res (cells across the largest extent)")
+        ax.set_ylabel("image relative RMSE against the reference")
+        ax.set_title("FLD error (dashed: POP at its defaults; dotted: single scattering)")
+        ax.legend(fontsize=7)
+        fig.tight_layout()
+        fig.savefig(args.plot, dpi=110)
+    except ImportError:
+        print("matplotlib missing: no plot")
+    print(open(args.out).read())
+
+
+if __name__ == "__main__":
+    main()
