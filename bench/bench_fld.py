@@ -12,7 +12,7 @@ import os
 import tempfile
 
 from bench_pop import CASES, SAMPLES
-from benchlib import run_json
+from benchlib import baked_error, run_json
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 VOXELS = {"sphere": 32, "cloud": 64}  # voxels across the samples' largest extent
@@ -43,13 +43,8 @@ def main():
                   str(args.ref_seconds), *medium, *view, "--json", "-q"])
 
         def error(method, extra):
-            lit = os.path.join(tmp, "lit.vdb")
-            rep = run_json([exe, "bake", vdb, "-o", lit, "--backend", "cpu", "--method", method,
-                            "--quality", args.quality, *medium, *extra, "--json", "-q"])
-            img = os.path.join(tmp, "img.exr")
-            run_json([exe, "render", lit, "-o", img, "--backend", "cpu", *view, "--json", "-q"])
-            cmp = run_json([exe, "compare", img, ref, "--json"])
-            return cmp["relrmse"], cmp["se_b"], rep
+            return baked_error(exe, vdb, ref, tmp, medium, view, method,
+                               ["--quality", args.quality, *extra])
 
         single, se, _ = error("single", [])
         pop, _, _ = error("pop", [])

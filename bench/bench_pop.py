@@ -15,7 +15,7 @@ import argparse
 import os
 import tempfile
 
-from benchlib import run_json
+from benchlib import baked_error, run_json
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 ROOT = os.path.dirname(HERE)
@@ -68,13 +68,8 @@ def main():
                   str(args.ref_seconds), *medium, *view, "--json", "-q"])
 
         def error(method, extra):
-            lit = os.path.join(tmp, "lit.vdb")
-            rep = run_json([exe, "bake", vdb, "-o", lit, "--backend", "cpu", "--method", method,
-                            *medium, *extra, "--json", "-q"])
-            img = os.path.join(tmp, "img.exr")
-            run_json([exe, "render", lit, "-o", img, "--backend", "cpu", *view, "--json", "-q"])
-            cmp = run_json([exe, "compare", img, ref, "--json"])
-            return cmp["relrmse"], cmp["se_b"], rep["seconds"]["solve"]
+            e, se, rep = baked_error(exe, vdb, ref, tmp, medium, view, method, extra)
+            return e, se, rep["seconds"]["solve"]
 
         single, se, _ = error("single", [])
         errs = []

@@ -1,5 +1,6 @@
 """Helpers shared by the bench scripts."""
 import json
+import os
 import subprocess
 import sys
 
@@ -10,3 +11,15 @@ def run_json(cmd):
     if p.returncode != 0:
         sys.exit(f"{' '.join(cmd)}: {p.stderr}")
     return json.loads(p.stdout)
+
+
+def baked_error(exe, vdb, ref, tmp, medium, view, method, extra):
+    """Bakes `vdb` with `method` on the C path, renders it in baked mode and compares the image
+    with the reference image `ref`: (relative RMSE, the reference's se, the bake report)."""
+    lit = os.path.join(tmp, "lit.vdb")
+    rep = run_json([exe, "bake", vdb, "-o", lit, "--backend", "cpu", "--method", method,
+                    *medium, *extra, "--json", "-q"])
+    img = os.path.join(tmp, "img.exr")
+    run_json([exe, "render", lit, "-o", img, "--backend", "cpu", *view, "--json", "-q"])
+    cmp = run_json([exe, "compare", img, ref, "--json"])
+    return cmp["relrmse"], cmp["se_b"], rep

@@ -61,6 +61,22 @@ class Base(unittest.TestCase):
         self.assertEqual([f for f in os.listdir(self.dir) if "tmp" in f], [], f"{args} left a temp file")
         return errors[0]
 
+    def assert_s1_plus_ms(self, single, lit, inside=None):
+        """radiance of `lit` is the single-only bake's S1 plus ms at every voxel to float
+        rounding, ms >= 0; returns how many voxels (of `inside`, when given) have ms > 0."""
+        s1 = values(single, "radiance")
+        rad = values(lit, "radiance")
+        ms = values(lit, "ms")
+        self.assertEqual(s1.keys(), rad.keys())
+        positive = 0
+        for key, value in rad.items():
+            m = ms.get(key, (0.0, 0.0, 0.0))
+            for c in range(3):
+                self.assertAlmostEqual(value[c], s1[key][c] + m[c], delta=1e-5 * max(1.0, value[c]))
+                self.assertGreaterEqual(m[c], 0.0)
+            positive += m[1] > 0.0 and (inside is None or key in inside)
+        return positive
+
     def bake(self, src, *extra, out="lit.vdb"):
         out_path = self.path(out)
         p = run("bake", src, "-o", out_path, *extra, check=0)
@@ -529,21 +545,12 @@ class Fld(Base):
         for stage in ["fld_source", "fld_solve", "fld_upsample"]:
             self.assertGreaterEqual(report["seconds"][stage], 0.0)
         s1 = values(single, "radiance")
-        rad = values(fld, "radiance")
-        ms = values(fld, "ms")
         density = vdb.read(src, "density")
         voxel = density.transform.voxelSize()[0] ** 3
-        dens = {tuple(i.min): i.value for i in density.citerOnValues()}
-        source = sum(20 * d * 0.99 * 4 * math.pi * sum(s1[k]) for k, d in dens.items() if d > 0)
+        dens = {tuple(i.min): i.value for i in density.citerOnValues() if i.value > 0}
+        source = sum(20 * d * 0.99 * 4 * math.pi * sum(s1[k]) for k, d in dens.items())
         self.assertAlmostEqual(source * voxel, stats["source"], delta=1e-4 * stats["source"])
-        positive = 0
-        for key, value in rad.items():
-            m = ms.get(key, (0.0, 0.0, 0.0))
-            for c in range(3):
-                self.assertAlmostEqual(value[c], s1[key][c] + m[c], delta=1e-5 * max(1.0, value[c]))
-                self.assertGreaterEqual(m[c], 0.0)
-            positive += m[1] > 0.0 and dens.get(key, 0.0) > 0.0
-        self.assertGreater(positive, 0.5 * len(dens))
+        self.assertGreater(self.assert_s1_plus_ms(single, fld, dens), 0.5 * len(dens))
 
 
 class Pop(Base):
@@ -571,18 +578,8 @@ class Pop(Base):
         self.assertAlmostEqual(stats["merge_out"], stats["merge_in"], delta=1e-9 * stats["merge_in"])
         for stage in ["pop_sweep", "pop_seed", "pop_propagate", "pop_isotropic", "pop_merge", "pop_upsample"]:
             self.assertGreaterEqual(report["seconds"][stage], 0.0)
-        s1 = {tuple(i.min): i.value for i in vdb.read(single, "radiance").citerOnValues()}
-        rad = {tuple(i.min): i.value for i in vdb.read(pop, "radiance").citerOnValues()}
-        ms = {tuple(i.min): i.value for i in vdb.read(pop, "ms").citerOnValues()}
-        self.assertEqual(s1.keys(), rad.keys())
-        positive = 0
-        for key, value in rad.items():
-            m = ms.get(key, (0.0, 0.0, 0.0))
-            for c in range(3):
-                self.assertAlmostEqual(value[c], s1[key][c] + m[c], delta=1e-5 * max(1.0, value[c]))
-                self.assertGreaterEqual(m[c], 0.0)
-            positive += m[1] > 0.0
-        self.assertGreater(positive, 0.5 * len(rad))
+        self.assertGreater(self.assert_s1_plus_ms(single, pop),
+                           0.5 * len(values(pop, "radiance")))
         meta = vdb.readAllGridMetadata(pop)[0]
         self.assertEqual(meta["vdbscatter_method"], "pop")
 
