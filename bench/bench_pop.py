@@ -7,9 +7,10 @@ PNG plot of error against cells across.
 
 usage: bench/bench_pop.py BUILD_DIR [--out bench/pop.md] [--plot bench/pop_error.png]
        [--res 4,8,16,32] [--qualities low,...] [--ref-seconds 40] [--size 96x72]
-       [--cases all|issue|sun-sky] [--tallies chord,cell]
+       [--cases all|issue|sun-sky] [--tallies chord,cell] [--variant LABEL=FLAGS ...]
 Each resolution is baked with every --pop-tally listed (columns "POP r" for the first, the
-default chord, and "POP r cell" for the paper's tally). With --qualities, POP at the default resolution is also baked at each quality (columns
+default chord, and "POP r cell" for the paper's tally), and with each --variant's extra flags
+(e.g. --variant "paper=--pop-decay paper": columns "POP r paper"). With --qualities, POP at the default resolution is also baked at each quality (columns
 "POP <quality>"), beside the --pop-res columns."""
 import argparse
 import os
@@ -45,6 +46,7 @@ def main():
     ap.add_argument("--cases", default="all")
     ap.add_argument("--qualities", default="")
     ap.add_argument("--tallies", default="chord")
+    ap.add_argument("--variant", action="append", default=[])
     args = ap.parse_args()
     exe = os.path.join(args.build, "vdbscatter")
     tmp = tempfile.mkdtemp(prefix="bench-pop-")
@@ -52,8 +54,12 @@ def main():
     cases = {"issue": CASES[:1], "sun-sky": CASES[1:]}.get(args.cases, CASES)
     qualities = [q for q in args.qualities.split(",") if q]
     tallies = args.tallies.split(",")
-    labels = [f"POP {r}" + ("" if t == tallies[0] else f" {t}") for t in tallies
-              for r in resolutions]
+    # (label, bake flags) per column group: the tallies, then the variants.
+    groups = [("" if t == tallies[0] else f" {t}", ["--pop-tally", t]) for t in tallies]
+    for v in args.variant:
+        name, flags = v.split("=", 1)
+        groups.append((f" {name}", flags.split()))
+    labels = [f"POP {r}{suffix}" for suffix, _ in groups for r in resolutions]
     header = ("| scene | reference se | single | " +
               " | ".join(labels + [f"POP {q}" for q in qualities]) +
               " | POP s at " + str(resolutions[-1]) + " |")
@@ -74,12 +80,12 @@ def main():
         single, se, _ = error("single", [])
         errs = []
         seconds = 0.0
-        for t in tallies:
+        for suffix, flags in groups:
             for r in resolutions:
-                e, _, seconds = error("pop", ["--pop-res", str(r), "--pop-tally", t])
+                e, _, seconds = error("pop", ["--pop-res", str(r), *flags])
                 errs.append(e)
-                print(f"  {label}: single {single:.3f}, POP {r} {t}: {e:.3f} ({seconds:.1f} s)",
-                      flush=True)
+                print(f"  {label}: single {single:.3f}, POP {r}{suffix}: {e:.3f} "
+                      f"({seconds:.1f} s)", flush=True)
         quality_errs = []
         for q in qualities:
             e, _, _ = error("pop", ["--quality", q])
@@ -99,7 +105,7 @@ def main():
         fig, ax = plt.subplots(figsize=(7, 4.5))
         for label, single, errs in curves:
             line, = ax.plot(resolutions, errs[:len(resolutions)], marker="o", label=label)
-            for k in range(1, len(tallies)):
+            for k in range(1, len(groups)):
                 ax.plot(resolutions, errs[k * len(resolutions):(k + 1) * len(resolutions)],
                         marker="x", linestyle="--", color=line.get_color(), linewidth=0.8)
             ax.axhline(single, color=line.get_color(), linestyle=":", linewidth=0.8)
@@ -107,8 +113,8 @@ def main():
         ax.set_yscale("log")
         ax.set_xlabel("--pop-res (cells across the largest extent)")
         ax.set_ylabel("image relative RMSE against the reference")
-        ax.set_title("POP error (dashed: --pop-tally " + ",".join(tallies[1:]) +
-                     "; dotted: single-scattering bake)" if len(tallies) > 1 else
+        ax.set_title("POP error (dashed:" + ",".join(g[0] for g in groups[1:]) +
+                     "; dotted: single-scattering bake)" if len(groups) > 1 else
                      "POP error (dotted: single-scattering bake)")
         ax.legend(fontsize=7)
         fig.tight_layout()
