@@ -47,7 +47,13 @@ def main():
     ap.add_argument("--qualities", default="")
     ap.add_argument("--tallies", default="chord")
     ap.add_argument("--variant", action="append", default=[])
+    ap.add_argument("--quality-plot", default=os.path.join(HERE, "pop_quality.png"))
+    ap.add_argument("--replot-qualities", default="",
+                    help="only plot error against quality from a table this bench wrote")
     args = ap.parse_args()
+    if args.replot_qualities:
+        plot_qualities(read_quality_table(args.replot_qualities), args.quality_plot)
+        return
     exe = os.path.join(args.build, "vdbscatter")
     tmp = tempfile.mkdtemp(prefix="bench-pop-")
     resolutions = [int(x) for x in args.res.split(",")]
@@ -65,6 +71,7 @@ def main():
               " | POP s at " + str(resolutions[-1]) + " |")
     lines = [header, "|" + "---|" * (4 + len(labels) + len(qualities))]
     curves = []
+    quality_rows = []
     for label, sample, scale, g, lights in cases:
         vdb = os.path.join(SAMPLES, sample + ".vdb")
         medium = ["--density-scale", str(scale), "--albedo", "0.99", "--g", str(g), *lights]
@@ -96,8 +103,11 @@ def main():
         lines.append(row)
         print(row, flush=True)
         curves.append((label, single, errs))
+        quality_rows.append((label, single, list(zip(qualities, quality_errs))))
     with open(args.out, "w") as f:
         f.write("\n".join(lines) + "\n")
+    if qualities:
+        plot_qualities(quality_rows, args.quality_plot)
     try:
         import matplotlib
         matplotlib.use("Agg")
@@ -122,6 +132,42 @@ def main():
     except ImportError:
         print("matplotlib missing: no plot")
     print(open(args.out).read())
+
+
+def read_quality_table(path):
+    """(label, single, [(quality, error)]) per row of a table written with --qualities."""
+    rows = []
+    header = None
+    for line in open(path):
+        cells = [c.strip() for c in line.strip().strip("|").split("|")]
+        if cells[0] == "scene":
+            header = cells
+        elif header and not cells[0].startswith("---"):
+            pairs = [(h[4:], float(v)) for h, v in zip(header, cells)
+                     if h.startswith("POP ") and h[4:] in ("low", "medium", "high", "ultra")]
+            rows.append((cells[0], float(cells[2]), pairs))
+    return rows
+
+
+def plot_qualities(rows, path):
+    """Error against --quality per scene (the single-only bake dotted)."""
+    try:
+        import matplotlib
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+    except ImportError:
+        print("matplotlib missing: no plot")
+        return
+    fig, ax = plt.subplots(figsize=(7, 4.5))
+    for label, single, pairs in rows:
+        line, = ax.plot([q for q, _ in pairs], [e for _, e in pairs], marker="o", label=label)
+        ax.axhline(single, color=line.get_color(), linestyle=":", linewidth=0.8)
+    ax.set_xlabel("--quality")
+    ax.set_ylabel("image relative RMSE against the reference")
+    ax.set_title("POP error per quality at the default resolution (dotted: single scattering)")
+    ax.legend(fontsize=7)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
 
 
 if __name__ == "__main__":
