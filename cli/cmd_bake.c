@@ -49,7 +49,7 @@ static const char help[] =
     "                           quality's 24/32/48/64, never finer than the voxels)\n"
     "  --fld-limiter on|off     FLD: Levermore-Pomraning flux limiter (default on) or\n"
     "                           classic diffusion\n"
-    "  --fld-l1 on|off          FLD: write ms_l1 from the diffusive flux (default off)\n"
+    "  --fld-l1 on|off          FLD: write ms_l1 from the diffusive flux (default on)\n"
     "\n"
     "other options:\n"
     "  -o, --output FILE        lit VDB to write (refused if equal to the input)\n"
@@ -147,7 +147,7 @@ static cJSON *report_json(const char *input, const char *output, const vdbs_scen
         cJSON_AddNumberToObject(fj, "absorbed", f->absorbed);
         cJSON_AddNumberToObject(fj, "leaked", f->leaked);
         cJSON_AddStringToObject(fj, "limiter", scene->fld_limiter_off ? "off" : "on");
-        cJSON_AddStringToObject(fj, "l1", scene->fld_l1 ? "on" : "off");
+        cJSON_AddStringToObject(fj, "l1", scene->fld_l1_off ? "off" : "on");
     }
     double rmax[3] = {r->radiance_max[0], r->radiance_max[1], r->radiance_max[2]};
     cJSON_AddItemToObject(j, "radiance_max", cli_json_triple(rmax));

@@ -551,6 +551,9 @@ class Fld(Base):
         source = sum(20 * d * 0.99 * 4 * math.pi * sum(s1[k]) for k, d in dens.items())
         self.assertAlmostEqual(source * voxel, stats["source"], delta=1e-4 * stats["source"])
         self.assertGreater(self.assert_s1_plus_ms(single, fld, dens), 0.5 * len(dens))
+        # ms_l1 from the flux by default (g 0.85): the light flows, so the moment is not 0.
+        self.assertEqual(stats["l1"], "on")
+        self.assertGreater(max(max(abs(x) for x in v) for v in values(fld, "ms_l1y").values()), 0.0)
 
 
 class Pop(Base):

@@ -444,7 +444,7 @@ static void assert_scene_equal(const vdbs_scene *a, const vdbs_scene *b)
     assert_int_equal(a->pop_tally_cell, b->pop_tally_cell);
     assert_int_equal(a->fld_resolution, b->fld_resolution);
     assert_int_equal(a->fld_limiter_off, b->fld_limiter_off);
-    assert_int_equal(a->fld_l1, b->fld_l1);
+    assert_int_equal(a->fld_l1_off, b->fld_l1_off);
 }
 
 static void round_trip(const vdbs_scene *s)
@@ -501,7 +501,7 @@ static void test_round_trip(void **state)
     s->pop_tally_cell = 1;
     s->fld_resolution = 40;
     s->fld_limiter_off = 1;
-    s->fld_l1 = 1;
+    s->fld_l1_off = 1;
     round_trip(s);
 
     /* grid names with an index, and with an '@' of their own */

@@ -338,7 +338,7 @@ vdbs_status vdbs_scene_set_pop_tally(vdbs_scene *scene, const char *name, vdbs_e
 }
 
 static const char *const fld_limiter_names[2] = {"on", "off"};
-static const char *const fld_l1_names[2] = {"off", "on"};
+static const char *const fld_l1_names[2] = {"on", "off"};
 
 vdbs_status vdbs_scene_set_fld_limiter(vdbs_scene *scene, const char *name, vdbs_error *err)
 {
@@ -347,7 +347,7 @@ vdbs_status vdbs_scene_set_fld_limiter(vdbs_scene *scene, const char *name, vdbs
 
 vdbs_status vdbs_scene_set_fld_l1(vdbs_scene *scene, const char *name, vdbs_error *err)
 {
-    return set_choice("--fld-l1", fld_l1_names, name, &scene->fld_l1, err);
+    return set_choice("--fld-l1", fld_l1_names, name, &scene->fld_l1_off, err);
 }
 
 void vdbs_scene_init(vdbs_scene *scene)
@@ -928,7 +928,7 @@ char *vdbs_scene_to_json(const vdbs_scene *s)
          add_string(sol, "pop_tally", pop_tally_names[s->pop_tally_cell != 0]) &&
          (s->fld_resolution == 0 || add_int(sol, "fld_res", s->fld_resolution)) &&
          add_string(sol, "fld_limiter", fld_limiter_names[s->fld_limiter_off != 0]) &&
-         add_string(sol, "fld_l1", fld_l1_names[s->fld_l1 != 0]);
+         add_string(sol, "fld_l1", fld_l1_names[s->fld_l1_off != 0]);
     if (ok)
         text = cJSON_PrintUnformatted(root);
     cJSON_Delete(root);

@@ -74,7 +74,7 @@ static vdbs_status run_fld(const vdbs_solve *s, vdbs_error *err)
     vdbs_fld_desc desc = {0};
     desc.resolution = s->scene->fld_resolution;
     desc.limiter_off = s->scene->fld_limiter_off;
-    desc.write_l1 = s->scene->fld_l1;
+    desc.write_l1 = !s->scene->fld_l1_off;
     vdbs_fld_stats stats;
     st = vdbs_fld_solve(s, &desc, &stats, err);
     if (s->fld_stats)

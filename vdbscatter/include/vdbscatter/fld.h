@@ -32,7 +32,9 @@ typedef struct vdbs_fld_desc {
     int max_updates;  /* solves with the limiter updated in between; default 6 */
     double tolerance; /* relative residual |b - A phi| / |b| of every solve; default: the
                          quality's */
-    int write_l1;     /* 1: ms_l1 from the diffusive flux, (3 g / 4 pi) (-D grad phi) */
+    int write_l1;     /* 1: ms_l1 from the diffusive flux, (3 g / 4 pi) (-D grad phi); the bake
+                         sets it unless --fld-l1 off (it lowered the image error on every
+                         scene with g > 0 in bench/fld.md) */
 } vdbs_fld_desc;
 
 /* The defaults of a quality name: cells across 24 / 32 / 48 / 64 and tolerance 1e-4 / 1e-5 /

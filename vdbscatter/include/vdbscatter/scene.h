@@ -82,7 +82,7 @@ typedef struct vdbs_scene {
     /* FLD (solver.fld_res, fld_limiter; --fld-*): 0 = the default. */
     int fld_resolution;  /* cells across the largest extent; 0: the quality's */
     int fld_limiter_off; /* 1: classic diffusion (no flux limiter) */
-    int fld_l1;          /* 1: ms_l1 from the diffusive flux */
+    int fld_l1_off;      /* 1: ms_l1 stays 0 (default: from the diffusive flux) */
 } vdbs_scene;
 
 /* Defaults follow Blender Cycles' Principled Volume: density 1, albedo 0.5, g 0;
