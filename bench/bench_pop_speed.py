@@ -133,11 +133,12 @@ def parse_plan(text):
 def section_c(args, exe, tmp, scene, lines):
     """Stage times per size, quality and backend, the baked image's error beside them."""
     lines += ["", f"C. cloud sample at N^3 under samples/cloud.json's lights (density 20, "
-              f"albedo 0.99, g 0.85, a sun and a constant sky), default POP (3 cells); error: "
+              f"albedo 0.99, g 0.85, a sun and a constant sky), default POP (4 cells, chord tally); error: "
               f"the baked render at {args.stage_size} against a {args.stage_ref_seconds:.0f} s "
-              "reference of the same volume (reference se in the header of each size).", "",
+              "reference of the same volume; s1: the solve's time outside POP's stages.", "",
               "| N^3 | active voxels | quality | backend | solve s | s1 | " +
-              " | ".join(STAGES) + " | POP error |", "|---" * (7 + len(STAGES)) + "|"]
+              " | ".join(STAGES) + " | POP error | reference se |",
+              "|---" * (8 + len(STAGES)) + "|"]
     gpu = dict(parse_plan(args.gpu))
     view = ["--size", args.stage_size]
     for n, qualities in parse_plan(args.stage_qualities):
