@@ -6,9 +6,10 @@
  * kernel shaders/vs_pop.h) until its anisotropy has decayed below epsilon_a (Eq. 10), then the
  * residual of every grid is merged into one world-aligned grid of the same cell side and
  * propagated isotropically until the energy left is below epsilon_L of the seeded energy.
- * Each grid's accumulated lobes map onto ms and ms_l1 exactly (HG self-convolution), are
- * splatted into a world-aligned grid at twice the resolution (conserving energy) and upsampled
- * to the voxels by a joint bilateral filter guided by the density. */
+ * A cell crossing deposits the fluence of the lobe's mean chord (--pop-tally chord; the paper
+ * counts a whole side). Each grid's accumulated lobes map onto ms and ms_l1 exactly (HG
+ * self-convolution), are splatted into a world-aligned grid at twice the resolution (conserving
+ * energy) and upsampled to the voxels by a joint bilateral filter guided by the density. */
 #ifndef VDBSCATTER_POP_H
 #define VDBSCATTER_POP_H
 
@@ -39,7 +40,8 @@ typedef struct vdbs_pop_desc {
 } vdbs_pop_desc;
 
 /* The defaults of a quality name ("low" ... "ultra"): sky ordinates 8 / 16 / 32 / 64 and
- * epsilon_L 1e-2 / 1e-3 / 1e-4 / 1e-5 (the resolution follows the medium, not the quality). */
+ * epsilon_L 1e-2 / 1e-3 / 1e-4 / 1e-5 (the resolution keeps its default of 4 cells at every
+ * quality: bench/pop.md). */
 void vdbs_pop_quality(const char *quality, int *ordinates, double *epsilon_l);
 
 typedef struct vdbs_pop_stats {
