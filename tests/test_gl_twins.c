@@ -5,7 +5,8 @@
  * tiles; the light grids' sweep and lookup; the render with light marches and with light
  * grids, also in baked mode (synthetic ms / ms_l1 grids with varying directions
  * and anisotropies) and with the GPU's passes forced small and huge; POP's propagation (one
- * iteration to 1e-5, and 30 iterations within the bound stated there). */
+ * iteration to 1e-5, and 30 iterations within the bound stated there); FLD's operator (to
+ * 1e-5) and a converged FLD solve (within the bound stated there). */
 #include "testutil.h"
 
 #include <math.h>
@@ -15,6 +16,7 @@
 
 #include "vdbscatter/camera.h"
 #include "vdbscatter/envmap.h"
+#include "vdbscatter/fld.h"
 #include "vdbscatter/lightgrid.h"
 #include "vdbscatter/lights.h"
 #include "vdbscatter/pop.h"
@@ -28,6 +30,7 @@
 
 #include "vs_common.h"
 #include "vs_pop.h"
+#include "vs_fld.h"
 
 #define SIZE 32
 
@@ -469,6 +472,150 @@ static void test_pop_propagation(void **state)
     free(s);
 }
 
+/* ---- FLD: the operator and a converged solve ---- */
+
+#define FLD_N0 9
+#define FLD_N1 7
+#define FLD_N2 11
+#define FLD_CELLS (FLD_N0 * FLD_N1 * FLD_N2)
+
+typedef struct fld_scenario {
+    uint32_t params[VS_FLD_PARAM_WORDS];
+    float coef[FLD_CELLS * 3 * VS_FLD_COEF_WORDS];
+    float x[FLD_CELLS];
+} fld_scenario;
+
+/* Random couplings in [0, 1) (0 at the far faces), x in [0.5, 1], sigma_a in [6, 6.5) and a
+ * leak in [0, 0.25): y = A x = (sigma_a + leak) x_i + sum c (x_i - x_j) > 0. */
+static void fld_scenario_make(fld_scenario *s)
+{
+    memset(s, 0, sizeof *s);
+    const int n[3] = {FLD_N0, FLD_N1, FLD_N2};
+    for (int a = 0; a < 3; ++a)
+        s->params[VS_FLD_OFF_N + a] = (uint32_t)n[a];
+    uint32_t seed = 12345u;
+    for (int c = 0; c < FLD_CELLS; ++c) {
+        const int at[3] = {c % FLD_N0, (c / FLD_N0) % FLD_N1, c / (FLD_N0 * FLD_N1)};
+        for (int ch = 0; ch < 3; ++ch)
+            for (int a = 0; a < 3; ++a) {
+                seed = seed * 1664525u + 1013904223u;
+                s->coef[vs_fld_coef_at(c, ch, VS_FLD_COEF_X + a)] =
+                    at[a] + 1 < n[a] ? (float)(seed >> 8) * 0x1.0p-24f : 0.0f;
+            }
+        seed = seed * 1664525u + 1013904223u;
+        s->x[c] = 0.5f + 0.5f * (float)(seed >> 8) * 0x1.0p-24f;
+    }
+    /* Couplings below 1 and x in [0.5, 1]: sum c (x_i - x_j) >= -3, so sigma_a above 6 keeps
+     * every y = A x positive (the harness compares non-negative values). */
+    for (int c = 0; c < FLD_CELLS; ++c)
+        for (int ch = 0; ch < 3; ++ch) {
+            seed = seed * 1664525u + 1013904223u;
+            s->coef[vs_fld_coef_at(c, ch, VS_FLD_COEF_ABSORB)] =
+                6.0f + 0.5f * (float)(seed >> 8) * 0x1.0p-24f;
+            seed = seed * 1664525u + 1013904223u;
+            s->coef[vs_fld_coef_at(c, ch, VS_FLD_COEF_LEAK)] =
+                0.25f * (float)(seed >> 8) * 0x1.0p-24f;
+        }
+}
+
+/* y = A x of every channel (channel after channel), then the three reductions x . A x. */
+static vdbs_status run_fld_operator(vdbs_runner *runner, const void *scenario, float *out,
+                                    vdbs_error *err)
+{
+    const fld_scenario *s = scenario;
+    uint32_t params[VS_FLD_PARAM_WORDS];
+    memcpy(params, s->params, sizeof params);
+    vdbs_status st = VDBS_OK;
+    for (int ch = 0; ch < 3 && st == VDBS_OK; ++ch) {
+        params[VS_FLD_OFF_CHANNEL] = (uint32_t)ch;
+        double xax = 0.0;
+        st = vdbs_fld_operator(runner, params, s->coef, FLD_CELLS, s->x, out + ch * FLD_CELLS, &xax,
+                               err);
+        out[3 * FLD_CELLS + ch] = (float)xax;
+    }
+    return st;
+}
+
+#define FLD_SOLVE_N0 12
+#define FLD_SOLVE_N1 10
+#define FLD_SOLVE_N2 14
+#define FLD_SOLVE_CELLS (FLD_SOLVE_N0 * FLD_SOLVE_N1 * FLD_SOLVE_N2)
+
+typedef struct fld_solve_scenario {
+    float sigma[FLD_SOLVE_CELLS];
+    double source[3 * FLD_SOLVE_CELLS];
+    vdbs_fld_grid grid;
+    vdbs_fld_desc desc;
+} fld_solve_scenario;
+
+/* A heterogeneous medium with empty cells (sigma_t 0..6 per unit, h 0.3, albedo 0.99 / 0.9 /
+ * 0.7, g 0.6), sources in two boxes, the limiter on, tolerance 1e-8. */
+static void fld_solve_scenario_make(fld_solve_scenario *s)
+{
+    memset(s, 0, sizeof *s);
+    for (int c = 0; c < FLD_SOLVE_CELLS; ++c) {
+        const int i = c % FLD_SOLVE_N0, j = (c / FLD_SOLVE_N0) % FLD_SOLVE_N1,
+                  k = c / (FLD_SOLVE_N0 * FLD_SOLVE_N1);
+        s->sigma[c] = (float)((c * 37) % 13) * 0.5f;
+        int box = (i < 4 && j < 4 && k < 5) || (i >= 7 && i < 10 && j >= 5 && k >= 8 && k < 12);
+        for (int ch = 0; ch < 3; ++ch)
+            s->source[3 * c + ch] = box ? 1.0 + 0.3 * ch + 0.1 * ((c + ch) % 5) : 0.0;
+    }
+    vdbs_fld_grid grid = {{FLD_SOLVE_N0, FLD_SOLVE_N1, FLD_SOLVE_N2},
+                          0.3,
+                          s->sigma,
+                          {0.99, 0.9, 0.7},
+                          0.6,
+                          s->source};
+    s->grid = grid;
+    s->desc.tolerance = 1e-8;
+}
+
+/* phi (as floats) of a solve on the runner from phi = 0. */
+static vdbs_status run_fld_solve(vdbs_runner *runner, const void *scenario, float *out,
+                                 vdbs_error *err)
+{
+    const fld_solve_scenario *s = scenario;
+    double *phi = calloc(3 * FLD_SOLVE_CELLS, sizeof *phi);
+    if (!phi)
+        return vdbs_error_set(err, VDBS_ERR_NOMEM, "out of memory");
+    vdbs_fld_stats stats;
+    vdbs_status st = vdbs_fld_solve_grid(runner, &s->grid, &s->desc, phi, NULL, &stats, err);
+    if (st == VDBS_OK) {
+        print_message("FLD solve: %d solves, %d CG iterations, residual %.2e, balance %.2e\n",
+                      stats.updates, stats.cg_iterations, stats.residual,
+                      (stats.absorbed + stats.leaked - stats.source) / stats.source);
+        assert_true(stats.residual <= s->desc.tolerance);
+        for (int v = 0; v < 3 * FLD_SOLVE_CELLS; ++v)
+            out[v] = (float)phi[v];
+    }
+    free(phi);
+    return st;
+}
+
+static void test_fld(void **state)
+{
+    (void)state;
+    fld_scenario *s = malloc(sizeof *s);
+    assert_non_null(s);
+    fld_scenario_make(s);
+    free(test_twin("FLD operator, 3 channels", run_fld_operator, s, 3 * FLD_CELLS + 3));
+    free(s);
+    /* A converged solve (limiter on, tolerance 1e-8): CG runs on the host in double and only
+     * the operator runs on the backend, (sigma_a + leak) x_i plus six couplings times
+     * differences in one order, precise in the shader and without FMA in C. On llvmpipe phi came
+     * out bit-identical (difference 0), so test_twin's 1e-5 per value fits; a driver that
+     * contracted to FMA would move the CG iterates by float rounding, and then phi agrees only
+     * to about the tolerance (1e-8) times the system's condition, to be compared against the
+     * peak as POP's 30 iterations are. */
+    fld_solve_scenario *fs = malloc(sizeof *fs);
+    assert_non_null(fs);
+    fld_solve_scenario_make(fs);
+    free(
+        test_twin("FLD solve, 12x10x14 cells, limiter on", run_fld_solve, fs, 3 * FLD_SOLVE_CELLS));
+    free(fs);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -482,6 +629,7 @@ int main(void)
         cmocka_unit_test(test_render_gpu_passes),
         cmocka_unit_test(test_render_baked_synthetic),
         cmocka_unit_test(test_pop_propagation),
+        cmocka_unit_test(test_fld),
     };
     return cmocka_run_group_tests(tests, NULL, teardown);
 }
