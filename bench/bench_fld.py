@@ -12,7 +12,7 @@ import os
 import tempfile
 
 from bench_pop import CASES, SAMPLES
-from benchlib import baked_error, run_json
+from benchlib import baked_error, case_reference
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 VOXELS = {"sphere": 32, "cloud": 64}  # voxels across the samples' largest extent
@@ -34,13 +34,10 @@ def main():
     lines = [f"`bench/bench_fld.py BUILD --ref-seconds {args.ref_seconds:g} --size {args.size} "
              f"--quality {args.quality}` (C path)", "", header, "|---" * 11 + "|"]
     curves = []
-    for label, sample, scale, g, lights in CASES[1:]:
-        vdb = os.path.join(SAMPLES, sample + ".vdb")
-        medium = ["--density-scale", str(scale), "--albedo", "0.99", "--g", str(g), *lights]
-        view = ["--size", args.size]
-        ref = os.path.join(tmp, "ref.exr")
-        run_json([exe, "render", vdb, "-o", ref, "--mode", "reference", "--time",
-                  str(args.ref_seconds), *medium, *view, "--json", "-q"])
+    for case in CASES[1:]:
+        label, sample = case[0], case[1]
+        vdb, medium, view, ref = case_reference(exe, tmp, SAMPLES, case, args.size,
+                                                args.ref_seconds)
 
         def error(method, extra):
             return baked_error(exe, vdb, ref, tmp, medium, view, method,

@@ -16,7 +16,7 @@ import argparse
 import os
 import tempfile
 
-from benchlib import baked_error, run_json
+from benchlib import baked_error, case_reference
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 ROOT = os.path.dirname(HERE)
@@ -72,13 +72,10 @@ def main():
     lines = [header, "|" + "---|" * (4 + len(labels) + len(qualities))]
     curves = []
     quality_rows = []
-    for label, sample, scale, g, lights in cases:
-        vdb = os.path.join(SAMPLES, sample + ".vdb")
-        medium = ["--density-scale", str(scale), "--albedo", "0.99", "--g", str(g), *lights]
-        view = ["--size", args.size]
-        ref = os.path.join(tmp, "ref.exr")
-        run_json([exe, "render", vdb, "-o", ref, "--mode", "reference", "--time",
-                  str(args.ref_seconds), *medium, *view, "--json", "-q"])
+    for case in cases:
+        label = case[0]
+        vdb, medium, view, ref = case_reference(exe, tmp, SAMPLES, case, args.size,
+                                                args.ref_seconds)
 
         def error(method, extra):
             e, se, rep = baked_error(exe, vdb, ref, tmp, medium, view, method, extra)

@@ -23,3 +23,16 @@ def baked_error(exe, vdb, ref, tmp, medium, view, method, extra):
     run_json([exe, "render", lit, "-o", img, "--backend", "cpu", *view, "--json", "-q"])
     cmp = run_json([exe, "compare", img, ref, "--json"])
     return cmp["relrmse"], cmp["se_b"], rep
+
+
+def case_reference(exe, tmp, samples, case, size, seconds):
+    """A bench case (label, sample, density scale, g, lights) made ready: its volume, medium
+    flags (albedo 0.99), view flags and a reference image rendered for `seconds`."""
+    _, sample, scale, g, lights = case
+    vdb = os.path.join(samples, sample + ".vdb")
+    medium = ["--density-scale", str(scale), "--albedo", "0.99", "--g", str(g), *lights]
+    view = ["--size", size]
+    ref = os.path.join(tmp, "ref.exr")
+    run_json([exe, "render", vdb, "-o", ref, "--mode", "reference", "--time", str(seconds),
+              *medium, *view, "--json", "-q"])
+    return vdb, medium, view, ref
