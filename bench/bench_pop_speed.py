@@ -13,7 +13,8 @@ D. the paper's configuration (64 ordinates, 20 cells, 10 iterations) on the C pa
 usage: bench/bench_pop_speed.py BUILD_DIR [--out bench/pop_speed.md] [--size 1280x720]
        [--ref-seconds 120] [--orbit-quality low] [--res 64,128,256]
        [--qualities low,medium,high,ultra] [--stage-qualities 64:low,medium,high,ultra;...]
-       [--gpu 64:low,medium;...] [--stage-size 160x90] [--stage-ref-seconds 30]"""
+       [--gpu 64:low,medium;...] [--stage-size 160x90] [--stage-ref-seconds 30]
+       [--skip ABCD] [--method pop|fld (sections A and B)]"""
 import argparse
 import math
 import os
@@ -47,6 +48,7 @@ def main():
     ap.add_argument("--stage-size", default="160x90")
     ap.add_argument("--stage-ref-seconds", type=float, default=30.0)
     ap.add_argument("--skip", default="", help="sections to skip, e.g. AB")
+    ap.add_argument("--method", default="pop", help="the solver of sections A and B")
     ap.add_argument("--ref-seconds", type=float, default=120.0)
     ap.add_argument("--qualities", default="low,medium,high,ultra")
     args = ap.parse_args()
@@ -62,8 +64,10 @@ def main():
         section_a(args, exe, tmp, scene, view, lines, per_quality)
     if "B" not in args.skip and per_quality:
         section_b(args, exe, tmp, view, lines, per_quality)
-    section_c(args, exe, tmp, scene, lines)
-    section_d(exe, tmp, lines)
+    if "C" not in args.skip:
+        section_c(args, exe, tmp, scene, lines)
+    if "D" not in args.skip:
+        section_d(exe, tmp, lines)
     with open(args.out, "w") as fh:
         fh.write("\n".join(lines) + "\n")
     print(open(args.out).read())
@@ -73,14 +77,14 @@ def section_a(args, exe, tmp, scene, view, lines, per_quality):
     ref = os.path.join(tmp, "ref.exr")
     run_json([exe, "render", "--scene", scene, "-o", ref, "--mode", "reference", "--time",
               str(args.ref_seconds), *view, "--json", "-q"])
-    lines += [f"A. samples/cloud.json at {args.size}, C path; converged reference: "
-              f"{args.ref_seconds:.0f} s.", "",
-              "| quality | bake s | render s | POP error | reference spp to that error | "
+    lines += [f"A. samples/cloud.json at {args.size}, C path, --method {args.method}; converged "
+              f"reference: {args.ref_seconds:.0f} s.", "",
+              "| quality | bake s | render s | baked error | reference spp to that error | "
               "reference s | bake + render / reference |", "|---|---|---|---|---|---|---|"]
     for q in args.qualities.split(","):
         lit = os.path.join(tmp, f"{q}.vdb")
         img = os.path.join(tmp, f"{q}.exr")
-        bake, bake_s = timed([exe, "bake", "--scene", scene, "-o", lit, "--method", "pop",
+        bake, bake_s = timed([exe, "bake", "--scene", scene, "-o", lit, "--method", args.method,
                               "--quality", q, "--backend", "cpu", "--json", "-q"])
         _, render_s = timed([exe, "render", lit, "-o", img, "--backend", "cpu", *view, "--json",
                              "-q"])

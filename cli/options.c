@@ -193,7 +193,7 @@ vdbs_status cli_build_scene(const cli_args *args, vdbs_scene *scene, int allow_n
     for (int i = 0; i < args->count; ++i) {
         const char *name = args->args[i].option->name;
         const char *v = args->args[i].value;
-        double x;
+        double x = 0.0;
         if (strcmp(name, "--grid") == 0) {
             st = vdbs_scene_set_grid(scene, v, err);
         } else if (strcmp(name, "--density-scale") == 0) {

@@ -186,7 +186,7 @@ static vdbs_status get_vec3(const parse_ctx *ctx, const cJSON *obj, const char *
     const cJSON *item = cJSON_GetObjectItemCaseSensitive(obj, key);
     const char *want = allow_scalar ? "a number or an array of 3 numbers" : "an array of 3 numbers";
     char path[PATH_LEN];
-    double v[3];
+    double v[3] = {0.0, 0.0, 0.0};
     vdbs_status st;
     if (!item)
         return VDBS_OK;
