@@ -116,23 +116,34 @@ static double sigma_tr(const vdbs_fld_grid *g, int64_t c, int ch)
     return (double)g->sigma_t[c] * (1.0 - g->albedo[ch] * g->g);
 }
 
-/* |grad phi| of one channel at cell c by central differences (one-sided at the faces). */
-static double grad_norm(const vdbs_fld_grid *g, const double *phi, int64_t c, int ch)
+/* The (i, j, k) of cell c. */
+static void cell_at(const vdbs_fld_grid *g, int64_t c, int at[3])
+{
+    at[0] = (int)(c % g->n[0]);
+    at[1] = (int)((c / g->n[0]) % g->n[1]);
+    at[2] = (int)(c / ((int64_t)g->n[0] * g->n[1]));
+}
+
+/* grad phi of one channel at cell c by central differences (one-sided at the faces; 0 along
+ * an axis one cell thick). */
+static void gradient(const vdbs_fld_grid *g, const double *phi, int64_t c, int ch, double grad[3])
 {
     const int64_t stride[3] = {1, g->n[0], (int64_t)g->n[0] * g->n[1]};
-    const int at[3] = {(int)(c % g->n[0]), (int)((c / g->n[0]) % g->n[1]),
-                       (int)(c / ((int64_t)g->n[0] * g->n[1]))};
-    double sum = 0.0;
+    int at[3];
+    cell_at(g, c, at);
     for (int a = 0; a < 3; ++a) {
         int lo = at[a] > 0, hi = at[a] + 1 < g->n[a];
-        if (!lo && !hi)
-            continue;
         double up = phi[3 * (c + (hi ? stride[a] : 0)) + ch];
         double down = phi[3 * (c - (lo ? stride[a] : 0)) + ch];
-        double d = (up - down) / ((lo + hi) * g->h);
-        sum += d * d;
+        grad[a] = lo + hi ? (up - down) / ((lo + hi) * g->h) : 0.0;
     }
-    return sqrt(sum);
+}
+
+static double grad_norm(const vdbs_fld_grid *g, const double *phi, int64_t c, int ch)
+{
+    double d[3];
+    gradient(g, phi, c, ch, d);
+    return sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
 }
 
 /* D per cell and channel: classic diffusion without phi (or with the limiter off), else the
@@ -170,8 +181,8 @@ static void build_coef(fld_system *sys)
     const int k_axis[3] = {VS_FLD_COEF_X, VS_FLD_COEF_Y, VS_FLD_COEF_Z};
 #pragma omp parallel for schedule(static)
     for (int64_t c = 0; c < sys->cells; ++c) {
-        const int at[3] = {(int)(c % g->n[0]), (int)((c / g->n[0]) % g->n[1]),
-                           (int)(c / ((int64_t)g->n[0] * g->n[1]))};
+        int at[3];
+        cell_at(g, c, at);
         for (int ch = 0; ch < 3; ++ch) {
             double di = sys->d[3 * c + ch], leak = 0.0;
             for (int a = 0; a < 3; ++a) {
@@ -193,8 +204,8 @@ static void build_coef(fld_system *sys)
     }
 #pragma omp parallel for schedule(static)
     for (int64_t c = 0; c < sys->cells; ++c) {
-        const int at[3] = {(int)(c % g->n[0]), (int)((c / g->n[0]) % g->n[1]),
-                           (int)(c / ((int64_t)g->n[0] * g->n[1]))};
+        int at[3];
+        cell_at(g, c, at);
         for (int ch = 0; ch < 3; ++ch) {
             double diag = (double)sys->coef[coef_at(c, ch, VS_FLD_COEF_ABSORB)] +
                           (double)sys->coef[coef_at(c, ch, VS_FLD_COEF_LEAK)];
@@ -220,8 +231,8 @@ static double true_residual(const fld_system *sys, int ch, const double *b, cons
     double norm = 0.0, total = 0.0;
 #pragma omp parallel for schedule(static) reduction(+ : norm, total)
     for (int64_t c = 0; c < sys->cells; ++c) {
-        const int at[3] = {(int)(c % g->n[0]), (int)((c / g->n[0]) % g->n[1]),
-                           (int)(c / ((int64_t)g->n[0] * g->n[1]))};
+        int at[3];
+        cell_at(g, c, at);
         double y = ((double)sys->coef[coef_at(c, ch, VS_FLD_COEF_ABSORB)] +
                     (double)sys->coef[coef_at(c, ch, VS_FLD_COEF_LEAK)]) *
                    x[c];
@@ -428,19 +439,13 @@ vdbs_status vdbs_fld_solve_grid(vdbs_runner *runner, const vdbs_fld_grid *grid,
     if (st == VDBS_OK) {
         tally(&sys, phi, stats);
         if (flux) {
-            const int64_t stride[3] = {1, grid->n[0], (int64_t)grid->n[0] * grid->n[1]};
-            for (int64_t c = 0; c < sys.cells; ++c) {
-                const int at[3] = {(int)(c % grid->n[0]), (int)((c / grid->n[0]) % grid->n[1]),
-                                   (int)(c / ((int64_t)grid->n[0] * grid->n[1]))};
-                for (int ch = 0; ch < 3; ++ch)
-                    for (int a = 0; a < 3; ++a) {
-                        int lo = at[a] > 0, hi = at[a] + 1 < grid->n[a];
-                        double up = phi[3 * (c + (hi ? stride[a] : 0)) + ch];
-                        double down = phi[3 * (c - (lo ? stride[a] : 0)) + ch];
-                        double gradient = lo + hi ? (up - down) / ((lo + hi) * grid->h) : 0.0;
-                        flux[9 * c + 3 * a + ch] = -sys.d[3 * c + ch] * gradient;
-                    }
-            }
+            for (int64_t c = 0; c < sys.cells; ++c)
+                for (int ch = 0; ch < 3; ++ch) {
+                    double d[3];
+                    gradient(grid, phi, c, ch, d);
+                    for (int a = 0; a < 3; ++a)
+                        flux[9 * c + 3 * a + ch] = -sys.d[3 * c + ch] * d[a];
+                }
         }
     }
     free(sys.d);
