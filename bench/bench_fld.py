@@ -1,8 +1,9 @@
 #!/usr/bin/python3
 """FLD (issue 10): image error against the Monte-Carlo reference on the sphere and cloud samples
 (albedo 0.99, a sun and a constant sky; g = 0, 0.5, 0.85: bench_pop.py's scenes), beside the
-single-scattering bake and POP at its defaults: FLD with its grid at the voxels / 2x / 4x
-coarser (--fld-res), with the limiter off, and with ms_l1 written from the flux (--fld-l1 on).
+single-scattering bake and POP at its defaults: FLD at its defaults with its grid at the
+voxels / 2x / 4x coarser (--fld-res), and at the voxels without the first-moment source
+(--fld-p1 off), without ms_l1 from the flux (--fld-l1 off) and without the limiter.
 C path, quality medium. Writes a Markdown table and a PNG of error against cells across.
 
 usage: bench/bench_fld.py BUILD_DIR [--out bench/fld.md] [--plot bench/fld_error.png]
@@ -30,9 +31,10 @@ def main():
     exe = os.path.join(args.build, "vdbscatter")
     tmp = tempfile.mkdtemp(prefix="bench-fld-")
     header = ("| scene | reference se | single | POP | FLD 4x coarser | FLD 2x | FLD voxels | "
-              "FLD limiter off | FLD --fld-l1 on | FLD s (voxels) | CG iterations |")
+              "--fld-p1 off | --fld-l1 off | --fld-limiter off | FLD s (voxels) | "
+              "CG iterations |")
     lines = [f"`bench/bench_fld.py BUILD --ref-seconds {args.ref_seconds:g} --size {args.size} "
-             f"--quality {args.quality}` (C path)", "", header, "|---" * 11 + "|"]
+             f"--quality {args.quality}` (C path)", "", header, "|---" * 12 + "|"]
     curves = []
     for case in CASES[1:]:
         label, sample = case[0], case[1]
@@ -53,12 +55,12 @@ def main():
             errs.append(e)
             print(f"  {label}: FLD {r} cells: {e:.3f} ({rep['seconds']['fld_solve']:.1f} s)",
                   flush=True)
-        off, _, _ = error("fld", ["--fld-res", str(n), "--fld-limiter", "off"])
-        l1, _, _ = error("fld", ["--fld-res", str(n), "--fld-l1", "on"])
+        seconds, iterations = rep['seconds']['fld_solve'], rep['fld']['cg_iterations']
+        variants = [error("fld", ["--fld-res", str(n), flag, "off"])[0]
+                    for flag in ("--fld-p1", "--fld-l1", "--fld-limiter")]
         row = (f"| {label} | {se:.4f} | {single:.3f} | {pop:.3f} | " +
-               " | ".join(f"{e:.3f}" for e in errs) +
-               f" | {off:.3f} | {l1:.3f} | {rep['seconds']['fld_solve']:.1f} | "
-               f"{rep['fld']['cg_iterations']} |")
+               " | ".join(f"{e:.3f}" for e in errs + variants) +
+               f" | {seconds:.1f} | {iterations} |")
         lines.append(row)
         print(row, flush=True)
         curves.append((label, single, pop, res, errs))

@@ -50,6 +50,8 @@ static const char help[] =
     "  --fld-limiter on|off     FLD: Levermore-Pomraning flux limiter (default on) or\n"
     "                           classic diffusion\n"
     "  --fld-l1 on|off          FLD: write ms_l1 from the diffusive flux (default on)\n"
+    "  --fld-p1 on|off          FLD: the first-scattered light's first moment (P1 source;\n"
+    "                           default on) or an isotropic source\n"
     "\n"
     "other options:\n"
     "  -o, --output FILE        lit VDB to write (refused if equal to the input)\n"
@@ -75,6 +77,7 @@ static const cli_option options[] = {
     {"--fld-res", CLI_VALUE},
     {"--fld-limiter", CLI_VALUE},
     {"--fld-l1", CLI_VALUE},
+    {"--fld-p1", CLI_VALUE},
     {"--camera", CLI_VALUE},
     {NULL, CLI_FLAG},
 };
@@ -142,12 +145,15 @@ static cJSON *report_json(const char *input, const char *output, const vdbs_scen
         cJSON_AddNumberToObject(fj, "cell_side", f->cell_side);
         cJSON_AddNumberToObject(fj, "updates", f->updates);
         cJSON_AddNumberToObject(fj, "cg_iterations", f->cg_iterations);
+        cJSON_AddNumberToObject(fj, "levels", f->levels);
+        cJSON_AddNumberToObject(fj, "operator_applications", f->operator_applications);
         cJSON_AddNumberToObject(fj, "residual", f->residual);
         cJSON_AddNumberToObject(fj, "source", f->source);
         cJSON_AddNumberToObject(fj, "absorbed", f->absorbed);
         cJSON_AddNumberToObject(fj, "leaked", f->leaked);
         cJSON_AddStringToObject(fj, "limiter", scene->fld_limiter_off ? "off" : "on");
         cJSON_AddStringToObject(fj, "l1", scene->fld_l1_off ? "off" : "on");
+        cJSON_AddStringToObject(fj, "p1", scene->fld_p1_off ? "off" : "on");
     }
     double rmax[3] = {r->radiance_max[0], r->radiance_max[1], r->radiance_max[2]};
     cJSON_AddItemToObject(j, "radiance_max", cli_json_triple(rmax));

@@ -230,6 +230,8 @@ vdbs_status cli_build_scene(const cli_args *args, vdbs_scene *scene, int allow_n
             st = vdbs_scene_set_fld_limiter(scene, v, err);
         } else if (strcmp(name, "--fld-l1") == 0) {
             st = vdbs_scene_set_fld_l1(scene, v, err);
+        } else if (strcmp(name, "--fld-p1") == 0) {
+            st = vdbs_scene_set_fld_p1(scene, v, err);
         } else if (strcmp(name, "--method") == 0 || strcmp(name, "--quality") == 0) {
             char *dst = name[2] == 'm' ? scene->method : scene->quality;
             if (strlen(v) >= sizeof scene->method)

@@ -121,6 +121,7 @@ class HelpAndFlags(Base):
             (base + ["--method", "fld", "--fld-res", "1"], "--fld-res"),
             (base + ["--method", "fld", "--fld-res", "x"], "--fld-res"),
             (base + ["--method", "fld", "--fld-limiter", "maybe"], "--fld-limiter"),
+            (base + ["--method", "fld", "--fld-p1", "1"], "--fld-p1"),
             (base + ["--method", "pop", "--pop-iterations", "0"], "--pop-iterations"),
             (base + ["--method", "pop", "--pop-decay", "paper", "--g", "-0.3"], "--pop-decay"),
             (["bake", src, "-o", out, "--method", "pop", "--point", "0,0,0"], "point"),

@@ -108,7 +108,7 @@ static void test_energy_balance(void **state)
     double *phi = malloc(sizeof *phi * 3 * E_CELLS);
     assert_true(sigma && source && mono && phi);
     energy_medium(sigma, source);
-    vdbs_fld_grid grid = {{E_N0, E_N1, E_N2}, 0.25, sigma, {0.99, 0.9, 0.7}, 0.6, source};
+    vdbs_fld_grid grid = {{E_N0, E_N1, E_N2}, 0.25, sigma, {0.99, 0.9, 0.7}, 0.6, source, NULL};
     vdbs_fld_desc desc = {0};
     desc.tolerance = 1e-8;
     vdbs_fld_stats stats;
@@ -150,6 +150,99 @@ static void test_energy_balance(void **state)
     free(sigma);
     free(source);
     free(mono);
+    free(phi);
+}
+
+/* The first-moment source g Q d moves first-scattered light along d but creates none: the
+ * balance holds with its share through the boundary counted as leaked. */
+static void test_energy_balance_first_moment(void **state)
+{
+    (void)state;
+    float *sigma = malloc(sizeof *sigma * E_CELLS);
+    double *source = malloc(sizeof *source * 3 * E_CELLS);
+    double *moment = calloc(9 * E_CELLS, sizeof *moment);
+    double *phi = malloc(sizeof *phi * 3 * E_CELLS);
+    assert_true(sigma && source && moment && phi);
+    energy_medium(sigma, source);
+    const double g = 0.6, d[3] = {0.28, 0.0, -0.96};
+    for (int64_t c = 0; c < E_CELLS; ++c)
+        for (int ch = 0; ch < 3; ++ch)
+            for (int a = 0; a < 3; ++a)
+                moment[9 * c + 3 * a + ch] = g * source[3 * c + ch] * d[a];
+    vdbs_fld_grid grid = {{E_N0, E_N1, E_N2}, 0.25, sigma, {0.99, 0.9, 0.7}, g, source, moment};
+    vdbs_fld_desc desc = {0};
+    desc.tolerance = 1e-8;
+    vdbs_fld_stats stats;
+    for (int limiter_off = 0; limiter_off <= 1; ++limiter_off) {
+        desc.limiter_off = limiter_off;
+        solve(&grid, &desc, phi, NULL, &stats);
+        check_balance(limiter_off ? "first moment, limiter off" : "first moment, limiter on",
+                      &stats);
+    }
+    free(sigma);
+    free(source);
+    free(moment);
+    free(phi);
+}
+
+/* With the first moment M = g Q d of a point source in a homogeneous medium (limiter off, the
+ * boundary far away), summation by parts of -div(D grad phi) + sigma_a phi = Q - div(3 D M)
+ * gives the absorbed power's centroid exactly: the source's position plus 3 D M / Q =
+ * g d / sigma_tr, on the lattice as in the continuum. */
+static void test_first_moment_shift(void **state)
+{
+    (void)state;
+    enum { N = 41 };
+    const int n[3] = {N, N, N}, mid = N / 2;
+    const int64_t cells = (int64_t)N * N * N;
+    const double albedo = 0.7, g = 0.6, d[3] = {0.6, 0.0, -0.8};
+    float *sigma = malloc(sizeof *sigma * (size_t)cells);
+    double *source = calloc(3 * (size_t)cells, sizeof *source);
+    double *moment = calloc(9 * (size_t)cells, sizeof *moment);
+    double *phi = malloc(sizeof *phi * 3 * (size_t)cells);
+    assert_true(sigma && source && moment && phi);
+    for (int64_t c = 0; c < cells; ++c)
+        sigma[c] = 1.0f;
+    const int64_t centre = cell_of(n, mid, mid, mid);
+    for (int ch = 0; ch < 3; ++ch) {
+        source[3 * centre + ch] = 1.0;
+        for (int a = 0; a < 3; ++a)
+            moment[9 * centre + 3 * a + ch] = g * d[a];
+    }
+    vdbs_fld_grid grid = {{N, N, N}, 1.0, sigma, {albedo, albedo, albedo}, g, source, moment};
+    vdbs_fld_desc desc = {0};
+    desc.limiter_off = 1;
+    desc.tolerance = 1e-10;
+    vdbs_fld_stats stats;
+    solve(&grid, &desc, phi, NULL, &stats);
+    check_balance("point source with a first moment", &stats);
+    const double sigma_tr = 1.0 - albedo * g;
+    for (int ch = 0; ch < 3; ++ch) {
+        double sum = 0.0, at[3] = {0.0, 0.0, 0.0};
+        for (int k = 0; k < N; ++k)
+            for (int j = 0; j < N; ++j)
+                for (int i = 0; i < N; ++i) {
+                    double p = phi[3 * cell_of(n, i, j, k) + ch];
+                    sum += p;
+                    at[0] += p * (i - mid);
+                    at[1] += p * (j - mid);
+                    at[2] += p * (k - mid);
+                }
+        double worst = 0.0;
+        for (int a = 0; a < 3; ++a) {
+            double expected = g * d[a] / sigma_tr;
+            worst = fmax(worst, fabs(at[a] / sum - expected));
+        }
+        print_message("channel %d: centroid shift (%.6f, %.6f, %.6f), g d / sigma_tr (%.6f, 0, "
+                      "%.6f): worst %.2e cells\n",
+                      ch, at[0] / sum, at[1] / sum, at[2] / sum, g * d[0] / sigma_tr,
+                      g * d[2] / sigma_tr, worst);
+        /* Measured 6.9e-6 cells: the 1.6e-6 of the power that leaks 20 cells away. */
+        assert_true(worst <= 2e-5);
+    }
+    free(sigma);
+    free(source);
+    free(moment);
     free(phi);
 }
 
@@ -202,7 +295,7 @@ static void point_source(double h, double albedo, double lattice_bound, double c
     const int64_t centre = cell_of(n, mid, mid, mid);
     for (int ch = 0; ch < 3; ++ch)
         source[3 * centre + ch] = power / (h * h * h);
-    vdbs_fld_grid grid = {{G_N, G_N, G_N}, h, sigma, {albedo, albedo, albedo}, 0.0, source};
+    vdbs_fld_grid grid = {{G_N, G_N, G_N}, h, sigma, {albedo, albedo, albedo}, 0.0, source, NULL};
     vdbs_fld_desc desc = {0};
     desc.limiter_off = 1;
     desc.tolerance = 1e-9;
@@ -300,7 +393,7 @@ static void test_limiter_empty_space(void **state)
                 for (int ch = 0; ch < 3; ++ch)
                     source[3 * c + ch] = core ? 2.0 + ch : 0.0;
             }
-    vdbs_fld_grid grid = {{B_N, B_N, B_N}, 0.5, sigma, {0.99, 0.9, 0.7}, 0.6, source};
+    vdbs_fld_grid grid = {{B_N, B_N, B_N}, 0.5, sigma, {0.99, 0.9, 0.7}, 0.6, source, NULL};
     vdbs_fld_desc desc = {0};
     desc.tolerance = 1e-8;
     vdbs_fld_stats stats;
@@ -438,7 +531,8 @@ static void test_absorption_fine_cells(void **state)
             for (int i = 8; i < 12; ++i)
                 for (int ch = 0; ch < 3; ++ch)
                     source[3 * cell_of(n, i, j, k) + ch] = 1.0;
-    vdbs_fld_grid grid = {{F_N, F_N, F_N}, h, sigma, {albedo[0], albedo[1], albedo[2]}, g, source};
+    vdbs_fld_grid grid = {{F_N, F_N, F_N}, h,   sigma, {albedo[0], albedo[1], albedo[2]}, g,
+                          source,          NULL};
     vdbs_fld_desc desc = {0};
     desc.limiter_off = 1;
     desc.tolerance = 1e-9;
@@ -475,6 +569,8 @@ int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_energy_balance),
+        cmocka_unit_test(test_energy_balance_first_moment),
+        cmocka_unit_test(test_first_moment_shift),
         cmocka_unit_test(test_point_source),
         cmocka_unit_test(test_limiter_empty_space),
         cmocka_unit_test(test_absorption_fine_cells),

@@ -566,7 +566,8 @@ static void fld_solve_scenario_make(fld_solve_scenario *s)
                           s->sigma,
                           {0.99, 0.9, 0.7},
                           0.6,
-                          s->source};
+                          s->source,
+                          NULL};
     s->grid = grid;
     s->desc.tolerance = 1e-8;
 }

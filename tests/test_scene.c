@@ -266,6 +266,7 @@ static void test_parse_errors(void **state)
         {"{\"solver\": {\"fld_limiter\": true}}", "scene: solver.fld_limiter: expected a string"},
         {"{\"solver\": {\"fld_limiter\": \"auto\"}}",
          "scene: solver.fld_limiter: unknown limiter \"auto\""},
+        {"{\"solver\": {\"fld_p1\": \"yes\"}}", "scene: solver.fld_p1: unknown value \"yes\""},
         {"{\"solver\": {\"pop_tally\": \"voxel\"}}",
          "scene: solver.pop_tally: unknown tally \"voxel\""},
         {"{\"solver\": {\"pop_re\": 3}}", "scene: solver: unknown key \"pop_re\""},
@@ -445,6 +446,7 @@ static void assert_scene_equal(const vdbs_scene *a, const vdbs_scene *b)
     assert_int_equal(a->fld_resolution, b->fld_resolution);
     assert_int_equal(a->fld_limiter_off, b->fld_limiter_off);
     assert_int_equal(a->fld_l1_off, b->fld_l1_off);
+    assert_int_equal(a->fld_p1_off, b->fld_p1_off);
 }
 
 static void round_trip(const vdbs_scene *s)
@@ -502,6 +504,7 @@ static void test_round_trip(void **state)
     s->fld_resolution = 40;
     s->fld_limiter_off = 1;
     s->fld_l1_off = 1;
+    s->fld_p1_off = 1;
     round_trip(s);
 
     /* grid names with an index, and with an '@' of their own */

@@ -27,6 +27,12 @@
  * has settled once phi changes by less than FLD_SETTLED between solves. */
 #define FLD_EARLY_TOLERANCE 1e-3
 #define FLD_SETTLED 1e-2
+/* The multigrid preconditioner's damped Jacobi smoother: its weight (near 6/7, the best for
+ * the 7-point Laplacian), sweeps before and after each coarse correction, and sweeps that
+ * stand in for a solve on the coarsest grid (at most FLD_COARSEST cells along each axis). */
+#define FLD_JACOBI_WEIGHT 0.8
+#define FLD_SMOOTH_SWEEPS 2
+#define FLD_COARSE_SWEEPS 16
 
 void vdbs_fld_quality(const char *quality, int *resolution, double *tolerance)
 {
@@ -102,13 +108,30 @@ static size_t coef_at(int64_t cell, int channel, int k)
     return ((size_t)cell * 3 + (size_t)channel) * VS_FLD_COEF_WORDS + (size_t)k;
 }
 
+/* One level of the multigrid preconditioner: the operator of the level above aggregated over
+ * 2 x 2 x 2 cells (level 0 is the system itself). */
+typedef struct fld_level {
+    int n[3];
+    int64_t cells;
+    float *coef;       /* VS_FLD_COEF_WORDS per cell and channel, as the kernel reads them */
+    double *diag;      /* 3 per cell: the operator's diagonal (the Jacobi smoother's) */
+    double *r, *z, *t; /* one channel's right side, correction and scratch */
+    float *xf, *yf;    /* the kernel's float input and output */
+} fld_level;
+
+/* Multigrid levels down to a grid of at most FLD_COARSEST cells along every axis. */
+#define FLD_MAX_LEVELS 12
+#define FLD_COARSEST 4
+
 typedef struct fld_system {
     const vdbs_fld_grid *grid;
     int64_t cells;
     double d_max; /* cap of D: a medium with sigma_tr = 1 / (the grid's largest extent) */
     double *d;    /* 3 per cell: the diffusion coefficient in use */
-    float *coef;  /* VS_FLD_COEF_WORDS per cell and channel */
-    double *diag; /* 3 per cell: the operator's diagonal, for the Jacobi preconditioner */
+    float *coef;  /* VS_FLD_COEF_WORDS per cell and channel (level 0's) */
+    double *diag; /* 3 per cell: the operator's diagonal (level 0's) */
+    fld_level level[FLD_MAX_LEVELS];
+    int levels;
 } fld_system;
 
 static double sigma_tr(const vdbs_fld_grid *g, int64_t c, int ch)
@@ -116,12 +139,17 @@ static double sigma_tr(const vdbs_fld_grid *g, int64_t c, int ch)
     return (double)g->sigma_t[c] * (1.0 - g->albedo[ch] * g->g);
 }
 
-/* The (i, j, k) of cell c. */
+/* The (i, j, k) of cell c of an n[0] x n[1] x n[2] grid, and of the system's. */
+static void level_cell_at(const int n[3], int64_t c, int at[3])
+{
+    at[0] = (int)(c % n[0]);
+    at[1] = (int)((c / n[0]) % n[1]);
+    at[2] = (int)(c / ((int64_t)n[0] * n[1]));
+}
+
 static void cell_at(const vdbs_fld_grid *g, int64_t c, int at[3])
 {
-    at[0] = (int)(c % g->n[0]);
-    at[1] = (int)((c / g->n[0]) % g->n[1]);
-    at[2] = (int)(c / ((int64_t)g->n[0] * g->n[1]));
+    level_cell_at(g->n, c, at);
 }
 
 /* grad phi of one channel at cell c by central differences (one-sided at the faces; 0 along
@@ -170,6 +198,123 @@ static void update_d(fld_system *sys, const double *phi, int limiter)
         }
 }
 
+/* The Jacobi diagonal of every channel of a level, in double from its float coefficients. */
+static void level_diag(fld_level *lv)
+{
+    const int64_t stride[3] = {1, lv->n[0], (int64_t)lv->n[0] * lv->n[1]};
+    const int k_axis[3] = {VS_FLD_COEF_X, VS_FLD_COEF_Y, VS_FLD_COEF_Z};
+#pragma omp parallel for schedule(static)
+    for (int64_t c = 0; c < lv->cells; ++c) {
+        int at[3];
+        level_cell_at(lv->n, c, at);
+        for (int ch = 0; ch < 3; ++ch) {
+            double diag = (double)lv->coef[coef_at(c, ch, VS_FLD_COEF_ABSORB)] +
+                          (double)lv->coef[coef_at(c, ch, VS_FLD_COEF_LEAK)];
+            for (int a = 0; a < 3; ++a) {
+                if (at[a] + 1 < lv->n[a])
+                    diag += lv->coef[coef_at(c, ch, k_axis[a])];
+                if (at[a] > 0)
+                    diag += lv->coef[coef_at(c - stride[a], ch, k_axis[a])];
+            }
+            lv->diag[3 * c + ch] = diag;
+        }
+    }
+}
+
+/* Allocates the levels below the system's own (level 0 shares its coefficients): each halves
+ * the cells along every axis (rounding up) until none has more than FLD_COARSEST. */
+static int levels_create(fld_system *sys)
+{
+    const vdbs_fld_grid *g = sys->grid;
+    int n[3] = {g->n[0], g->n[1], g->n[2]};
+    sys->levels = 0;
+    for (int l = 0; l < FLD_MAX_LEVELS; ++l) {
+        fld_level *lv = &sys->level[l];
+        memcpy(lv->n, n, sizeof n);
+        lv->cells = (int64_t)n[0] * n[1] * n[2];
+        const size_t cells = (size_t)lv->cells;
+        if (l == 0) {
+            lv->coef = sys->coef;
+            lv->diag = sys->diag;
+        } else {
+            lv->coef = malloc(sizeof *lv->coef * cells * 3 * VS_FLD_COEF_WORDS);
+            lv->diag = malloc(sizeof *lv->diag * cells * 3);
+        }
+        lv->r = malloc(sizeof *lv->r * cells);
+        lv->z = malloc(sizeof *lv->z * cells);
+        lv->t = malloc(sizeof *lv->t * cells);
+        lv->xf = malloc(sizeof *lv->xf * cells);
+        lv->yf = malloc(sizeof *lv->yf * cells);
+        sys->levels = l + 1;
+        if (!lv->coef || !lv->diag || !lv->r || !lv->z || !lv->t || !lv->xf || !lv->yf)
+            return 0;
+        if (n[0] <= FLD_COARSEST && n[1] <= FLD_COARSEST && n[2] <= FLD_COARSEST)
+            break;
+        for (int a = 0; a < 3; ++a)
+            n[a] = (n[a] + 1) / 2;
+    }
+    return 1;
+}
+
+static void levels_free(fld_system *sys)
+{
+    for (int l = 0; l < sys->levels; ++l) {
+        fld_level *lv = &sys->level[l];
+        if (l > 0) {
+            free(lv->coef);
+            free(lv->diag);
+        }
+        free(lv->r);
+        free(lv->z);
+        free(lv->t);
+        free(lv->xf);
+        free(lv->yf);
+    }
+    sys->levels = 0;
+}
+
+/* Each coarse level from the one above: absorption and leak summed over the 8 children (the
+ * Galerkin operator of piecewise-constant prolongation), couplings summed over the faces
+ * between two parents and halved (Galerkin's sum is twice the rediscretised coupling of a
+ * cell twice as wide, which would make the coarse correction half of what it should be). */
+static void levels_build(fld_system *sys)
+{
+    const int k_axis[3] = {VS_FLD_COEF_X, VS_FLD_COEF_Y, VS_FLD_COEF_Z};
+    for (int l = 1; l < sys->levels; ++l) {
+        const fld_level *f = &sys->level[l - 1];
+        fld_level *lv = &sys->level[l];
+        const int64_t fstride[3] = {1, f->n[0], (int64_t)f->n[0] * f->n[1]};
+#pragma omp parallel for schedule(static)
+        for (int64_t c = 0; c < lv->cells; ++c) {
+            int at[3];
+            level_cell_at(lv->n, c, at);
+            double sum[3][VS_FLD_COEF_WORDS] = {{0.0}};
+            for (int child = 0; child < 8; ++child) {
+                int fa[3];
+                int inside = 1;
+                for (int a = 0; a < 3; ++a) {
+                    fa[a] = 2 * at[a] + ((child >> a) & 1);
+                    inside = inside && fa[a] < f->n[a];
+                }
+                if (!inside)
+                    continue;
+                const int64_t fc = fa[0] * fstride[0] + fa[1] * fstride[1] + fa[2] * fstride[2];
+                for (int ch = 0; ch < 3; ++ch) {
+                    sum[ch][VS_FLD_COEF_ABSORB] += f->coef[coef_at(fc, ch, VS_FLD_COEF_ABSORB)];
+                    sum[ch][VS_FLD_COEF_LEAK] += f->coef[coef_at(fc, ch, VS_FLD_COEF_LEAK)];
+                    for (int a = 0; a < 3; ++a)
+                        if (((child >> a) & 1) && at[a] + 1 < lv->n[a])
+                            sum[ch][k_axis[a]] += 0.5 * f->coef[coef_at(fc, ch, k_axis[a])];
+                }
+            }
+            for (int ch = 0; ch < 3; ++ch)
+                for (int k = 0; k < VS_FLD_COEF_WORDS; ++k)
+                    lv->coef[coef_at(c, ch, k)] = (float)sum[ch][k];
+        }
+        level_diag(lv);
+    }
+}
+
 /* The coefficients of every channel from D: couplings by the harmonic mean of the two cells'
  * D over h^2; a boundary face leaks phi 2 D / (h + 4 D) per area (Marshak: no light enters).
  * Also the Jacobi preconditioner's diagonal (double, from the float coefficients). */
@@ -202,22 +347,7 @@ static void build_coef(fld_system *sys)
             sys->coef[coef_at(c, ch, VS_FLD_COEF_LEAK)] = (float)leak;
         }
     }
-#pragma omp parallel for schedule(static)
-    for (int64_t c = 0; c < sys->cells; ++c) {
-        int at[3];
-        cell_at(g, c, at);
-        for (int ch = 0; ch < 3; ++ch) {
-            double diag = (double)sys->coef[coef_at(c, ch, VS_FLD_COEF_ABSORB)] +
-                          (double)sys->coef[coef_at(c, ch, VS_FLD_COEF_LEAK)];
-            for (int a = 0; a < 3; ++a) {
-                if (at[a] + 1 < g->n[a])
-                    diag += sys->coef[coef_at(c, ch, k_axis[a])];
-                if (at[a] > 0)
-                    diag += sys->coef[coef_at(c - stride[a], ch, k_axis[a])];
-            }
-            sys->diag[3 * c + ch] = diag;
-        }
-    }
+    level_diag(&sys->level[0]);
 }
 
 /* r = b - A x for one channel in double from the float coefficients: the true residual that
@@ -251,29 +381,154 @@ static double true_residual(const fld_system *sys, int ch, const double *b, cons
     return sqrt(norm);
 }
 
-/* Jacobi-preconditioned CG for one channel: x in (first guess) and out, until the true
+/* The right side of one channel: Q - div(3 D M). A face's source flux is 3 D_face times the
+ * two cells' mean M (D_face the coupling's harmonic mean, coupling h^2); a boundary face
+ * carries h/(h + 4 D) of the cell's 3 D M out with Marshak's condition (its outward share
+ * is returned per volume in *boundary, summed, so that it counts as leaked). */
+static void source_rhs(const fld_system *sys, int ch, double *b, double *boundary)
+{
+    const vdbs_fld_grid *g = sys->grid;
+    const int64_t stride[3] = {1, g->n[0], (int64_t)g->n[0] * g->n[1]};
+    const int k_axis[3] = {VS_FLD_COEF_X, VS_FLD_COEF_Y, VS_FLD_COEF_Z};
+    const double h = g->h;
+    double out = 0.0;
+    for (int64_t c = 0; c < sys->cells; ++c)
+        b[c] = g->source[3 * c + ch];
+    for (int64_t c = 0; g->moment && c < sys->cells; ++c) {
+        int at[3];
+        cell_at(g, c, at);
+        const double d = sys->d[3 * c + ch];
+        for (int a = 0; a < 3; ++a) {
+            const double m = g->moment[9 * c + 3 * a + ch];
+            if (at[a] + 1 < g->n[a]) {
+                const double d_face = (double)sys->coef[coef_at(c, ch, k_axis[a])] * h * h;
+                const double s =
+                    3.0 * d_face * 0.5 * (m + g->moment[9 * (c + stride[a]) + 3 * a + ch]) / h;
+                b[c] -= s;
+                b[c + stride[a]] += s;
+            } else {
+                const double s = 3.0 * d * m / (h + 4.0 * d);
+                b[c] -= s;
+                out += s;
+            }
+            if (at[a] == 0) {
+                const double s = -3.0 * d * m / (h + 4.0 * d);
+                b[c] -= s;
+                out += s;
+            }
+        }
+    }
+    *boundary = out;
+}
+
+/* y = A x on one level for one channel, through the runner (float in and out). */
+static vdbs_status level_apply(vdbs_runner *runner, fld_level *lv, int ch, const double *x,
+                               double *y, int *applications, vdbs_error *err)
+{
+    uint32_t params[VS_FLD_PARAM_WORDS] = {0};
+    for (int a = 0; a < 3; ++a)
+        params[VS_FLD_OFF_N + a] = (uint32_t)lv->n[a];
+    params[VS_FLD_OFF_CHANNEL] = (uint32_t)ch;
+    for (int64_t c = 0; c < lv->cells; ++c)
+        lv->xf[c] = (float)x[c];
+    vdbs_status st =
+        vdbs_fld_operator(runner, params, lv->coef, lv->cells, lv->xf, lv->yf, NULL, err);
+    for (int64_t c = 0; c < lv->cells; ++c)
+        y[c] = lv->yf[c];
+    ++*applications;
+    return st;
+}
+
+/* `sweeps` damped Jacobi sweeps z += omega (r - A z) / diag on one level. */
+static vdbs_status smooth(vdbs_runner *runner, fld_level *lv, int ch, int sweeps, int *applications,
+                          vdbs_error *err)
+{
+    vdbs_status st = VDBS_OK;
+    for (int s = 0; s < sweeps && st == VDBS_OK; ++s) {
+        st = level_apply(runner, lv, ch, lv->z, lv->t, applications, err);
+        for (int64_t c = 0; c < lv->cells; ++c) {
+            double diag = lv->diag[3 * c + ch];
+            if (diag > 0.0)
+                lv->z[c] += FLD_JACOBI_WEIGHT * (lv->r[c] - lv->t[c]) / diag;
+        }
+    }
+    return st;
+}
+
+/* One V-cycle from z = 0 for level l's right side r into its z: FLD_SMOOTH_SWEEPS Jacobi sweeps
+ * before and after the coarse correction (FLD_COARSE_SWEEPS on the coarsest level), the
+ * residual summed into the parents, the parents' correction added to their children. Pre-
+ * and post-smoothing alike and restriction the transpose of prolongation: a symmetric
+ * positive preconditioner, as CG needs. */
+static vdbs_status vcycle(vdbs_runner *runner, fld_system *sys, int l, int ch, int *applications,
+                          vdbs_error *err)
+{
+    fld_level *lv = &sys->level[l];
+    const int coarsest = l + 1 == sys->levels;
+    /* The first sweep from z = 0 needs no operator. */
+    for (int64_t c = 0; c < lv->cells; ++c) {
+        double diag = lv->diag[3 * c + ch];
+        lv->z[c] = diag > 0.0 ? FLD_JACOBI_WEIGHT * lv->r[c] / diag : 0.0;
+    }
+    vdbs_status st = smooth(runner, lv, ch, (coarsest ? FLD_COARSE_SWEEPS : FLD_SMOOTH_SWEEPS) - 1,
+                            applications, err);
+    if (st != VDBS_OK || coarsest)
+        return st;
+    fld_level *coarse = &sys->level[l + 1];
+    st = level_apply(runner, lv, ch, lv->z, lv->t, applications, err);
+    if (st != VDBS_OK)
+        return st;
+    memset(coarse->r, 0, sizeof *coarse->r * (size_t)coarse->cells);
+    const int64_t cstride[3] = {1, coarse->n[0], (int64_t)coarse->n[0] * coarse->n[1]};
+    for (int64_t c = 0; c < lv->cells; ++c) {
+        int at[3];
+        level_cell_at(lv->n, c, at);
+        coarse->r[(at[0] / 2) * cstride[0] + (at[1] / 2) * cstride[1] + (at[2] / 2) * cstride[2]] +=
+            lv->r[c] - lv->t[c];
+    }
+    st = vcycle(runner, sys, l + 1, ch, applications, err);
+    if (st != VDBS_OK)
+        return st;
+    for (int64_t c = 0; c < lv->cells; ++c) {
+        int at[3];
+        level_cell_at(lv->n, c, at);
+        lv->z[c] +=
+            coarse
+                ->z[(at[0] / 2) * cstride[0] + (at[1] / 2) * cstride[1] + (at[2] / 2) * cstride[2]];
+    }
+    return smooth(runner, lv, ch, FLD_SMOOTH_SWEEPS, applications, err);
+}
+
+/* z = M^-1 r, M the multigrid V-cycle. */
+static vdbs_status precondition(vdbs_runner *runner, fld_system *sys, int ch, const double *r,
+                                double *z, int *applications, vdbs_error *err)
+{
+    fld_level *top = &sys->level[0];
+    memcpy(top->r, r, sizeof *r * (size_t)top->cells);
+    vdbs_status st = vcycle(runner, sys, 0, ch, applications, err);
+    memcpy(z, top->z, sizeof *z * (size_t)top->cells);
+    return st;
+}
+
+/* Multigrid-preconditioned CG for one channel: x in (first guess) and out, until the true
  * relative residual is at most `tolerance` and, with `balance`, the residual's sum (the power
  * that absorbed + leaked misses, per volume) at most FLD_BALANCE of the source's. Returns the
- * iterations; *relative the final true relative residual. */
-static vdbs_status solve_channel(vdbs_runner *runner, const fld_system *sys, int ch,
-                                 const double *b, double *x, double tolerance, int balance,
-                                 int max_iterations, int *iterations, double *relative,
+ * iterations and operator applications (all levels); *relative the final true relative
+ * residual. */
+static vdbs_status solve_channel(vdbs_runner *runner, fld_system *sys, int ch, const double *b,
+                                 double *x, double tolerance, int balance, int max_iterations,
+                                 int *iterations, int *applications, double *relative,
                                  vdbs_error *err)
 {
     const int64_t n = sys->cells;
     double *r = malloc(sizeof *r * (size_t)n), *z = malloc(sizeof *z * (size_t)n);
-    double *p = malloc(sizeof *p * (size_t)n);
-    float *pf = malloc(sizeof *pf * (size_t)n), *apf = malloc(sizeof *apf * (size_t)n);
+    double *p = malloc(sizeof *p * (size_t)n), *ap = malloc(sizeof *ap * (size_t)n);
     vdbs_status st = VDBS_OK;
-    if (!r || !z || !p || !pf || !apf) {
+    if (!r || !z || !p || !ap) {
         st =
             vdbs_error_set(err, VDBS_ERR_NOMEM, "out of memory for FLD's %lld cells", (long long)n);
         goto done;
     }
-    uint32_t params[VS_FLD_PARAM_WORDS] = {0};
-    for (int a = 0; a < 3; ++a)
-        params[VS_FLD_OFF_N + a] = (uint32_t)sys->grid->n[a];
-    params[VS_FLD_OFF_CHANNEL] = (uint32_t)ch;
     double b_norm = 0.0, b_sum = 0.0;
     for (int64_t c = 0; c < n; ++c) {
         b_norm += b[c] * b[c];
@@ -296,36 +551,30 @@ static vdbs_status solve_channel(vdbs_runner *runner, const fld_system *sys, int
             int balanced = !balance || fabs(r_sum) <= FLD_BALANCE * b_sum;
             if ((*relative <= tolerance && balanced) || *iterations >= max_iterations)
                 break;
+            if ((st = precondition(runner, sys, ch, r, z, applications, err)) != VDBS_OK)
+                break;
             rz = 0.0;
             for (int64_t c = 0; c < n; ++c) {
-                double diag = sys->diag[3 * c + ch];
-                z[c] = diag > 0.0 ? r[c] / diag : r[c];
                 p[c] = z[c];
                 rz += r[c] * z[c];
             }
             since_true = 0;
         }
-        for (int64_t c = 0; c < n; ++c)
-            pf[c] = (float)p[c];
-        st = vdbs_fld_operator(runner, params, sys->coef, n, pf, apf, NULL, err);
-        if (st != VDBS_OK)
+        if ((st = level_apply(runner, &sys->level[0], ch, p, ap, applications, err)) != VDBS_OK)
             break;
         double pap = 0.0;
         for (int64_t c = 0; c < n; ++c)
-            pap += p[c] * apf[c];
+            pap += p[c] * ap[c];
         ++*iterations;
         ++since_true;
         if (!(pap > 0.0)) {
             since_true = FLD_RESIDUAL_REPLACEMENT; /* lost conjugacy: restart */
             continue;
         }
-        double alpha = rz / pap, rz_new = 0.0, r_norm = 0.0;
+        double alpha = rz / pap, r_norm = 0.0;
         for (int64_t c = 0; c < n; ++c) {
             x[c] += alpha * p[c];
-            r[c] -= alpha * apf[c];
-            double diag = sys->diag[3 * c + ch];
-            z[c] = diag > 0.0 ? r[c] / diag : r[c];
-            rz_new += r[c] * z[c];
+            r[c] -= alpha * ap[c];
             r_norm += r[c] * r[c];
         }
         /* The recursive residual says done (or the replacement is due): check the true one. */
@@ -333,6 +582,11 @@ static vdbs_status solve_channel(vdbs_runner *runner, const fld_system *sys, int
             since_true = FLD_RESIDUAL_REPLACEMENT;
             continue;
         }
+        if ((st = precondition(runner, sys, ch, r, z, applications, err)) != VDBS_OK)
+            break;
+        double rz_new = 0.0;
+        for (int64_t c = 0; c < n; ++c)
+            rz_new += r[c] * z[c];
         double beta = rz_new / rz;
         rz = rz_new;
         for (int64_t c = 0; c < n; ++c)
@@ -342,17 +596,17 @@ done:
     free(r);
     free(z);
     free(p);
-    free(pf);
-    free(apf);
+    free(ap);
     return st;
 }
 
-/* Energy tallies from phi in double: source, absorbed and leaked power (summed channels). */
-static void tally(const fld_system *sys, const double *phi, vdbs_fld_stats *stats)
+/* Energy tallies from phi in double: source, absorbed and leaked power (summed channels);
+ * `boundary` is the first-moment source's share through the boundary, per volume. */
+static void tally(const fld_system *sys, const double *phi, double boundary, vdbs_fld_stats *stats)
 {
     const vdbs_fld_grid *g = sys->grid;
     const double volume = g->h * g->h * g->h;
-    double source = 0.0, absorbed = 0.0, leaked = 0.0;
+    double source = 0.0, absorbed = 0.0, leaked = boundary * volume;
     for (int64_t c = 0; c < sys->cells; ++c)
         for (int ch = 0; ch < 3; ++ch) {
             source += g->source[3 * c + ch] * volume;
@@ -394,32 +648,38 @@ vdbs_status vdbs_fld_solve_grid(vdbs_runner *runner, const vdbs_fld_grid *grid,
     sys.coef = malloc(sizeof *sys.coef * n3 * VS_FLD_COEF_WORDS);
     double *b = malloc(sizeof *b * (size_t)sys.cells), *x = malloc(sizeof *x * (size_t)sys.cells);
     vdbs_status st = VDBS_OK;
-    if (!sys.d || !sys.diag || !sys.coef || !b || !x)
+    if (!sys.d || !sys.diag || !sys.coef || !b || !x || !levels_create(&sys))
         st = vdbs_error_set(err, VDBS_ERR_NOMEM, "out of memory for FLD's %lld cells",
                             (long long)sys.cells);
+    stats->levels = sys.levels;
     /* Without a first guess the first solve is classic diffusion; the limiter then needs phi. */
     int have_phi = 0;
     for (size_t v = 0; v < n3 && !have_phi; ++v)
         have_phi = phi[v] != 0.0;
     const int cap = 200 * largest + 200;
     stats->cg_iterations = 0;
+    stats->operator_applications = 0;
     stats->updates = 0;
     int last = 0;
+    double boundary = 0.0;
     for (int u = 0; !last && st == VDBS_OK; ++u) {
         last = d.limiter_off || u + 1 >= d.max_updates;
         update_d(&sys, have_phi ? phi : NULL, !d.limiter_off);
         build_coef(&sys);
+        levels_build(&sys);
         const double tolerance = last ? d.tolerance : fmax(d.tolerance, FLD_EARLY_TOLERANCE);
         double worst = 0.0, change = 0.0, norm = 0.0;
+        boundary = 0.0;
         for (int ch = 0; ch < 3 && st == VDBS_OK; ++ch) {
-            for (int64_t c = 0; c < sys.cells; ++c) {
-                b[c] = grid->source[3 * c + ch];
+            double out = 0.0;
+            source_rhs(&sys, ch, b, &out);
+            boundary += out;
+            for (int64_t c = 0; c < sys.cells; ++c)
                 x[c] = phi[3 * c + ch];
-            }
             int iterations = 0;
             double relative = 0.0;
-            st = solve_channel(runner, &sys, ch, b, x, tolerance, last, cap, &iterations, &relative,
-                               err);
+            st = solve_channel(runner, &sys, ch, b, x, tolerance, last, cap, &iterations,
+                               &stats->operator_applications, &relative, err);
             stats->cg_iterations += iterations;
             worst = fmax(worst, relative);
             for (int64_t c = 0; c < sys.cells; ++c) {
@@ -437,17 +697,20 @@ vdbs_status vdbs_fld_solve_grid(vdbs_runner *runner, const vdbs_fld_grid *grid,
         stats->residual = worst;
     }
     if (st == VDBS_OK) {
-        tally(&sys, phi, stats);
+        tally(&sys, phi, boundary, stats);
         if (flux) {
             for (int64_t c = 0; c < sys.cells; ++c)
                 for (int ch = 0; ch < 3; ++ch) {
                     double d[3];
                     gradient(grid, phi, c, ch, d);
                     for (int a = 0; a < 3; ++a)
-                        flux[9 * c + 3 * a + ch] = -sys.d[3 * c + ch] * d[a];
+                        flux[9 * c + 3 * a + ch] =
+                            sys.d[3 * c + ch] *
+                            (-d[a] + (grid->moment ? 3.0 * grid->moment[9 * c + 3 * a + ch] : 0.0));
                 }
         }
     }
+    levels_free(&sys);
     free(sys.d);
     free(sys.diag);
     free(sys.coef);
@@ -468,24 +731,31 @@ static double voxel_volume(const vdbs_volume *volume)
 }
 
 /* Q per cell: every voxel's first-scattered power, sigma_s 4 pi S1 times its volume, splatted
- * into the cells (trilinear, renormalised: the total is kept) over the cell volume. */
-static void gather_source(const vdbs_solve *s, const vdbs_coarse_frame *f, double *source)
+ * into the cells (trilinear, renormalised: the total is kept) over the cell volume; with the
+ * S1 pass's net flux F1 also the first moment g sigma_s F1 (9 per cell) the same way. */
+static void gather_source(const vdbs_solve *s, const vdbs_coarse_frame *f, const float *s1_flux,
+                          double *source, double *moment)
 {
     const vdbs_volume *volume = s->volume;
     pnanovdb_buf_t buf = pnanovdb_make_buf(volume->nano, volume->nano_size / 4);
     pnanovdb_readaccessor_t acc = vs_density_accessor(buf);
-    const double scale = voxel_volume(volume) / (f->h * f->h * f->h) * 4.0 * VDBS_PI;
+    const double scale = voxel_volume(volume) / (f->h * f->h * f->h);
     for (size_t n = 0; n < volume->coord_count; ++n) {
         const int32_t *c = volume->coords + 3 * n;
         double density = vs_density_voxel(buf, &acc, vs_coord(c[0], c[1], c[2]));
         if (!(density > 0.0))
             continue;
-        double q[3], idx[3] = {c[0], c[1], c[2]}, w[3];
-        for (int ch = 0; ch < 3; ++ch)
-            q[ch] = s->scene->density_scale * density * s->scene->albedo[ch] *
-                    (double)s->radiance[3 * n + ch];
+        double q[12], idx[3] = {c[0], c[1], c[2]}, w[3];
+        for (int ch = 0; ch < 3; ++ch) {
+            const double sigma_s = s->scene->density_scale * density * s->scene->albedo[ch];
+            q[ch] = sigma_s * 4.0 * VDBS_PI * (double)s->radiance[3 * n + ch];
+            for (int a = 0; s1_flux && a < 3; ++a)
+                q[3 + 3 * a + ch] = s->scene->g * sigma_s * (double)s1_flux[9 * n + 3 * a + ch];
+        }
         vdbs_volume_world_point(volume, idx, w);
         vdbs_coarse_splat(f, source, 3, w, q, scale);
+        if (s1_flux)
+            vdbs_coarse_splat(f, moment, 9, w, q + 3, scale);
     }
 }
 
@@ -533,20 +803,22 @@ vdbs_status vdbs_fld_solve(const vdbs_solve *s, const vdbs_fld_desc *desc, vdbs_
     double *source = calloc(3 * (size_t)cells, sizeof *source);
     double *phi = calloc(3 * (size_t)cells, sizeof *phi);
     double *flux = d.write_l1 ? calloc(9 * (size_t)cells, sizeof *flux) : NULL;
+    double *moment = d.s1_flux ? calloc(9 * (size_t)cells, sizeof *moment) : NULL;
     double *values = calloc(VDBS_COARSE_WIDTH * (size_t)cells, sizeof *values);
-    if (!sigma || !source || !phi || (d.write_l1 && !flux) || !values)
+    if (!sigma || !source || !phi || (d.write_l1 && !flux) || (d.s1_flux && !moment) || !values)
         st = vdbs_error_set(err, VDBS_ERR_NOMEM, "out of memory for FLD's %lld cells",
                             (long long)cells);
     if (st == VDBS_OK) {
         vdbs_coarse_sigma(&f, s->volume, &box, s->scene->density_scale, sigma);
-        gather_source(s, &f, source);
+        gather_source(s, &f, d.s1_flux, source, moment);
         stats->seconds_source = vdbs_now() - t0;
         vdbs_fld_grid grid = {{f.n[0], f.n[1], f.n[2]},
                               h,
                               sigma,
                               {s->scene->albedo[0], s->scene->albedo[1], s->scene->albedo[2]},
                               s->scene->g,
-                              source};
+                              source,
+                              moment};
         double t1 = vdbs_now();
         st = vdbs_fld_solve_grid(s->runner, &grid, &d, phi, flux, stats, err);
         stats->seconds_solve = vdbs_now() - t1;
@@ -571,6 +843,7 @@ vdbs_status vdbs_fld_solve(const vdbs_solve *s, const vdbs_fld_desc *desc, vdbs_
     free(source);
     free(phi);
     free(flux);
+    free(moment);
     free(values);
     return st;
 }

@@ -337,17 +337,22 @@ vdbs_status vdbs_scene_set_pop_tally(vdbs_scene *scene, const char *name, vdbs_e
     return set_choice("--pop-tally", pop_tally_names, name, &scene->pop_tally_cell, err);
 }
 
-static const char *const fld_limiter_names[2] = {"on", "off"};
-static const char *const fld_l1_names[2] = {"on", "off"};
+/* The switches stored as *_off: index 1 is "off". */
+static const char *const on_off_names[2] = {"on", "off"};
 
 vdbs_status vdbs_scene_set_fld_limiter(vdbs_scene *scene, const char *name, vdbs_error *err)
 {
-    return set_choice("--fld-limiter", fld_limiter_names, name, &scene->fld_limiter_off, err);
+    return set_choice("--fld-limiter", on_off_names, name, &scene->fld_limiter_off, err);
 }
 
 vdbs_status vdbs_scene_set_fld_l1(vdbs_scene *scene, const char *name, vdbs_error *err)
 {
-    return set_choice("--fld-l1", fld_l1_names, name, &scene->fld_l1_off, err);
+    return set_choice("--fld-l1", on_off_names, name, &scene->fld_l1_off, err);
+}
+
+vdbs_status vdbs_scene_set_fld_p1(vdbs_scene *scene, const char *name, vdbs_error *err)
+{
+    return set_choice("--fld-p1", on_off_names, name, &scene->fld_p1_off, err);
 }
 
 void vdbs_scene_init(vdbs_scene *scene)
@@ -589,10 +594,19 @@ static vdbs_status parse_camera(const parse_ctx *ctx, const cJSON *cam, vdbs_sce
 
 static vdbs_status parse_solver(const parse_ctx *ctx, const cJSON *sol, vdbs_scene *s)
 {
-    static const char *const keys[] = {"method",         "quality",       "sky_directions",
-                                       "pop_res",        "pop_ordinates", "pop_decay",
-                                       "pop_iterations", "pop_tally",     "fld_res",
-                                       "fld_limiter",    "fld_l1",        NULL};
+    static const char *const keys[] = {"method",
+                                       "quality",
+                                       "sky_directions",
+                                       "pop_res",
+                                       "pop_ordinates",
+                                       "pop_decay",
+                                       "pop_iterations",
+                                       "pop_tally",
+                                       "fld_res",
+                                       "fld_limiter",
+                                       "fld_l1",
+                                       "fld_p1",
+                                       NULL};
     vdbs_status st;
     bool found = false;
     if ((st = expect_object(ctx, sol, "solver")) != VDBS_OK ||
@@ -641,6 +655,10 @@ static vdbs_status parse_solver(const parse_ctx *ctx, const cJSON *sol, vdbs_sce
         return st;
     if (found && vdbs_scene_set_fld_l1(s, value, NULL) != VDBS_OK)
         return fail(ctx, "solver.fld_l1", "unknown value \"%s\" (expected on or off)", value);
+    if ((st = get_string(ctx, sol, "solver", "fld_p1", value, sizeof value, &found)) != VDBS_OK)
+        return st;
+    if (found && vdbs_scene_set_fld_p1(s, value, NULL) != VDBS_OK)
+        return fail(ctx, "solver.fld_p1", "unknown value \"%s\" (expected on or off)", value);
     return VDBS_OK;
 }
 
@@ -927,8 +945,9 @@ char *vdbs_scene_to_json(const vdbs_scene *s)
          add_string(sol, "pop_decay", pop_decay_names[s->pop_decay_paper != 0]) &&
          add_string(sol, "pop_tally", pop_tally_names[s->pop_tally_cell != 0]) &&
          (s->fld_resolution == 0 || add_int(sol, "fld_res", s->fld_resolution)) &&
-         add_string(sol, "fld_limiter", fld_limiter_names[s->fld_limiter_off != 0]) &&
-         add_string(sol, "fld_l1", fld_l1_names[s->fld_l1_off != 0]);
+         add_string(sol, "fld_limiter", on_off_names[s->fld_limiter_off != 0]) &&
+         add_string(sol, "fld_l1", on_off_names[s->fld_l1_off != 0]) &&
+         add_string(sol, "fld_p1", on_off_names[s->fld_p1_off != 0]);
     if (ok)
         text = cJSON_PrintUnformatted(root);
     cJSON_Delete(root);

@@ -82,9 +82,11 @@ typedef struct light_share {
 } light_share;
 
 /* Adds colour * exp(-depth) (over r^2 for a point light) to every output voxel's fluence,
- * and, with view directions wo, the same times the phase toward wo to view. */
+ * with view directions wo the same times the phase toward wo to view, and with flux the same
+ * times the direction of travel. */
 static void add_light(const vdbs_volume *volume, const float *depth, light_share light,
-                      double min_distance, double g, const float *wo, double *fluence, double *view)
+                      double min_distance, double g, const float *wo, double *fluence, double *view,
+                      double *flux)
 {
     const int64_t count = (int64_t)volume->coord_count;
 #pragma omp parallel for schedule(static)
@@ -119,6 +121,8 @@ static void add_light(const vdbs_volume *volume, const float *depth, light_share
             fluence[3 * n + ch] += light.color[ch] * weight;
             if (view)
                 view[3 * n + ch] += light.color[ch] * weight * phase;
+            for (int a = 0; flux && a < 3; ++a)
+                flux[9 * n + 3 * a + ch] += light.color[ch] * weight * travel[a];
         }
     }
 }
@@ -129,15 +133,16 @@ vdbs_status vdbs_single_scatter_grids(vdbs_runner *runner, const vdbs_volume *vo
                                       vdbs_s1_stats *stats, vdbs_progress *progress,
                                       vdbs_error *err)
 {
-    return vdbs_single_scatter_grids_view(runner, volume, scene, lights, grids, radiance, NULL,
-                                          stats, progress, err);
+    vdbs_s1_outputs out = {radiance, NULL, NULL};
+    return vdbs_single_scatter_grids_out(runner, volume, scene, lights, grids, &out, stats,
+                                         progress, err);
 }
 
-vdbs_status vdbs_single_scatter_grids_view(vdbs_runner *runner, const vdbs_volume *volume,
-                                           const vdbs_scene *scene, const vdbs_light_table *lights,
-                                           const vdbs_light_grid_desc *grids, float *radiance,
-                                           float *radiance_view, vdbs_s1_stats *stats,
-                                           vdbs_progress *progress, vdbs_error *err)
+vdbs_status vdbs_single_scatter_grids_out(vdbs_runner *runner, const vdbs_volume *volume,
+                                          const vdbs_scene *scene, const vdbs_light_table *lights,
+                                          const vdbs_light_grid_desc *grids,
+                                          const vdbs_s1_outputs *out, vdbs_s1_stats *stats,
+                                          vdbs_progress *progress, vdbs_error *err)
 {
     vdbs_s1_stats local;
     if (!stats)
@@ -146,14 +151,17 @@ vdbs_status vdbs_single_scatter_grids_view(vdbs_runner *runner, const vdbs_volum
     const size_t n = volume->coord_count;
     if (n == 0)
         return VDBS_OK; /* an empty grid: nothing to light, no grid to build */
+    float *radiance = out->radiance, *radiance_view = out->radiance_view;
     double *fluence = calloc(3 * n, sizeof *fluence);
     float *depth = malloc(n * sizeof *depth);
     double *view = radiance_view ? calloc(3 * n, sizeof *view) : NULL;
+    double *flux = out->flux ? calloc(9 * n, sizeof *flux) : NULL;
     float *wo = radiance_view ? vdbs_view_directions(volume, scene->camera.position) : NULL;
-    if (!fluence || !depth || (radiance_view && (!view || !wo))) {
+    if (!fluence || !depth || (radiance_view && (!view || !wo)) || (out->flux && !flux)) {
         free(fluence);
         free(depth);
         free(view);
+        free(flux);
         free(wo);
         return vdbs_error_set(err, VDBS_ERR_NOMEM, "out of memory for %zu voxels", n);
     }
@@ -182,7 +190,8 @@ vdbs_status vdbs_single_scatter_grids_view(vdbs_runner *runner, const vdbs_volum
                     travel[a] = -o->world[a];
                 }
             }
-            add_light(volume, depth, share, lights->min_distance, scene->g, wo, fluence, view);
+            add_light(volume, depth, share, lights->min_distance, scene->g, wo, fluence, view,
+                      flux);
         }
         stats->seconds_lookup += omp_get_wtime() - t0;
         stats->grids.cells += set.stats.cells;
@@ -200,7 +209,10 @@ vdbs_status vdbs_single_scatter_grids_view(vdbs_runner *runner, const vdbs_volum
         if (radiance_view)
             radiance_view[v] = (float)view[v];
     }
+    for (size_t v = 0; st == VDBS_OK && flux && v < 9 * n; ++v)
+        out->flux[v] = (float)flux[v];
     free(fluence);
+    free(flux);
     free(depth);
     free(view);
     free(wo);

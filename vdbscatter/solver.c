@@ -1,5 +1,6 @@
 #include "vdbscatter/solver.h"
 
+#include <stdlib.h>
 #include <string.h>
 
 #include "vdbscatter/fld.h"
@@ -27,23 +28,30 @@ int vdbs_quality_sky_directions(const char *name)
     return q ? q->sky_directions : 0;
 }
 
-/* Single scattering only: S1 into radiance (and toward the camera); ms and its moments
- * stay 0. */
-static vdbs_status run_single(const vdbs_solve *s, vdbs_error *err)
+/* S1 into radiance (and toward the camera), and with flux the unscattered light's net flux
+ * (vdbs_s1_outputs). */
+static vdbs_status run_s1(const vdbs_solve *s, float *flux, vdbs_error *err)
 {
+    vdbs_s1_outputs out = {s->radiance, s->radiance_view, flux};
     if (s->s1_grids)
-        return vdbs_single_scatter_grids_view(s->runner, s->volume, s->scene, s->lights,
-                                              s->s1_grids, s->radiance, s->radiance_view,
-                                              s->s1_stats, s->progress, err);
+        return vdbs_single_scatter_grids_out(s->runner, s->volume, s->scene, s->lights, s->s1_grids,
+                                             &out, s->s1_stats, s->progress, err);
     vdbs_status st = vdbs_single_scatter(s->runner, s->volume, s->scene, s->lights, s->radiance,
                                          s->progress, err);
-    if (st != VDBS_OK || !s->radiance_view)
+    if (st != VDBS_OK || (!s->radiance_view && !flux))
         return st;
-    /* The march has no per-light output: S1 toward the camera comes from light grids at
-     * their default oversampling (a second S1 pass; README "radiance_view"). */
+    /* The march has no per-light output: S1 toward the camera and the flux come from light
+     * grids at their default oversampling (a second S1 pass; README "radiance_view"). */
     vdbs_light_grid_desc grids = {0};
-    return vdbs_single_scatter_grids_view(s->runner, s->volume, s->scene, s->lights, &grids, NULL,
-                                          s->radiance_view, NULL, NULL, err);
+    out.radiance = NULL;
+    return vdbs_single_scatter_grids_out(s->runner, s->volume, s->scene, s->lights, &grids, &out,
+                                         NULL, NULL, err);
+}
+
+/* Single scattering only; ms and its moments stay 0. */
+static vdbs_status run_single(const vdbs_solve *s, vdbs_error *err)
+{
+    return run_s1(s, NULL, err);
 }
 
 /* Exact S1, then POP's multiple scattering from suns and skies. */
@@ -65,20 +73,31 @@ static vdbs_status run_pop(const vdbs_solve *s, vdbs_error *err)
     return st;
 }
 
-/* Exact S1, then flux-limited diffusion of the first-scattered light. */
+/* Exact S1 (with the unscattered light's flux for the first-moment source unless g = 0 or
+ * --fld-p1 off), then flux-limited diffusion of the first-scattered light. */
 static vdbs_status run_fld(const vdbs_solve *s, vdbs_error *err)
 {
-    vdbs_status st = run_single(s, err);
-    if (st != VDBS_OK)
-        return st;
-    vdbs_fld_desc desc = {0};
-    desc.resolution = s->scene->fld_resolution;
-    desc.limiter_off = s->scene->fld_limiter_off;
-    desc.write_l1 = !s->scene->fld_l1_off;
-    vdbs_fld_stats stats;
-    st = vdbs_fld_solve(s, &desc, &stats, err);
-    if (s->fld_stats)
-        *s->fld_stats = stats;
+    float *flux = NULL;
+    if (s->scene->g != 0.0 && !s->scene->fld_p1_off && s->volume->coord_count > 0) {
+        flux = malloc(sizeof *flux * 9 * s->volume->coord_count);
+        if (!flux)
+            return vdbs_error_set(err, VDBS_ERR_NOMEM,
+                                  "out of memory for the S1 flux of %zu voxels",
+                                  s->volume->coord_count);
+    }
+    vdbs_status st = run_s1(s, flux, err);
+    if (st == VDBS_OK) {
+        vdbs_fld_desc desc = {0};
+        desc.resolution = s->scene->fld_resolution;
+        desc.limiter_off = s->scene->fld_limiter_off;
+        desc.write_l1 = !s->scene->fld_l1_off;
+        desc.s1_flux = flux;
+        vdbs_fld_stats stats;
+        st = vdbs_fld_solve(s, &desc, &stats, err);
+        if (s->fld_stats)
+            *s->fld_stats = stats;
+    }
+    free(flux);
     return st;
 }
 

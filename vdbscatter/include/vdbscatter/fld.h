@@ -5,10 +5,13 @@
  * limiter lambda(R) = (2 + R) / (6 + 3 R + R^2), R = |grad phi| / (sigma_tr phi), on a
  * world-aligned grid of cubic cells over the support box (coarse.h). Cell-centred finite
  * volumes, face coefficients by harmonic mean, a Marshak vacuum condition at the boundary;
- * each channel's symmetric system is solved by Jacobi-preconditioned conjugate gradients whose
- * operator runs through the kernel runner (shaders/vs_fld.h, fld_apply.comp), the limiter
- * updated between solves. Q is the light scattered for the first time, sigma_s times the
- * S1 pass's fluence at every voxel, gathered into the cells; ms = phi / 4 pi. */
+ * each channel's symmetric system is solved by conjugate gradients preconditioned with a
+ * multigrid V-cycle (cells aggregated 2 x 2 x 2 per level, damped Jacobi smoothing), whose
+ * operator on every level runs through the kernel runner (shaders/vs_fld.h, fld_apply.comp),
+ * the limiter updated between solves. Q is the light scattered for the first time, sigma_s times
+ * the S1 pass's fluence at every voxel, gathered into the cells, with its first moment g sigma_s
+ * times the S1 pass's net flux (the P1 source: forward-peaked light keeps going forward);
+ * ms = phi / 4 pi. */
 #ifndef VDBSCATTER_FLD_H
 #define VDBSCATTER_FLD_H
 
@@ -24,17 +27,21 @@ extern "C" {
 
 /* Zero-initialise; 0 means the default. */
 typedef struct vdbs_fld_desc {
-    int resolution;   /* cells across the largest extent (--fld-res); default: the quality's,
-                         never finer than the voxels */
-    int limiter_off;  /* 1: classic diffusion, D = 1 / (3 sigma_tr); with the limiter or
-                         without, D is capped at (the grid's largest extent) / 3, the D of a
-                         medium one transport mean free path across the grid (empty cells) */
-    int max_updates;  /* solves with the limiter updated in between; default 6 */
-    double tolerance; /* relative residual |b - A phi| / |b| of every solve; default: the
-                         quality's */
-    int write_l1;     /* 1: ms_l1 from the diffusive flux, (3 g / 4 pi) (-D grad phi); the bake
-                         sets it unless --fld-l1 off (it lowered the image error on every
-                         scene with g > 0 in bench/fld.md) */
+    int resolution;       /* cells across the largest extent (--fld-res); default: the quality's,
+                             never finer than the voxels */
+    int limiter_off;      /* 1: classic diffusion, D = 1 / (3 sigma_tr); with the limiter or
+                             without, D is capped at (the grid's largest extent) / 3, the D of a
+                             medium one transport mean free path across the grid (empty cells) */
+    int max_updates;      /* solves with the limiter updated in between; default 6 */
+    double tolerance;     /* relative residual |b - A phi| / |b| of every solve; default: the
+                             quality's */
+    int write_l1;         /* 1: ms_l1 from the diffusive flux, (3 g / 4 pi) (-D grad phi); the bake
+                             sets it unless --fld-l1 off (it lowered the image error on every
+                             scene with g > 0 in bench/fld.md) */
+    const float *s1_flux; /* the bake's: the S1 pass's net flux of the unscattered light
+                             (vdbs_s1_outputs.flux, 9 per output voxel), from which the
+                             first-moment source g sigma_s F1 comes; NULL: an isotropic
+                             source (--fld-p1 off, or g = 0) */
 } vdbs_fld_desc;
 
 /* The defaults of a quality name: cells across 24 / 32 / 48 / 64 and tolerance 1e-4 / 1e-5 /
@@ -49,23 +56,31 @@ typedef struct vdbs_fld_grid {
     double albedo[3];
     double g;
     const double *source; /* Q per cell and channel (3 per cell): power per volume */
+    const double *moment; /* M, the source's first moment (9 per cell: x, y, z of R, G, B;
+                             g Q d for light first scattered from direction of travel d), or
+                             NULL. It enters Fick's law as F = -D grad phi + 3 D M (the P1
+                             source, M / sigma_tr without the limiter), so the system's right
+                             side gains -div(3 D M), and a boundary face leaks its part */
 } vdbs_fld_grid;
 
 typedef struct vdbs_fld_stats {
     int resolution;
     int64_t cells;
     double cell_side;
-    int updates;       /* solves run (limiter updates + 1) */
-    int cg_iterations; /* summed over channels and solves */
-    double residual;   /* the last solve's relative residual, worst channel, in double */
+    int updates;               /* solves run (limiter updates + 1) */
+    int cg_iterations;         /* summed over channels and solves */
+    int levels;                /* of the multigrid preconditioner, the system's own grid included */
+    int operator_applications; /* of the operator kernel on every level, summed: the cost */
+    double residual;           /* the last solve's relative residual, worst channel, in double */
     /* Power summed over the channels: source sum Q V, absorbed sum sigma_a phi V, leaked
-     * through the boundary (Marshak), all from phi in double. */
+     * through the boundary (Marshak, with the first-moment source's share at the boundary
+     * faces), all from phi in double. */
     double source, absorbed, leaked;
     double seconds_source, seconds_solve, seconds_upsample;
 } vdbs_fld_stats;
 
 /* Solves the grid's system: phi (3 per cell) in and out (in: the first guess, 0 if unknown);
- * flux (9 per cell: x, y, z components of the R, G, B diffusive flux -D grad phi) may be NULL.
+ * flux (9 per cell: x, y, z components of the R, G, B flux -D grad phi + 3 D M) may be NULL.
  * stats may be NULL. Errors: out of memory, the runner's. */
 vdbs_status vdbs_fld_solve_grid(vdbs_runner *runner, const vdbs_fld_grid *grid,
                                 const vdbs_fld_desc *desc, double *phi, double *flux,

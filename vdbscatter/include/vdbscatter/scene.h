@@ -83,6 +83,7 @@ typedef struct vdbs_scene {
     int fld_resolution;  /* cells across the largest extent; 0: the quality's */
     int fld_limiter_off; /* 1: classic diffusion (no flux limiter) */
     int fld_l1_off;      /* 1: ms_l1 stays 0 (default: from the diffusive flux) */
+    int fld_p1_off;      /* 1: an isotropic source (default: with its first moment) */
 } vdbs_scene;
 
 /* Defaults follow Blender Cycles' Principled Volume: density 1, albedo 0.5, g 0;
@@ -133,6 +134,8 @@ vdbs_status vdbs_scene_set_pop_tally(vdbs_scene *scene, const char *name, vdbs_e
 vdbs_status vdbs_scene_set_fld_limiter(vdbs_scene *scene, const char *name, vdbs_error *err);
 /* --fld-l1 / solver.fld_l1: "on" or "off". */
 vdbs_status vdbs_scene_set_fld_l1(vdbs_scene *scene, const char *name, vdbs_error *err);
+/* --fld-p1 / solver.fld_p1: "on" or "off". */
+vdbs_status vdbs_scene_set_fld_p1(vdbs_scene *scene, const char *name, vdbs_error *err);
 
 /* The resolved env-map path of an env light of `scene`: "" for a constant env, and also
  * for an env_map that is not a path of this scene (vdbs_scene_validate reports that). */

@@ -39,14 +39,23 @@ vdbs_status vdbs_single_scatter_grids(vdbs_runner *runner, const vdbs_volume *vo
                                       vdbs_s1_stats *stats, vdbs_progress *progress,
                                       vdbs_error *err);
 
-/* The same, also writing S1 toward the scene's camera into radiance_view (view.h; the
- * scene must have a camera): per light its fluence times HG(g) between its direction of
- * travel and wo. radiance may be NULL (only the view is wanted). */
-vdbs_status vdbs_single_scatter_grids_view(vdbs_runner *runner, const vdbs_volume *volume,
-                                           const vdbs_scene *scene, const vdbs_light_table *lights,
-                                           const vdbs_light_grid_desc *grids, float *radiance,
-                                           float *radiance_view, vdbs_s1_stats *stats,
-                                           vdbs_progress *progress, vdbs_error *err);
+/* What the light-grid S1 pass writes, 3 floats per output voxel unless said; each may be
+ * NULL. */
+typedef struct vdbs_s1_outputs {
+    float *radiance;      /* S1, the fluence of the unscattered light over 4 pi */
+    float *radiance_view; /* S1 toward the scene's camera (view.h; the scene must have one):
+                             per light its fluence times HG(g) between its direction of travel
+                             and wo */
+    float *flux;          /* 9 per voxel: the unscattered light's net flux, its x, y, z
+                             components of R, G, B (what FLD's first-moment source needs) */
+} vdbs_s1_outputs;
+
+/* The same pass writing any of the outputs. */
+vdbs_status vdbs_single_scatter_grids_out(vdbs_runner *runner, const vdbs_volume *volume,
+                                          const vdbs_scene *scene, const vdbs_light_table *lights,
+                                          const vdbs_light_grid_desc *grids,
+                                          const vdbs_s1_outputs *out, vdbs_s1_stats *stats,
+                                          vdbs_progress *progress, vdbs_error *err);
 
 #ifdef __cplusplus
 }
