@@ -22,9 +22,12 @@
  * The probe depends on the scene and g only, so it runs once per (scene, g); its time is
  * listed beside each POP solve's (S1 + POP, C path).
  *
+ * With --method fld the same for FLD, --res then giving --fld-res (columns keep POP's names).
+ *
  * usage: bench_pop_probe [--out bench/pop_probe.md] [--res 2,3,4,8] [--g 0,0.5,0.85]
  *        [--scenes sphere,cloud] [--points 300] [--radius-voxels 2] [--photons-sphere N]
- *        [--photons-cloud N] [--quality medium] [--seed 1] [--tally chord|cell] */
+ *        [--photons-cloud N] [--quality medium] [--seed 1] [--tally chord|cell]
+ *        [--method pop|fld] */
 #include <math.h>
 #include <stdint.h>
 #include <stdio.h>
@@ -57,7 +60,8 @@ typedef struct options {
     double g[MAX_LIST];
     int g_count;
     int points;
-    int tally_cell; /* --tally cell: the paper's one cell side per crossing */
+    int tally_cell;     /* --tally cell: the paper's one cell side per crossing */
+    const char *method; /* --method pop (default) or fld: --res is then --fld-res */
     double radius_voxels;
     const char *quality;
     uint64_t seed;
@@ -111,7 +115,8 @@ static void usage(void)
 {
     fprintf(stderr, "usage: bench_pop_probe [--out FILE] [--res 2,3,4,8] [--g 0,0.5,0.85] "
                     "[--scenes sphere,cloud] [--points 300] [--radius-voxels 2] "
-                    "[--photons-sphere N] [--photons-cloud N] [--quality medium] [--seed 1]\n");
+                    "[--photons-sphere N] [--photons-cloud N] [--quality medium] [--seed 1] "
+                    "[--tally chord|cell] [--method pop|fld]\n");
     exit(2);
 }
 
@@ -125,6 +130,7 @@ static void parse_args(int argc, char **argv, options *o)
     o->radius_voxels = 2.0;
     o->quality = "medium";
     o->seed = 1;
+    o->method = "pop";
     o->sphere = o->cloud = 1;
     o->photons_sphere = 8000000;
     o->photons_cloud = 16000000;
@@ -156,6 +162,8 @@ static void parse_args(int argc, char **argv, options *o)
             o->seed = strtoull(v, NULL, 10);
         else if (strcmp(a, "--tally") == 0 && (!strcmp(v, "chord") || !strcmp(v, "cell")))
             o->tally_cell = strcmp(v, "cell") == 0;
+        else if (strcmp(a, "--method") == 0 && (!strcmp(v, "pop") || !strcmp(v, "fld")))
+            o->method = v;
         else
             usage();
     }
@@ -425,7 +433,7 @@ static void run_scene(const scene_def *def, const options *o, vdbs_runner *runne
         sky->color[1] = 0.3;
         sky->color[2] = 0.5;
         sky->env_scale = 1.0;
-        snprintf(scene.method, sizeof scene.method, "pop");
+        snprintf(scene.method, sizeof scene.method, "%s", o->method);
         snprintf(scene.quality, sizeof scene.quality, "%s", o->quality);
         if (vdbs_scene_validate(&scene, &err) != VDBS_OK)
             die("scene", &err);
@@ -461,8 +469,9 @@ static void run_scene(const scene_def *def, const options *o, vdbs_runner *runne
 
         for (int ri = 0; ri < o->res_count; ++ri) {
             scene.pop_resolution = o->res[ri];
+            scene.fld_resolution = o->res[ri];
             scene.pop_tally_cell = o->tally_cell;
-            const vdbs_solver *solver = vdbs_solver_find("pop");
+            const vdbs_solver *solver = vdbs_solver_find(o->method);
             vdbs_lights_desc ld = {0};
             ld.sky_ordinates =
                 scene.sky_directions > 0 ? scene.sky_directions : quality->sky_directions;
@@ -494,7 +503,7 @@ static void run_scene(const scene_def *def, const options *o, vdbs_runner *runne
                 solve.ms_l1[a] = l1[a];
             t0 = vdbs_now();
             if (solver->run(&solve, &err) != VDBS_OK)
-                die("POP", &err);
+                die(o->method, &err);
             double pop_seconds = vdbs_now() - t0;
             vdbs_lights_free(&lights);
 
@@ -624,14 +633,15 @@ int main(int argc, char **argv)
         fprintf(f, "%s%s", i ? " " : "", argv[i]);
     fprintf(f, "` (%s, %.0f s in all)\n\n", vdbs_runner_device(runner), total);
     fprintf(f,
-            "POP's ms / ms_l1 (C path, quality %s) against vdbs_reference_probe at voxel centres "
+            "--method %s: ms / ms_l1 (C path, quality %s; pop-res is --fld-res for fld) against "
+            "vdbs_reference_probe at voxel centres "
             "with density > 0, both averaged over a ball of %g voxels (POP: its trilinear "
             "interpolant on a quarter-voxel lattice; \"voxel\": POP's voxel value instead). "
             "Channel means; rel RMSE = sqrt(sum (pop - probe)^2 / sum probe^2); noise floor = "
             "sqrt(sum se^2 / sum probe^2); ms_l1 as 3-vectors; \"along sun\" = sum (pop . s) / "
             "sum (probe . s). Probe seconds are per (scene, g), POP solve seconds (S1 + POP) per "
             "row. Definitions: bench/bench_pop_probe.c.\n\n",
-            o.quality, o.radius_voxels);
+            o.method, o.quality, o.radius_voxels);
     print_header(f);
     for (int i = 0; i < count; ++i)
         print_row(f, &rows[i]);

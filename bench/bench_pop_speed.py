@@ -14,7 +14,11 @@ usage: bench/bench_pop_speed.py BUILD_DIR [--out bench/pop_speed.md] [--size 128
        [--ref-seconds 120] [--orbit-quality low] [--res 64,128,256]
        [--qualities low,medium,high,ultra] [--stage-qualities 64:low,medium,high,ultra;...]
        [--gpu 64:low,medium;...] [--stage-size 160x90] [--stage-ref-seconds 30]
-       [--skip ABCD] [--method pop|fld (sections A and B)]"""
+       [--skip ABCD] [--method pop|fld (sections A, B and C)]
+
+With --method fld, section C also lists FLD's cells, CG iterations, operator applications
+(every multigrid level) and cell updates per second of the solve (the cells those
+applications updated over the fld_solve stage's time, vector work included)."""
 import argparse
 import math
 import os
@@ -27,7 +31,9 @@ from benchlib import run_json
 HERE = os.path.dirname(os.path.abspath(__file__))
 ROOT = os.path.dirname(HERE)
 SAMPLES = os.path.join(ROOT, "samples")
-STAGES = ["pop_sweep", "pop_seed", "pop_propagate", "pop_isotropic", "pop_merge", "pop_upsample"]
+STAGES = {"pop": ["pop_sweep", "pop_seed", "pop_propagate", "pop_isotropic", "pop_merge",
+                  "pop_upsample"],
+          "fld": ["fld_source", "fld_solve", "fld_upsample"]}
 
 
 def timed(cmd):
@@ -48,7 +54,7 @@ def main():
     ap.add_argument("--stage-size", default="160x90")
     ap.add_argument("--stage-ref-seconds", type=float, default=30.0)
     ap.add_argument("--skip", default="", help="sections to skip, e.g. AB")
-    ap.add_argument("--method", default="pop", help="the solver of sections A and B")
+    ap.add_argument("--method", default="pop", help="the solver of sections A, B and C")
     ap.add_argument("--ref-seconds", type=float, default=120.0)
     ap.add_argument("--qualities", default="low,medium,high,ultra")
     args = ap.parse_args()
@@ -136,13 +142,19 @@ def parse_plan(text):
 
 def section_c(args, exe, tmp, scene, lines):
     """Stage times per size, quality and backend, the baked image's error beside them."""
+    stages = STAGES[args.method]
+    fld = args.method == "fld"
+    what = ("default FLD (the quality's cells, limiter, first-moment source)" if fld else
+            "default POP (4 cells, chord tally)")
+    extra = ["cells", "CG iterations", "operator applications", "cell updates / s"] if fld else []
     lines += ["", f"C. cloud sample at N^3 under samples/cloud.json's lights (density 20, "
-              f"albedo 0.99, g 0.85, a sun and a constant sky), default POP (4 cells, chord tally); error: "
+              f"albedo 0.99, g 0.85, a sun and a constant sky), {what}; error: "
               f"the baked render at {args.stage_size} against a {args.stage_ref_seconds:.0f} s "
-              "reference of the same volume; s1: the solve's time outside POP's stages.", "",
+              f"reference of the same volume; s1: the solve's time outside {args.method}'s "
+              "stages.", "",
               "| N^3 | active voxels | quality | backend | solve s | s1 | " +
-              " | ".join(STAGES) + " | POP error | reference se |",
-              "|---" * (8 + len(STAGES)) + "|"]
+              " | ".join(stages + extra) + f" | {args.method} error | reference se |",
+              "|---" * (8 + len(stages) + len(extra)) + "|"]
     gpu = dict(parse_plan(args.gpu))
     view = ["--size", args.stage_size]
     for n, qualities in parse_plan(args.stage_qualities):
@@ -156,18 +168,24 @@ def section_c(args, exe, tmp, scene, lines):
                 if backend == "gpu" and q not in gpu.get(n, []):
                     continue
                 lit = os.path.join(tmp, "c.vdb")
-                rep = run_json([exe, "bake", vdb, "--scene", scene, "-o", lit, "--method", "pop",
-                                "--quality", q, "--backend", backend, "--json", "-q"])
+                rep = run_json([exe, "bake", vdb, "--scene", scene, "-o", lit, "--method",
+                                args.method, "--quality", q, "--backend", backend, "--json",
+                                "-q"])
                 img = os.path.join(tmp, "c.exr")
                 run_json([exe, "render", lit, "-o", img, "--backend", "cpu", *view, "--json",
                           "-q"])
                 cmp = run_json([exe, "compare", img, ref, "--json"])
                 err = cmp["relrmse"]
                 sec = rep["seconds"]
-                s1 = sec["solve"] - sum(sec[s] for s in STAGES)
+                s1 = sec["solve"] - sum(sec[s] for s in stages)
+                cols = [f"{sec[s]:.3f}" for s in stages]
+                if fld:
+                    f = rep["fld"]
+                    cols += [str(f["cells"]), str(f["cg_iterations"]),
+                             str(f["operator_applications"]),
+                             f"{f['cell_updates'] / max(sec['fld_solve'], 1e-9):.3g}"]
                 row = (f"| {n} | {rep['active_voxels']} | {q} | {backend} | {sec['solve']:.2f} | "
-                       f"{s1:.2f} | " + " | ".join(f"{sec[s]:.3f}" for s in STAGES) +
-                       f" | {err:.3f} | {cmp['se_b']:.4f} |")
+                       f"{s1:.2f} | " + " | ".join(cols) + f" | {err:.3f} | {cmp['se_b']:.4f} |")
                 lines.append(row)
                 print(row, flush=True)
 

@@ -147,6 +147,7 @@ static cJSON *report_json(const char *input, const char *output, const vdbs_scen
         cJSON_AddNumberToObject(fj, "cg_iterations", f->cg_iterations);
         cJSON_AddNumberToObject(fj, "levels", f->levels);
         cJSON_AddNumberToObject(fj, "operator_applications", f->operator_applications);
+        cJSON_AddNumberToObject(fj, "cell_updates", (double)f->cell_updates);
         cJSON_AddNumberToObject(fj, "residual", f->residual);
         cJSON_AddNumberToObject(fj, "source", f->source);
         cJSON_AddNumberToObject(fj, "absorbed", f->absorbed);

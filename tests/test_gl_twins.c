@@ -570,6 +570,7 @@ static void fld_solve_scenario_make(fld_solve_scenario *s)
                           NULL};
     s->grid = grid;
     s->desc.tolerance = 1e-8;
+    s->desc.runner_cells = 1; /* every multigrid level through the backend */
 }
 
 /* phi (as floats) of a solve on the runner from phi = 0. */
@@ -602,13 +603,14 @@ static void test_fld(void **state)
     fld_scenario_make(s);
     free(test_twin("FLD operator, 3 channels", run_fld_operator, s, 3 * FLD_CELLS + 3));
     free(s);
-    /* A converged solve (limiter on, tolerance 1e-8): CG runs on the host in double and only
-     * the operator runs on the backend, (sigma_a + leak) x_i plus six couplings times
-     * differences in one order, precise in the shader and without FMA in C. On llvmpipe phi came
-     * out bit-identical (difference 0), so test_twin's 1e-5 per value fits; a driver that
-     * contracted to FMA would move the CG iterates by float rounding, and then phi agrees only
-     * to about the tolerance (1e-8) times the system's condition, to be compared against the
-     * peak as POP's 30 iterations are. */
+    /* A converged solve (limiter on, tolerance 1e-8): CG and the multigrid's vector work run
+     * on the host in double and only the operator, on every level, runs on the backend:
+     * (sigma_a + leak) x_i plus six couplings times differences in one order, precise in the
+     * shader and without FMA in C. On llvmpipe phi came out bit-identical (difference 0), so
+     * test_twin's 1e-5 per value fits; a driver that contracted to FMA would move the CG
+     * iterates by float rounding, and then phi agrees only to about the tolerance (1e-8)
+     * times the system's condition, to be compared against the peak as POP's 30 iterations
+     * are. */
     fld_solve_scenario *fs = malloc(sizeof *fs);
     assert_non_null(fs);
     fld_solve_scenario_make(fs);

@@ -33,6 +33,8 @@
 #define FLD_JACOBI_WEIGHT 0.8
 #define FLD_SMOOTH_SWEEPS 2
 #define FLD_COARSE_SWEEPS 16
+/* Default of vdbs_fld_desc.runner_cells. */
+#define FLD_RUNNER_CELLS 4096
 
 void vdbs_fld_quality(const char *quality, int *resolution, double *tolerance)
 {
@@ -117,6 +119,7 @@ typedef struct fld_level {
     double *diag;      /* 3 per cell: the operator's diagonal (the Jacobi smoother's) */
     double *r, *z, *t; /* one channel's right side, correction and scratch */
     float *xf, *yf;    /* the kernel's float input and output */
+    int via_runner;    /* 0: the operator in a host loop (vdbs_fld_desc.runner_cells) */
 } fld_level;
 
 /* Multigrid levels down to a grid of at most FLD_COARSEST cells along every axis. */
@@ -132,6 +135,7 @@ typedef struct fld_system {
     double *diag; /* 3 per cell: the operator's diagonal (level 0's) */
     fld_level level[FLD_MAX_LEVELS];
     int levels;
+    int64_t runner_cells; /* levels of fewer cells apply the operator on the host */
 } fld_system;
 
 static double sigma_tr(const vdbs_fld_grid *g, int64_t c, int ch)
@@ -232,6 +236,7 @@ static int levels_create(fld_system *sys)
         fld_level *lv = &sys->level[l];
         memcpy(lv->n, n, sizeof n);
         lv->cells = (int64_t)n[0] * n[1] * n[2];
+        lv->via_runner = lv->cells >= sys->runner_cells;
         const size_t cells = (size_t)lv->cells;
         if (l == 0) {
             lv->coef = sys->coef;
@@ -421,9 +426,15 @@ static void source_rhs(const fld_system *sys, int ch, double *b, double *boundar
     *boundary = out;
 }
 
+/* What the operator applications cost: how many, and the cells they updated. */
+typedef struct fld_cost {
+    int applications;
+    int64_t cells;
+} fld_cost;
+
 /* y = A x on one level for one channel, through the runner (float in and out). */
 static vdbs_status level_apply(vdbs_runner *runner, fld_level *lv, int ch, const double *x,
-                               double *y, int *applications, vdbs_error *err)
+                               double *y, fld_cost *cost, vdbs_error *err)
 {
     uint32_t params[VS_FLD_PARAM_WORDS] = {0};
     for (int a = 0; a < 3; ++a)
@@ -431,21 +442,26 @@ static vdbs_status level_apply(vdbs_runner *runner, fld_level *lv, int ch, const
     params[VS_FLD_OFF_CHANNEL] = (uint32_t)ch;
     for (int64_t c = 0; c < lv->cells; ++c)
         lv->xf[c] = (float)x[c];
-    vdbs_status st =
-        vdbs_fld_operator(runner, params, lv->coef, lv->cells, lv->xf, lv->yf, NULL, err);
+    vdbs_status st = VDBS_OK;
+    if (lv->via_runner)
+        st = vdbs_fld_operator(runner, params, lv->coef, lv->cells, lv->xf, lv->yf, NULL, err);
+    else
+        for (int64_t c = 0; c < lv->cells; ++c)
+            lv->yf[c] = vs_fld_apply(params, lv->coef, lv->xf, (int)c);
     for (int64_t c = 0; c < lv->cells; ++c)
         y[c] = lv->yf[c];
-    ++*applications;
+    ++cost->applications;
+    cost->cells += lv->cells;
     return st;
 }
 
 /* `sweeps` damped Jacobi sweeps z += omega (r - A z) / diag on one level. */
-static vdbs_status smooth(vdbs_runner *runner, fld_level *lv, int ch, int sweeps, int *applications,
+static vdbs_status smooth(vdbs_runner *runner, fld_level *lv, int ch, int sweeps, fld_cost *cost,
                           vdbs_error *err)
 {
     vdbs_status st = VDBS_OK;
     for (int s = 0; s < sweeps && st == VDBS_OK; ++s) {
-        st = level_apply(runner, lv, ch, lv->z, lv->t, applications, err);
+        st = level_apply(runner, lv, ch, lv->z, lv->t, cost, err);
         for (int64_t c = 0; c < lv->cells; ++c) {
             double diag = lv->diag[3 * c + ch];
             if (diag > 0.0)
@@ -460,7 +476,7 @@ static vdbs_status smooth(vdbs_runner *runner, fld_level *lv, int ch, int sweeps
  * residual summed into the parents, the parents' correction added to their children. Pre-
  * and post-smoothing alike and restriction the transpose of prolongation: a symmetric
  * positive preconditioner, as CG needs. */
-static vdbs_status vcycle(vdbs_runner *runner, fld_system *sys, int l, int ch, int *applications,
+static vdbs_status vcycle(vdbs_runner *runner, fld_system *sys, int l, int ch, fld_cost *cost,
                           vdbs_error *err)
 {
     fld_level *lv = &sys->level[l];
@@ -470,12 +486,12 @@ static vdbs_status vcycle(vdbs_runner *runner, fld_system *sys, int l, int ch, i
         double diag = lv->diag[3 * c + ch];
         lv->z[c] = diag > 0.0 ? FLD_JACOBI_WEIGHT * lv->r[c] / diag : 0.0;
     }
-    vdbs_status st = smooth(runner, lv, ch, (coarsest ? FLD_COARSE_SWEEPS : FLD_SMOOTH_SWEEPS) - 1,
-                            applications, err);
+    vdbs_status st =
+        smooth(runner, lv, ch, (coarsest ? FLD_COARSE_SWEEPS : FLD_SMOOTH_SWEEPS) - 1, cost, err);
     if (st != VDBS_OK || coarsest)
         return st;
     fld_level *coarse = &sys->level[l + 1];
-    st = level_apply(runner, lv, ch, lv->z, lv->t, applications, err);
+    st = level_apply(runner, lv, ch, lv->z, lv->t, cost, err);
     if (st != VDBS_OK)
         return st;
     memset(coarse->r, 0, sizeof *coarse->r * (size_t)coarse->cells);
@@ -486,7 +502,7 @@ static vdbs_status vcycle(vdbs_runner *runner, fld_system *sys, int l, int ch, i
         coarse->r[(at[0] / 2) * cstride[0] + (at[1] / 2) * cstride[1] + (at[2] / 2) * cstride[2]] +=
             lv->r[c] - lv->t[c];
     }
-    st = vcycle(runner, sys, l + 1, ch, applications, err);
+    st = vcycle(runner, sys, l + 1, ch, cost, err);
     if (st != VDBS_OK)
         return st;
     for (int64_t c = 0; c < lv->cells; ++c) {
@@ -496,16 +512,16 @@ static vdbs_status vcycle(vdbs_runner *runner, fld_system *sys, int l, int ch, i
             coarse
                 ->z[(at[0] / 2) * cstride[0] + (at[1] / 2) * cstride[1] + (at[2] / 2) * cstride[2]];
     }
-    return smooth(runner, lv, ch, FLD_SMOOTH_SWEEPS, applications, err);
+    return smooth(runner, lv, ch, FLD_SMOOTH_SWEEPS, cost, err);
 }
 
 /* z = M^-1 r, M the multigrid V-cycle. */
 static vdbs_status precondition(vdbs_runner *runner, fld_system *sys, int ch, const double *r,
-                                double *z, int *applications, vdbs_error *err)
+                                double *z, fld_cost *cost, vdbs_error *err)
 {
     fld_level *top = &sys->level[0];
     memcpy(top->r, r, sizeof *r * (size_t)top->cells);
-    vdbs_status st = vcycle(runner, sys, 0, ch, applications, err);
+    vdbs_status st = vcycle(runner, sys, 0, ch, cost, err);
     memcpy(z, top->z, sizeof *z * (size_t)top->cells);
     return st;
 }
@@ -513,12 +529,11 @@ static vdbs_status precondition(vdbs_runner *runner, fld_system *sys, int ch, co
 /* Multigrid-preconditioned CG for one channel: x in (first guess) and out, until the true
  * relative residual is at most `tolerance` and, with `balance`, the residual's sum (the power
  * that absorbed + leaked misses, per volume) at most FLD_BALANCE of the source's. Returns the
- * iterations and operator applications (all levels); *relative the final true relative
- * residual. */
+ * iterations, and adds the operator applications (all levels) to *cost; *relative the final true
+ * relative residual. */
 static vdbs_status solve_channel(vdbs_runner *runner, fld_system *sys, int ch, const double *b,
                                  double *x, double tolerance, int balance, int max_iterations,
-                                 int *iterations, int *applications, double *relative,
-                                 vdbs_error *err)
+                                 int *iterations, fld_cost *cost, double *relative, vdbs_error *err)
 {
     const int64_t n = sys->cells;
     double *r = malloc(sizeof *r * (size_t)n), *z = malloc(sizeof *z * (size_t)n);
@@ -551,7 +566,7 @@ static vdbs_status solve_channel(vdbs_runner *runner, fld_system *sys, int ch, c
             int balanced = !balance || fabs(r_sum) <= FLD_BALANCE * b_sum;
             if ((*relative <= tolerance && balanced) || *iterations >= max_iterations)
                 break;
-            if ((st = precondition(runner, sys, ch, r, z, applications, err)) != VDBS_OK)
+            if ((st = precondition(runner, sys, ch, r, z, cost, err)) != VDBS_OK)
                 break;
             rz = 0.0;
             for (int64_t c = 0; c < n; ++c) {
@@ -560,7 +575,7 @@ static vdbs_status solve_channel(vdbs_runner *runner, fld_system *sys, int ch, c
             }
             since_true = 0;
         }
-        if ((st = level_apply(runner, &sys->level[0], ch, p, ap, applications, err)) != VDBS_OK)
+        if ((st = level_apply(runner, &sys->level[0], ch, p, ap, cost, err)) != VDBS_OK)
             break;
         double pap = 0.0;
         for (int64_t c = 0; c < n; ++c)
@@ -582,7 +597,7 @@ static vdbs_status solve_channel(vdbs_runner *runner, fld_system *sys, int ch, c
             since_true = FLD_RESIDUAL_REPLACEMENT;
             continue;
         }
-        if ((st = precondition(runner, sys, ch, r, z, applications, err)) != VDBS_OK)
+        if ((st = precondition(runner, sys, ch, r, z, cost, err)) != VDBS_OK)
             break;
         double rz_new = 0.0;
         for (int64_t c = 0; c < n; ++c)
@@ -630,11 +645,14 @@ vdbs_status vdbs_fld_solve_grid(vdbs_runner *runner, const vdbs_fld_grid *grid,
     vdbs_fld_desc d = desc ? *desc : (vdbs_fld_desc){0};
     if (d.max_updates <= 0)
         d.max_updates = FLD_DEFAULT_UPDATES;
+    if (d.runner_cells <= 0)
+        d.runner_cells = FLD_RUNNER_CELLS;
     if (!(d.tolerance > 0.0))
         d.tolerance = 1e-5;
     fld_system sys;
     memset(&sys, 0, sizeof sys);
     sys.grid = grid;
+    sys.runner_cells = d.runner_cells;
     sys.cells = (int64_t)grid->n[0] * grid->n[1] * grid->n[2];
     const int largest = grid->n[0] > grid->n[1]
                             ? (grid->n[0] > grid->n[2] ? grid->n[0] : grid->n[2])
@@ -658,7 +676,7 @@ vdbs_status vdbs_fld_solve_grid(vdbs_runner *runner, const vdbs_fld_grid *grid,
         have_phi = phi[v] != 0.0;
     const int cap = 200 * largest + 200;
     stats->cg_iterations = 0;
-    stats->operator_applications = 0;
+    fld_cost cost = {0, 0};
     stats->updates = 0;
     int last = 0;
     double boundary = 0.0;
@@ -678,8 +696,8 @@ vdbs_status vdbs_fld_solve_grid(vdbs_runner *runner, const vdbs_fld_grid *grid,
                 x[c] = phi[3 * c + ch];
             int iterations = 0;
             double relative = 0.0;
-            st = solve_channel(runner, &sys, ch, b, x, tolerance, last, cap, &iterations,
-                               &stats->operator_applications, &relative, err);
+            st = solve_channel(runner, &sys, ch, b, x, tolerance, last, cap, &iterations, &cost,
+                               &relative, err);
             stats->cg_iterations += iterations;
             worst = fmax(worst, relative);
             for (int64_t c = 0; c < sys.cells; ++c) {
@@ -695,6 +713,8 @@ vdbs_status vdbs_fld_solve_grid(vdbs_runner *runner, const vdbs_fld_grid *grid,
         have_phi = 1;
         stats->updates = u + 1;
         stats->residual = worst;
+        stats->operator_applications = cost.applications;
+        stats->cell_updates = cost.cells;
     }
     if (st == VDBS_OK) {
         tally(&sys, phi, boundary, stats);

@@ -38,6 +38,9 @@ typedef struct vdbs_fld_desc {
     int write_l1;         /* 1: ms_l1 from the diffusive flux, (3 g / 4 pi) (-D grad phi); the bake
                              sets it unless --fld-l1 off (it lowered the image error on every
                              scene with g > 0 in bench/fld.md) */
+    int runner_cells;     /* multigrid levels with fewer cells apply the operator in a host loop
+                             (the same vs_fld.h text): a dispatch costs more than their work;
+                             default 4096, 1: every level through the runner (the twin test) */
     const float *s1_flux; /* the bake's: the S1 pass's net flux of the unscattered light
                              (vdbs_s1_outputs.flux, 9 per output voxel), from which the
                              first-moment source g sigma_s F1 comes; NULL: an isotropic
@@ -70,7 +73,8 @@ typedef struct vdbs_fld_stats {
     int updates;               /* solves run (limiter updates + 1) */
     int cg_iterations;         /* summed over channels and solves */
     int levels;                /* of the multigrid preconditioner, the system's own grid included */
-    int operator_applications; /* of the operator kernel on every level, summed: the cost */
+    int operator_applications; /* of the operator kernel on every level, summed */
+    int64_t cell_updates;      /* cells those applications updated (one channel each) */
     double residual;           /* the last solve's relative residual, worst channel, in double */
     /* Power summed over the channels: source sum Q V, absorbed sum sigma_a phi V, leaked
      * through the boundary (Marshak, with the first-moment source's share at the boundary
