@@ -45,8 +45,9 @@ static const char help[] =
     "  --pop-tally T            POP fluence per cell crossing: chord (default; the lobe's\n"
     "                           mean chord, 2/3 of a cell for isotropic light) or cell (the\n"
     "                           paper's one cell side)\n"
-    "  --fld-res N              FLD: cells across the largest extent (default: the\n"
-    "                           quality's 24/32/48/64, never finer than the voxels)\n"
+    "  --fld-res N              FLD: cells across the largest extent (default: 1/2/4/8\n"
+    "                           per transport free path per quality, at least\n"
+    "                           12/16/24/32, never finer than the voxels)\n"
     "  --fld-limiter on|off     FLD: Levermore-Pomraning flux limiter (default on) or\n"
     "                           classic diffusion\n"
     "  --fld-l1 on|off          FLD: write ms_l1 from the diffusive flux (default on)\n"
@@ -141,6 +142,7 @@ static cJSON *report_json(const char *input, const char *output, const vdbs_scen
         cJSON_AddNumberToObject(t, "fld_upsample", f->seconds_upsample);
         cJSON *fj = cJSON_AddObjectToObject(j, "fld");
         cJSON_AddNumberToObject(fj, "resolution", f->resolution);
+        cJSON_AddNumberToObject(fj, "mean_sigma_tr", f->mean_sigma_tr);
         cJSON_AddNumberToObject(fj, "cells", (double)f->cells);
         cJSON_AddNumberToObject(fj, "cell_side", f->cell_side);
         cJSON_AddNumberToObject(fj, "updates", f->updates);

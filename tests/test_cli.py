@@ -530,7 +530,9 @@ class Fld(Base):
         equals the source power to 1e-6 (the last solve runs until the residual's sum is 1e-7
         of the source's, whatever the quality's tolerance), the source equals sigma_s 4 pi S1
         summed over the voxels times their volume (the gather keeps it) to 1e-4, and the
-        resolution is the quality's 24 cells across."""
+        resolution comes from the medium: the mean sigma_tr = 20 density (1 - 0.99 g) over the
+        voxels with density (2.15 per unit at g 0.85, 13.6 at g 0) times the 1.5-unit extent,
+        one cell per transport path at low, at least 12 cells: 12 and then 21 at g 0."""
         src = os.path.join(SAMPLES, "cloud.vdb")
         lights = ["--density-scale", "20", "--albedo", "0.99", "--g", "0.85", "--sun",
                   "0.3,-1,0.2", "--env", "0.2,0.3,0.5", "--quality", "low", "--json"]
@@ -539,7 +541,7 @@ class Fld(Base):
         self.assertEqual(p.returncode, 0, p.stderr)
         report = json.loads(p.stdout)
         stats = report["fld"]
-        self.assertEqual(stats["resolution"], 24)
+        self.assertEqual(stats["resolution"], 12)
         self.assertLessEqual(stats["residual"], 1e-4)
         self.assertAlmostEqual(stats["absorbed"] + stats["leaked"], stats["source"],
                                delta=1e-6 * stats["source"])
@@ -551,6 +553,19 @@ class Fld(Base):
         dens = {tuple(i.min): i.value for i in density.citerOnValues() if i.value > 0}
         source = sum(20 * d * 0.99 * 4 * math.pi * sum(s1[k]) for k, d in dens.items())
         self.assertAlmostEqual(source * voxel, stats["source"], delta=1e-4 * stats["source"])
+        mean_density = sum(dens.values()) / len(dens)
+        extent = 48 * density.transform.voxelSize()[0]  # the cloud's index box spans 48 voxels
+        for g, cells in ((0.85, 12), (0.0, 21)):
+            sigma_tr = 20 * mean_density * (1 - 0.99 * g)
+            if g == 0.0:
+                _, q = self.bake(src, *[x if x != "0.85" else "0" for x in lights], "--method",
+                                 "fld", out="fld0.vdb")
+                stats0 = json.loads(q.stdout)["fld"]
+            else:
+                stats0 = stats
+            self.assertAlmostEqual(stats0["mean_sigma_tr"], sigma_tr, delta=1e-6 * sigma_tr)
+            self.assertEqual(stats0["resolution"], max(12, math.ceil(extent * sigma_tr)))
+            self.assertEqual(stats0["resolution"], cells)
         self.assertGreater(self.assert_s1_plus_ms(single, fld, dens), 0.5 * len(dens))
         # ms_l1 from the flux by default (g 0.85): the light flows, so the moment is not 0.
         self.assertEqual(stats["l1"], "on")

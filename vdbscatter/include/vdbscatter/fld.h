@@ -27,17 +27,17 @@ extern "C" {
 
 /* Zero-initialise; 0 means the default. */
 typedef struct vdbs_fld_desc {
-    int resolution;       /* cells across the largest extent (--fld-res); default: the quality's,
-                             never finer than the voxels */
+    int resolution;       /* cells across the largest extent (--fld-res); default: from the
+                             medium per the quality (vdbs_fld_preset); never finer than the
+                             voxels */
     int limiter_off;      /* 1: classic diffusion, D = 1 / (3 sigma_tr); with the limiter or
                              without, D is capped at (the grid's largest extent) / 3, the D of a
                              medium one transport mean free path across the grid (empty cells) */
     int max_updates;      /* solves with the limiter updated in between; default 6 */
     double tolerance;     /* relative residual |b - A phi| / |b| of every solve; default: the
                              quality's */
-    int write_l1;         /* 1: ms_l1 from the diffusive flux, (3 g / 4 pi) (-D grad phi); the bake
-                             sets it unless --fld-l1 off (it lowered the image error on every
-                             scene with g > 0 in bench/fld.md) */
+    int write_l1;         /* 1: ms_l1 from the flux, (3 g / 4 pi) F (vdbs_fld_solve_grid); the
+                             bake sets it unless --fld-l1 off (bench/fld.md measures both) */
     int runner_cells;     /* multigrid levels with fewer cells apply the operator in a host loop
                              (the same vs_fld.h text): a dispatch costs more than their work;
                              default 4096, 1: every level through the runner (the twin test) */
@@ -47,9 +47,17 @@ typedef struct vdbs_fld_desc {
                              source (--fld-p1 off, or g = 0) */
 } vdbs_fld_desc;
 
-/* The defaults of a quality name: cells across 24 / 32 / 48 / 64 and tolerance 1e-4 / 1e-5 /
- * 1e-6 / 1e-7. */
-void vdbs_fld_quality(const char *quality, int *resolution, double *tolerance);
+/* What a quality chooses. The grid comes from the medium: cells_per_path cells per mean
+ * transport free path 1 / sigma_tr (the mean over voxels with density) across the largest
+ * extent, at least min_resolution, never finer than the voxels. */
+typedef struct vdbs_fld_preset {
+    double cells_per_path; /* low 1, medium 2, high 4, ultra 8 */
+    int min_resolution;    /* 12 / 16 / 24 / 32 */
+    double tolerance;      /* 1e-4 / 1e-5 / 1e-6 / 1e-7 */
+} vdbs_fld_preset;
+
+/* The preset of a quality name (medium's for an unknown one). */
+void vdbs_fld_quality(const char *quality, vdbs_fld_preset *preset);
 
 /* A medium on a grid of n[0] x n[1] x n[2] cells of side h (item (k n1 + j) n0 + i). */
 typedef struct vdbs_fld_grid {
@@ -67,7 +75,8 @@ typedef struct vdbs_fld_grid {
 } vdbs_fld_grid;
 
 typedef struct vdbs_fld_stats {
-    int resolution;
+    int resolution;       /* cells across the largest extent */
+    double mean_sigma_tr; /* what a default resolution came from (0 with --fld-res) */
     int64_t cells;
     double cell_side;
     int updates;               /* solves run (limiter updates + 1) */
@@ -84,7 +93,8 @@ typedef struct vdbs_fld_stats {
 } vdbs_fld_stats;
 
 /* Solves the grid's system: phi (3 per cell) in and out (in: the first guess, 0 if unknown);
- * flux (9 per cell: x, y, z components of the R, G, B flux -D grad phi + 3 D M) may be NULL.
+ * flux (9 per cell: x, y, z components of the R, G, B flux -D grad phi + 3 D M, shortened to
+ * at most phi / 3, P1's realizable bound) may be NULL.
  * stats may be NULL. Errors: out of memory, the runner's. */
 vdbs_status vdbs_fld_solve_grid(vdbs_runner *runner, const vdbs_fld_grid *grid,
                                 const vdbs_fld_desc *desc, double *phi, double *flux,
