@@ -13,10 +13,45 @@ import os
 import tempfile
 
 from bench_pop import CASES, SAMPLES
-from benchlib import baked_error, case_reference
+from benchlib import baked_error, case_reference, run_json
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 VOXELS = {"sphere": 32, "cloud": 64}  # voxels across the samples' largest extent
+
+
+def refine(exe, tmp, args, lines):
+    """FLD on the cloud at g 0 and 0.85 as the grid is refined: the error against the
+    reference, the difference to the finest grid's image (does FLD converge with the grid?)
+    and the image's mean over the reference's (where does the error go?)."""
+    res = [int(r) for r in args.refine.split(",") if r]
+    lines += ["", "Refinement (cloud, density 20, sun and sky; FLD at its defaults but "
+              "--fld-res): error against the reference, relative RMSE against the finest "
+              "grid's image, and the image's mean over the reference's.", "",
+              "| scene | " + " | ".join(f"{r} cells" for r in res) + " |",
+              "|---" * (1 + len(res)) + "|"]
+    for case in (CASES[4], CASES[6]):
+        vdb, medium, view, ref = case_reference(exe, tmp, SAMPLES, case, args.size,
+                                                args.ref_seconds)
+        images, errs, means = [], [], []
+        for r in res:
+            img = os.path.join(tmp, f"refine{r}.exr")
+            lit = os.path.join(tmp, "lit.vdb")
+            run_json([exe, "bake", vdb, "-o", lit, "--backend", "cpu", "--method", "fld",
+                      "--quality", args.quality, "--fld-res", str(r), *medium, "--json", "-q"])
+            run_json([exe, "render", lit, "-o", img, "--backend", "cpu", *view, "--json", "-q"])
+            cmp = run_json([exe, "compare", img, ref, "--json"])
+            errs.append(cmp["relrmse"])
+            means.append(cmp["mean_ratio"])
+            images.append(img)
+        to_finest = [run_json([exe, "compare", img, images[-1], "--json"])["relrmse"]
+                     for img in images]
+        label = case[0]
+        lines.append(f"| {label}: error | " + " | ".join(f"{e:.3f}" for e in errs) + " |")
+        lines.append(f"| {label}: to the finest | " +
+                     " | ".join(f"{e:.3f}" for e in to_finest) + " |")
+        lines.append(f"| {label}: mean / reference | " +
+                     " | ".join(f"{m:.3f}" for m in means) + " |")
+        print("\n".join(lines[-3:]), flush=True)
 
 
 def main():
@@ -27,6 +62,9 @@ def main():
     ap.add_argument("--ref-seconds", type=float, default=40.0)
     ap.add_argument("--size", default="96x72")
     ap.add_argument("--quality", default="medium")
+    ap.add_argument("--refine", default="8,12,16,24,32,48,64",
+                    help="cells across for the refinement table ('' to skip it)")
+    ap.add_argument("--only-refine", action="store_true")
     args = ap.parse_args()
     exe = os.path.join(args.build, "vdbscatter")
     tmp = tempfile.mkdtemp(prefix="bench-fld-")
@@ -36,7 +74,7 @@ def main():
     lines = [f"`bench/bench_fld.py BUILD --ref-seconds {args.ref_seconds:g} --size {args.size} "
              f"--quality {args.quality}` (C path)", "", header, "|---" * 12 + "|"]
     curves = []
-    for case in CASES[1:]:
+    for case in [] if args.only_refine else CASES[1:]:
         label, sample = case[0], case[1]
         vdb, medium, view, ref = case_reference(exe, tmp, SAMPLES, case, args.size,
                                                 args.ref_seconds)
@@ -64,6 +102,8 @@ def main():
         lines.append(row)
         print(row, flush=True)
         curves.append((label, single, pop, res, errs))
+    if args.refine:
+        refine(exe, tmp, args, lines)
     with open(args.out, "w") as f:
         f.write("\n".join(lines) + "\n")
     try:

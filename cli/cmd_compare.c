@@ -98,6 +98,7 @@ int cmd_compare(int argc, char **argv)
         {"relrmse", m.relrmse, 1, 0},
         {"mean_rel", m.mean_rel, 1, 0},
         {"p99_rel", m.p99_rel, 1, 0},
+        {"mean_ratio", m.mean_ratio, 1, 0},
         {"samples", (double)m.samples, 1, 1},
         {"noise_share", m.noise_share, m.has_se, 0},
         {"z_mean", m.z_mean, m.has_se, 0},

@@ -133,7 +133,7 @@ class Compare(Base):
         p = run("compare", a, a, check=0)
         self.assertEqual(p.stdout.splitlines()[0], "relrmse=0")
         self.assertEqual(parse(p.stdout), [("relrmse", "0"), ("mean_rel", "0"), ("p99_rel", "0"),
-                                           ("samples", str(3 * w * h))])
+                                           ("mean_ratio", "1"), ("samples", str(3 * w * h))])
         self.assertEqual(p.stderr, "")
 
     def test_png_16_bit_and_misnamed(self):
@@ -169,13 +169,14 @@ class Compare(Base):
         a = self.random_exr("a.exr", se=True, scale=1.25)
         p = run("compare", a, b, "--json", check=0)
         j = json.loads(p.stdout)
-        keys = ["relrmse", "mean_rel", "p99_rel", "samples", "noise_share", "z_mean", "z_rms",
-                "z_samples", "se_a", "se_b"]
+        keys = ["relrmse", "mean_rel", "p99_rel", "mean_ratio", "samples", "noise_share",
+                "z_mean", "z_rms", "z_samples", "se_a", "se_b"]
         self.assertEqual(list(j), keys)
         for k in keys:
             self.assertIsInstance(j[k], (int, float), k)
         self.assertEqual(j["samples"], 3 * 24 * 16)
         self.assertAlmostEqual(j["relrmse"], 0.25, delta=1e-6)
+        self.assertAlmostEqual(j["mean_ratio"], 1.25, delta=1e-6)
         text = parse(run("compare", a, b, check=0).stdout)
         self.assertEqual([k for k, _ in text], keys)
         for k, v in text:
@@ -183,8 +184,8 @@ class Compare(Base):
         # A reference without se counts as exact: z statistics use A's noise alone.
         plain = self.random_exr("plain.exr")
         j = json.loads(run("compare", a, plain, "--json", check=0).stdout)
-        self.assertEqual(list(j), ["relrmse", "mean_rel", "p99_rel", "samples", "noise_share",
-                                   "z_mean", "z_rms", "z_samples", "se_a"])
+        self.assertEqual(list(j), ["relrmse", "mean_rel", "p99_rel", "mean_ratio", "samples",
+                                   "noise_share", "z_mean", "z_rms", "z_samples", "se_a"])
 
     def test_noise_statistics(self):
         """A = B + sqrt(se_A^2 + se_B^2) N(0,1): z ~ N(0,1) and the noise explains the

@@ -257,7 +257,7 @@ static void test_compare_self_and_scaled(void **state)
     const size_t n = (size_t)40 * 30 * 3;
     memcpy(a.rgb, b.rgb, n * sizeof(float));
     vdbs_image_metrics m = compare_ok(&b, &b, 0.0);
-    assert_true(m.relrmse == 0.0 && m.mean_rel == 0.0 && m.p99_rel == 0.0);
+    assert_true(m.relrmse == 0.0 && m.mean_rel == 0.0 && m.p99_rel == 0.0 && m.mean_ratio == 1.0);
     assert_int_equal(m.samples, (long long)n);
     assert_false(m.has_se);
 
@@ -272,6 +272,7 @@ static void test_compare_self_and_scaled(void **state)
         assert_true(m.mean_rel <= fabs(s - 1.0) * (1.0 + 1e-6));
         assert_true(m.mean_rel >= fabs(s - 1.0) * 0.99);
         assert_true(m.p99_rel <= fabs(s - 1.0) * (1.0 + 1e-6));
+        assert_true(fabs(m.mean_ratio - s) < 1e-6);
     }
 
     /* Black reference: 0 against 0, inf against anything else. */

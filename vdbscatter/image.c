@@ -619,7 +619,7 @@ vdbs_status vdbs_image_compare(const vdbs_image *a, const vdbs_image *b, double 
     /* An image without se channels is deterministic: its standard error is 0, so z is
      * still defined (a reference against a ray-marched image, say). */
     const int has_se = a->se || b->se;
-    double sum_d2 = 0.0, sum_b2 = 0.0, sum_a2 = 0.0, sum_rel = 0.0;
+    double sum_d2 = 0.0, sum_b2 = 0.0, sum_a2 = 0.0, sum_rel = 0.0, sum_va = 0.0, sum_vb = 0.0;
     double sum_sa2 = 0.0, sum_sb2 = 0.0, sum_z = 0.0, sum_z2 = 0.0;
     size_t m = 0, nz = 0;
     for (size_t p = 0; p < pixels; ++p) {
@@ -630,6 +630,8 @@ vdbs_status vdbs_image_compare(const vdbs_image *a, const vdbs_image *b, double 
             sum_d2 += d * d;
             sum_b2 += vb * vb;
             sum_a2 += va * va;
+            sum_va += va;
+            sum_vb += vb;
             double r = ratio(fabs(d), fabs(vb) + floor_b);
             if (isnan(r))
                 r = INFINITY; /* NaN pixels count as the worst error, and keep selection sane */
@@ -651,6 +653,7 @@ vdbs_status vdbs_image_compare(const vdbs_image *a, const vdbs_image *b, double 
     metrics->samples = (long long)n;
     metrics->relrmse = sqrt(ratio(sum_d2, sum_b2));
     metrics->mean_rel = sum_rel / (double)n;
+    metrics->mean_ratio = ratio(sum_va, sum_vb);
     metrics->p99_rel = percentile(rel, n, 0.99);
     free(rel);
     metrics->has_se = has_se;

@@ -46,6 +46,7 @@ typedef struct vdbs_image_metrics {
     double relrmse;      /* sqrt(mean((a-b)^2)) / sqrt(mean(b^2)), all pixels and channels */
     double mean_rel;     /* mean of |a-b| / (|b| + 1e-3 mean(b)) */
     double p99_rel;      /* 99th percentile of the same */
+    double mean_ratio;   /* sum(a) / sum(b): the sign and size of a bias in brightness */
     long long samples;   /* pixel-channel values used (after masking) */
     int has_se;          /* either image carries se.* channels (a missing one counts as 0) */
     double noise_share;  /* mean(se_a^2 + se_b^2) / mean((a-b)^2) */
