@@ -13,7 +13,7 @@ import os
 import tempfile
 
 from bench_pop import CASES, SAMPLES
-from benchlib import baked_error, case_reference, run_json
+from benchlib import baked_error, case_reference, run_json, save_plot
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 VOXELS = {"sphere": 32, "cloud": 64}  # voxels across the samples' largest extent
@@ -106,24 +106,17 @@ def main():
         refine(exe, tmp, args, lines)
     with open(args.out, "w") as f:
         f.write("\n".join(lines) + "\n")
-    try:
-        import matplotlib
-        matplotlib.use("Agg")
-        import matplotlib.pyplot as plt
-        fig, ax = plt.subplots(figsize=(7, 4.5))
+    def draw(ax):
         for label, single, pop, res, errs in curves:
             line, = ax.plot(res, errs, marker="o", label=label)
             ax.axhline(pop, color=line.get_color(), linestyle="--", linewidth=0.8)
             ax.axhline(single, color=line.get_color(), linestyle=":", linewidth=0.8)
         ax.set_xscale("log", base=2)
-        ax.set_xlabel("--fld-res (cells across the largest extent)")
-        ax.set_ylabel("image relative RMSE against the reference")
-        ax.set_title("FLD error (dashed: POP at its defaults; dotted: single scattering)")
-        ax.legend(fontsize=7)
-        fig.tight_layout()
-        fig.savefig(args.plot, dpi=110)
-    except ImportError:
-        print("matplotlib missing: no plot")
+
+    if curves:
+        save_plot(args.plot, draw, "--fld-res (cells across the largest extent)",
+                  "image relative RMSE against the reference",
+                  "FLD error (dashed: POP at its defaults; dotted: single scattering)")
     print(open(args.out).read())
 
 

@@ -11,19 +11,12 @@ usage: bench/bench_methods.py BUILD_DIR [--out bench/methods.md] [--plot bench/m
 import argparse
 import os
 import tempfile
-import time
 
-from benchlib import run_json
+from benchlib import run_json, save_plot, timed
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 SCENE = os.path.join(os.path.dirname(HERE), "samples", "cloud.json")
 METHODS = ["single", "pop", "fld"]
-
-
-def timed(cmd):
-    start = time.monotonic()
-    rep = run_json(cmd)
-    return rep, time.monotonic() - start
 
 
 def main():
@@ -76,11 +69,7 @@ def main():
         spp *= 2
     with open(args.out, "w") as fh:
         fh.write("\n".join(lines) + "\n")
-    try:
-        import matplotlib
-        matplotlib.use("Agg")
-        import matplotlib.pyplot as plt
-        fig, ax = plt.subplots(figsize=(7, 4.5))
+    def draw(ax):
         for name, pts in curves.items():
             ax.plot([p[0] for p in pts], [p[1] for p in pts], marker="o", label=name)
             for t, e, label in pts:
@@ -89,14 +78,10 @@ def main():
                                 textcoords="offset points")
         ax.set_xscale("log")
         ax.set_yscale("log")
-        ax.set_xlabel("seconds (bake + render, or the reference render), C path")
-        ax.set_ylabel("image relative RMSE against the converged reference")
-        ax.set_title(f"samples/cloud.json at {args.size}: accuracy against time")
-        ax.legend(fontsize=8)
-        fig.tight_layout()
-        fig.savefig(args.plot, dpi=110)
-    except ImportError:
-        print("matplotlib missing: no plot")
+
+    save_plot(args.plot, draw, "seconds (bake + render, or the reference render), C path",
+              "image relative RMSE against the converged reference",
+              f"samples/cloud.json at {args.size}: accuracy against time")
     print(open(args.out).read())
 
 

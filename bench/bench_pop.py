@@ -16,7 +16,7 @@ import argparse
 import os
 import tempfile
 
-from benchlib import baked_error, case_reference
+from benchlib import baked_error, case_reference, save_plot
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 ROOT = os.path.dirname(HERE)
@@ -105,11 +105,7 @@ def main():
         f.write("\n".join(lines) + "\n")
     if qualities:
         plot_qualities(quality_rows, args.quality_plot)
-    try:
-        import matplotlib
-        matplotlib.use("Agg")
-        import matplotlib.pyplot as plt
-        fig, ax = plt.subplots(figsize=(7, 4.5))
+    def draw(ax):
         for label, single, errs in curves:
             line, = ax.plot(resolutions, errs[:len(resolutions)], marker="o", label=label)
             for k in range(1, len(groups)):
@@ -118,16 +114,12 @@ def main():
             ax.axhline(single, color=line.get_color(), linestyle=":", linewidth=0.8)
         ax.set_xscale("log", base=2)
         ax.set_yscale("log")
-        ax.set_xlabel("--pop-res (cells across the largest extent)")
-        ax.set_ylabel("image relative RMSE against the reference")
-        ax.set_title("POP error (dashed:" + ",".join(g[0] for g in groups[1:]) +
-                     "; dotted: single-scattering bake)" if len(groups) > 1 else
-                     "POP error (dotted: single-scattering bake)")
-        ax.legend(fontsize=7)
-        fig.tight_layout()
-        fig.savefig(args.plot, dpi=110)
-    except ImportError:
-        print("matplotlib missing: no plot")
+
+    save_plot(args.plot, draw, "--pop-res (cells across the largest extent)",
+              "image relative RMSE against the reference",
+              "POP error (dashed:" + ",".join(g[0] for g in groups[1:]) +
+              "; dotted: single-scattering bake)" if len(groups) > 1 else
+              "POP error (dotted: single-scattering bake)")
     print(open(args.out).read())
 
 
@@ -148,23 +140,14 @@ def read_quality_table(path):
 
 def plot_qualities(rows, path):
     """Error against --quality per scene (the single-only bake dotted)."""
-    try:
-        import matplotlib
-        matplotlib.use("Agg")
-        import matplotlib.pyplot as plt
-    except ImportError:
-        print("matplotlib missing: no plot")
-        return
-    fig, ax = plt.subplots(figsize=(7, 4.5))
-    for label, single, pairs in rows:
-        line, = ax.plot([q for q, _ in pairs], [e for _, e in pairs], marker="o", label=label)
-        ax.axhline(single, color=line.get_color(), linestyle=":", linewidth=0.8)
-    ax.set_xlabel("--quality")
-    ax.set_ylabel("image relative RMSE against the reference")
-    ax.set_title("POP error per quality at the default resolution (dotted: single scattering)")
-    ax.legend(fontsize=7)
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
+    def draw(ax):
+        for label, single, pairs in rows:
+            line, = ax.plot([q for q, _ in pairs], [e for _, e in pairs], marker="o",
+                            label=label)
+            ax.axhline(single, color=line.get_color(), linestyle=":", linewidth=0.8)
+
+    save_plot(path, draw, "--quality", "image relative RMSE against the reference",
+              "POP error per quality at the default resolution (dotted: single scattering)")
 
 
 if __name__ == "__main__":

@@ -24,9 +24,8 @@ import math
 import os
 import subprocess
 import tempfile
-import time
 
-from benchlib import run_json
+from benchlib import run_json, timed
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 ROOT = os.path.dirname(HERE)
@@ -34,12 +33,6 @@ SAMPLES = os.path.join(ROOT, "samples")
 STAGES = {"pop": ["pop_sweep", "pop_seed", "pop_propagate", "pop_isotropic", "pop_merge",
                   "pop_upsample"],
           "fld": ["fld_source", "fld_solve", "fld_upsample"]}
-
-
-def timed(cmd):
-    start = time.monotonic()
-    rep = run_json(cmd)
-    return rep, time.monotonic() - start
 
 
 def main():

@@ -3,6 +3,7 @@ import json
 import os
 import subprocess
 import sys
+import time
 
 
 def run_json(cmd):
@@ -36,3 +37,30 @@ def case_reference(exe, tmp, samples, case, size, seconds):
     run_json([exe, "render", vdb, "-o", ref, "--mode", "reference", "--time", str(seconds),
               *medium, *view, "--json", "-q"])
     return vdb, medium, view, ref
+
+
+def timed(cmd):
+    """run_json and the wall seconds it took."""
+    start = time.monotonic()
+    rep = run_json(cmd)
+    return rep, time.monotonic() - start
+
+
+def save_plot(path, draw, xlabel, ylabel, title):
+    """A 7x4.5 inch PNG at `path`: draw(ax) plots, then labels, a legend and the title; says
+    so and writes nothing when matplotlib is missing."""
+    try:
+        import matplotlib
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+    except ImportError:
+        print("matplotlib missing: no plot")
+        return
+    fig, ax = plt.subplots(figsize=(7, 4.5))
+    draw(ax)
+    ax.set_xlabel(xlabel)
+    ax.set_ylabel(ylabel)
+    ax.set_title(title)
+    ax.legend(fontsize=7)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)

@@ -764,27 +764,6 @@ static double voxel_volume(const vdbs_volume *volume)
                 m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0]));
 }
 
-/* The mean over voxels with density of sigma_tr = sigma_t (1 - albedo g), albedo the
- * channels' mean. */
-static double mean_sigma_tr(const vdbs_solve *s)
-{
-    const vdbs_volume *volume = s->volume;
-    pnanovdb_buf_t buf = pnanovdb_make_buf(volume->nano, volume->nano_size / 4);
-    pnanovdb_readaccessor_t acc = vs_density_accessor(buf);
-    const double albedo = (s->scene->albedo[0] + s->scene->albedo[1] + s->scene->albedo[2]) / 3.0;
-    double sum = 0.0;
-    size_t count = 0;
-    for (size_t n = 0; n < volume->coord_count; ++n) {
-        const int32_t *c = volume->coords + 3 * n;
-        double density = vs_density_voxel(buf, &acc, vs_coord(c[0], c[1], c[2]));
-        if (density > 0.0) {
-            sum += density;
-            ++count;
-        }
-    }
-    return count ? s->scene->density_scale * sum / count * (1.0 - albedo * s->scene->g) : 0.0;
-}
-
 /* Q per cell: every voxel's first-scattered power, sigma_s 4 pi S1 times its volume, splatted
  * into the cells (trilinear, renormalised: the total is kept) over the cell volume; with the
  * S1 pass's net flux F1 also the first moment g sigma_s F1 (9 per cell) the same way. */
@@ -840,7 +819,9 @@ vdbs_status vdbs_fld_solve(const vdbs_solve *s, const vdbs_fld_desc *desc, vdbs_
     if (d.resolution <= 0) {
         /* From the medium: the preset's cells per mean transport free path across the
          * extent, at least its floor. */
-        stats->mean_sigma_tr = mean_sigma_tr(s);
+        const double *a = s->scene->albedo;
+        stats->mean_sigma_tr = s->scene->density_scale * vdbs_medium_mean_density(s->volume) *
+                               (1.0 - (a[0] + a[1] + a[2]) / 3.0 * s->scene->g);
         double across = ceil(extent * stats->mean_sigma_tr * preset.cells_per_path);
         d.resolution = (int)fmin(fmax(across, (double)preset.min_resolution), 1e6);
     }

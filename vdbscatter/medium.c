@@ -274,3 +274,20 @@ double vdbs_medium_box_density(const vdbs_medium_box *box, const double index[3]
     }
     return sum;
 }
+
+double vdbs_medium_mean_density(const vdbs_volume *volume)
+{
+    pnanovdb_buf_t buf = pnanovdb_make_buf(volume->nano, volume->nano_size / 4);
+    pnanovdb_readaccessor_t acc = vs_density_accessor(buf);
+    double sum = 0.0;
+    size_t count = 0;
+    for (size_t n = 0; n < volume->coord_count; ++n) {
+        const int32_t *c = volume->coords + 3 * n;
+        double density = vs_density_voxel(buf, &acc, vs_coord(c[0], c[1], c[2]));
+        if (density > 0.0) {
+            sum += density;
+            ++count;
+        }
+    }
+    return count ? sum / (double)count : 0.0;
+}

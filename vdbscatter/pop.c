@@ -367,25 +367,6 @@ static vdbs_status isotropic(pop_run *r, vdbs_error *err)
     return st;
 }
 
-/* The mean sigma_t over the voxels with density. */
-static double mean_sigma_t(const vdbs_solve *s)
-{
-    const vdbs_volume *volume = s->volume;
-    pnanovdb_buf_t buf = pnanovdb_make_buf(volume->nano, volume->nano_size / 4);
-    pnanovdb_readaccessor_t acc = vs_density_accessor(buf);
-    double sum = 0.0;
-    int64_t count = 0;
-    for (size_t n = 0; n < volume->coord_count; ++n) {
-        const int32_t *c = volume->coords + 3 * n;
-        float v = vs_density_voxel(buf, &acc, vs_coord(c[0], c[1], c[2]));
-        if (v > 0.0f) {
-            sum += v;
-            ++count;
-        }
-    }
-    return count > 0 ? s->scene->density_scale * (sum / count) : 0.0;
-}
-
 vdbs_status vdbs_pop_solve(const vdbs_solve *s, const vdbs_pop_desc *desc, vdbs_pop_stats *stats,
                            vdbs_error *err)
 {
@@ -431,7 +412,8 @@ vdbs_status vdbs_pop_solve(const vdbs_solve *s, const vdbs_pop_desc *desc, vdbs_
             hi[a] = fmax(hi[a], corners[c][a]);
         }
     const double extent = fmax(hi[0] - lo[0], fmax(hi[1] - lo[1], hi[2] - lo[2]));
-    const double sigma_t = mean_sigma_t(s), g = s->scene->g;
+    const double sigma_t = s->scene->density_scale * vdbs_medium_mean_density(s->volume);
+    const double g = s->scene->g;
     const double albedo = (s->scene->albedo[0] + s->scene->albedo[1] + s->scene->albedo[2]) / 3.0;
     if (r.desc.resolution <= 0)
         r.desc.resolution = POP_DEFAULT_RESOLUTION;

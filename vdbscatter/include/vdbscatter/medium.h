@@ -95,6 +95,10 @@ typedef struct vdbs_medium_box {
 } vdbs_medium_box;
 
 /* Errors: block < 1 (VDBS_ERR_INPUT), out of memory. */
+/* The mean density over the output voxels whose density is > 0 (0 if none): what the
+ * solvers scale their grids and decay laws from. */
+double vdbs_medium_mean_density(const vdbs_volume *volume);
+
 vdbs_status vdbs_medium_box_build(const vdbs_volume *volume, int block, vdbs_medium_box *box,
                                   vdbs_error *err);
 void vdbs_medium_box_free(vdbs_medium_box *box);
