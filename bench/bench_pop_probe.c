@@ -23,9 +23,12 @@
  * listed beside each POP solve's (S1 + POP, C path).
  *
  * With --method fld the same for FLD, --res then giving --fld-res (columns keep POP's names).
+ * --scenes point adds FLD's validation case of Koerner et al.: a point light of intensity 1 at
+ * the centre of the cube sample (48^3, half-size 0.6, density scale 30, albedo 0.99: a
+ * diffusion length of 4.6 voxels, a mean free path of 0.8), no other light.
  *
  * usage: bench_pop_probe [--out bench/pop_probe.md] [--res 2,3,4,8] [--g 0,0.5,0.85]
- *        [--scenes sphere,cloud] [--points 300] [--radius-voxels 2] [--photons-sphere N]
+ *        [--scenes sphere,cloud,point] [--points 300] [--radius-voxels 2] [--photons-sphere N]
  *        [--photons-cloud N] [--quality medium] [--seed 1] [--tally chord|cell]
  *        [--method pop|fld] */
 #include <math.h>
@@ -47,11 +50,14 @@
 #define MAX_LIST 16
 
 typedef struct scene_def {
-    const char *name;
+    const char *label; /* the table's */
+    const char *name;  /* the sample */
     int res;
     uint32_t seed;
     double density_scale;
     int64_t photons;
+    int point_light; /* 1: a point light of intensity 1 at the origin (the centre), nothing
+                        else; 0: the sun and the sky */
 } scene_def;
 
 typedef struct options {
@@ -65,7 +71,7 @@ typedef struct options {
     double radius_voxels;
     const char *quality;
     uint64_t seed;
-    int sphere, cloud;
+    int sphere, cloud, point;
     int64_t photons_sphere, photons_cloud;
 } options;
 
@@ -132,6 +138,7 @@ static void parse_args(int argc, char **argv, options *o)
     o->seed = 1;
     o->method = "pop";
     o->sphere = o->cloud = 1;
+    o->point = 0;
     o->photons_sphere = 8000000;
     o->photons_cloud = 16000000;
     for (int i = 1; i < argc; ++i) {
@@ -148,6 +155,7 @@ static void parse_args(int argc, char **argv, options *o)
         else if (strcmp(a, "--scenes") == 0) {
             o->sphere = strstr(v, "sphere") != NULL;
             o->cloud = strstr(v, "cloud") != NULL;
+            o->point = strstr(v, "point") != NULL;
         } else if (strcmp(a, "--points") == 0)
             o->points = atoi(v);
         else if (strcmp(a, "--radius-voxels") == 0)
@@ -417,27 +425,38 @@ static void run_scene(const scene_def *def, const options *o, vdbs_runner *runne
         for (int c = 0; c < 3; ++c)
             scene.albedo[c] = 0.99;
         scene.g = o->g[gi];
-        vdbs_light *sun = &scene.lights[scene.light_count++];
-        memset(sun, 0, sizeof *sun);
-        sun->type = VDBS_LIGHT_SUN;
-        sun->direction[0] = 0.3;
-        sun->direction[1] = -1.0;
-        sun->direction[2] = 0.2;
-        sun->color[0] = 3.0;
-        sun->color[1] = 2.9;
-        sun->color[2] = 2.7;
-        vdbs_light *sky = &scene.lights[scene.light_count++];
-        memset(sky, 0, sizeof *sky);
-        sky->type = VDBS_LIGHT_ENV;
-        sky->color[0] = 0.2;
-        sky->color[1] = 0.3;
-        sky->color[2] = 0.5;
-        sky->env_scale = 1.0;
+        if (def->point_light) {
+            vdbs_light *point = &scene.lights[scene.light_count++];
+            memset(point, 0, sizeof *point);
+            point->type = VDBS_LIGHT_POINT;
+            for (int c = 0; c < 3; ++c)
+                point->color[c] = 1.0;
+        } else {
+            vdbs_light *sun = &scene.lights[scene.light_count++];
+            memset(sun, 0, sizeof *sun);
+            sun->type = VDBS_LIGHT_SUN;
+            sun->direction[0] = 0.3;
+            sun->direction[1] = -1.0;
+            sun->direction[2] = 0.2;
+            sun->color[0] = 3.0;
+            sun->color[1] = 2.9;
+            sun->color[2] = 2.7;
+            vdbs_light *sky = &scene.lights[scene.light_count++];
+            memset(sky, 0, sizeof *sky);
+            sky->type = VDBS_LIGHT_ENV;
+            sky->color[0] = 0.2;
+            sky->color[1] = 0.3;
+            sky->color[2] = 0.5;
+            sky->env_scale = 1.0;
+        }
         snprintf(scene.method, sizeof scene.method, "%s", o->method);
         snprintf(scene.quality, sizeof scene.quality, "%s", o->quality);
         if (vdbs_scene_validate(&scene, &err) != VDBS_OK)
             die("scene", &err);
-        const double *s = scene.lights[0].direction; /* unit after validate */
+        /* "along sun": the sun's direction after validate (unit); for the point light the
+         * +x axis, a direction without meaning for a radial field. */
+        const double *s =
+            def->point_light ? (const double[3]){1.0, 0.0, 0.0} : scene.lights[0].direction;
 
         /* The probe, once per (scene, g). */
         vdbs_reference_probe_options po = {0};
@@ -549,7 +568,7 @@ static void run_scene(const scene_def *def, const options *o, vdbs_runner *runne
             }
             row *r = &rows[(*row_count)++];
             memset(r, 0, sizeof *r);
-            r->scene = def->name;
+            r->scene = def->label;
             r->g = scene.g;
             r->res = o->res[ri];
             r->points = npts;
@@ -604,22 +623,23 @@ int main(int argc, char **argv)
 {
     options o;
     parse_args(argc, argv, &o);
-    const scene_def defs[2] = {
-        {"sphere", 32, 1, 3.0, o.photons_sphere},
-        {"cloud", 64, 1, 20.0, o.photons_cloud},
+    const scene_def defs[3] = {
+        {"sphere", "sphere", 32, 1, 3.0, o.photons_sphere, 0},
+        {"cloud", "cloud", 64, 1, 20.0, o.photons_cloud, 0},
+        {"point in the cube", "cube", 48, 1, 30.0, o.photons_sphere, 1},
     };
     vdbs_runner_desc rd = {VDBS_BACKEND_CPU};
     vdbs_runner *runner = NULL;
     vdbs_error err;
     if (vdbs_runner_create(&rd, &runner, &err) != VDBS_OK)
         die("runner", &err);
-    int max_rows = 2 * o.g_count * o.res_count;
+    int max_rows = 3 * o.g_count * o.res_count;
     row *rows = xcalloc((size_t)max_rows, sizeof(row));
     int count = 0;
     double t0 = vdbs_now();
     print_header(stdout);
-    for (int d = 0; d < 2; ++d)
-        if (d == 0 ? o.sphere : o.cloud)
+    for (int d = 0; d < 3; ++d)
+        if (d == 0 ? o.sphere : d == 1 ? o.cloud : o.point)
             run_scene(&defs[d], &o, runner, rows, &count);
     double total = vdbs_now() - t0;
 

@@ -552,6 +552,61 @@ static void test_absorption_fine_cells(void **state)
     free(ref);
 }
 
+/* ---- 6. the solver's work as the grid is refined ---- */
+
+/* CG iterations of one solve of the same physical problem on n^3 cells: a unit cube of
+ * sigma_t 8 (albedo 0.99, limiter off; 8 transport paths across) lit by a source in the
+ * cube [0.25, 0.5]^3, at relative residual 1e-8. */
+static int iterations_at(int n, int runner_cells)
+{
+    const int64_t cells = (int64_t)n * n * n;
+    const int dims[3] = {n, n, n};
+    float *sigma = malloc(sizeof *sigma * (size_t)cells);
+    double *source = calloc(3 * (size_t)cells, sizeof *source);
+    double *phi = malloc(sizeof *phi * 3 * (size_t)cells);
+    assert_true(sigma && source && phi);
+    for (int k = 0; k < n; ++k)
+        for (int j = 0; j < n; ++j)
+            for (int i = 0; i < n; ++i) {
+                const int64_t c = cell_of(dims, i, j, k);
+                sigma[c] = 8.0f;
+                const int inside =
+                    4 * i >= n && 2 * i < n && 4 * j >= n && 2 * j < n && 4 * k >= n && 2 * k < n;
+                for (int ch = 0; ch < 3; ++ch)
+                    source[3 * c + ch] = inside ? 1.0 : 0.0;
+            }
+    vdbs_fld_grid grid = {{n, n, n}, 1.0 / n, sigma, {0.99, 0.99, 0.99}, 0.0, source, NULL};
+    vdbs_fld_desc desc = {0};
+    desc.limiter_off = 1;
+    desc.tolerance = 1e-8;
+    desc.runner_cells = runner_cells;
+    vdbs_fld_stats stats;
+    solve(&grid, &desc, phi, NULL, &stats);
+    check_balance("refinement", &stats);
+    print_message("%d^3 cells: %d levels, %d CG iterations (3 channels), %d operator "
+                  "applications\n",
+                  n, stats.levels, stats.cg_iterations, stats.operator_applications);
+    free(sigma);
+    free(source);
+    free(phi);
+    return stats.cg_iterations;
+}
+
+/* The multigrid V-cycle keeps CG's iterations nearly flat as the cells shrink (the
+ * condition number grows as n^2, so Jacobi-preconditioned CG needs about 4x the iterations
+ * for 4x the cells across). Measured 39 / 45 / 54 iterations at 16 / 32 / 64 cells (the
+ * solve is deterministic); the bar is 1.5x from 16 to 64. Host loop or runner for the small
+ * levels gives the same iterations. */
+static void test_iterations_flat_under_refinement(void **state)
+{
+    (void)state;
+    const int coarse = iterations_at(16, 0);
+    iterations_at(32, 0);
+    const int fine = iterations_at(64, 0);
+    assert_true(fine <= 1.5 * coarse);
+    assert_int_equal(iterations_at(16, 1), coarse);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -560,6 +615,7 @@ int main(void)
         cmocka_unit_test(test_point_source),
         cmocka_unit_test(test_limiter_empty_space),
         cmocka_unit_test(test_absorption_fine_cells),
+        cmocka_unit_test(test_iterations_flat_under_refinement),
     };
     return cmocka_run_group_tests(tests, NULL, teardown);
 }
