@@ -54,6 +54,34 @@ def refine(exe, tmp, args, lines):
         print("\n".join(lines[-3:]), flush=True)
 
 
+def read_curves(path):
+    """(label, single, pop, cells, errors) per scene row of a table this script wrote."""
+    curves = []
+    for line in open(path):
+        cells = [c.strip() for c in line.strip().strip("|").split("|")]
+        if len(cells) < 7 or not cells[0].startswith(("sphere", "cloud")) or ":" in cells[0]:
+            continue
+        n = VOXELS["sphere" if cells[0].startswith("sphere") else "cloud"]
+        curves.append((cells[0], float(cells[2]), float(cells[3]), [n // 4, n // 2, n],
+                       [float(c) for c in cells[4:7]]))
+    return curves
+
+
+def plot(path, curves):
+    def draw(ax):
+        for label, single, pop, res, errs in curves:
+            line, = ax.plot(res, errs, marker="o", label=label)
+            ax.axhline(pop, color=line.get_color(), linestyle="--", linewidth=0.8)
+            ax.axhline(single, color=line.get_color(), linestyle=":", linewidth=0.8)
+        ax.set_xscale("log", base=2)
+        ax.set_yscale("log")
+
+    if curves:
+        save_plot(path, draw, "--fld-res (cells across the largest extent)",
+                  "image relative RMSE against the reference",
+                  "FLD error (dashed: POP at its defaults; dotted: single scattering)")
+
+
 def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("build")
@@ -65,7 +93,12 @@ def main():
     ap.add_argument("--refine", default="8,12,16,24,32,48,64",
                     help="cells across for the refinement table ('' to skip it)")
     ap.add_argument("--only-refine", action="store_true")
+    ap.add_argument("--replot", action="store_true",
+                    help="redraw --plot from the table in --out without running anything")
     args = ap.parse_args()
+    if args.replot:
+        plot(args.plot, read_curves(args.out))
+        return
     exe = os.path.join(args.build, "vdbscatter")
     tmp = tempfile.mkdtemp(prefix="bench-fld-")
     header = ("| scene | reference se | single | POP | FLD 4x coarser | FLD 2x | FLD voxels | "
@@ -106,17 +139,7 @@ def main():
         refine(exe, tmp, args, lines)
     with open(args.out, "w") as f:
         f.write("\n".join(lines) + "\n")
-    def draw(ax):
-        for label, single, pop, res, errs in curves:
-            line, = ax.plot(res, errs, marker="o", label=label)
-            ax.axhline(pop, color=line.get_color(), linestyle="--", linewidth=0.8)
-            ax.axhline(single, color=line.get_color(), linestyle=":", linewidth=0.8)
-        ax.set_xscale("log", base=2)
-
-    if curves:
-        save_plot(args.plot, draw, "--fld-res (cells across the largest extent)",
-                  "image relative RMSE against the reference",
-                  "FLD error (dashed: POP at its defaults; dotted: single scattering)")
+    plot(args.plot, curves)
     print(open(args.out).read())
 
 

@@ -19,6 +19,32 @@ SCENE = os.path.join(os.path.dirname(HERE), "samples", "cloud.json")
 METHODS = ["single", "pop", "fld"]
 
 
+def read_curves(path):
+    """{method: [(seconds, error, quality)]} from a table this script wrote."""
+    curves = {}
+    for line in open(path):
+        cells = [c.strip() for c in line.strip().strip("|").split("|")]
+        if len(cells) == 6 and cells[0] in METHODS + ["reference"]:
+            curves.setdefault(cells[0], []).append((float(cells[4]), float(cells[5]), cells[1]))
+    return curves
+
+
+def plot(args, curves):
+    def draw(ax):
+        for name, pts in curves.items():
+            ax.plot([p[0] for p in pts], [p[1] for p in pts], marker="o", label=name)
+            for t, e, label in pts:
+                if name != "reference":
+                    ax.annotate(label, (t, e), fontsize=6, xytext=(3, 3),
+                                textcoords="offset points")
+        ax.set_xscale("log")
+        ax.set_yscale("log")
+
+    save_plot(args.plot, draw, "seconds (bake + render, or the reference render), C path",
+              "image relative RMSE against the converged reference",
+              f"samples/cloud.json at {args.size}: accuracy against time")
+
+
 def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("build")
@@ -28,7 +54,12 @@ def main():
     ap.add_argument("--ref-seconds", type=float, default=120.0)
     ap.add_argument("--qualities", default="low,medium,high,ultra")
     ap.add_argument("--max-spp", type=int, default=256)
+    ap.add_argument("--replot", action="store_true",
+                    help="redraw --plot from the table in --out without running anything")
     args = ap.parse_args()
+    if args.replot:
+        plot(args, read_curves(args.out))
+        return
     exe = os.path.join(args.build, "vdbscatter")
     tmp = tempfile.mkdtemp(prefix="bench-methods-")
     view = ["--size", args.size]
@@ -69,19 +100,7 @@ def main():
         spp *= 2
     with open(args.out, "w") as fh:
         fh.write("\n".join(lines) + "\n")
-    def draw(ax):
-        for name, pts in curves.items():
-            ax.plot([p[0] for p in pts], [p[1] for p in pts], marker="o", label=name)
-            for t, e, label in pts:
-                if name != "reference":
-                    ax.annotate(label, (t, e), fontsize=6, xytext=(3, 3),
-                                textcoords="offset points")
-        ax.set_xscale("log")
-        ax.set_yscale("log")
-
-    save_plot(args.plot, draw, "seconds (bake + render, or the reference render), C path",
-              "image relative RMSE against the converged reference",
-              f"samples/cloud.json at {args.size}: accuracy against time")
+    plot(args, curves)
     print(open(args.out).read())
 
 
