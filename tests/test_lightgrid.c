@@ -170,6 +170,90 @@ static void test_block_slanted(void **state)
  * I exp(-tau) / (4 pi r^2), tau = sigma_t r inside, and sigma_t r (y_top - y) / (y_light - y)
  * from above (the light enters through the top face, whose ramp integrates to half a voxel),
  * to 2e-3 (from above: at the default oversampling). */
+/* S1 and the unscattered light's net flux (vdbs_s1_outputs) by grids. */
+static void solve_with_flux(const vdbs_volume *volume, const vdbs_scene *scene, float *radiance,
+                            float *flux)
+{
+    vdbs_error err;
+    vdbs_lights_desc ld = {0};
+    vdbs_light_table lights;
+    if (vdbs_lights_build(volume, scene, &ld, &lights, &err) != VDBS_OK)
+        fail_msg("%s", err.message);
+    vdbs_s1_outputs out = {radiance, NULL, flux};
+    if (vdbs_single_scatter_grids_out(test_runner(VDBS_BACKEND_CPU), volume, scene, &lights, NULL,
+                                      &out, NULL, NULL, &err) != VDBS_OK)
+        fail_msg("%s", err.message);
+    vdbs_lights_free(&lights);
+}
+
+/* The flux output: a sun's is 4 pi S1 times its direction of travel, a point light's 4 pi S1
+ * times the unit vector away from the light, and both lights together the sum (to float
+ * rounding, 1e-5 of 4 pi S1). */
+static void test_s1_flux(void **state)
+{
+    (void)state;
+    const int n = 16, dims[3] = {n, n, n};
+    const double h = 0.1;
+    double m[3][4] = {{h, 0, 0, 0}, {0, h, 0, 0}, {0, 0, h, 0}};
+    vdbs_volume volume;
+    make_block(dims, m, &volume);
+    const size_t count = volume.coord_count;
+    const double light_at[3] = {0.75, 0.82, 0.71};
+    vdbs_scene sun, point, both;
+    const double dir[3] = {0.3, -1.0, 0.2};
+    sun_scene(&sun, 3.0, dir);
+    vdbs_scene_init(&point);
+    point.density_scale = 3.0;
+    point.light_count = 1;
+    point.lights[0].type = VDBS_LIGHT_POINT;
+    for (int a = 0; a < 3; ++a) {
+        point.lights[0].position[a] = light_at[a];
+        point.lights[0].color[a] = 2.0;
+    }
+    both = sun;
+    both.lights[both.light_count++] = point.lights[0];
+    float *rad[3], *flux[3];
+    const vdbs_scene *scenes[3] = {&sun, &point, &both};
+    for (int k = 0; k < 3; ++k) {
+        rad[k] = calloc(3 * count, sizeof(float));
+        flux[k] = calloc(9 * count, sizeof(float));
+        solve_with_flux(&volume, scenes[k], rad[k], flux[k]);
+    }
+    const double *d = sun.lights[0].direction; /* unit after validate */
+    double worst = 0.0;
+    int checked = 0;
+    for (size_t v = 0; v < count; ++v) {
+        const int32_t *c = volume.coords + 3 * v;
+        double away[3], r = 0.0;
+        for (int a = 0; a < 3; ++a) {
+            away[a] = c[a] * h - light_at[a];
+            r += away[a] * away[a];
+        }
+        r = sqrt(r);
+        if (r < h)
+            continue; /* the clamp of 1/r^2 and the light's own voxel */
+        for (int ch = 0; ch < 3; ++ch)
+            for (int a = 0; a < 3; ++a) {
+                const size_t i = 9 * v + 3 * (size_t)a + (size_t)ch;
+                const double s_sun = 4.0 * PI * rad[0][3 * v + ch];
+                const double s_point = 4.0 * PI * rad[1][3 * v + ch];
+                const double scale = fmax(s_sun + s_point, 1e-30);
+                worst = fmax(worst, fabs(flux[0][i] - s_sun * d[a]) / scale);
+                worst = fmax(worst, fabs(flux[1][i] - s_point * away[a] / r) / scale);
+                worst = fmax(worst, fabs(flux[2][i] - flux[0][i] - flux[1][i]) / scale);
+            }
+        ++checked;
+    }
+    print_message("S1 flux: %d voxels, worst %.2e of 4 pi S1\n", checked, worst);
+    assert_true(checked > 4000);
+    assert_true(worst <= 1e-5);
+    for (int k = 0; k < 3; ++k) {
+        free(rad[k]);
+        free(flux[k]);
+    }
+    vdbs_volume_free(&volume);
+}
+
 static void test_point_light_radial(void **state)
 {
     (void)state;
@@ -428,13 +512,10 @@ static void test_sparse_columns(void **state)
 int main(void)
 {
     const struct CMUnitTest tests[] = {
-        cmocka_unit_test(test_block_axis),
-        cmocka_unit_test(test_block_slanted),
-        cmocka_unit_test(test_point_light_radial),
-        cmocka_unit_test(test_agreement_samples),
-        cmocka_unit_test(test_agreement_disney_cloud),
-        cmocka_unit_test(test_agreement_rotated),
-        cmocka_unit_test(test_extremes),
+        cmocka_unit_test(test_block_axis),         cmocka_unit_test(test_block_slanted),
+        cmocka_unit_test(test_point_light_radial), cmocka_unit_test(test_s1_flux),
+        cmocka_unit_test(test_agreement_samples),  cmocka_unit_test(test_agreement_disney_cloud),
+        cmocka_unit_test(test_agreement_rotated),  cmocka_unit_test(test_extremes),
         cmocka_unit_test(test_sparse_columns),
     };
     return cmocka_run_group_tests(tests, NULL, teardown);
