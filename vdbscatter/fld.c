@@ -320,7 +320,7 @@ static void levels_build(fld_system *sys)
 
 /* The coefficients of every channel from D: couplings by the harmonic mean of the two cells'
  * D over h^2; a boundary face leaks phi 2 D / (h + 4 D) per area (Marshak: no light enters).
- * Also the smoother's diagonal of the first level (double, from the float coefficients). *
+ * Also the smoother's diagonal of the first level (double, from the float coefficients). */
 static void build_coef(fld_system *sys)
 {
     const vdbs_fld_grid *g = sys->grid;
