@@ -38,6 +38,11 @@ static const char help[] =
     "  --pop-res N              POP: cells across the largest extent of the volume\n"
     "                           (default 4: POP's bias grows as its cells shrink)\n"
     "  --pop-ordinates N        POP: propagation grids for the sky (importance-sampled)\n"
+    "  --pop-radial N           POP: a point light's radial grid, N x N octahedral texels\n"
+    "                           times N shells (even; default 8/16/32/64 per quality)\n"
+    "  --pop-importance         POP: sample the sky ordinates from the sky times the\n"
+    "                           camera's importance (needs --camera; the bake is then\n"
+    "                           view-dependent; default off)\n"
     "  --pop-iterations N       POP: cap of each sun's or ordinate's iterations before the\n"
     "                           isotropic residuum (default: Eq. 10, at most max(64, 4 x res))\n"
     "  --pop-decay LAW          POP anisotropy decay: mean-cosine (default; a exp(-sigma_s t\n"
@@ -75,6 +80,8 @@ static const cli_option options[] = {
     {"--pop-decay", CLI_VALUE},
     {"--pop-iterations", CLI_VALUE},
     {"--pop-tally", CLI_VALUE},
+    {"--pop-radial", CLI_VALUE},
+    {"--pop-importance", CLI_FLAG},
     {"--fld-res", CLI_VALUE},
     {"--fld-limiter", CLI_VALUE},
     {"--fld-l1", CLI_VALUE},
@@ -120,6 +127,9 @@ static cJSON *report_json(const char *input, const char *output, const vdbs_scen
         cJSON_AddNumberToObject(t, "pop_upsample", p->seconds_upsample);
         cJSON *pj = cJSON_AddObjectToObject(j, "pop");
         cJSON_AddNumberToObject(pj, "grids", p->grids);
+        cJSON_AddNumberToObject(pj, "radial_grids", p->radial_grids);
+        cJSON_AddNumberToObject(pj, "radial", p->radial);
+        cJSON_AddStringToObject(pj, "importance", p->importance ? "on" : "off");
         cJSON_AddNumberToObject(pj, "resolution", p->resolution);
         cJSON_AddNumberToObject(pj, "cells", (double)p->cells);
         cJSON_AddNumberToObject(pj, "merged_cells", (double)p->merged_cells);

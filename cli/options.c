@@ -214,6 +214,17 @@ vdbs_status cli_build_scene(const cli_args *args, vdbs_scene *scene, int allow_n
             st = cli_integer(name, v, res ? 2 : 1,
                              res ? VDBS_MAX_POP_RESOLUTION : VDBS_MAX_SKY_DIRECTIONS, &k, err);
             *(res ? &scene->pop_resolution : &scene->pop_ordinates) = (int)k;
+        } else if (strcmp(name, "--pop-radial") == 0) {
+            long k = 0;
+            st = cli_integer(name, v, 2, VDBS_MAX_POP_RADIAL, &k, err);
+            if (st == VDBS_OK && k % 2 != 0)
+                st = vdbs_error_set(err, VDBS_ERR_INPUT,
+                                    "--pop-radial: expected an even count (the octahedral map), "
+                                    "got %ld",
+                                    k);
+            scene->pop_radial = (int)k;
+        } else if (strcmp(name, "--pop-importance") == 0) {
+            scene->pop_importance = 1;
         } else if (strcmp(name, "--pop-iterations") == 0) {
             long k = 0;
             st = cli_integer(name, v, 1, VDBS_MAX_POP_ITERATIONS, &k, err);

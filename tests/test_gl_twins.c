@@ -438,8 +438,8 @@ static vdbs_status run_pop(vdbs_runner *runner, const void *scenario, float *out
     memcpy(out, s->state, sizeof s->state);
     int iterations = 0;
     double left = 0.0;
-    return vdbs_pop_propagate(runner, s->params, s->sigma, POP_CELLS, out, s->iterations, 0.0,
-                              &iterations, &left, err);
+    return vdbs_pop_propagate(runner, s->params, VS_POP_PARAM_WORDS, s->sigma, POP_CELLS, out,
+                              s->iterations, 0.0, &iterations, &left, err);
 }
 
 static void test_pop_propagation(void **state)

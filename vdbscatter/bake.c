@@ -81,6 +81,27 @@ static vdbs_status solve(const vdbs_bake_options *o, const vdbs_solver *solver,
     return st;
 }
 
+vdbs_status vdbs_bake_volume(const vdbs_bake_options *o, const vdbs_volume *volume, float *radiance,
+                             float *ms, float *const ms_l1[3], vdbs_bake_report *report,
+                             vdbs_error *err)
+{
+    memset(report, 0, sizeof *report);
+    const vdbs_solver *solver = vdbs_solver_find(o->scene->method);
+    const vdbs_quality *quality = vdbs_quality_find(o->scene->quality);
+    if (!solver || !quality)
+        return vdbs_error_set(err, VDBS_ERR_INPUT, "unknown method '%s' or quality '%s'",
+                              o->scene->method, o->scene->quality);
+    vdbs_solve s = {0};
+    s.radiance = radiance;
+    s.ms = ms;
+    for (int a = 0; a < 3; ++a)
+        s.ms_l1[a] = ms_l1[a];
+    double t0 = vdbs_now();
+    vdbs_status st = solve(o, solver, quality, volume, &s, report, err);
+    report->seconds_solve = report->seconds_total = vdbs_now() - t0;
+    return st;
+}
+
 static char *format_double(double v)
 {
     char *s = malloc(32);

@@ -8,6 +8,7 @@
 #include "vdbscatter/lightgrid.h"
 #include "vdbscatter/lights.h"
 #include "vdbscatter/medium.h"
+#include "vdbscatter/radial.h"
 #include "vdbs_math.h"
 
 #define PNANOVDB_C
@@ -29,39 +30,92 @@
 /* Sub-columns per cell and axis that seed a cell from the fine S1 grid, at most. */
 #define POP_SEED_SUBCOLUMNS 64
 
-void vdbs_pop_quality(const char *quality, int *ordinates, double *epsilon_l)
+void vdbs_pop_quality(const char *quality, int *ordinates, double *epsilon_l, int *radial)
 {
     static const struct {
         const char *name;
         int ordinates;
         double epsilon_l;
-    } presets[] = {{"low", 8, 1e-2}, {"medium", 16, 1e-3}, {"high", 32, 1e-4}, {"ultra", 64, 1e-5}};
+        int radial;
+    } presets[] = {{"low", 8, 1e-2, 8},
+                   {"medium", 16, 1e-3, 16},
+                   {"high", 32, 1e-4, 32},
+                   {"ultra", 64, 1e-5, 64}};
     *ordinates = 16;
     *epsilon_l = 1e-3;
+    if (radial)
+        *radial = 16;
     for (size_t q = 0; quality && q < sizeof presets / sizeof presets[0]; ++q)
         if (strcmp(quality, presets[q].name) == 0) {
             *ordinates = presets[q].ordinates;
             *epsilon_l = presets[q].epsilon_l;
+            if (radial)
+                *radial = presets[q].radial;
         }
 }
 
-static void pack_params(const vdbs_coarse_frame *f, const vdbs_scene *scene,
+/* The header words of a grid of n cells of side h (rectilinear) for a medium of HG g and albedo. */
+static void pack_params(const int n[3], double h, double g, const double albedo[3],
                         const vdbs_pop_desc *desc, int keep_a, uint32_t params[VS_POP_PARAM_WORDS])
 {
     memset(params, 0, sizeof(uint32_t) * VS_POP_PARAM_WORDS);
     for (int a = 0; a < 3; ++a)
-        params[VS_POP_OFF_N + a] = (uint32_t)f->n[a];
-    float h = (float)f->h, g = (float)scene->g;
-    memcpy(&params[VS_POP_OFF_H], &h, sizeof h);
-    memcpy(&params[VS_POP_OFF_G], &g, sizeof g);
+        params[VS_POP_OFF_N + a] = (uint32_t)n[a];
+    float hf = (float)h, gf = (float)g;
+    memcpy(&params[VS_POP_OFF_H], &hf, sizeof hf);
+    memcpy(&params[VS_POP_OFF_G], &gf, sizeof gf);
     for (int c = 0; c < 3; ++c) {
-        float albedo = (float)scene->albedo[c];
-        memcpy(&params[VS_POP_OFF_ALBEDO + c], &albedo, sizeof albedo);
+        float al = (float)albedo[c];
+        memcpy(&params[VS_POP_OFF_ALBEDO + c], &al, sizeof al);
     }
     params[VS_POP_OFF_DECAY] =
         desc->decay == VDBS_POP_DECAY_PAPER ? VS_POP_DECAY_PAPER : VS_POP_DECAY_MEAN_COSINE;
     params[VS_POP_OFF_KEEP_A] = keep_a ? 1u : 0u;
     params[VS_POP_OFF_CHORD] = desc->tally_cell ? 0u : 1u;
+    params[VS_POP_OFF_KIND] = VS_POP_RECTILINEAR;
+}
+
+static void put_float(uint32_t *word, double v)
+{
+    float f = (float)v;
+    memcpy(word, &f, sizeof f);
+}
+
+uint32_t *vdbs_pop_radial_params(const vdbs_radial_frame *f, double g, const double albedo[3],
+                                 const vdbs_pop_desc *desc, size_t *words)
+{
+    const int texels = f->n[0] * f->n[1];
+    const size_t radii = VS_POP_PARAM_WORDS, records = radii + (size_t)f->n[2] + 1;
+    *words = records + (size_t)texels * VS_POP_TEXEL_WORDS;
+    uint32_t *params = calloc(*words, sizeof *params);
+    if (!params)
+        return NULL;
+    pack_params(f->n, 0.0, g, albedo, desc, 1, params);
+    params[VS_POP_OFF_KIND] = VS_POP_RADIAL;
+    params[VS_POP_OFF_WRAP] = f->map == VDBS_RADIAL_OCTAHEDRAL ? 1u : 0u;
+    params[VS_POP_OFF_RADII] = (uint32_t)radii;
+    params[VS_POP_OFF_TEXELS] = (uint32_t)records;
+    params[VS_POP_OFF_COMPENSATE] = 1u;
+    for (int k = 0; k <= f->n[2]; ++k)
+        put_float(&params[radii + (size_t)k], f->radius[k]);
+    for (int t = 0; t < texels; ++t) {
+        uint32_t *rec = params + records + (size_t)t * VS_POP_TEXEL_WORDS;
+        put_float(&rec[VS_POP_TEXEL_OMEGA], f->omega[t]);
+        for (int a = 0; a < 3; ++a)
+            put_float(&rec[VS_POP_TEXEL_DIR + a], f->dir[3 * t + a]);
+        /* What the sides keep: 1 - sum over the neighbours the kernel's gather finds
+         * (vs_pop_texel_step) of min(Omega, Omega(n)) / (4 Omega). */
+        double stay = 1.0;
+        for (int s = 0; s < 4; ++s) {
+            int n =
+                vs_pop_texel_step(params, t % f->n[0], t / f->n[0], s == 0 ? -1 : (s == 1 ? 1 : 0),
+                                  s == 2 ? -1 : (s == 3 ? 1 : 0));
+            float own = (float)f->omega[t], other = (float)f->omega[n >= 0 ? n : t];
+            stay -= (other < own ? other : own) / (4.0 * own);
+        }
+        put_float(&rec[VS_POP_TEXEL_STAY], fmax(stay, 0.0));
+    }
+    return params;
 }
 
 /* ---- propagation through the runner ---- */
@@ -83,9 +137,9 @@ static double pop_step(void *user, int step, const void *state_in, void *state_o
     return energy;
 }
 
-vdbs_status vdbs_pop_propagate(vdbs_runner *runner, const uint32_t *params, const float *sigma,
-                               int64_t cells, float *state, int max_iterations, double tolerance,
-                               int *iterations, double *left, vdbs_error *err)
+vdbs_status vdbs_pop_propagate(vdbs_runner *runner, const uint32_t *params, size_t param_words,
+                               const float *sigma, int64_t cells, float *state, int max_iterations,
+                               double tolerance, int *iterations, double *left, vdbs_error *err)
 {
     pop_kernel k = {params, sigma};
     vdbs_kernel_desc desc;
@@ -94,7 +148,7 @@ vdbs_status vdbs_pop_propagate(vdbs_runner *runner, const uint32_t *params, cons
     desc.user = &k;
     desc.cpu_step = pop_step;
     desc.shader = "pop_propagate.comp";
-    desc.inputs[1] = (vdbs_kernel_input){params, sizeof(uint32_t) * VS_POP_PARAM_WORDS};
+    desc.inputs[1] = (vdbs_kernel_input){params, sizeof(uint32_t) * param_words};
     desc.inputs[2] = (vdbs_kernel_input){sigma, sizeof(float) * (size_t)cells};
     desc.state_words = VS_POP_STATE_WORDS;
     desc.state = state;
@@ -196,9 +250,10 @@ static double seed_grid(const pop_run *r, int l, const vdbs_coarse_frame *f, con
     return total;
 }
 
-/* Eq. 10 with the chosen decay law: iterations until a0 falls below epsilon_a, at least the
- * cells along the grid (light from the first row must cross it), at most the cap. */
-static int anisotropic_iterations(const pop_run *r, const vdbs_coarse_frame *f, double a0,
+/* Eq. 10 with the chosen decay law, cells `spacing` apart: iterations until a0 falls below
+ * epsilon_a, at least the cells along the grid (light from the first row must cross it), at
+ * most the cap. */
+static int anisotropic_iterations(const pop_run *r, int cells_along, double spacing, double a0,
                                   double mean_sigma_s)
 {
     const double g = r->s->scene->g;
@@ -206,13 +261,12 @@ static int anisotropic_iterations(const pop_run *r, const vdbs_coarse_frame *f, 
     if (fabs(a0) > r->desc.epsilon_a && mean_sigma_s > 0.0) {
         double per_cell;
         if (r->desc.decay == VDBS_POP_DECAY_PAPER)
-            per_cell = g > 0.0 ? -mean_sigma_s * f->h * log(g) : HUGE_VAL;
+            per_cell = g > 0.0 ? -mean_sigma_s * spacing * log(g) : HUGE_VAL;
         else
-            per_cell = mean_sigma_s * f->h * (1.0 - g);
+            per_cell = mean_sigma_s * spacing * (1.0 - g);
         m = per_cell > 0.0 ? log(fabs(a0) / r->desc.epsilon_a) / per_cell : HUGE_VAL;
     }
-    double floor_m = f->n[2];
-    m = fmax(m, floor_m);
+    m = fmax(m, (double)cells_along);
     return (int)fmin(m, (double)r->desc.max_iterations);
 }
 
@@ -232,6 +286,30 @@ static vdbs_status grid_arrays(const pop_run *r, const vdbs_coarse_frame *f, flo
     }
     vdbs_coarse_sigma(f, r->s->volume, &r->box, r->s->scene->density_scale, *sigma);
     return VDBS_OK;
+}
+
+/* Splats one cell's values of frame f into the merged grid: at its centre, or, where the merged
+ * cells are less than half as wide (point lights refine the merged grid), split into m^3
+ * parts so that a large cell does not land on 8 small ones. */
+static void splat_cell(const vdbs_coarse_frame *merged, double *acc, const vdbs_coarse_frame *f,
+                       int64_t c, const double *v, double scale)
+{
+    int m = (int)ceil(f->h / (2.0 * merged->h) - 1e-9);
+    double x[3] = {(double)(c % f->n[0]), (double)((c / f->n[0]) % f->n[1]),
+                   (double)(c / ((int64_t)f->n[0] * f->n[1]))};
+    if (m <= 1) {
+        double w[3];
+        vdbs_coarse_cell_centre(f, c, w);
+        vdbs_coarse_splat(merged, acc, VDBS_COARSE_WIDTH, w, v, scale);
+        return;
+    }
+    for (int p = 0; p < m * m * m; ++p) {
+        double y[3] = {x[0] + (p % m + 0.5) / m, x[1] + ((p / m) % m + 0.5) / m,
+                       x[2] + (p / (m * m) + 0.5) / m},
+               w[3];
+        vdbs_coarse_point(f, y, w);
+        vdbs_coarse_splat(merged, acc, VDBS_COARSE_WIDTH, w, v, scale / (m * m * m));
+    }
 }
 
 static vdbs_status propagate_grid(pop_run *r, int l, const double d[3], const double e[3],
@@ -258,12 +336,12 @@ static vdbs_status propagate_grid(pop_run *r, int l, const double d[3], const do
     double t1 = vdbs_now();
     r->stats->seconds_seed += t1 - t0;
     uint32_t params[VS_POP_PARAM_WORDS];
-    pack_params(&f, s->scene, &r->desc, 1, params);
+    pack_params(f.n, f.h, s->scene->g, s->scene->albedo, &r->desc, 1, params);
     int iterations = 0;
     double left = 0.0;
     if (seeded > 0.0)
-        st = vdbs_pop_propagate(s->runner, params, sigma, cells, state,
-                                anisotropic_iterations(r, &f, a0, mean_sigma_s),
+        st = vdbs_pop_propagate(s->runner, params, VS_POP_PARAM_WORDS, sigma, cells, state,
+                                anisotropic_iterations(r, f.n[2], f.h, a0, mean_sigma_s),
                                 r->desc.epsilon_l * seeded, &iterations, &left, err);
     double t2 = vdbs_now();
     r->stats->seconds_propagate += t2 - t1;
@@ -291,7 +369,7 @@ static vdbs_status propagate_grid(pop_run *r, int l, const double d[3], const do
                 r->stats->merge_in += cell[VS_POP_STATE_ACC_L + ch] * f.h * f.h * f.h;
             double w[3];
             vdbs_coarse_cell_centre(&f, c, w);
-            vdbs_coarse_splat(&r->merged, r->merged_acc, VDBS_COARSE_WIDTH, w, v, scale);
+            splat_cell(&r->merged, r->merged_acc, &f, c, v, scale);
             double residual[3] = {cell[VS_POP_STATE_L], cell[VS_POP_STATE_L + 1],
                                   cell[VS_POP_STATE_L + 2]};
             if (residual[0] != 0.0 || residual[1] != 0.0 || residual[2] != 0.0)
@@ -302,6 +380,198 @@ static vdbs_status propagate_grid(pop_run *r, int l, const double d[3], const do
     }
     free(state);
     free(sigma);
+    return st;
+}
+
+/* The world distance from p to the nearest and farthest points of the support box. */
+static void box_distances(const vdbs_volume *volume, const double p[3], double *near, double *far)
+{
+    double corners[8][3];
+    vdbs_volume_support_corners(volume, corners);
+    double lo[3] = {HUGE_VAL, HUGE_VAL, HUGE_VAL}, hi[3] = {-HUGE_VAL, -HUGE_VAL, -HUGE_VAL};
+    *far = 0.0;
+    for (int c = 0; c < 8; ++c) {
+        double d2 = 0.0;
+        for (int a = 0; a < 3; ++a) {
+            lo[a] = fmin(lo[a], corners[c][a]);
+            hi[a] = fmax(hi[a], corners[c][a]);
+            d2 += (corners[c][a] - p[a]) * (corners[c][a] - p[a]);
+        }
+        *far = fmax(*far, sqrt(d2));
+    }
+    double n2 = 0.0;
+    for (int a = 0; a < 3; ++a) {
+        double d = p[a] < lo[a] ? lo[a] - p[a] : (p[a] > hi[a] ? p[a] - hi[a] : 0.0);
+        n2 += d * d;
+    }
+    *near = sqrt(n2);
+}
+
+/* Seeds a point light's radial grid: per cell the power first scattered in it, albedo I times
+ * the sum over sub-rays of dOmega (T(r_k) - T(r_k+1)) with T from the fine radial S1 grid, as
+ * a lobe of anisotropy g about the radial direction with L = power / A(cell). Returns the
+ * seeded power (summed over channels) and in *beam what the sub-rays lose in all. */
+static double seed_radial(const pop_run *r, int l, const vdbs_radial_frame *f, double r_out,
+                          float *state, double *beam)
+{
+    const vdbs_solve *s = r->s;
+    const vdbs_direct_light *dl = &r->lights.direct[l];
+    const double *albedo = s->scene->albedo, g = s->scene->g;
+    const int n0 = f->n[0], n1 = f->n[1], n2 = f->n[2];
+    /* Sub-rays about two voxels apart where the grid ends. */
+    int sub = (int)ceil(r_out * sqrt(f->omega[0]) / (2.0 * s->volume->mean_voxel_size));
+    sub = sub < 2 ? 2 : (sub > 16 ? 16 : sub);
+    double total = 0.0, beam_total = 0.0;
+#pragma omp parallel for schedule(dynamic, 4) reduction(+ : total, beam_total)
+    for (int t = 0; t < n0 * n1; ++t) {
+        const int i = t % n0, j = t / n0;
+        double dom_sum = 0.0, d[3];
+        for (int p = 0; p < sub * sub; ++p)
+            dom_sum +=
+                vdbs_radial_direction(f, i + (p % sub + 0.5) / sub, j + (p / sub + 0.5) / sub, d);
+        for (int p = 0; p < sub * sub; ++p) {
+            double dom =
+                vdbs_radial_direction(f, i + (p % sub + 0.5) / sub, j + (p / sub + 0.5) / sub, d);
+            dom *= f->omega[t] / dom_sum;
+            double t_prev = 1.0;
+            for (int k = 0; k <= n2; ++k) {
+                /* k == n2: far beyond the grid, for the beam's whole loss. */
+                double radius = k < n2 ? f->radius[k + 1] : 2.0 * r_out + 1.0, w[3], idx[3];
+                for (int a = 0; a < 3; ++a)
+                    w[a] = f->centre[a] + radius * d[a];
+                vdbs_volume_index_point(s->volume, w, idx);
+                double tr = exp(-(double)vdbs_light_grids_depth(&r->fine, l, idx));
+                if (k == n2) {
+                    for (int c = 0; c < 3; ++c)
+                        beam_total += albedo[c] * dl->color[c] * dom * (1.0 - tr);
+                    break;
+                }
+                double lost = (t_prev - tr) * dom;
+                t_prev = tr;
+                float *cell = state + ((int64_t)k * n0 * n1 + t) * VS_POP_STATE_WORDS;
+                for (int c = 0; c < 3; ++c) {
+                    double v = albedo[c] * dl->color[c] * lost;
+                    cell[VS_POP_STATE_L + c] += (float)v;
+                    total += v;
+                }
+            }
+        }
+    }
+    *beam = beam_total;
+    const float first = 0.5f * (r->desc.tally_cell ? 1.0f : vs_pop_chord((float)g));
+    for (int64_t c = 0; c < vdbs_radial_cells(f); ++c) {
+        float *cell = state + c * VS_POP_STATE_WORDS;
+        const float area = (float)vdbs_radial_cell_area(f, c);
+        for (int ch = 0; ch < 3; ++ch) {
+            cell[VS_POP_STATE_L + ch] /= area;
+            cell[VS_POP_STATE_A + ch] = (float)g;
+            cell[VS_POP_STATE_ACC_L + ch] = first * cell[VS_POP_STATE_L + ch];
+            cell[VS_POP_STATE_ACC_LA + ch] = first * cell[VS_POP_STATE_L + ch] * (float)g;
+        }
+    }
+    return total;
+}
+
+/* A point light (Sec. 6): its octahedral radial grid around the light, seeded from the fine
+ * S1 grid, propagated with the shared gather, then splatted part by part into the merged grid
+ * (fluence times volume is kept) and its light still in transit into the isotropic one (power
+ * is kept: the iso grid's L is power times h / V). */
+static vdbs_status propagate_point(pop_run *r, int l, double mean_sigma_s, vdbs_error *err)
+{
+    const vdbs_solve *s = r->s;
+    const vdbs_direct_light *dl = &r->lights.direct[l];
+    double r_in, r_out;
+    box_distances(s->volume, dl->world, &r_in, &r_out);
+    r_out *= 1.0 + 1e-6;
+    double t0 = vdbs_now();
+    vdbs_radial_frame f;
+    vdbs_status st = vdbs_radial_octahedral(dl->world, r->desc.radial, r->desc.radial, r_in,
+                                            fmax(r_out, r_in * (1.0 + 1e-6) + 1e-9), &f, err);
+    if (st != VDBS_OK)
+        return st;
+    const int64_t cells = vdbs_radial_cells(&f);
+    size_t words = 0;
+    uint32_t *params = vdbs_pop_radial_params(&f, s->scene->g, s->scene->albedo, &r->desc, &words);
+    float *state = calloc((size_t)cells * VS_POP_STATE_WORDS, sizeof *state);
+    float *sigma = malloc(sizeof *sigma * (size_t)cells);
+    if (!params || !state || !sigma) {
+        st = vdbs_error_set(err, VDBS_ERR_NOMEM, "out of memory for a radial POP grid");
+        goto done;
+    }
+    r->stats->radial_grids += 1;
+    r->stats->cells += cells;
+    /* sigma_t per cell: the mean of the box-filtered medium over the cell's parts. */
+#pragma omp parallel for schedule(dynamic, 64)
+    for (int64_t c = 0; c < cells; ++c) {
+        double w[3 * VDBS_RADIAL_MAX_PARTS], v[VDBS_RADIAL_MAX_PARTS], sum = 0.0, vol = 0.0;
+        int parts = vdbs_radial_cell_parts(&f, c, r->merged.h, w, v);
+        for (int p = 0; p < parts; ++p) {
+            double idx[3];
+            vdbs_volume_index_point(s->volume, w + 3 * p, idx);
+            sum += v[p] * vdbs_medium_box_density(&r->box, idx);
+            vol += v[p];
+        }
+        sigma[c] = (float)(s->scene->density_scale * (vol > 0.0 ? sum / vol : 0.0));
+    }
+    double beam = 0.0;
+    const double seeded = seed_radial(r, l, &f, r_out, state, &beam);
+    /* Part 1's energy unit, power times the directional cell side (pop.h). */
+    r->stats->seeded += seeded * r->h;
+    r->stats->beam_loss += beam * r->h;
+    double t1 = vdbs_now();
+    r->stats->seconds_seed += t1 - t0;
+    int iterations = 0;
+    double left = 0.0;
+    if (seeded > 0.0)
+        st = vdbs_pop_propagate(
+            s->runner, params, words, sigma, cells, state,
+            anisotropic_iterations(r, f.n[2], r_out / f.n[2], s->scene->g, mean_sigma_s),
+            r->desc.epsilon_l * seeded, &iterations, &left, err);
+    double t2 = vdbs_now();
+    r->stats->seconds_propagate += t2 - t1;
+    r->stats->cell_updates += (double)cells * iterations;
+    if (iterations > r->stats->iterations_anisotropic)
+        r->stats->iterations_anisotropic = iterations;
+    if (st != VDBS_OK)
+        goto done;
+    const double merged_volume = r->merged.h * r->merged.h * r->merged.h;
+    const double iso_scale = r->iso.h / (r->iso.h * r->iso.h * r->iso.h), g = s->scene->g;
+    const int64_t texels = (int64_t)f.n[0] * f.n[1];
+    for (int64_t c = 0; c < cells; ++c) {
+        const float *cell = state + c * VS_POP_STATE_WORDS;
+        int any = 0;
+        for (int ch = 0; ch < 3; ++ch)
+            any |= cell[VS_POP_STATE_ACC_L + ch] != 0.0f || cell[VS_POP_STATE_L + ch] != 0.0f;
+        if (!any)
+            continue;
+        const double *d = f.dir + 3 * (c % texels);
+        double v[VDBS_COARSE_WIDTH], residual[3];
+        for (int ch = 0; ch < 3; ++ch) {
+            v[VDBS_COARSE_MS + ch] = cell[VS_POP_STATE_ACC_L + ch] * VDBS_INV_4PI;
+            for (int a = 0; a < 3; ++a)
+                v[VDBS_COARSE_L1 + 3 * a + ch] =
+                    3.0 * g * cell[VS_POP_STATE_ACC_LA + ch] * d[a] * VDBS_INV_4PI;
+            residual[ch] = cell[VS_POP_STATE_L + ch];
+        }
+        const double volume = vdbs_radial_cell_volume(&f, c), area = vdbs_radial_cell_area(&f, c);
+        for (int ch = 0; ch < 3; ++ch)
+            r->stats->merge_in += cell[VS_POP_STATE_ACC_L + ch] * volume;
+        double w[3 * VDBS_RADIAL_MAX_PARTS], pv[VDBS_RADIAL_MAX_PARTS];
+        int parts = vdbs_radial_cell_parts(&f, c, r->merged.h, w, pv);
+        for (int p = 0; p < parts; ++p) {
+            vdbs_coarse_splat(&r->merged, r->merged_acc, VDBS_COARSE_WIDTH, w + 3 * p, v,
+                              pv[p] / merged_volume);
+            if (residual[0] != 0.0 || residual[1] != 0.0 || residual[2] != 0.0)
+                vdbs_coarse_splat(&r->iso, r->iso_residual, 3, w + 3 * p, residual,
+                                  area * pv[p] / volume * iso_scale);
+        }
+    }
+    r->stats->seconds_merge += vdbs_now() - t2;
+done:
+    free(params);
+    free(state);
+    free(sigma);
+    vdbs_radial_free(&f);
     return st;
 }
 
@@ -335,14 +605,14 @@ static vdbs_status isotropic(pop_run *r, vdbs_error *err)
             residual += v;
         }
     uint32_t params[VS_POP_PARAM_WORDS];
-    pack_params(f, s->scene, &r->desc, 0, params);
+    pack_params(f->n, f->h, s->scene->g, s->scene->albedo, &r->desc, 0, params);
     int iterations = 0;
     double left = residual;
     const double tolerance = r->desc.epsilon_l * r->stats->seeded / cell_volume;
     if (residual > tolerance) {
         int cap = 8 * (f->n[0] + f->n[1] + f->n[2]);
-        st = vdbs_pop_propagate(s->runner, params, sigma, cells, state, cap, tolerance, &iterations,
-                                &left, err);
+        st = vdbs_pop_propagate(s->runner, params, VS_POP_PARAM_WORDS, sigma, cells, state, cap,
+                                tolerance, &iterations, &left, err);
     }
     r->stats->iterations_isotropic = iterations;
     r->stats->cell_updates += (double)cells * iterations;
@@ -356,9 +626,7 @@ static vdbs_status isotropic(pop_run *r, vdbs_error *err)
                 v[VDBS_COARSE_MS + ch] = cell[VS_POP_STATE_ACC_L + ch] * VDBS_INV_4PI;
             if (v[0] == 0.0 && v[1] == 0.0 && v[2] == 0.0)
                 continue;
-            double w[3];
-            vdbs_coarse_cell_centre(f, c, w);
-            vdbs_coarse_splat(&r->merged, r->merged_acc, VDBS_COARSE_WIDTH, w, v, scale);
+            splat_cell(&r->merged, r->merged_acc, f, c, v, scale);
         }
     }
     r->stats->seconds_isotropic += vdbs_now() - t0;
@@ -376,11 +644,18 @@ vdbs_status vdbs_pop_solve(const vdbs_solve *s, const vdbs_pop_desc *desc, vdbs_
     r.s = s;
     r.stats = stats;
     r.desc = desc ? *desc : (vdbs_pop_desc){0};
-    int ords;
+    int ords, radial;
     double eps_l;
-    vdbs_pop_quality(s->quality ? s->quality->name : NULL, &ords, &eps_l);
+    vdbs_pop_quality(s->quality ? s->quality->name : NULL, &ords, &eps_l, &radial);
     if (r.desc.ordinates <= 0)
         r.desc.ordinates = ords;
+    if (r.desc.radial <= 0)
+        r.desc.radial = radial;
+    stats->radial = r.desc.radial;
+    if (r.desc.radial % 2 != 0)
+        return vdbs_error_set(err, VDBS_ERR_INPUT,
+                              "--pop-radial %d: the octahedral map needs an even resolution",
+                              r.desc.radial);
     if (!(r.desc.epsilon_a > 0.0))
         r.desc.epsilon_a = POP_DEFAULT_EPSILON_A;
     if (!(r.desc.epsilon_l > 0.0))
@@ -390,11 +665,9 @@ vdbs_status vdbs_pop_solve(const vdbs_solve *s, const vdbs_pop_desc *desc, vdbs_
                               "--pop-decay paper needs g >= 0 (g^(sigma_s t) is undefined for "
                               "g = %g); use --pop-decay mean-cosine",
                               s->scene->g);
+    int points = 0;
     for (int i = 0; i < s->scene->light_count; ++i)
-        if (s->scene->lights[i].type == VDBS_LIGHT_POINT)
-            return vdbs_error_set(err, VDBS_ERR_INPUT,
-                                  "--method pop: point lights are not supported yet (POP part 2, "
-                                  "radial grids); use --method single");
+        points += s->scene->lights[i].type == VDBS_LIGHT_POINT;
 
     vdbs_lights_desc ld = {0};
     ld.sky_ordinates = r.desc.ordinates;
@@ -402,7 +675,7 @@ vdbs_status vdbs_pop_solve(const vdbs_solve *s, const vdbs_pop_desc *desc, vdbs_
     if (st != VDBS_OK)
         return st;
     const int count = r.lights.direct_count + r.lights.ordinate_count;
-    stats->grids = count;
+    stats->grids = count - points;
     double corners[8][3];
     vdbs_volume_support_corners(s->volume, corners);
     double lo[3] = {HUGE_VAL, HUGE_VAL, HUGE_VAL}, hi[3] = {-HUGE_VAL, -HUGE_VAL, -HUGE_VAL};
@@ -424,10 +697,15 @@ vdbs_status vdbs_pop_solve(const vdbs_solve *s, const vdbs_pop_desc *desc, vdbs_
     stats->cell_side = h;
     r.h = h;
     const double world_axes[3][3] = {{1, 0, 0}, {0, 1, 0}, {0, 0, 1}};
-    vdbs_coarse_fit(corners, world_axes, 0.5 * h, &r.merged);
+    /* Point lights' radial grids resolve the light's fall-off finer than the directional
+     * grids' cells: the merged grid then has as many cells across as a radial grid has shells. */
+    double merged_side = 0.5 * h;
+    if (points > 0)
+        merged_side = fmin(merged_side, extent / r.desc.radial);
+    vdbs_coarse_fit(corners, world_axes, merged_side, &r.merged);
     vdbs_coarse_fit(corners, world_axes, h, &r.iso);
     stats->merged_cells = vdbs_coarse_cells(&r.merged);
-    int block = (int)floor(0.5 * h / s->volume->mean_voxel_size);
+    int block = (int)floor(merged_side / s->volume->mean_voxel_size);
     vdbs_light_grid_desc fine_desc = {0};
     if (s->s1_grids)
         fine_desc = *s->s1_grids;
@@ -445,6 +723,10 @@ vdbs_status vdbs_pop_solve(const vdbs_solve *s, const vdbs_pop_desc *desc, vdbs_
     const double sigma_s = sigma_t * albedo;
     for (int l = 0; l < count && st == VDBS_OK; ++l) {
         double d[3], e[3], a0;
+        if (l < r.lights.direct_count && r.lights.direct[l].type == VDBS_LIGHT_POINT) {
+            st = propagate_point(&r, l, sigma_s, err);
+            continue;
+        }
         if (l < r.lights.direct_count) {
             const vdbs_direct_light *dl = &r.lights.direct[l];
             memcpy(d, dl->world, sizeof d);

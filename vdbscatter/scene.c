@@ -355,6 +355,14 @@ vdbs_status vdbs_scene_set_fld_p1(vdbs_scene *scene, const char *name, vdbs_erro
     return set_choice("--fld-p1", on_off_names, name, &scene->fld_p1_off, err);
 }
 
+vdbs_status vdbs_scene_set_pop_importance(vdbs_scene *scene, const char *name, vdbs_error *err)
+{
+    int off = 1;
+    vdbs_status st = set_choice("--pop-importance", on_off_names, name, &off, err);
+    scene->pop_importance = !off;
+    return st;
+}
+
 void vdbs_scene_init(vdbs_scene *scene)
 {
     memset(scene, 0, sizeof *scene);
@@ -594,19 +602,10 @@ static vdbs_status parse_camera(const parse_ctx *ctx, const cJSON *cam, vdbs_sce
 
 static vdbs_status parse_solver(const parse_ctx *ctx, const cJSON *sol, vdbs_scene *s)
 {
-    static const char *const keys[] = {"method",
-                                       "quality",
-                                       "sky_directions",
-                                       "pop_res",
-                                       "pop_ordinates",
-                                       "pop_decay",
-                                       "pop_iterations",
-                                       "pop_tally",
-                                       "fld_res",
-                                       "fld_limiter",
-                                       "fld_l1",
-                                       "fld_p1",
-                                       NULL};
+    static const char *const keys[] = {
+        "method",    "quality",        "sky_directions", "pop_res",    "pop_ordinates",
+        "pop_decay", "pop_iterations", "pop_tally",      "pop_radial", "pop_importance",
+        "fld_res",   "fld_limiter",    "fld_l1",         "fld_p1",     NULL};
     vdbs_status st;
     bool found = false;
     if ((st = expect_object(ctx, sol, "solver")) != VDBS_OK ||
@@ -631,9 +630,14 @@ static vdbs_status parse_solver(const parse_ctx *ctx, const cJSON *sol, vdbs_sce
                          &s->pop_ordinates)) != VDBS_OK ||
         (st = get_int_in(ctx, sol, "solver", "pop_iterations", 1, VDBS_MAX_POP_ITERATIONS,
                          &s->pop_iterations)) != VDBS_OK ||
+        (st = get_int_in(ctx, sol, "solver", "pop_radial", 2, VDBS_MAX_POP_RADIAL,
+                         &s->pop_radial)) != VDBS_OK ||
         (st = get_int_in(ctx, sol, "solver", "fld_res", 2, VDBS_MAX_FLD_RESOLUTION,
                          &s->fld_resolution)) != VDBS_OK)
         return st;
+    if (s->pop_radial % 2 != 0)
+        return fail(ctx, "solver.pop_radial", "%d is odd (the octahedral map needs an even count)",
+                    s->pop_radial);
     char value[32] = "";
     if ((st = get_string(ctx, sol, "solver", "pop_decay", value, sizeof value, &found)) != VDBS_OK)
         return st;
@@ -644,6 +648,12 @@ static vdbs_status parse_solver(const parse_ctx *ctx, const cJSON *sol, vdbs_sce
         return st;
     if (found && vdbs_scene_set_pop_tally(s, value, NULL) != VDBS_OK)
         return fail(ctx, "solver.pop_tally", "unknown tally \"%s\" (expected chord or cell)",
+                    value);
+    if ((st = get_string(ctx, sol, "solver", "pop_importance", value, sizeof value, &found)) !=
+        VDBS_OK)
+        return st;
+    if (found && vdbs_scene_set_pop_importance(s, value, NULL) != VDBS_OK)
+        return fail(ctx, "solver.pop_importance", "unknown value \"%s\" (expected on or off)",
                     value);
     if ((st = get_string(ctx, sol, "solver", "fld_limiter", value, sizeof value, &found)) !=
         VDBS_OK)
@@ -944,6 +954,8 @@ char *vdbs_scene_to_json(const vdbs_scene *s)
          (s->pop_iterations == 0 || add_int(sol, "pop_iterations", s->pop_iterations)) &&
          add_string(sol, "pop_decay", pop_decay_names[s->pop_decay_paper != 0]) &&
          add_string(sol, "pop_tally", pop_tally_names[s->pop_tally_cell != 0]) &&
+         (s->pop_radial == 0 || add_int(sol, "pop_radial", s->pop_radial)) &&
+         add_string(sol, "pop_importance", on_off_names[s->pop_importance == 0]) &&
          (s->fld_resolution == 0 || add_int(sol, "fld_res", s->fld_resolution)) &&
          add_string(sol, "fld_limiter", on_off_names[s->fld_limiter_off != 0]) &&
          add_string(sol, "fld_l1", on_off_names[s->fld_l1_off != 0]) &&

@@ -66,6 +66,8 @@ static vdbs_status run_pop(const vdbs_solve *s, vdbs_error *err)
     desc.max_iterations = s->scene->pop_iterations;
     desc.decay = s->scene->pop_decay_paper ? VDBS_POP_DECAY_PAPER : VDBS_POP_DECAY_MEAN_COSINE;
     desc.tally_cell = s->scene->pop_tally_cell;
+    desc.radial = s->scene->pop_radial;
+    desc.importance = s->scene->pop_importance;
     vdbs_pop_stats stats;
     st = vdbs_pop_solve(s, &desc, &stats, err);
     if (s->pop_stats)
@@ -105,7 +107,7 @@ static const vdbs_solver solvers[VDBS_METHOD_COUNT] = {
     {VDBS_METHOD_SINGLE, "single", "exact single scattering only (no multiple scattering)", 0,
      run_single},
     {VDBS_METHOD_POP, "pop",
-     "exact single scattering + Principal-Ordinates Propagation (suns and skies)", 1, run_pop},
+     "exact single scattering + Principal-Ordinates Propagation (suns, skies, points)", 1, run_pop},
     {VDBS_METHOD_FLD, "fld",
      "exact single scattering + flux-limited diffusion of the first-scattered light", 1, run_fld},
 };

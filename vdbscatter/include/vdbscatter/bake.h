@@ -8,6 +8,7 @@
 #include "vdbscatter/pop.h"
 #include "vdbscatter/scene.h"
 #include "vdbscatter/status.h"
+#include "vdbscatter/volume.h"
 
 #ifdef __cplusplus
 extern "C" {
@@ -50,6 +51,14 @@ typedef struct vdbs_bake_report {
 } vdbs_bake_report;
 
 vdbs_status vdbs_bake(const vdbs_bake_options *options, vdbs_bake_report *report, vdbs_error *err);
+
+/* The solve of a bake without the files: the scene's solver on a volume already in memory,
+ * into the caller's arrays of 3 floats per output voxel (zeroed; ms_l1 entries may all point
+ * to ms for a solver without multiple scattering). options->input and output are not read.
+ * For tests and benches that compare the solvers' fields with oracles. */
+vdbs_status vdbs_bake_volume(const vdbs_bake_options *options, const vdbs_volume *volume,
+                             float *radiance, float *ms, float *const ms_l1[3],
+                             vdbs_bake_report *report, vdbs_error *err);
 
 #ifdef __cplusplus
 }

@@ -1,5 +1,5 @@
-/* Principal-Ordinates Propagation (Elek et al., shared/papers/pop.md Secs. 3-5) for
- * directional light: suns, the constant sky and lat-long maps. Multiple scattering only (the
+/* Principal-Ordinates Propagation (Elek et al., shared/papers/pop.md Secs. 3-6) for suns,
+ * the constant sky, lat-long maps and point lights. Multiple scattering only (the
  * exact S1 pass owns unscattered light, DESIGN.md): every sun and POP sky ordinate gets a
  * coarse directional grid seeded with the light first scattered in each cell (from the fine S1
  * light grid: per sub-column albedo E (T_in - T_out)), propagated cell by cell (the shared
@@ -9,10 +9,17 @@
  * A cell crossing deposits the fluence of the lobe's mean chord (--pop-tally chord; the paper
  * counts a whole side). Each grid's accumulated lobes map onto ms and ms_l1 exactly (HG
  * self-convolution), are splatted into a world-aligned grid at twice the resolution (conserving
- * energy) and upsampled to the voxels by a joint bilateral filter guided by the density. */
+ * energy) and upsampled to the voxels by a joint bilateral filter guided by the density.
+ *
+ * A point light gets a radial grid instead (Sec. 6, vdbscatter/radial.h): octahedral texels
+ * times shells growing geometrically from the light, seeded from its fine radial S1 grid with
+ * anisotropy g about the radial direction, propagated by the same gather (the lobe's power
+ * L A(cell) is what moves between cells of unequal size: shaders/vs_pop.h), then merged
+ * part by part into the merged grid, whose cells are then extent / radial wide. */
 #ifndef VDBSCATTER_POP_H
 #define VDBSCATTER_POP_H
 
+#include "vdbscatter/radial.h"
 #include "vdbscatter/solver.h"
 
 #ifdef __cplusplus
@@ -29,9 +36,13 @@ typedef struct vdbs_pop_desc {
     int resolution; /* cells across the largest extent of the support box (--pop-res);
                        default 4, the measured best (pop.c, bench/pop.md) */
     int ordinates;  /* POP sky ordinates (--pop-ordinates); default: the quality's */
+    int radial;     /* a point light's radial grid: radial x radial octahedral texels times
+                       radial shells (--pop-radial, even); default: the quality's */
     vdbs_pop_decay decay;
     int tally_cell;     /* 1: a crossing deposits the fluence of one cell side (the paper's);
                            0: of the lobe's mean chord (shaders/vs_pop.h vs_pop_chord) */
+    int importance;     /* 1: sample the sky ordinates from the sky times the camera's
+                           importance (Sec. 5.2; needs the scene's camera) */
     int max_iterations; /* cap of the anisotropic stage per grid; default 4 x resolution,
                            at least 64 */
     double epsilon_a;   /* anisotropy below which a grid goes isotropic; default 0.1 */
@@ -39,15 +50,19 @@ typedef struct vdbs_pop_desc {
                            the quality's */
 } vdbs_pop_desc;
 
-/* The defaults of a quality name ("low" ... "ultra"): sky ordinates 8 / 16 / 32 / 64 and
- * epsilon_L 1e-2 / 1e-3 / 1e-4 / 1e-5 (the resolution keeps its default of 4 cells at every
- * quality: bench/pop.md). */
-void vdbs_pop_quality(const char *quality, int *ordinates, double *epsilon_l);
+/* The defaults of a quality name ("low" ... "ultra"): sky ordinates 8 / 16 / 32 / 64,
+ * epsilon_L 1e-2 / 1e-3 / 1e-4 / 1e-5 and radial grids of 8^3 / 16^3 / 32^3 / 64^3 (the
+ * resolution keeps its default of 4 cells at every quality: bench/pop.md). radial may be
+ * NULL. */
+void vdbs_pop_quality(const char *quality, int *ordinates, double *epsilon_l, int *radial);
 
 typedef struct vdbs_pop_stats {
     int grids;                  /* directional grids: suns + sky ordinates */
+    int radial_grids;           /* radial grids: point lights */
+    int radial;                 /* their texels across and shells */
+    int importance;             /* 1: the ordinates were sampled with the camera's importance */
     int resolution;             /* cells across the largest extent */
-    long long cells;            /* cells of all directional grids */
+    long long cells;            /* cells of all directional and radial grids */
     long long merged_cells;     /* cells of the merged grid (half the cell side) */
     int iterations_anisotropic; /* the most any directional grid ran */
     int iterations_isotropic;
@@ -68,19 +83,27 @@ typedef struct vdbs_pop_stats {
 } vdbs_pop_stats;
 
 /* Adds POP's ms and ms_l1 to the solve's outputs (and ms to radiance); S1 is the caller's.
- * Errors: point lights (POP part 2), --pop-decay paper with g < 0 (VDBS_ERR_INPUT), out of
+ * Errors: --pop-decay paper with g < 0, an odd radial resolution (VDBS_ERR_INPUT), out of
  * memory, GPU errors. */
 vdbs_status vdbs_pop_solve(const vdbs_solve *solve, const vdbs_pop_desc *desc,
                            vdbs_pop_stats *stats, vdbs_error *err);
 
 /* Iterations of one propagation grid through the runner (shaders/pop_propagate.comp, or the
- * C loop over the same gather): params is the grid's VS_POP_PARAM_WORDS words, sigma its
- * sigma_t per cell, state cells x VS_POP_STATE_WORDS floats in and out. Stops after
- * max_iterations or once the energy in transit (sum of L) is <= tolerance; reports the
- * iterations run and that energy. */
-vdbs_status vdbs_pop_propagate(vdbs_runner *runner, const uint32_t *params, const float *sigma,
-                               int64_t cells, float *state, int max_iterations, double tolerance,
-                               int *iterations, double *left, vdbs_error *err);
+ * C loop over the same gather): params is the grid's param_words words (VS_POP_PARAM_WORDS,
+ * and a radial grid's tables after them), sigma its sigma_t per cell, state cells x
+ * VS_POP_STATE_WORDS floats in and out. Stops after max_iterations or once the energy in
+ * transit (sum of L; of L A on radial grids) is <= tolerance; reports the iterations run and
+ * that energy. */
+vdbs_status vdbs_pop_propagate(vdbs_runner *runner, const uint32_t *params, size_t param_words,
+                               const float *sigma, int64_t cells, float *state, int max_iterations,
+                               double tolerance, int *iterations, double *left, vdbs_error *err);
+
+/* The parameter words of a radial grid over frame f (shaders/vs_pop.h): the header for a medium
+ * of HG g and albedo with desc's decay law and tally, the flux-conserving compensation on, then
+ * the shell radii and texel records. *words receives their count; NULL when out of memory.
+ * The caller frees it. */
+uint32_t *vdbs_pop_radial_params(const vdbs_radial_frame *f, double g, const double albedo[3],
+                                 const vdbs_pop_desc *desc, size_t *words);
 
 #ifdef __cplusplus
 }

@@ -40,6 +40,8 @@ typedef struct vdbs_light {
 #define VDBS_MAX_SKY_DIRECTIONS 65536
 /* Most POP cells across the largest extent (--pop-res). */
 #define VDBS_MAX_POP_RESOLUTION 512
+/* Most texels (and shells) across a POP radial grid (--pop-radial). */
+#define VDBS_MAX_POP_RADIAL 256
 /* Most iterations of a POP directional grid (--pop-iterations). */
 #define VDBS_MAX_POP_ITERATIONS 100000
 /* Most FLD cells across the largest extent (--fld-res). */
@@ -79,6 +81,10 @@ typedef struct vdbs_scene {
     int pop_decay_paper; /* 1: a g^(sigma_s t) ("paper"); 0: the mean-cosine law */
     int pop_tally_cell;  /* 1: a crossing counts one cell side ("cell", the paper's); 0: the
                             lobe's mean chord ("chord") */
+    int pop_radial;      /* texels and shells of a point light's radial grid (even); 0: the
+                            quality's */
+    int pop_importance;  /* 1: sky ordinates sampled from the sky times the camera's
+                            importance (--pop-importance; needs a camera) */
     /* FLD (solver.fld_res, fld_limiter; --fld-*): 0 = the default. */
     int fld_resolution;  /* cells across the largest extent; 0: the quality's */
     int fld_limiter_off; /* 1: classic diffusion (no flux limiter) */
@@ -128,6 +134,8 @@ vdbs_status vdbs_scene_set_grid(vdbs_scene *scene, const char *spec, vdbs_error 
 /* Parses a POP anisotropy decay law, "mean-cosine" or "paper", into scene->pop_decay_paper
  * (VDBS_ERR_INPUT naming --pop-decay otherwise; err may be NULL). */
 vdbs_status vdbs_scene_set_pop_decay(vdbs_scene *scene, const char *name, vdbs_error *err);
+/* --pop-importance on|off / solver.pop_importance. */
+vdbs_status vdbs_scene_set_pop_importance(vdbs_scene *scene, const char *name, vdbs_error *err);
 /* --pop-tally / solver.pop_tally: "chord" or "cell". */
 vdbs_status vdbs_scene_set_pop_tally(vdbs_scene *scene, const char *name, vdbs_error *err);
 /* --fld-limiter / solver.fld_limiter: "on" or "off". */
