@@ -401,26 +401,22 @@ static void test_render_baked_synthetic(void **state)
 #define POP_N2 11
 #define POP_CELLS (POP_N0 * POP_N1 * POP_N2)
 
+/* A rectilinear grid (params of VS_POP_PARAM_WORDS) or a radial one (with its tables). */
 typedef struct pop_scenario {
-    uint32_t params[VS_POP_PARAM_WORDS];
-    float sigma[POP_CELLS];
-    float state[POP_CELLS * VS_POP_STATE_WORDS];
+    uint32_t *params;
+    size_t words;
+    int64_t cells;
+    float *sigma;
+    float *state;
     int iterations;
 } pop_scenario;
 
-static void pop_scenario_make(pop_scenario *s, int iterations)
+static void pop_scenario_fill(pop_scenario *s, int iterations)
 {
-    memset(s, 0, sizeof *s);
-    const int n[3] = {POP_N0, POP_N1, POP_N2};
-    for (int a = 0; a < 3; ++a)
-        s->params[VS_POP_OFF_N + a] = (uint32_t)n[a];
-    const float h = 0.3f, g = 0.85f, albedo[3] = {0.99f, 0.9f, 0.7f};
-    memcpy(&s->params[VS_POP_OFF_H], &h, 4);
-    memcpy(&s->params[VS_POP_OFF_G], &g, 4);
-    memcpy(&s->params[VS_POP_OFF_ALBEDO], albedo, sizeof albedo);
-    s->params[VS_POP_OFF_KEEP_A] = 1u;
-    s->params[VS_POP_OFF_CHORD] = 1u;
-    for (int c = 0; c < POP_CELLS; ++c) {
+    s->sigma = malloc(sizeof(float) * (size_t)s->cells);
+    s->state = calloc((size_t)s->cells * VS_POP_STATE_WORDS, sizeof(float));
+    assert_true(s->sigma && s->state);
+    for (int64_t c = 0; c < s->cells; ++c) {
         s->sigma[c] = (float)((c * 37) % 11) * 0.4f;
         float *st = s->state + c * VS_POP_STATE_WORDS;
         for (int ch = 0; ch < 3; ++ch) {
@@ -432,36 +428,83 @@ static void pop_scenario_make(pop_scenario *s, int iterations)
     s->iterations = iterations;
 }
 
+static void pop_scenario_make(pop_scenario *s, int iterations)
+{
+    memset(s, 0, sizeof *s);
+    s->words = VS_POP_PARAM_WORDS;
+    s->params = calloc(s->words, sizeof(uint32_t));
+    assert_non_null(s->params);
+    const int n[3] = {POP_N0, POP_N1, POP_N2};
+    for (int a = 0; a < 3; ++a)
+        s->params[VS_POP_OFF_N + a] = (uint32_t)n[a];
+    const float h = 0.3f, g = 0.85f, albedo[3] = {0.99f, 0.9f, 0.7f};
+    memcpy(&s->params[VS_POP_OFF_H], &h, 4);
+    memcpy(&s->params[VS_POP_OFF_G], &g, 4);
+    memcpy(&s->params[VS_POP_OFF_ALBEDO], albedo, sizeof albedo);
+    s->params[VS_POP_OFF_KEEP_A] = 1u;
+    s->params[VS_POP_OFF_CHORD] = 1u;
+    s->cells = POP_CELLS;
+    pop_scenario_fill(s, iterations);
+}
+
+/* An octahedral radial grid of 8 x 8 texels and 6 shells around an off-centre light. */
+static void pop_radial_scenario_make(pop_scenario *s, int iterations)
+{
+    memset(s, 0, sizeof *s);
+    vdbs_radial_frame f;
+    vdbs_error err;
+    const double centre[3] = {0.2, 0.1, -0.3}, albedo[3] = {0.99, 0.9, 0.7};
+    assert_int_equal(vdbs_radial_octahedral(centre, 8, 6, 0.0, 1.5, &f, &err), VDBS_OK);
+    vdbs_pop_desc desc = {0};
+    s->params = vdbs_pop_radial_params(&f, 0.85, albedo, &desc, &s->words);
+    assert_non_null(s->params);
+    s->cells = vdbs_radial_cells(&f);
+    vdbs_radial_free(&f);
+    pop_scenario_fill(s, iterations);
+}
+
+static void pop_scenario_free(pop_scenario *s)
+{
+    free(s->params);
+    free(s->sigma);
+    free(s->state);
+}
+
 static vdbs_status run_pop(vdbs_runner *runner, const void *scenario, float *out, vdbs_error *err)
 {
     const pop_scenario *s = scenario;
-    memcpy(out, s->state, sizeof s->state);
+    memcpy(out, s->state, sizeof(float) * (size_t)s->cells * VS_POP_STATE_WORDS);
     int iterations = 0;
     double left = 0.0;
-    return vdbs_pop_propagate(runner, s->params, VS_POP_PARAM_WORDS, s->sigma, POP_CELLS, out,
-                              s->iterations, 0.0, &iterations, &left, err);
+    return vdbs_pop_propagate(runner, s->params, s->words, s->sigma, s->cells, out, s->iterations,
+                              0.0, &iterations, &left, err);
 }
 
 static void test_pop_propagation(void **state)
 {
     (void)state;
-    pop_scenario *s = malloc(sizeof *s);
-    assert_non_null(s);
-    pop_scenario_make(s, 1);
-    free(test_twin("POP, one iteration", run_pop, s, POP_CELLS * VS_POP_STATE_WORDS));
+    pop_scenario s;
+    pop_scenario_make(&s, 1);
+    free(test_twin("POP, one iteration", run_pop, &s, (size_t)s.cells * VS_POP_STATE_WORDS));
+    pop_scenario_free(&s);
+    pop_radial_scenario_make(&s, 1);
+    free(test_twin("POP radial grid, one iteration", run_pop, &s,
+                   (size_t)s.cells * VS_POP_STATE_WORDS));
+    pop_scenario_free(&s);
     /* After 30 iterations float rounding (exp, FMA) has compounded through the sums: the
      * bound is 1e-4 relative to the largest accumulated value of the channel. */
-    pop_scenario_make(s, 30);
+    pop_scenario_make(&s, 30);
     {
+        const size_t n = (size_t)s.cells * VS_POP_STATE_WORDS;
         vdbs_runner *gpu = test_runner(VDBS_BACKEND_GPU);
-        float *a = malloc(sizeof s->state), *b = malloc(sizeof s->state);
+        float *a = malloc(sizeof(float) * n), *b = malloc(sizeof(float) * n);
         vdbs_error err;
-        assert_int_equal(run_pop(test_runner(VDBS_BACKEND_CPU), s, a, &err), VDBS_OK);
-        assert_int_equal(run_pop(gpu, s, b, &err), VDBS_OK);
+        assert_int_equal(run_pop(test_runner(VDBS_BACKEND_CPU), &s, a, &err), VDBS_OK);
+        assert_int_equal(run_pop(gpu, &s, b, &err), VDBS_OK);
         float peak = 0.0f, worst = 0.0f;
-        for (int i = 0; i < POP_CELLS * VS_POP_STATE_WORDS; ++i)
+        for (size_t i = 0; i < n; ++i)
             peak = fmaxf(peak, fabsf(a[i]));
-        for (int i = 0; i < POP_CELLS * VS_POP_STATE_WORDS; ++i)
+        for (size_t i = 0; i < n; ++i)
             worst = fmaxf(worst, fabsf(a[i] - b[i]));
         print_message("POP, 30 iterations: largest difference %.2e of the largest value %.3f\n",
                       (double)worst, (double)peak);
@@ -469,7 +512,7 @@ static void test_pop_propagation(void **state)
         free(a);
         free(b);
     }
-    free(s);
+    pop_scenario_free(&s);
 }
 
 /* ---- FLD: the operator and a converged solve ---- */
