@@ -125,11 +125,14 @@ static cJSON *report_json(const char *input, const char *output, const vdbs_scen
         cJSON_AddNumberToObject(t, "pop_isotropic", p->seconds_isotropic);
         cJSON_AddNumberToObject(t, "pop_merge", p->seconds_merge);
         cJSON_AddNumberToObject(t, "pop_upsample", p->seconds_upsample);
+        cJSON_AddNumberToObject(t, "pop_importance", p->seconds_importance);
         cJSON *pj = cJSON_AddObjectToObject(j, "pop");
         cJSON_AddNumberToObject(pj, "grids", p->grids);
         cJSON_AddNumberToObject(pj, "radial_grids", p->radial_grids);
         cJSON_AddNumberToObject(pj, "radial", p->radial);
         cJSON_AddStringToObject(pj, "importance", p->importance ? "on" : "off");
+        cJSON_AddNumberToObject(pj, "importance_cells", (double)p->importance_cells);
+        cJSON_AddNumberToObject(pj, "importance_iterations", p->importance_iterations);
         cJSON_AddNumberToObject(pj, "resolution", p->resolution);
         cJSON_AddNumberToObject(pj, "cells", (double)p->cells);
         cJSON_AddNumberToObject(pj, "merged_cells", (double)p->merged_cells);

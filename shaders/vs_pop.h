@@ -321,6 +321,9 @@ VS_FUNC float vs_pop_gather(VS_DATA_PARAM(vs_uint, pop_params) VS_DATA_PARAM(flo
     int j = (cell / n0) % n1;
     int k = cell / (n0 * n1);
     float sigma_dst = pop_sigma[cell];
+    /* A cell outside the medium's support box (sigma < 0, radial grids) drops what arrives:
+     * light that has left a convex box through vacuum does not come back. */
+    int outside = sigma_dst < 0.0f ? 1 : 0;
     float sum_l[3];
     float sum_la[3];
     float albedo[3];
@@ -337,7 +340,7 @@ VS_FUNC float vs_pop_gather(VS_DATA_PARAM(vs_uint, pop_params) VS_DATA_PARAM(flo
                       ? vs_pop_radial_source(VS_DATA_ARG(pop_params) i, j, k, s, PNANOVDB_REF(send),
                                              PNANOVDB_REF(dist), PNANOVDB_REF(scale))
                       : vs_pop_rect_source(VS_DATA_ARG(pop_params) i, j, k, s, PNANOVDB_REF(send));
-        if (src < 0)
+        if (src < 0 || outside != 0 || pop_sigma[src] < 0.0f)
             continue;
         float sigma_mid = 0.5f * (pop_sigma[src] + sigma_dst);
         for (int c = 0; c < 3; ++c) {

@@ -131,7 +131,7 @@ static void test_sampling(void **state)
     const float grey[3] = {0.25f, 0.5f, 0.75f};
     vdbs_envmap map;
     load_ok(write_map("env_const.exr", 64, 32, grey), 2.0, &map);
-    assert_int_equal(vdbs_envmap_sample(&map, K, dirs, weight, radiance, &err), K);
+    assert_int_equal(vdbs_envmap_sample(&map, NULL, K, dirs, weight, radiance, &err), K);
     for (int k = 0; k < K; ++k) {
         assert_true(fabs(weight[k] - 4.0 * PI / K) < 1e-12);
         assert_true(radiance[3 * k + 2] == 1.5);
@@ -160,7 +160,7 @@ static void test_sampling(void **state)
             integral += (0.2126 * t[0] + 0.7152 * t[1] + 0.0722 * t[2]) *
                         vdbs_envmap_texel_solid_angle(&map, x, y);
         }
-    assert_int_equal(vdbs_envmap_sample(&map, K, dirs, weight, radiance, &err), K);
+    assert_int_equal(vdbs_envmap_sample(&map, NULL, K, dirs, weight, radiance, &err), K);
     for (int k = 0; k < K; ++k) {
         const double *L = radiance + 3 * k;
         estimate += weight[k] * (0.2126 * L[0] + 0.7152 * L[1] + 0.0722 * L[2]);
@@ -206,7 +206,7 @@ static float *bake(const vdbs_volume *volume, const vdbs_scene *scene, int sky)
 {
     float *radiance = calloc(3 * volume->coord_count, sizeof(float));
     vdbs_error err;
-    vdbs_lights_desc ld = {sky};
+    vdbs_lights_desc ld = {.sky_ordinates = sky};
     vdbs_light_table lights;
     if (vdbs_lights_build(volume, scene, &ld, &lights, &err) != VDBS_OK)
         fail_msg("%s", err.message);

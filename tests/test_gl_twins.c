@@ -184,7 +184,7 @@ static void test_light_grids(void **state)
     vdbs_scene scene;
     lit_scene(&scene, 12.0, 0.0);
     vdbs_error err;
-    vdbs_lights_desc ld = {4};
+    vdbs_lights_desc ld = {.sky_ordinates = 4};
     vdbs_light_table lights;
     assert_int_equal(vdbs_lights_build(&volume, &scene, &ld, &lights, &err), VDBS_OK);
     vdbs_light_grids built;

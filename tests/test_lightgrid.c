@@ -49,7 +49,7 @@ static float *solve(const vdbs_volume *volume, const vdbs_scene *scene, int sky,
 {
     float *radiance = calloc(3 * (volume->coord_count ? volume->coord_count : 1), sizeof(float));
     vdbs_error err;
-    vdbs_lights_desc ld = {sky};
+    vdbs_lights_desc ld = {.sky_ordinates = sky};
     vdbs_light_table lights;
     if (vdbs_lights_build(volume, scene, &ld, &lights, &err) != VDBS_OK)
         fail_msg("%s", err.message);

@@ -84,7 +84,7 @@ void test_runners_free(void)
 vdbs_status test_single_scatter(vdbs_runner *runner, const vdbs_volume *volume,
                                 const vdbs_scene *scene, int sky, float *radiance, vdbs_error *err)
 {
-    vdbs_lights_desc desc = {sky};
+    vdbs_lights_desc desc = {.sky_ordinates = sky};
     vdbs_light_table lights;
     vdbs_status st = vdbs_lights_build(volume, scene, &desc, &lights, err);
     if (st != VDBS_OK)

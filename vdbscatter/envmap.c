@@ -164,9 +164,22 @@ static double radical_inverse2(uint32_t k)
 vdbs_status vdbs_envmap_sampler_init(const vdbs_envmap *map, vdbs_envmap_sampler *s,
                                      vdbs_error *err)
 {
+    return vdbs_envmap_sampler_init_weighted(map, NULL, s, err);
+}
+
+/* The density of texel (x, y) before normalisation: luminance times the texel's weight. */
+static double texel_density(const vdbs_envmap_sampler *s, const float *texel, size_t at)
+{
+    return luminance(texel) * (s->texel_weight ? s->texel_weight[at] : 1.0f);
+}
+
+vdbs_status vdbs_envmap_sampler_init_weighted(const vdbs_envmap *map, const float *texel_weight,
+                                              vdbs_envmap_sampler *s, vdbs_error *err)
+{
     memset(s, 0, sizeof *s);
     const int w = map->width, h = map->height;
     s->map = map;
+    s->texel_weight = texel_weight;
     s->row_cdf = malloc(sizeof *s->row_cdf * (size_t)h * (size_t)(w + 1));
     s->marginal = malloc(sizeof *s->marginal * (size_t)(h + 1));
     if (!s->row_cdf || !s->marginal) {
@@ -178,8 +191,9 @@ vdbs_status vdbs_envmap_sampler_init(const vdbs_envmap *map, vdbs_envmap_sampler
         double *c = s->row_cdf + (size_t)y * (w + 1);
         c[0] = 0.0;
         for (int x = 0; x < w; ++x)
-            c[x + 1] = c[x] + luminance(map->rgb + 3 * ((size_t)y * w + x)) *
-                                  vdbs_envmap_texel_solid_angle(map, x, y);
+            c[x + 1] =
+                c[x] + texel_density(s, map->rgb + 3 * ((size_t)y * w + x), (size_t)y * w + x) *
+                           vdbs_envmap_texel_solid_angle(map, x, y);
         double row = c[w];
         for (int x = 1; x <= w; ++x)
             c[x] = row > 0.0 ? c[x] / row : (double)x / w;
@@ -222,7 +236,7 @@ double vdbs_envmap_sampler_draw(const vdbs_envmap_sampler *s, double u1, double 
     const float *texel = map->rgb + 3 * ((size_t)y * w + x);
     for (int ch = 0; ch < 3; ++ch)
         radiance[ch] = texel[ch];
-    return luminance(texel) / s->total;
+    return texel_density(s, texel, (size_t)y * w + x) / s->total;
 }
 
 /* The texel whose solid angle holds dir (texel_bounds: halfway to the neighbours). */
@@ -245,14 +259,16 @@ void vdbs_envmap_texel(const vdbs_envmap *map, const double dir[3], double rgb[3
 
 double vdbs_envmap_sampler_pdf(const vdbs_envmap_sampler *s, const double dir[3])
 {
-    return s->total > 0.0 ? luminance(texel_of(s->map, dir)) / s->total : 0.0;
+    const float *texel = texel_of(s->map, dir);
+    return s->total > 0.0 ? texel_density(s, texel, (size_t)(texel - s->map->rgb) / 3) / s->total
+                          : 0.0;
 }
 
-int vdbs_envmap_sample(const vdbs_envmap *map, int count, double *dirs, double *weight,
-                       double *radiance, vdbs_error *err)
+int vdbs_envmap_sample(const vdbs_envmap *map, const float *texel_weight, int count, double *dirs,
+                       double *weight, double *radiance, vdbs_error *err)
 {
     vdbs_envmap_sampler s;
-    if (vdbs_envmap_sampler_init(map, &s, err) != VDBS_OK)
+    if (vdbs_envmap_sampler_init_weighted(map, texel_weight, &s, err) != VDBS_OK)
         return -1;
     int written = 0;
     for (int k = 0; k < count && s.total > 0.0; ++k) {

@@ -81,6 +81,20 @@ vdbs_status vdbs_lights_pack(vdbs_light_table *t, vdbs_error *err)
     return VDBS_OK;
 }
 
+/* The importance map's value at every texel of the sky map (nearest texel of the small map). */
+static float *importance_weights(const vdbs_envmap *env, const vdbs_envmap *importance)
+{
+    float *w = malloc(sizeof *w * (size_t)env->width * (size_t)env->height);
+    for (int y = 0; w && y < env->height; ++y)
+        for (int x = 0; x < env->width; ++x) {
+            double d[3], rgb[3];
+            vdbs_envmap_direction(env, x, y, d);
+            vdbs_envmap_texel(importance, d, rgb);
+            w[(size_t)y * env->width + x] = (float)rgb[0];
+        }
+    return w;
+}
+
 vdbs_status vdbs_lights_build(const vdbs_volume *volume, const vdbs_scene *scene,
                               const vdbs_lights_desc *desc, vdbs_light_table *table,
                               vdbs_error *err)
@@ -154,9 +168,12 @@ vdbs_status vdbs_lights_build(const vdbs_volume *volume, const vdbs_scene *scene
         /* Importance-sampled from the map; a constant env on top adds to every ordinate. */
         double *weight = calloc(k > 0 ? (size_t)k : 1, sizeof *weight);
         double *radiance = calloc(k > 0 ? 3 * (size_t)k : 1, sizeof *radiance);
-        int got = weight && radiance
-                      ? vdbs_envmap_sample(table->env, k, dirs, weight, radiance, err)
+        float *texel_weight =
+            desc && desc->importance ? importance_weights(table->env, desc->importance) : NULL;
+        int got = weight && radiance && (!desc || !desc->importance || texel_weight)
+                      ? vdbs_envmap_sample(table->env, texel_weight, k, dirs, weight, radiance, err)
                       : -1;
+        free(texel_weight);
         if (got < 0) {
             free(weight);
             free(radiance);

@@ -5,6 +5,7 @@
 #include <string.h>
 
 #include "vdbscatter/coarse.h"
+#include "vdbscatter/importance.h"
 #include "vdbscatter/lightgrid.h"
 #include "vdbscatter/lights.h"
 #include "vdbscatter/medium.h"
@@ -383,30 +384,6 @@ static vdbs_status propagate_grid(pop_run *r, int l, const double d[3], const do
     return st;
 }
 
-/* The world distance from p to the nearest and farthest points of the support box. */
-static void box_distances(const vdbs_volume *volume, const double p[3], double *near, double *far)
-{
-    double corners[8][3];
-    vdbs_volume_support_corners(volume, corners);
-    double lo[3] = {HUGE_VAL, HUGE_VAL, HUGE_VAL}, hi[3] = {-HUGE_VAL, -HUGE_VAL, -HUGE_VAL};
-    *far = 0.0;
-    for (int c = 0; c < 8; ++c) {
-        double d2 = 0.0;
-        for (int a = 0; a < 3; ++a) {
-            lo[a] = fmin(lo[a], corners[c][a]);
-            hi[a] = fmax(hi[a], corners[c][a]);
-            d2 += (corners[c][a] - p[a]) * (corners[c][a] - p[a]);
-        }
-        *far = fmax(*far, sqrt(d2));
-    }
-    double n2 = 0.0;
-    for (int a = 0; a < 3; ++a) {
-        double d = p[a] < lo[a] ? lo[a] - p[a] : (p[a] > hi[a] ? p[a] - hi[a] : 0.0);
-        n2 += d * d;
-    }
-    *near = sqrt(n2);
-}
-
 /* Seeds a point light's radial grid: per cell the power first scattered in it, albedo I times
  * the sum over sub-rays of dOmega (T(r_k) - T(r_k+1)) with T from the fine radial S1 grid, as
  * a lobe of anisotropy g about the radial direction with L = power / A(cell). Returns the
@@ -481,7 +458,7 @@ static vdbs_status propagate_point(pop_run *r, int l, double mean_sigma_s, vdbs_
     const vdbs_solve *s = r->s;
     const vdbs_direct_light *dl = &r->lights.direct[l];
     double r_in, r_out;
-    box_distances(s->volume, dl->world, &r_in, &r_out);
+    vdbs_volume_support_distances(s->volume, dl->world, &r_in, &r_out);
     r_out *= 1.0 + 1e-6;
     double t0 = vdbs_now();
     vdbs_radial_frame f;
@@ -500,19 +477,7 @@ static vdbs_status propagate_point(pop_run *r, int l, double mean_sigma_s, vdbs_
     }
     r->stats->radial_grids += 1;
     r->stats->cells += cells;
-    /* sigma_t per cell: the mean of the box-filtered medium over the cell's parts. */
-#pragma omp parallel for schedule(dynamic, 64)
-    for (int64_t c = 0; c < cells; ++c) {
-        double w[3 * VDBS_RADIAL_MAX_PARTS], v[VDBS_RADIAL_MAX_PARTS], sum = 0.0, vol = 0.0;
-        int parts = vdbs_radial_cell_parts(&f, c, r->merged.h, w, v);
-        for (int p = 0; p < parts; ++p) {
-            double idx[3];
-            vdbs_volume_index_point(s->volume, w + 3 * p, idx);
-            sum += v[p] * vdbs_medium_box_density(&r->box, idx);
-            vol += v[p];
-        }
-        sigma[c] = (float)(s->scene->density_scale * (vol > 0.0 ? sum / vol : 0.0));
-    }
+    vdbs_radial_sigma(&f, s->volume, &r->box, s->scene->density_scale, r->merged.h, sigma);
     double beam = 0.0;
     const double seeded = seed_radial(r, l, &f, r_out, state, &beam);
     /* Part 1's energy unit, power times the directional cell side (pop.h). */
@@ -522,6 +487,11 @@ static vdbs_status propagate_point(pop_run *r, int l, double mean_sigma_s, vdbs_
     r->stats->seconds_seed += t1 - t0;
     int iterations = 0;
     double left = 0.0;
+    /* Eq. 10 with one crossing of the shells at least, then the isotropic residuum, as for
+     * directional grids. Running the radial grid on to epsilon_L instead put 3 to 50 times the
+     * reference's ms on the Fig. 10 sphere (measured): isotropic light walks the lattice one
+     * cell per iteration, and a lattice of step h diffuses like a medium of sigma_tr about
+     * 2 / h, far too thick in the small shells near the light. */
     if (seeded > 0.0)
         st = vdbs_pop_propagate(
             s->runner, params, words, sigma, cells, state,
@@ -554,11 +524,14 @@ static vdbs_status propagate_point(pop_run *r, int l, double mean_sigma_s, vdbs_
             residual[ch] = cell[VS_POP_STATE_L + ch];
         }
         const double volume = vdbs_radial_cell_volume(&f, c), area = vdbs_radial_cell_area(&f, c);
-        for (int ch = 0; ch < 3; ++ch)
-            r->stats->merge_in += cell[VS_POP_STATE_ACC_L + ch] * volume;
         double w[3 * VDBS_RADIAL_MAX_PARTS], pv[VDBS_RADIAL_MAX_PARTS];
         int parts = vdbs_radial_cell_parts(&f, c, r->merged.h, w, pv);
         for (int p = 0; p < parts; ++p) {
+            /* Parts beyond the support box hold no voxel (their light has left). */
+            if (!vdbs_volume_in_support(s->volume, w + 3 * p))
+                continue;
+            for (int ch = 0; ch < 3; ++ch)
+                r->stats->merge_in += cell[VS_POP_STATE_ACC_L + ch] * pv[p];
             vdbs_coarse_splat(&r->merged, r->merged_acc, VDBS_COARSE_WIDTH, w + 3 * p, v,
                               pv[p] / merged_volume);
             if (residual[0] != 0.0 || residual[1] != 0.0 || residual[2] != 0.0)
@@ -669,13 +642,7 @@ vdbs_status vdbs_pop_solve(const vdbs_solve *s, const vdbs_pop_desc *desc, vdbs_
     for (int i = 0; i < s->scene->light_count; ++i)
         points += s->scene->lights[i].type == VDBS_LIGHT_POINT;
 
-    vdbs_lights_desc ld = {0};
-    ld.sky_ordinates = r.desc.ordinates;
-    vdbs_status st = vdbs_lights_build(s->volume, s->scene, &ld, &r.lights, err);
-    if (st != VDBS_OK)
-        return st;
-    const int count = r.lights.direct_count + r.lights.ordinate_count;
-    stats->grids = count - points;
+    vdbs_status st = VDBS_OK;
     double corners[8][3];
     vdbs_volume_support_corners(s->volume, corners);
     double lo[3] = {HUGE_VAL, HUGE_VAL, HUGE_VAL}, hi[3] = {-HUGE_VAL, -HUGE_VAL, -HUGE_VAL};
@@ -715,6 +682,29 @@ vdbs_status vdbs_pop_solve(const vdbs_solve *s, const vdbs_pop_desc *desc, vdbs_
         st = vdbs_error_set(err, VDBS_ERR_NOMEM, "out of memory for the merged POP grid");
     if (st == VDBS_OK)
         st = vdbs_medium_box_build(s->volume, block < 1 ? 1 : block, &r.box, err);
+    /* The sky ordinates: from the sky, or the sky times the camera's importance (Sec. 5.2). */
+    vdbs_envmap importance = {0};
+    vdbs_lights_desc ld = {0};
+    ld.sky_ordinates = r.desc.ordinates;
+    /* Only a map's ordinates are sampled; a constant sky keeps its even directions. */
+    if (st == VDBS_OK && r.desc.importance && s->scene->env_paths[0] != '\0') {
+        vdbs_importance_stats is;
+        st = vdbs_importance_map(s->runner, s->volume, s->scene, &r.box, &importance, &is, err);
+        ld.importance = &importance;
+        stats->importance = 1;
+        stats->importance_cells = is.cells;
+        stats->importance_iterations = is.iterations;
+        stats->seconds_importance = is.seconds_propagate + is.seconds_project;
+    }
+    if (st == VDBS_OK)
+        st = vdbs_lights_build(s->volume, s->scene, &ld, &r.lights, err);
+    vdbs_envmap_free(&importance);
+    if (st != VDBS_OK) {
+        run_free(&r);
+        return st;
+    }
+    const int count = r.lights.direct_count + r.lights.ordinate_count;
+    stats->grids = count - points;
     double t_sweep = vdbs_now();
     if (st == VDBS_OK)
         st = vdbs_light_grids_build(s->runner, s->volume, s->scene, &r.lights, 0, count, &fine_desc,

@@ -5,6 +5,7 @@
 #include <string.h>
 
 #include "vdbs_math.h"
+#include "vdbscatter/volume.h"
 
 /* Sub-texels per axis that integrate a texel's solid angle. */
 #define RADIAL_OMEGA_SUBDIVISION 16
@@ -228,4 +229,24 @@ int vdbs_radial_cell_parts(const vdbs_radial_frame *f, int64_t cell, double side
     for (int q = 0; q < p && total > 0.0; ++q)
         volume[q] *= want / total;
     return p;
+}
+
+void vdbs_radial_sigma(const vdbs_radial_frame *f, const vdbs_volume *volume,
+                       const vdbs_medium_box *box, double density_scale, double side, float *sigma)
+{
+    const int64_t cells = vdbs_radial_cells(f);
+#pragma omp parallel for schedule(dynamic, 64)
+    for (int64_t c = 0; c < cells; ++c) {
+        double w[3 * VDBS_RADIAL_MAX_PARTS], v[VDBS_RADIAL_MAX_PARTS], sum = 0.0, vol = 0.0;
+        int parts = vdbs_radial_cell_parts(f, c, side, w, v), inside = 0;
+        for (int p = 0; p < parts; ++p) {
+            double idx[3];
+            vdbs_volume_index_point(volume, w + 3 * p, idx);
+            sum += v[p] * vdbs_medium_box_density(box, idx);
+            vol += v[p];
+            inside |= vdbs_volume_in_support(volume, w + 3 * p);
+        }
+        sigma[c] =
+            inside ? (float)(density_scale * (vol > 0.0 ? sum / vol : 0.0)) : VDBS_RADIAL_OUTSIDE;
+    }
 }

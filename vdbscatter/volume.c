@@ -183,3 +183,39 @@ void vdbs_volume_support_corners(const vdbs_volume *volume, double corners[8][3]
         vdbs_volume_world_point(volume, idx, corners[c]);
     }
 }
+
+void vdbs_volume_support_distances(const vdbs_volume *volume, const double p[3], double *near,
+                                   double *far)
+{
+    double corners[8][3];
+    vdbs_volume_support_corners(volume, corners);
+    double lo[3] = {HUGE_VAL, HUGE_VAL, HUGE_VAL}, hi[3] = {-HUGE_VAL, -HUGE_VAL, -HUGE_VAL};
+    *far = 0.0;
+    for (int c = 0; c < 8; ++c) {
+        double d2 = 0.0;
+        for (int a = 0; a < 3; ++a) {
+            lo[a] = fmin(lo[a], corners[c][a]);
+            hi[a] = fmax(hi[a], corners[c][a]);
+            d2 += (corners[c][a] - p[a]) * (corners[c][a] - p[a]);
+        }
+        *far = fmax(*far, sqrt(d2));
+    }
+    double n2 = 0.0;
+    for (int a = 0; a < 3; ++a) {
+        double d = p[a] < lo[a] ? lo[a] - p[a] : (p[a] > hi[a] ? p[a] - hi[a] : 0.0);
+        n2 += d * d;
+    }
+    *near = sqrt(n2);
+}
+
+int vdbs_volume_in_support(const vdbs_volume *volume, const double world[3])
+{
+    float lo[3], hi[3];
+    double idx[3];
+    vdbs_volume_support_box(volume, lo, hi);
+    vdbs_volume_index_point(volume, world, idx);
+    for (int a = 0; a < 3; ++a)
+        if (!(idx[a] >= lo[a] && idx[a] <= hi[a]))
+            return 0;
+    return 1;
+}

@@ -61,13 +61,18 @@ void vdbs_envmap_texel(const vdbs_envmap *map, const double dir[3], double rgb[3
 /* The luminance x solid angle distribution of a map (the map must outlive it). */
 typedef struct vdbs_envmap_sampler {
     const vdbs_envmap *map;
-    double *row_cdf;  /* height rows of width + 1 */
-    double *marginal; /* height + 1 */
-    double total;     /* integral of luminance over the sphere; 0 for a black map */
+    double *row_cdf;           /* height rows of width + 1 */
+    double *marginal;          /* height + 1 */
+    double total;              /* integral of luminance over the sphere; 0 for a black map */
+    const float *texel_weight; /* per texel factor on the luminance, or NULL */
 } vdbs_envmap_sampler;
 
 vdbs_status vdbs_envmap_sampler_init(const vdbs_envmap *map, vdbs_envmap_sampler *sampler,
                                      vdbs_error *err);
+/* The same for luminance times texel_weight[y width + x] (>= 0; NULL: 1): the sky times an
+ * importance (pop.h --pop-importance). The weights must outlive the sampler. */
+vdbs_status vdbs_envmap_sampler_init_weighted(const vdbs_envmap *map, const float *texel_weight,
+                                              vdbs_envmap_sampler *sampler, vdbs_error *err);
 void vdbs_envmap_sampler_free(vdbs_envmap_sampler *sampler);
 /* A direction for (u1, u2) in [0, 1)^2 (towards the sky), the texel's radiance, and its pdf
  * per steradian (returned; total must be > 0). */
@@ -76,11 +81,11 @@ double vdbs_envmap_sampler_draw(const vdbs_envmap_sampler *sampler, double u1, d
 /* The pdf per steradian of drawing `dir`: the luminance of its texel over total. */
 double vdbs_envmap_sampler_pdf(const vdbs_envmap_sampler *sampler, const double dir[3]);
 
-/* K importance-sampled directions (see above): dirs 3 K (unit, towards the sky), weight K
- * (steradians), radiance 3 K. Returns the number written: K, or 0 for a black map; -1 when
- * out of memory. */
-int vdbs_envmap_sample(const vdbs_envmap *map, int count, double *dirs, double *weight,
-                       double *radiance, vdbs_error *err);
+/* K importance-sampled directions (see above; from luminance times texel_weight when that is
+ * not NULL): dirs 3 K (unit, towards the sky), weight K (steradians: 1 / (K pdf)), radiance
+ * 3 K. Returns the number written: K, or 0 for a black map; -1 when out of memory. */
+int vdbs_envmap_sample(const vdbs_envmap *map, const float *texel_weight, int count, double *dirs,
+                       double *weight, double *radiance, vdbs_error *err);
 
 /* The test sky (`vdbscatter sample sky`): a 2 height x height lat-long image (allocated
  * here) of a blue sky brightening to the horizon, a dim ground and a small sun (about 3

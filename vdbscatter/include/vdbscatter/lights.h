@@ -52,6 +52,10 @@ typedef struct vdbs_light_table {
 typedef struct vdbs_lights_desc {
     int sky_ordinates; /* quadrature directions for a sky; 0: none (the reference samples
                           the sky itself) */
+    /* A map's ordinates are drawn from its luminance times this map's first channel (a
+     * lat-long importance, pop.h --pop-importance); NULL: the luminance alone. A constant sky
+     * keeps its even directions. */
+    const vdbs_envmap *importance;
 } vdbs_lights_desc;
 
 /* Resolves the scene's lights for the volume. Errors: an environment map that cannot be

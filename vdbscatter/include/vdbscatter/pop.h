@@ -61,6 +61,8 @@ typedef struct vdbs_pop_stats {
     int radial_grids;           /* radial grids: point lights */
     int radial;                 /* their texels across and shells */
     int importance;             /* 1: the ordinates were sampled with the camera's importance */
+    long long importance_cells; /* of its frustum grid */
+    int importance_iterations;
     int resolution;             /* cells across the largest extent */
     long long cells;            /* cells of all directional and radial grids */
     long long merged_cells;     /* cells of the merged grid (half the cell side) */
@@ -80,6 +82,7 @@ typedef struct vdbs_pop_stats {
      * cell and the seed), propagate (directional grids), isotropic, merge, upsample. */
     double seconds_sweep, seconds_seed, seconds_propagate, seconds_isotropic, seconds_merge,
         seconds_upsample;
+    double seconds_importance; /* the importance grid's propagation and projection */
 } vdbs_pop_stats;
 
 /* Adds POP's ms and ms_l1 to the solve's outputs (and ms to radiance); S1 is the caller's.

@@ -19,6 +19,7 @@
 #include <stdint.h>
 
 #include "vdbscatter/camera.h"
+#include "vdbscatter/medium.h"
 #include "vdbscatter/status.h"
 
 #ifdef __cplusplus
@@ -71,6 +72,12 @@ double vdbs_radial_cell_area(const vdbs_radial_frame *f, int64_t cell);
  * volume (summing to the cell's), and returns the count m^3. */
 int vdbs_radial_cell_parts(const vdbs_radial_frame *f, int64_t cell, double side, double *world,
                            double *volume);
+/* sigma_t of every cell: density_scale times the box-filtered density averaged over the cell's
+ * parts no wider than side; VDBS_RADIAL_OUTSIDE (the kernel's "outside", shaders/vs_pop.h)
+ * for a cell with no part in the support box. */
+#define VDBS_RADIAL_OUTSIDE (-1.0f)
+void vdbs_radial_sigma(const vdbs_radial_frame *f, const vdbs_volume *volume,
+                       const vdbs_medium_box *box, double density_scale, double side, float *sigma);
 
 #ifdef __cplusplus
 }

@@ -51,6 +51,12 @@ void vdbs_volume_support_box(const vdbs_volume *volume, float lo[3], float hi[3]
 /* The support box's eight corners in world space (corner c takes hi on axis a where bit a of c
  * is set). */
 void vdbs_volume_support_corners(const vdbs_volume *volume, double corners[8][3]);
+/* World distances from p to the nearest point of the support box (0 inside) and to its
+ * farthest corner. */
+void vdbs_volume_support_distances(const vdbs_volume *volume, const double p[3], double *near,
+                                   double *far);
+/* 1 when a world point lies in the support box. */
+int vdbs_volume_in_support(const vdbs_volume *volume, const double world[3]);
 
 /* Marches one compute-shader invocation may run in one dispatch under the loop limit that
  * shaders/vs_pass.h explains (the runner's first guess of units per pass). A march crosses

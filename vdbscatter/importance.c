@@ -1,0 +1,212 @@
+#include "vdbscatter/importance.h"
+
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "vdbscatter/camera.h"
+#include "vdbscatter/coarse.h"
+#include "vdbscatter/pop.h"
+#include "vdbscatter/radial.h"
+#include "vdbs_math.h"
+
+#define PNANOVDB_C
+#include <nanovdb/PNanoVDB.h>
+
+#include "vs_common.h"
+#include "vs_phase.h"
+#include "vs_pop.h"
+
+/* Sub-rays per texel and axis that seed the frustum grid. */
+#define IMPORTANCE_SUBRAYS 4
+/* Cells across the largest extent of the coarse medium the projection marches. */
+#define IMPORTANCE_MEDIUM_CELLS 16
+
+/* The camera rays' first-scattered importance per frustum cell, as POP lobes: every pixel's
+ * ray carries the same importance per image-plane area, loses albedo (T_in - T_out) of it to
+ * scattering in each shell (optical depth by a march through the box-filtered medium, a voxel
+ * per step), and the lobe has anisotropy g about the ray (L = power / A(cell)). */
+static double seed(const vdbs_radial_frame *f, const vdbs_volume *volume,
+                   const vdbs_medium_box *box, const vdbs_scene *scene, float *state)
+{
+    const int n0 = f->n[0], n1 = f->n[1], n2 = f->n[2], sub = IMPORTANCE_SUBRAYS;
+    const double albedo = (scene->albedo[0] + scene->albedo[1] + scene->albedo[2]) / 3.0;
+    const double step = volume->mean_voxel_size, g = scene->g;
+    double total = 0.0;
+#pragma omp parallel for schedule(dynamic, 4) reduction(+ : total)
+    for (int t = 0; t < n0 * n1; ++t) {
+        for (int p = 0; p < sub * sub; ++p) {
+            double d[3];
+            vdbs_radial_direction(f, t % n0 + (p % sub + 0.5) / sub, t / n0 + (p / sub + 0.5) / sub,
+                                  d);
+            const double weight = 1.0 / (sub * sub);
+            double tau = 0.0, r = f->radius[0], t_prev = 1.0;
+            for (int k = 0; k < n2; ++k) {
+                const double r_end = f->radius[k + 1];
+                while (r < r_end) {
+                    double dr = fmin(step, r_end - r), w[3], idx[3];
+                    for (int a = 0; a < 3; ++a)
+                        w[a] = f->centre[a] + (r + 0.5 * dr) * d[a];
+                    vdbs_volume_index_point(volume, w, idx);
+                    tau += scene->density_scale * vdbs_medium_box_density(box, idx) * dr;
+                    r += dr;
+                }
+                double tr = exp(-tau), lost = albedo * weight * (t_prev - tr);
+                t_prev = tr;
+                state[((int64_t)k * n0 * n1 + t) * VS_POP_STATE_WORDS + VS_POP_STATE_L] +=
+                    (float)lost;
+                total += lost;
+            }
+        }
+    }
+    const float first = 0.5f * vs_pop_chord((float)g);
+    for (int64_t c = 0; c < vdbs_radial_cells(f); ++c) {
+        float *cell = state + c * VS_POP_STATE_WORDS;
+        float l = cell[VS_POP_STATE_L] / (float)vdbs_radial_cell_area(f, c);
+        for (int ch = 0; ch < 3; ++ch) {
+            cell[VS_POP_STATE_L + ch] = l;
+            cell[VS_POP_STATE_A + ch] = (float)g;
+            cell[VS_POP_STATE_ACC_L + ch] = first * l;
+            cell[VS_POP_STATE_ACC_LA + ch] = first * l * (float)g;
+        }
+    }
+    return 3.0 * total;
+}
+
+/* Optical depth from p towards unit w to the edge of the coarse medium (nearest cell). */
+static double coarse_depth(const vdbs_coarse_frame *m, const float *sigma, const double p[3],
+                           const double w[3])
+{
+    double x[3], dx[3];
+    for (int a = 0; a < 3; ++a) {
+        x[a] = ((p[0] - m->origin[0]) * m->axis[a][0] + (p[1] - m->origin[1]) * m->axis[a][1] +
+                (p[2] - m->origin[2]) * m->axis[a][2]) /
+               m->h;
+        dx[a] = w[0] * m->axis[a][0] + w[1] * m->axis[a][1] + w[2] * m->axis[a][2];
+    }
+    double tau = 0.0;
+    for (int s = 0; s < 4 * (m->n[0] + m->n[1] + m->n[2]); ++s) {
+        for (int a = 0; a < 3; ++a)
+            x[a] += 0.5 * dx[a];
+        int i = (int)floor(x[0]), j = (int)floor(x[1]), k = (int)floor(x[2]);
+        if (i < 0 || j < 0 || k < 0 || i >= m->n[0] || j >= m->n[1] || k >= m->n[2])
+            break;
+        tau += 0.5 * m->h * sigma[((int64_t)k * m->n[1] + j) * m->n[0] + i];
+    }
+    return tau;
+}
+
+vdbs_status vdbs_importance_map(vdbs_runner *runner, const vdbs_volume *volume,
+                                const vdbs_scene *scene, const vdbs_medium_box *box,
+                                vdbs_envmap *map, vdbs_importance_stats *stats, vdbs_error *err)
+{
+    memset(map, 0, sizeof *map);
+    memset(stats, 0, sizeof *stats);
+    if (!scene->camera.present)
+        return vdbs_error_set(err, VDBS_ERR_INPUT,
+                              "--pop-importance needs a camera (--camera or camera in --scene)");
+    vdbs_camera_frame camera;
+    vdbs_status st = vdbs_camera_frame_init(&scene->camera, &camera, err);
+    if (st != VDBS_OK)
+        return st;
+    double near, far;
+    vdbs_volume_support_distances(volume, camera.origin, &near, &far);
+    near = fmax(near, 0.5 * volume->mean_voxel_size);
+    far = fmax(far, 2.0 * near);
+    vdbs_radial_frame f;
+    st = vdbs_radial_perspective(&camera, VDBS_IMPORTANCE_GRID, VDBS_IMPORTANCE_GRID, near, far, &f,
+                                 err);
+    if (st != VDBS_OK)
+        return st;
+    double corners[8][3], lo[3] = {HUGE_VAL, HUGE_VAL, HUGE_VAL};
+    double hi[3] = {-HUGE_VAL, -HUGE_VAL, -HUGE_VAL};
+    vdbs_volume_support_corners(volume, corners);
+    for (int c = 0; c < 8; ++c)
+        for (int a = 0; a < 3; ++a) {
+            lo[a] = fmin(lo[a], corners[c][a]);
+            hi[a] = fmax(hi[a], corners[c][a]);
+        }
+    const double extent = fmax(hi[0] - lo[0], fmax(hi[1] - lo[1], hi[2] - lo[2]));
+    const double world_axes[3][3] = {{1, 0, 0}, {0, 1, 0}, {0, 0, 1}};
+    vdbs_coarse_frame medium;
+    vdbs_coarse_fit(corners, world_axes, extent / IMPORTANCE_MEDIUM_CELLS, &medium);
+    const int64_t cells = vdbs_radial_cells(&f), medium_cells = vdbs_coarse_cells(&medium);
+    const double albedo3[3] = {scene->albedo[0], scene->albedo[1], scene->albedo[2]};
+    const double albedo = (albedo3[0] + albedo3[1] + albedo3[2]) / 3.0;
+    const double grey[3] = {albedo, albedo, albedo};
+    vdbs_pop_desc desc = {0};
+    size_t words = 0;
+    uint32_t *params = vdbs_pop_radial_params(&f, scene->g, grey, &desc, &words);
+    float *state = calloc((size_t)cells * VS_POP_STATE_WORDS, sizeof *state);
+    float *sigma = malloc(sizeof *sigma * (size_t)cells);
+    float *medium_sigma = malloc(sizeof *medium_sigma * (size_t)medium_cells);
+    const int w = VDBS_IMPORTANCE_MAP_WIDTH, h = VDBS_IMPORTANCE_MAP_HEIGHT;
+    map->data = calloc(3 * (size_t)w * h, sizeof *map->data);
+    if (!params || !state || !sigma || !medium_sigma || !map->data) {
+        st = vdbs_error_set(err, VDBS_ERR_NOMEM, "out of memory for the importance grid");
+        goto done;
+    }
+    map->width = w;
+    map->height = h;
+    map->rgb = map->data;
+    map->bytes = sizeof *map->data * 3 * (size_t)w * h;
+    stats->cells = cells;
+    double t0 = vdbs_now();
+    vdbs_radial_sigma(&f, volume, box, scene->density_scale, 0.0, sigma);
+    const double seeded = seed(&f, volume, box, scene, state);
+    double left = 0.0;
+    if (seeded > 0.0)
+        st =
+            vdbs_pop_propagate(runner, params, words, sigma, cells, state, 4 * VDBS_IMPORTANCE_GRID,
+                               1e-3 * seeded, &stats->iterations, &left, err);
+    double t1 = vdbs_now();
+    stats->seconds_propagate = t1 - t0;
+    if (st != VDBS_OK)
+        goto done;
+    vdbs_coarse_sigma(&medium, volume, box, scene->density_scale, medium_sigma);
+    const int64_t texels = (int64_t)f.n[0] * f.n[1];
+#pragma omp parallel for schedule(dynamic, 1)
+    for (int texel = 0; texel < w * h; ++texel) {
+        double dir[3], m = 0.0;
+        vdbs_envmap_direction(map, texel % w, texel / w, dir);
+        for (int64_t c = 0; c < cells; ++c) {
+            const float *cell = state + c * VS_POP_STATE_WORDS;
+            const double phi = cell[VS_POP_STATE_ACC_L];
+            if (!(phi > 0.0) || !(sigma[c] > 0.0))
+                continue;
+            const double *d = f.dir + 3 * (c % texels);
+            const double a = fmin(fmax(cell[VS_POP_STATE_ACC_LA] / phi, -0.99), 0.99);
+            const int k = (int)(c / texels);
+            const double r0 = f.radius[k], r1 = f.radius[k + 1];
+            const double rc =
+                0.75 * (r1 + r0) * (r1 * r1 + r0 * r0) / (r1 * r1 + r1 * r0 + r0 * r0);
+            double p[3];
+            for (int x = 0; x < 3; ++x)
+                p[x] = f.centre[x] + rc * d[x];
+            const double mu = dir[0] * d[0] + dir[1] * d[1] + dir[2] * d[2];
+            m += vdbs_radial_cell_volume(&f, c) * sigma[c] * albedo * phi *
+                 vs_hg_eval_d(a, 1.0 - mu) * exp(-coarse_depth(&medium, medium_sigma, p, dir));
+        }
+        map->rgb[3 * texel] = (float)m;
+    }
+    double mean = 0.0;
+    for (int texel = 0; texel < w * h; ++texel)
+        mean += map->rgb[3 * texel] * vdbs_envmap_texel_solid_angle(map, texel % w, texel / w);
+    mean /= 4.0 * VDBS_PI;
+    for (int texel = 0; texel < w * h; ++texel) {
+        float v = mean > 0.0 ? (float)(VDBS_IMPORTANCE_FLOOR +
+                                       (1.0 - VDBS_IMPORTANCE_FLOOR) * map->rgb[3 * texel] / mean)
+                             : 1.0f;
+        map->rgb[3 * texel] = map->rgb[3 * texel + 1] = map->rgb[3 * texel + 2] = v;
+    }
+    stats->seconds_project = vdbs_now() - t1;
+done:
+    if (st != VDBS_OK)
+        vdbs_envmap_free(map);
+    free(params);
+    free(state);
+    free(sigma);
+    free(medium_sigma);
+    vdbs_radial_free(&f);
+    return st;
+}
