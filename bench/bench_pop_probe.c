@@ -27,10 +27,15 @@
  * the centre of the cube sample (48^3, half-size 0.6, density scale 30, albedo 0.99: a
  * diffusion length of 4.6 voxels, a mean free path of 0.8), no other light.
  *
+ * --scenes smoke_point,cloud_point: POP part 2's point lights, one of intensity 1 inside the
+ * smoke sample (64^3, density scale 10, at (0, -0.5, 0)) and one outside the cloud sample (64^3,
+ * density scale 20, at (0, 1.6, 0), above it). --qualities low,medium,... gives a row per
+ * quality (sky ordinates, radial grids, epsilon_L) instead of per --res.
+ *
  * usage: bench_pop_probe [--out bench/pop_probe.md] [--res 2,3,4,8] [--g 0,0.5,0.85]
  *        [--scenes sphere,cloud,point] [--points 300] [--radius-voxels 2] [--photons-sphere N]
  *        [--photons-cloud N] [--quality medium] [--seed 1] [--tally chord|cell]
- *        [--method pop|fld] */
+ *        [--method pop|fld] [--qualities low,medium,high,ultra] */
 #include <math.h>
 #include <stdint.h>
 #include <stdio.h>
@@ -56,8 +61,9 @@ typedef struct scene_def {
     uint32_t seed;
     double density_scale;
     int64_t photons;
-    int point_light; /* 1: a point light of intensity 1 at the origin (the centre), nothing
-                        else; 0: the sun and the sky */
+    int point_light; /* 1: a point light of intensity 1 at `point`, nothing else; 0: the sun
+                        and the sky */
+    double point[3];
 } scene_def;
 
 typedef struct options {
@@ -71,7 +77,9 @@ typedef struct options {
     double radius_voxels;
     const char *quality;
     uint64_t seed;
-    int sphere, cloud, point;
+    int sphere, cloud, point, smoke_point, cloud_point;
+    const char *qualities[MAX_LIST]; /* --qualities: rows per quality instead of per --res */
+    int quality_count;
     int64_t photons_sphere, photons_cloud;
 } options;
 
@@ -119,10 +127,12 @@ static int parse_doubles(const char *s, double *out)
 
 static void usage(void)
 {
-    fprintf(stderr, "usage: bench_pop_probe [--out FILE] [--res 2,3,4,8] [--g 0,0.5,0.85] "
-                    "[--scenes sphere,cloud] [--points 300] [--radius-voxels 2] "
-                    "[--photons-sphere N] [--photons-cloud N] [--quality medium] [--seed 1] "
-                    "[--tally chord|cell] [--method pop|fld]\n");
+    fprintf(
+        stderr,
+        "usage: bench_pop_probe [--out FILE] [--res 2,3,4,8] [--g 0,0.5,0.85] "
+        "[--scenes sphere,cloud,point,smoke_point,cloud_point] [--points 300] [--radius-voxels 2] "
+        "[--photons-sphere N] [--photons-cloud N] [--quality medium] [--seed 1] "
+        "[--tally chord|cell] [--method pop|fld] [--qualities low,medium,...]\n");
     exit(2);
 }
 
@@ -153,9 +163,20 @@ static void parse_args(int argc, char **argv, options *o)
         else if (strcmp(a, "--g") == 0)
             o->g_count = parse_doubles(v, o->g);
         else if (strcmp(a, "--scenes") == 0) {
-            o->sphere = strstr(v, "sphere") != NULL;
-            o->cloud = strstr(v, "cloud") != NULL;
-            o->point = strstr(v, "point") != NULL;
+            char list[256];
+            snprintf(list, sizeof list, "%s", v);
+            o->sphere = o->cloud = o->point = o->smoke_point = o->cloud_point = 0;
+            for (char *t = strtok(list, ","); t; t = strtok(NULL, ",")) {
+                int *flag = !strcmp(t, "sphere")        ? &o->sphere
+                            : !strcmp(t, "cloud")       ? &o->cloud
+                            : !strcmp(t, "point")       ? &o->point
+                            : !strcmp(t, "smoke_point") ? &o->smoke_point
+                            : !strcmp(t, "cloud_point") ? &o->cloud_point
+                                                        : NULL;
+                if (!flag)
+                    usage();
+                *flag = 1;
+            }
         } else if (strcmp(a, "--points") == 0)
             o->points = atoi(v);
         else if (strcmp(a, "--radius-voxels") == 0)
@@ -166,7 +187,14 @@ static void parse_args(int argc, char **argv, options *o)
             o->photons_cloud = strtoll(v, NULL, 10);
         else if (strcmp(a, "--quality") == 0)
             o->quality = v;
-        else if (strcmp(a, "--seed") == 0)
+        else if (strcmp(a, "--qualities") == 0) {
+            static char list[256];
+            snprintf(list, sizeof list, "%s", v);
+            o->quality_count = 0;
+            for (char *t = strtok(list, ","); t && o->quality_count < MAX_LIST;
+                 t = strtok(NULL, ","))
+                o->qualities[o->quality_count++] = t;
+        } else if (strcmp(a, "--seed") == 0)
             o->seed = strtoull(v, NULL, 10);
         else if (strcmp(a, "--tally") == 0 && (!strcmp(v, "chord") || !strcmp(v, "cell")))
             o->tally_cell = strcmp(v, "cell") == 0;
@@ -282,7 +310,7 @@ static double mean3(const double *v)
 typedef struct row {
     const char *scene;
     double g;
-    int res;
+    char setting[16]; /* --res value, or the quality name with --qualities */
     int points;
     double probe_rel_se, ms_floor, ms_rmse, ms_rmse_voxel, ratio;
     double l1_rmse, l1_floor, l1_sun_ratio;
@@ -301,8 +329,9 @@ static void print_header(FILE *f)
 
 static void print_row(FILE *f, const row *r)
 {
-    fprintf(f, "| %s | %g | %d | %d | %.4f | %.4f | %.3f | %.3f | %.3f | ", r->scene, r->g, r->res,
-            r->points, r->probe_rel_se, r->ms_floor, r->ms_rmse, r->ms_rmse_voxel, r->ratio);
+    fprintf(f, "| %s | %g | %s | %d | %.4f | %.4f | %.3f | %.3f | %.3f | ", r->scene, r->g,
+            r->setting, r->points, r->probe_rel_se, r->ms_floor, r->ms_rmse, r->ms_rmse_voxel,
+            r->ratio);
     if (r->g > 0.0)
         fprintf(f, "%.3f | %.3f | %.3f | ", r->l1_rmse, r->l1_floor, r->l1_sun_ratio);
     else
@@ -319,9 +348,9 @@ static void print_tercile_header(FILE *f)
 
 static void print_tercile_row(FILE *f, const row *r)
 {
-    fprintf(f, "| %s | %g | %d | %.3f | %.3f | %.3f | %.2f | %.2f | %.2f |\n", r->scene, r->g,
-            r->res, r->tercile_ratio[0], r->tercile_ratio[1], r->tercile_ratio[2], r->tercile_s1[0],
-            r->tercile_s1[1], r->tercile_s1[2]);
+    fprintf(f, "| %s | %g | %s | %.3f | %.3f | %.3f | %.2f | %.2f | %.2f |\n", r->scene, r->g,
+            r->setting, r->tercile_ratio[0], r->tercile_ratio[1], r->tercile_ratio[2],
+            r->tercile_s1[0], r->tercile_s1[1], r->tercile_s1[2]);
 }
 
 /* Sorts point indices by key, descending. */
@@ -429,8 +458,10 @@ static void run_scene(const scene_def *def, const options *o, vdbs_runner *runne
             vdbs_light *point = &scene.lights[scene.light_count++];
             memset(point, 0, sizeof *point);
             point->type = VDBS_LIGHT_POINT;
-            for (int c = 0; c < 3; ++c)
+            for (int c = 0; c < 3; ++c) {
                 point->color[c] = 1.0;
+                point->position[c] = def->point[c];
+            }
         } else {
             vdbs_light *sun = &scene.lights[scene.light_count++];
             memset(sun, 0, sizeof *sun);
@@ -486,9 +517,17 @@ static void run_scene(const scene_def *def, const options *o, vdbs_runner *runne
         fprintf(stderr, "%s g %g: probe %lld photons, %.1f s, median rel se %.4f\n", def->name,
                 scene.g, (long long)def->photons, probe_seconds, probe_rel_se);
 
-        for (int ri = 0; ri < o->res_count; ++ri) {
-            scene.pop_resolution = o->res[ri];
-            scene.fld_resolution = o->res[ri];
+        const int settings = o->quality_count > 0 ? o->quality_count : o->res_count;
+        for (int ri = 0; ri < settings; ++ri) {
+            if (o->quality_count > 0) {
+                snprintf(scene.quality, sizeof scene.quality, "%s", o->qualities[ri]);
+                quality = vdbs_quality_find(scene.quality);
+                if (!quality)
+                    die("--qualities: unknown quality", NULL);
+            } else {
+                scene.pop_resolution = o->res[ri];
+                scene.fld_resolution = o->res[ri];
+            }
             scene.pop_tally_cell = o->tally_cell;
             const vdbs_solver *solver = vdbs_solver_find(o->method);
             vdbs_lights_desc ld = {0};
@@ -570,7 +609,10 @@ static void run_scene(const scene_def *def, const options *o, vdbs_runner *runne
             memset(r, 0, sizeof *r);
             r->scene = def->label;
             r->g = scene.g;
-            r->res = o->res[ri];
+            if (o->quality_count > 0)
+                snprintf(r->setting, sizeof r->setting, "%s", o->qualities[ri]);
+            else
+                snprintf(r->setting, sizeof r->setting, "%d", o->res[ri]);
             r->points = npts;
             r->probe_rel_se = probe_rel_se;
             r->ms_floor = sqrt(sum_se2 / sum_p2);
@@ -623,23 +665,26 @@ int main(int argc, char **argv)
 {
     options o;
     parse_args(argc, argv, &o);
-    const scene_def defs[3] = {
-        {"sphere", "sphere", 32, 1, 3.0, o.photons_sphere, 0},
-        {"cloud", "cloud", 64, 1, 20.0, o.photons_cloud, 0},
-        {"point in the cube", "cube", 48, 1, 30.0, o.photons_sphere, 1},
+    const scene_def defs[5] = {
+        {"sphere", "sphere", 32, 1, 3.0, o.photons_sphere, 0, {0, 0, 0}},
+        {"cloud", "cloud", 64, 1, 20.0, o.photons_cloud, 0, {0, 0, 0}},
+        {"point in the cube", "cube", 48, 1, 30.0, o.photons_sphere, 1, {0, 0, 0}},
+        {"point in the smoke", "smoke", 64, 1, 10.0, o.photons_cloud, 1, {0.0, -0.5, 0.0}},
+        {"point outside the cloud", "cloud", 64, 1, 20.0, o.photons_cloud, 1, {0.0, 1.6, 0.0}},
     };
     vdbs_runner_desc rd = {VDBS_BACKEND_CPU};
     vdbs_runner *runner = NULL;
     vdbs_error err;
     if (vdbs_runner_create(&rd, &runner, &err) != VDBS_OK)
         die("runner", &err);
-    int max_rows = 3 * o.g_count * o.res_count;
+    int max_rows = 5 * o.g_count * (o.quality_count > o.res_count ? o.quality_count : o.res_count);
     row *rows = xcalloc((size_t)max_rows, sizeof(row));
     int count = 0;
     double t0 = vdbs_now();
     print_header(stdout);
-    for (int d = 0; d < 3; ++d)
-        if (d == 0 ? o.sphere : d == 1 ? o.cloud : o.point)
+    const int wanted[5] = {o.sphere, o.cloud, o.point, o.smoke_point, o.cloud_point};
+    for (int d = 0; d < 5; ++d)
+        if (wanted[d])
             run_scene(&defs[d], &o, runner, rows, &count);
     double total = vdbs_now() - t0;
 
