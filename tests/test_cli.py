@@ -124,7 +124,9 @@ class HelpAndFlags(Base):
             (base + ["--method", "fld", "--fld-p1", "1"], "--fld-p1"),
             (base + ["--method", "pop", "--pop-iterations", "0"], "--pop-iterations"),
             (base + ["--method", "pop", "--pop-decay", "paper", "--g", "-0.3"], "--pop-decay"),
-            (["bake", src, "-o", out, "--method", "pop", "--point", "0,0,0"], "point"),
+            (base + ["--method", "pop", "--pop-radial", "7"], "--pop-radial"),
+            (base + ["--method", "pop", "--pop-radial", "0"], "--pop-radial"),
+            (base + ["--method", "pop", "--pop-importance"], "camera"),
             (base + ["--camera", "0,0,4:0,0,0"], "--camera"),
             (base + ["--camera", "0,0,4:0,0,4:35"], "--camera"),
             (base + ["--camera", "0,0,4:0,0,0:180"], "--camera"),
@@ -602,6 +604,52 @@ class Pop(Base):
         meta = vdb.readAllGridMetadata(pop)[0]
         self.assertEqual(meta["vdbscatter_method"], "pop")
 
+
+    def test_pop_point_lights(self):
+        """POP part 2: a point light inside the smoke sample and one outside the cloud sample
+        (above it) bake with radial grids: the outputs are finite and non-negative, ms is
+        positive somewhere, the radial grid's seed is its S1 beam's loss (1e-5) and the merge
+        conserves fluence x volume."""
+        for sample, scale, point in [("smoke", "10", "0,-0.5,0"), ("cloud", "20", "0,1.6,0")]:
+            with self.subTest(sample=sample):
+                src = os.path.join(SAMPLES, sample + ".vdb")
+                out, p = self.bake(src, "--method", "pop", "--point", point + ":2,2,2",
+                                   "--density-scale", scale, "--albedo", "0.99", "--g", "0.3",
+                                   "--quality", "low", "--json", out=sample + "_point.vdb")
+                pop = json.loads(p.stdout)["pop"]
+                self.assertEqual(pop["radial_grids"], 1)
+                self.assertEqual(pop["grids"], 0)
+                self.assertEqual(pop["radial"], 8)
+                self.assertAlmostEqual(pop["seeded"], pop["beam_loss"], delta=1e-5 * pop["beam_loss"])
+                self.assertAlmostEqual(pop["merge_out"], pop["merge_in"], delta=1e-9 * pop["merge_in"])
+                positive = 0
+                for name in ["radiance", "ms", "ms_l1x", "ms_l1y", "ms_l1z"]:
+                    for v in values(out, name).values():
+                        for c in v:
+                            self.assertTrue(math.isfinite(c), name)
+                            if name in ("radiance", "ms"):
+                                self.assertGreaterEqual(c, 0.0, name)
+                    if name == "ms":
+                        positive = sum(1 for v in values(out, name).values() if v[0] > 0.0)
+                self.assertGreater(positive, 0)
+
+    def test_pop_importance_is_opt_in_and_reported(self):
+        """--pop-importance on the cloud under the bundled sky map (scene file with a camera):
+        the report says "on" with the frustum grid's 16^3 cells, the sky ordinates (and so ms)
+        change; without the flag the report says "off"."""
+        scene = os.path.join(SAMPLES, "cloud_sky.json")
+        src = os.path.join(SAMPLES, "cloud.vdb")
+        plain, p = self.bake(src, "--scene", scene, "--method", "pop", "--pop-ordinates", "4",
+                             "--quality", "low", "--json", out="plain.vdb")
+        self.assertEqual(json.loads(p.stdout)["pop"]["importance"], "off")
+        imp, p = self.bake(src, "--scene", scene, "--method", "pop", "--pop-ordinates", "4",
+                           "--quality", "low", "--pop-importance", "--json", out="imp.vdb")
+        stats = json.loads(p.stdout)["pop"]
+        self.assertEqual(stats["importance"], "on")
+        self.assertEqual(stats["importance_cells"], 16 ** 3)
+        self.assertGreater(stats["importance_iterations"], 0)
+        a, b = values(plain, "ms"), values(imp, "ms")
+        self.assertGreater(max(abs(a[k][0] - b[k][0]) for k in a), 0.0)
 
     def test_pop_seed_is_the_beams_loss(self):
         """POP seeds what the S1 beam loses, times the albedo. On the cube sample under a sun

@@ -267,6 +267,9 @@ static void test_parse_errors(void **state)
         {"{\"solver\": {\"fld_limiter\": \"auto\"}}",
          "scene: solver.fld_limiter: unknown limiter \"auto\""},
         {"{\"solver\": {\"fld_p1\": \"yes\"}}", "scene: solver.fld_p1: unknown value \"yes\""},
+        {"{\"solver\": {\"pop_radial\": 9}}", "scene: solver.pop_radial: 9 is odd"},
+        {"{\"solver\": {\"pop_importance\": \"yes\"}}",
+         "scene: solver.pop_importance: unknown value \"yes\""},
         {"{\"solver\": {\"pop_tally\": \"voxel\"}}",
          "scene: solver.pop_tally: unknown tally \"voxel\""},
         {"{\"solver\": {\"pop_re\": 3}}", "scene: solver: unknown key \"pop_re\""},
@@ -443,6 +446,8 @@ static void assert_scene_equal(const vdbs_scene *a, const vdbs_scene *b)
     assert_int_equal(a->pop_iterations, b->pop_iterations);
     assert_int_equal(a->pop_decay_paper, b->pop_decay_paper);
     assert_int_equal(a->pop_tally_cell, b->pop_tally_cell);
+    assert_int_equal(a->pop_radial, b->pop_radial);
+    assert_int_equal(a->pop_importance, b->pop_importance);
     assert_int_equal(a->fld_resolution, b->fld_resolution);
     assert_int_equal(a->fld_limiter_off, b->fld_limiter_off);
     assert_int_equal(a->fld_l1_off, b->fld_l1_off);
@@ -501,6 +506,8 @@ static void test_round_trip(void **state)
     s->pop_iterations = 99;
     s->pop_decay_paper = 1;
     s->pop_tally_cell = 1;
+    s->pop_radial = 24;
+    s->pop_importance = 1;
     s->fld_resolution = 40;
     s->fld_limiter_off = 1;
     s->fld_l1_off = 1;

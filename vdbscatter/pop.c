@@ -638,6 +638,9 @@ vdbs_status vdbs_pop_solve(const vdbs_solve *s, const vdbs_pop_desc *desc, vdbs_
                               "--pop-decay paper needs g >= 0 (g^(sigma_s t) is undefined for "
                               "g = %g); use --pop-decay mean-cosine",
                               s->scene->g);
+    if (r.desc.importance && !s->scene->camera.present)
+        return vdbs_error_set(err, VDBS_ERR_INPUT,
+                              "--pop-importance needs a camera (--camera or camera in --scene)");
     int points = 0;
     for (int i = 0; i < s->scene->light_count; ++i)
         points += s->scene->lights[i].type == VDBS_LIGHT_POINT;
