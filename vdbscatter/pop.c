@@ -271,6 +271,23 @@ static int anisotropic_iterations(const pop_run *r, int cells_along, double spac
     return (int)fmin(m, (double)r->desc.max_iterations);
 }
 
+/* Propagates one grid of the anisotropic stage through the runner and counts it in the stats:
+ * its time, cell updates and the most iterations any grid ran. */
+static vdbs_status propagate_counted(pop_run *r, const uint32_t *params, size_t words,
+                                     const float *sigma, int64_t cells, float *state,
+                                     int max_iterations, double tolerance, vdbs_error *err)
+{
+    double t0 = vdbs_now(), left = 0.0;
+    int iterations = 0;
+    vdbs_status st = vdbs_pop_propagate(r->s->runner, params, words, sigma, cells, state,
+                                        max_iterations, tolerance, &iterations, &left, err);
+    r->stats->seconds_propagate += vdbs_now() - t0;
+    r->stats->cell_updates += (double)cells * iterations;
+    if (iterations > r->stats->iterations_anisotropic)
+        r->stats->iterations_anisotropic = iterations;
+    return st;
+}
+
 /* A grid's zeroed state and its sigma_t per cell (the caller frees both). */
 static vdbs_status grid_arrays(const pop_run *r, const vdbs_coarse_frame *f, float **state,
                                float **sigma, vdbs_error *err)
@@ -338,17 +355,11 @@ static vdbs_status propagate_grid(pop_run *r, int l, const double d[3], const do
     r->stats->seconds_seed += t1 - t0;
     uint32_t params[VS_POP_PARAM_WORDS];
     pack_params(f.n, f.h, s->scene->g, s->scene->albedo, &r->desc, 1, params);
-    int iterations = 0;
-    double left = 0.0;
     if (seeded > 0.0)
-        st = vdbs_pop_propagate(s->runner, params, VS_POP_PARAM_WORDS, sigma, cells, state,
-                                anisotropic_iterations(r, f.n[2], f.h, a0, mean_sigma_s),
-                                r->desc.epsilon_l * seeded, &iterations, &left, err);
+        st = propagate_counted(r, params, VS_POP_PARAM_WORDS, sigma, cells, state,
+                               anisotropic_iterations(r, f.n[2], f.h, a0, mean_sigma_s),
+                               r->desc.epsilon_l * seeded, err);
     double t2 = vdbs_now();
-    r->stats->seconds_propagate += t2 - t1;
-    r->stats->cell_updates += (double)cells * iterations;
-    if (iterations > r->stats->iterations_anisotropic)
-        r->stats->iterations_anisotropic = iterations;
     if (st == VDBS_OK) {
         /* Splat the accumulated lobes (ms, ms_l1) into the merged grid and the light still in
          * transit into the isotropic one; the ratio of cell volumes keeps the energy. */
@@ -485,23 +496,17 @@ static vdbs_status propagate_point(pop_run *r, int l, double mean_sigma_s, vdbs_
     r->stats->beam_loss += beam * r->h;
     double t1 = vdbs_now();
     r->stats->seconds_seed += t1 - t0;
-    int iterations = 0;
-    double left = 0.0;
     /* Eq. 10 with one crossing of the shells at least, then the isotropic residuum, as for
      * directional grids. Running the radial grid on to epsilon_L instead put 3 to 50 times the
      * reference's ms on the Fig. 10 sphere (measured): isotropic light walks the lattice one
      * cell per iteration, and a lattice of step h diffuses like a medium of sigma_tr about
      * 2 / h, far too thick in the small shells near the light. */
     if (seeded > 0.0)
-        st = vdbs_pop_propagate(
-            s->runner, params, words, sigma, cells, state,
+        st = propagate_counted(
+            r, params, words, sigma, cells, state,
             anisotropic_iterations(r, f.n[2], r_out / f.n[2], s->scene->g, mean_sigma_s),
-            r->desc.epsilon_l * seeded, &iterations, &left, err);
+            r->desc.epsilon_l * seeded, err);
     double t2 = vdbs_now();
-    r->stats->seconds_propagate += t2 - t1;
-    r->stats->cell_updates += (double)cells * iterations;
-    if (iterations > r->stats->iterations_anisotropic)
-        r->stats->iterations_anisotropic = iterations;
     if (st != VDBS_OK)
         goto done;
     const double merged_volume = r->merged.h * r->merged.h * r->merged.h;
