@@ -11,7 +11,8 @@ B. The cloud under the bundled sky map (samples/cloud_sky.json, its camera) with
    --pop-importance, and the importance grid's cost beside the ordinates' propagation.
 
 usage: bench/bench_pop_point.py BUILD_DIR [--out bench/pop_point.md] [--qualities low,...]
-       [--ordinates 4,8,16] [--converged 256] [--ref-seconds 60] [--size 96x128] [--no-gpu]"""
+       [--ordinates 4,8,16] [--converged 256] [--ref-seconds 60] [--size 96x128] [--no-gpu]
+       [--sections A,B]"""
 import argparse
 import os
 import tempfile
@@ -133,14 +134,17 @@ def main():
     ap.add_argument("--size", default="96x128")
     ap.add_argument("--size-cloud", default="128x96")
     ap.add_argument("--no-gpu", action="store_true")
+    ap.add_argument("--sections", default="A,B")
     args = ap.parse_args()
     exe = os.path.join(args.build, "vdbscatter")
     tmp = tempfile.mkdtemp(prefix="bench-pop-point-")
     lines = ["# POP part 2: point lights and importance", "",
              f"`bench/bench_pop_point.py` (qualities {args.qualities}, reference "
              f"{args.ref_seconds:.0f} s per scene).", ""]
-    section_point(exe, tmp, args, lines)
-    section_importance(exe, tmp, args, lines)
+    if "A" in args.sections:
+        section_point(exe, tmp, args, lines)
+    if "B" in args.sections:
+        section_importance(exe, tmp, args, lines)
     with open(args.out, "w") as f:
         f.write("\n".join(lines) + "\n")
     print("written", args.out)

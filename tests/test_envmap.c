@@ -427,13 +427,85 @@ static void test_background(void **state)
     vdbs_volume_free(&volume);
 }
 
+/* The sun of the test sky (vdbs_envmap_test_sky: 3000 in red on a disc of 1.5 degrees radius at
+ * longitude 30, latitude 35 degrees) is found as one compact region: its direction within a
+ * texel (2.8 degrees at 128 x 64) of the true one, its red power within 2x of 3000 times the
+ * disc's solid angle (the disc covers one or two texel centres), and the sampling weight zeroed
+ * on it; POP's light table then has the sun as ordinate 0 carrying that power and no other
+ * ordinate on it. A constant map has no sun. */
+static void test_sun_split(void **state)
+{
+    (void)state;
+    vdbs_image sky;
+    vdbs_error err;
+    assert_int_equal(vdbs_envmap_test_sky(64, &sky, &err), VDBS_OK);
+    const char *path = test_tmp_path("env_sun.exr");
+    assert_int_equal(vdbs_image_write(path, &sky, 0.0, &err), VDBS_OK);
+    vdbs_image_free(&sky);
+    vdbs_envmap map;
+    load_ok(path, 1.0, &map);
+    const size_t texels = (size_t)map.width * map.height;
+    float *w = malloc(sizeof(float) * texels);
+    for (size_t i = 0; i < texels; ++i)
+        w[i] = 1.0f;
+    double dir[3], power[3], omega = 0.0;
+    assert_int_equal(vdbs_envmap_find_sun(&map, w, dir, power, &omega), 1);
+    const double lat = 35.0 * PI / 180.0, lon = 30.0 * PI / 180.0;
+    const double sun[3] = {sin(lon) * cos(lat), sin(lat), cos(lon) * cos(lat)};
+    const double angle = acos(fmin(1.0, dir[0] * sun[0] + dir[1] * sun[1] + dir[2] * sun[2]));
+    const double disc = 2.0 * PI * (1.0 - cos(1.5 * PI / 180.0));
+    int zeroed = 0;
+    for (size_t i = 0; i < texels; ++i)
+        zeroed += w[i] == 0.0f;
+    print_message("sun found %.2f degrees off, %d texels, %.5f sr, red power %.3f (disc: %.3f)\n",
+                  angle * 180.0 / PI, zeroed, omega, power[0], 3000.0 * disc);
+    assert_true(angle < 2.8 * PI / 180.0);
+    assert_true(zeroed >= 1 && omega < VDBS_ENVMAP_SUN_MAX_OMEGA);
+    assert_true(power[0] > 0.5 * 3000.0 * disc && power[0] < 2.0 * 3000.0 * disc);
+    free(w);
+
+    vdbs_scene scene;
+    vdbs_scene_init(&scene);
+    vdbs_light *env = &scene.lights[scene.light_count++];
+    memset(env, 0, sizeof *env);
+    env->type = VDBS_LIGHT_ENV;
+    env->env_scale = 1.0;
+    assert_int_equal(vdbs_light_set_env_file(&scene, env, path, &err), VDBS_OK);
+    vdbs_volume volume;
+    test_sample_volume("sphere", 16, 1, &volume);
+    vdbs_lights_desc ld = {.sky_ordinates = 8, .split_sun = 1};
+    vdbs_light_table lights;
+    assert_int_equal(vdbs_lights_build(&volume, &scene, &ld, &lights, &err), VDBS_OK);
+    assert_int_equal(lights.ordinate_count, 8);
+    const vdbs_sky_ordinate *o = lights.ordinates;
+    assert_true(fabs(o[0].radiance[0] * o[0].weight - power[0]) < 1e-9 * power[0]);
+    for (int k = 1; k < 8; ++k) {
+        double c = o[k].world[0] * dir[0] + o[k].world[1] * dir[1] + o[k].world[2] * dir[2];
+        assert_true(c < cos(2.8 * PI / 180.0));
+    }
+    vdbs_lights_free(&lights);
+    vdbs_volume_free(&volume);
+    vdbs_envmap_free(&map);
+
+    const float grey[3] = {0.25f, 0.5f, 0.75f};
+    load_ok(write_map("env_flat.exr", 64, 32, grey), 1.0, &map);
+    float one = 1.0f, *flat = malloc(sizeof(float) * 64 * 32);
+    for (int i = 0; i < 64 * 32; ++i)
+        flat[i] = one;
+    assert_int_equal(vdbs_envmap_find_sun(&map, flat, dir, power, &omega), 0);
+    for (int i = 0; i < 64 * 32; ++i)
+        assert_true(flat[i] == 1.0f);
+    free(flat);
+    vdbs_envmap_free(&map);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_convention), cmocka_unit_test(test_hdr_file),
         cmocka_unit_test(test_sampling),   cmocka_unit_test(test_bad_maps),
         cmocka_unit_test(test_bake_twins), cmocka_unit_test(test_probe_side),
-        cmocka_unit_test(test_background),
+        cmocka_unit_test(test_background), cmocka_unit_test(test_sun_split),
     };
     return cmocka_run_group_tests(tests, NULL, teardown);
 }

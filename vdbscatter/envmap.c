@@ -313,3 +313,42 @@ vdbs_status vdbs_envmap_test_sky(int height, vdbs_image *image, vdbs_error *err)
         }
     return VDBS_OK;
 }
+
+int vdbs_envmap_find_sun(const vdbs_envmap *map, float *texel_weight, double dir[3],
+                         double power[3], double *omega)
+{
+    const int w = map->width, h = map->height;
+    double mean = 0.0;
+    for (int y = 0; y < h; ++y)
+        for (int x = 0; x < w; ++x)
+            mean += luminance(map->rgb + 3 * ((size_t)y * w + x)) *
+                    vdbs_envmap_texel_solid_angle(map, x, y);
+    mean /= 4.0 * VDBS_PI;
+    double d[3] = {0.0, 0.0, 0.0}, p[3] = {0.0, 0.0, 0.0}, area = 0.0;
+    for (int y = 0; y < h; ++y)
+        for (int x = 0; x < w; ++x) {
+            const float *t = map->rgb + 3 * ((size_t)y * w + x);
+            if (!(luminance(t) > VDBS_ENVMAP_SUN_CONTRAST * mean))
+                continue;
+            double o = vdbs_envmap_texel_solid_angle(map, x, y), td[3];
+            vdbs_envmap_direction(map, x, y, td);
+            for (int c = 0; c < 3; ++c) {
+                p[c] += t[c] * o;
+                d[c] += luminance(t) * o * td[c];
+            }
+            area += o;
+        }
+    double len = sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
+    if (!(area > 0.0) || area > VDBS_ENVMAP_SUN_MAX_OMEGA || !(len > 0.0))
+        return 0;
+    for (int y = 0; y < h; ++y)
+        for (int x = 0; x < w; ++x)
+            if (luminance(map->rgb + 3 * ((size_t)y * w + x)) > VDBS_ENVMAP_SUN_CONTRAST * mean)
+                texel_weight[(size_t)y * w + x] = 0.0f;
+    for (int c = 0; c < 3; ++c) {
+        dir[c] = d[c] / len;
+        power[c] = p[c];
+    }
+    *omega = area;
+    return 1;
+}

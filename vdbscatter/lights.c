@@ -81,17 +81,30 @@ vdbs_status vdbs_lights_pack(vdbs_light_table *t, vdbs_error *err)
     return VDBS_OK;
 }
 
-/* The importance map's value at every texel of the sky map (nearest texel of the small map). */
-static float *importance_weights(const vdbs_envmap *env, const vdbs_envmap *importance)
+/* The factor on every texel of the sky map's sampling density (NULL: none needed): the
+ * importance map's value there (nearest texel of the small map), 0 on a split-off sun. */
+static float *texel_weights(const vdbs_envmap *env, const vdbs_lights_desc *desc, int *sun,
+                            double sun_dir[3], double sun_power[3], double *sun_omega, int *fail)
 {
+    *sun = 0;
+    *fail = 0;
+    if (!desc || (!desc->importance && !desc->split_sun))
+        return NULL;
     float *w = malloc(sizeof *w * (size_t)env->width * (size_t)env->height);
-    for (int y = 0; w && y < env->height; ++y)
+    if (!w) {
+        *fail = 1;
+        return NULL;
+    }
+    for (int y = 0; y < env->height; ++y)
         for (int x = 0; x < env->width; ++x) {
-            double d[3], rgb[3];
+            double d[3], rgb[3] = {1.0, 1.0, 1.0};
             vdbs_envmap_direction(env, x, y, d);
-            vdbs_envmap_texel(importance, d, rgb);
+            if (desc->importance)
+                vdbs_envmap_texel(desc->importance, d, rgb);
             w[(size_t)y * env->width + x] = (float)rgb[0];
         }
+    if (desc->split_sun && desc->sky_ordinates >= 2)
+        *sun = vdbs_envmap_find_sun(env, w, sun_dir, sun_power, sun_omega);
     return w;
 }
 
@@ -168,12 +181,23 @@ vdbs_status vdbs_lights_build(const vdbs_volume *volume, const vdbs_scene *scene
         /* Importance-sampled from the map; a constant env on top adds to every ordinate. */
         double *weight = calloc(k > 0 ? (size_t)k : 1, sizeof *weight);
         double *radiance = calloc(k > 0 ? 3 * (size_t)k : 1, sizeof *radiance);
+        int sun = 0, fail = 0;
+        double sun_dir[3], sun_power[3], sun_omega = 0.0;
         float *texel_weight =
-            desc && desc->importance ? importance_weights(table->env, desc->importance) : NULL;
-        int got = weight && radiance && (!desc || !desc->importance || texel_weight)
-                      ? vdbs_envmap_sample(table->env, texel_weight, k, dirs, weight, radiance, err)
+            texel_weights(table->env, desc, &sun, sun_dir, sun_power, &sun_omega, &fail);
+        int got = weight && radiance && !fail
+                      ? vdbs_envmap_sample(table->env, texel_weight, k - sun, dirs + 3 * sun,
+                                           weight + sun, radiance + 3 * sun, err)
                       : -1;
         free(texel_weight);
+        if (got >= 0 && sun) {
+            /* The split-off sun: one ordinate carrying its power over its solid angle. */
+            memcpy(dirs, sun_dir, sizeof sun_dir);
+            weight[0] = sun_omega;
+            for (int c = 0; c < 3; ++c)
+                radiance[c] = sun_power[c] / sun_omega;
+            got += 1;
+        }
         if (got < 0) {
             free(weight);
             free(radiance);

@@ -694,6 +694,9 @@ vdbs_status vdbs_pop_solve(const vdbs_solve *s, const vdbs_pop_desc *desc, vdbs_
     vdbs_envmap importance = {0};
     vdbs_lights_desc ld = {0};
     ld.sky_ordinates = r.desc.ordinates;
+    /* A map's small bright sun is one ordinate: drawn by luminance, 5 of 8 ordinates landed on
+     * the bundled sky's 3-degree sun, the same grid five times (bench/pop_point.md). */
+    ld.split_sun = 1;
     /* Only a map's ordinates are sampled; a constant sky keeps its even directions. */
     if (st == VDBS_OK && r.desc.importance && s->scene->env_paths[0] != '\0') {
         vdbs_importance_stats is;

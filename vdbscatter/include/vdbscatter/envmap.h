@@ -87,6 +87,15 @@ double vdbs_envmap_sampler_pdf(const vdbs_envmap_sampler *sampler, const double 
 int vdbs_envmap_sample(const vdbs_envmap *map, const float *texel_weight, int count, double *dirs,
                        double *weight, double *radiance, vdbs_error *err);
 
+/* A sun in the map: the texels brighter than VDBS_ENVMAP_SUN_CONTRAST times the map's mean
+ * luminance, when they cover at most VDBS_ENVMAP_SUN_MAX_OMEGA sr. Returns 1 and gives their
+ * luminance-weighted mean direction (towards the sky), their power (sum of radiance x solid
+ * angle per channel) and solid angle, and sets texel_weight (width x height) to 0 on them;
+ * returns 0 and changes nothing when the map has no such compact bright region. */
+#define VDBS_ENVMAP_SUN_CONTRAST 64.0
+#define VDBS_ENVMAP_SUN_MAX_OMEGA 0.05
+int vdbs_envmap_find_sun(const vdbs_envmap *map, float *texel_weight, double dir[3],
+                         double power[3], double *omega);
 /* The test sky (`vdbscatter sample sky`): a 2 height x height lat-long image (allocated
  * here) of a blue sky brightening to the horizon, a dim ground and a small sun (about 3
  * degrees, 20 000 times the zenith) at longitude 30 and latitude 35 degrees with a glow. */

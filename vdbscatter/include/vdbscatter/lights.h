@@ -56,6 +56,10 @@ typedef struct vdbs_lights_desc {
      * lat-long importance, pop.h --pop-importance); NULL: the luminance alone. A constant sky
      * keeps its even directions. */
     const vdbs_envmap *importance;
+    /* 1: a compact bright region of the map (vdbs_envmap_find_sun) becomes one ordinate of its
+     * whole power and the others sample the rest (POP: ordinates on one small sun are the same
+     * grid many times). */
+    int split_sun;
 } vdbs_lights_desc;
 
 /* Resolves the scene's lights for the volume. Errors: an environment map that cannot be
