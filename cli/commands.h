@@ -7,5 +7,6 @@ int cmd_sample(int argc, char **argv);
 int cmd_bake(int argc, char **argv);
 int cmd_render(int argc, char **argv);
 int cmd_compare(int argc, char **argv);
+int cmd_phase_svd(int argc, char **argv);
 
 #endif

@@ -85,7 +85,7 @@ class Base(unittest.TestCase):
 
 class HelpAndFlags(Base):
     def test_help_every_command(self):
-        for cmd in ["bake", "info", "sample"]:
+        for cmd in ["bake", "info", "sample", "phase-svd"]:
             p = run(cmd, "--help", check=0)
             self.assertIn("usage: vdbscatter " + cmd, p.stdout)
         self.assertIn("commands:", run("--help", check=0).stdout)
@@ -139,6 +139,10 @@ class HelpAndFlags(Base):
             (["sample", "cloud", "-o", out, "--res", "0"], "--res"),
             (["sample", "cloud", "-o", out, "--res", "12x"], "--res"),
             (["sample", "teapot", "-o", out], "teapot"),
+            (["phase-svd", "--g", "0.5"], "--directions"),
+            (["phase-svd", "--g", "1", "--directions", "8"], "--g"),
+            (["phase-svd", "--g", "0.5", "--directions", "1"], "--directions"),
+            (["phase-svd", "--g", "0.5", "--directions", "8", "--delta-m", "maybe"], "--delta-m"),
         ]
         for args, needle in cases:
             with self.subTest(args=args):
@@ -572,6 +576,22 @@ class Fld(Base):
         # ms_l1 from the flux by default (g 0.85): the light flows, so the moment is not 0.
         self.assertEqual(stats["l1"], "on")
         self.assertGreater(max(max(abs(x) for x in v) for v in values(fld, "ms_l1y").values()), 0.0)
+
+
+class PhaseSvd(Base):
+    def test_rows_for_every_term(self):
+        """phase-svd --json: one row per N from 1 to D, the error falling to 0 at N = D; g 0
+        is rank 1 (exact with one term)."""
+        rep = json.loads(run("phase-svd", "--g", "0.7", "--directions", "32", "--json").stdout)
+        self.assertEqual(rep["g"], 0.7)
+        self.assertEqual(rep["directions"], 32)
+        rows = rep["rows"]
+        self.assertEqual([r["terms"] for r in rows], list(range(1, 33)))
+        for a, b in zip(rows, rows[1:]):
+            self.assertLessEqual(b["rmse"], a["rmse"])
+        self.assertEqual(rows[-1]["rmse"], 0.0)
+        flat = json.loads(run("phase-svd", "--g", "0", "--directions", "16", "--json").stdout)
+        self.assertLess(flat["rows"][0]["rmse"], 1e-12)
 
 
 class Pop(Base):
