@@ -37,15 +37,14 @@
 #define VS_POP_OFF_KIND 11  /* uint: VS_POP_RECTILINEAR or VS_POP_RADIAL */
 /* Radial grids (Sec. 6): axes 0 and 1 are texels of an angular map around a centre, axis 2
  * the shells outwards. */
-#define VS_POP_OFF_WRAP                                                                            \
-    12                       /* uint: 1: octahedral map over the whole sphere (edges fold,         \
-                                light moving inwards from shell 0 passes the centre into           \
-                                the antipodal texel); 0: a frustum, open on every side */
+/* uint: 1: octahedral map over the whole sphere (edges fold, light moving inwards from shell 0
+ * passes the centre into the antipodal texel); 0: a frustum, open on every side. */
+#define VS_POP_OFF_WRAP 12
 #define VS_POP_OFF_RADII 13  /* uint: word offset of the n2 + 1 shell radii (floats) */
 #define VS_POP_OFF_TEXELS 14 /* uint: word offset of n0 n1 texel records */
-#define VS_POP_OFF_COMPENSATE                                                                      \
-    15                        /* uint: 1: the flux-conserving scale (vs_pop_radial_source);        \
-                                 0: none (what the energy test shows to be wrong) */
+/* uint: 1: the flux-conserving scale (vs_pop_radial_source); 0: none (what the energy test
+ * shows to be wrong). */
+#define VS_POP_OFF_COMPENSATE 15
 #define VS_POP_PARAM_WORDS 16 /* the header; radial tables follow it */
 #define VS_POP_RECTILINEAR 0u
 #define VS_POP_RADIAL 1u
