@@ -409,6 +409,51 @@ static double radial_balance(int shells, int compensate, int iterations, double 
     return inside / seeded;
 }
 
+/* The octahedral map's topology as the kernel walks it (vs_pop_texel_step, vs_pop_antipode):
+ * every texel's four neighbours, across the folded edges too, lie within two texel widths of
+ * it and count it among their own neighbours, and its antipode looks the opposite way (the
+ * texel centres' directions from the frame, computed independently of the kernel). */
+static void test_octahedral_topology(void **state)
+{
+    (void)state;
+    vdbs_radial_frame f;
+    vdbs_error err;
+    const double centre[3] = {0.0, 0.0, 0.0}, albedo[3] = {1.0, 1.0, 1.0};
+    const int n = 16;
+    assert_int_equal(vdbs_radial_octahedral(centre, n, 4, 0.0, 1.0, &f, &err), VDBS_OK);
+    vdbs_pop_desc desc = {0};
+    size_t words = 0;
+    uint32_t *params = vdbs_pop_radial_params(&f, 0.5, albedo, &desc, &words);
+    assert_non_null(params);
+    double widest = 0.0, far = 0.0, anti = 1.0;
+    for (int t = 0; t < n * n; ++t)
+        widest = fmax(widest, sqrt(f.omega[t]));
+    for (int t = 0; t < n * n; ++t) {
+        const double *a = f.dir + 3 * t;
+        for (int s = 0; s < 4; ++s) {
+            int di = s == 0 ? -1 : (s == 1 ? 1 : 0), dj = s == 2 ? -1 : (s == 3 ? 1 : 0);
+            int nb = vs_pop_texel_step(params, t % n, t / n, di, dj);
+            assert_true(nb >= 0 && nb < n * n && nb != t);
+            const double *b = f.dir + 3 * nb;
+            far = fmax(far, acos(fmin(1.0, a[0] * b[0] + a[1] * b[1] + a[2] * b[2])));
+            int back = 0;
+            for (int q = 0; q < 4; ++q)
+                back |= vs_pop_texel_step(params, nb % n, nb / n, q == 0 ? -1 : (q == 1 ? 1 : 0),
+                                          q == 2 ? -1 : (q == 3 ? 1 : 0)) == t;
+            assert_true(back);
+        }
+        const double *o = f.dir + 3 * vs_pop_antipode(params, t % n, t / n);
+        anti = fmin(anti, -(a[0] * o[0] + a[1] * o[1] + a[2] * o[2]));
+    }
+    print_message("%d x %d texels: neighbours at most %.2f texel widths apart, antipodes "
+                  "opposite to %.1e\n",
+                  n, n, far / widest, 1.0 - anti);
+    assert_true(far < 2.0 * widest);
+    assert_true(anti > 1.0 - 1e-9);
+    free(params);
+    vdbs_radial_free(&f);
+}
+
 static void test_radial_energy(void **state)
 {
     (void)state;
@@ -519,9 +564,13 @@ static void test_importance(void **state)
 int main(void)
 {
     const struct CMUnitTest tests[] = {
-        cmocka_unit_test(test_hg_cdf),        cmocka_unit_test(test_fractions),
-        cmocka_unit_test(test_scheme),        cmocka_unit_test(test_energy),
-        cmocka_unit_test(test_radial_energy), cmocka_unit_test(test_importance),
+        cmocka_unit_test(test_hg_cdf),
+        cmocka_unit_test(test_fractions),
+        cmocka_unit_test(test_scheme),
+        cmocka_unit_test(test_energy),
+        cmocka_unit_test(test_octahedral_topology),
+        cmocka_unit_test(test_radial_energy),
+        cmocka_unit_test(test_importance),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
