@@ -644,13 +644,14 @@ class Pop(Base):
                 self.assertAlmostEqual(pop["merge_out"], pop["merge_in"], delta=1e-9 * pop["merge_in"])
                 positive = 0
                 for name in ["radiance", "ms", "ms_l1x", "ms_l1y", "ms_l1z"]:
-                    for v in values(out, name).values():
+                    grid = values(out, name)
+                    for v in grid.values():
                         for c in v:
                             self.assertTrue(math.isfinite(c), name)
                             if name in ("radiance", "ms"):
                                 self.assertGreaterEqual(c, 0.0, name)
                     if name == "ms":
-                        positive = sum(1 for v in values(out, name).values() if v[0] > 0.0)
+                        positive = sum(1 for v in grid.values() if v[0] > 0.0)
                 self.assertGreater(positive, 0)
 
     def test_pop_importance_is_opt_in_and_reported(self):

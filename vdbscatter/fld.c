@@ -807,13 +807,7 @@ vdbs_status vdbs_fld_solve(const vdbs_solve *s, const vdbs_fld_desc *desc, vdbs_
         d.tolerance = preset.tolerance;
     double corners[8][3];
     vdbs_volume_support_corners(s->volume, corners);
-    double lo[3] = {HUGE_VAL, HUGE_VAL, HUGE_VAL}, hi[3] = {-HUGE_VAL, -HUGE_VAL, -HUGE_VAL};
-    for (int c = 0; c < 8; ++c)
-        for (int a = 0; a < 3; ++a) {
-            lo[a] = fmin(lo[a], corners[c][a]);
-            hi[a] = fmax(hi[a], corners[c][a]);
-        }
-    const double extent = fmax(hi[0] - lo[0], fmax(hi[1] - lo[1], hi[2] - lo[2]));
+    const double extent = vdbs_volume_support_extent(s->volume);
     /* Never finer than the voxels: a cell of at least one mean voxel length. */
     const int voxels_across = (int)ceil(extent / s->volume->mean_voxel_size - 1e-9);
     if (d.resolution <= 0) {

@@ -21,6 +21,8 @@
 #define IMPORTANCE_SUBRAYS 4
 /* Cells across the largest extent of the coarse medium the projection marches. */
 #define IMPORTANCE_MEDIUM_CELLS 16
+/* Doubles per scattering cell of the projection: weight, anisotropy, direction, centroid. */
+#define IMPORTANCE_SOURCE_WORDS 8
 
 /* The camera rays' first-scattered importance per frustum cell, as POP lobes: every pixel's
  * ray carries the same importance per image-plane area, loses albedo (T_in - T_out) of it to
@@ -53,23 +55,14 @@ static double seed(const vdbs_radial_frame *f, const vdbs_volume *volume,
                 }
                 double tr = exp(-tau), lost = albedo * weight * (t_prev - tr);
                 t_prev = tr;
-                state[((int64_t)k * n0 * n1 + t) * VS_POP_STATE_WORDS + VS_POP_STATE_L] +=
-                    (float)lost;
+                float *cell = state + ((int64_t)k * n0 * n1 + t) * VS_POP_STATE_WORDS;
+                for (int ch = 0; ch < 3; ++ch)
+                    cell[VS_POP_STATE_L + ch] += (float)lost;
                 total += lost;
             }
         }
     }
-    const float first = 0.5f * vs_pop_chord((float)g);
-    for (int64_t c = 0; c < vdbs_radial_cells(f); ++c) {
-        float *cell = state + c * VS_POP_STATE_WORDS;
-        float l = cell[VS_POP_STATE_L] / (float)vdbs_radial_cell_area(f, c);
-        for (int ch = 0; ch < 3; ++ch) {
-            cell[VS_POP_STATE_L + ch] = l;
-            cell[VS_POP_STATE_A + ch] = (float)g;
-            cell[VS_POP_STATE_ACC_L + ch] = first * l;
-            cell[VS_POP_STATE_ACC_LA + ch] = first * l * (float)g;
-        }
-    }
+    vdbs_pop_start_lobes(state, vdbs_radial_cells(f), g, 0, f);
     return 3.0 * total;
 }
 
@@ -118,15 +111,9 @@ vdbs_status vdbs_importance_map(vdbs_runner *runner, const vdbs_volume *volume,
                                  err);
     if (st != VDBS_OK)
         return st;
-    double corners[8][3], lo[3] = {HUGE_VAL, HUGE_VAL, HUGE_VAL};
-    double hi[3] = {-HUGE_VAL, -HUGE_VAL, -HUGE_VAL};
+    double corners[8][3];
     vdbs_volume_support_corners(volume, corners);
-    for (int c = 0; c < 8; ++c)
-        for (int a = 0; a < 3; ++a) {
-            lo[a] = fmin(lo[a], corners[c][a]);
-            hi[a] = fmax(hi[a], corners[c][a]);
-        }
-    const double extent = fmax(hi[0] - lo[0], fmax(hi[1] - lo[1], hi[2] - lo[2]));
+    const double extent = vdbs_volume_support_extent(volume);
     const double world_axes[3][3] = {{1, 0, 0}, {0, 1, 0}, {0, 0, 1}};
     vdbs_coarse_frame medium;
     vdbs_coarse_fit(corners, world_axes, extent / IMPORTANCE_MEDIUM_CELLS, &medium);
@@ -140,9 +127,10 @@ vdbs_status vdbs_importance_map(vdbs_runner *runner, const vdbs_volume *volume,
     float *state = calloc((size_t)cells * VS_POP_STATE_WORDS, sizeof *state);
     float *sigma = malloc(sizeof *sigma * (size_t)cells);
     float *medium_sigma = malloc(sizeof *medium_sigma * (size_t)medium_cells);
+    double *scatter = malloc(sizeof *scatter * IMPORTANCE_SOURCE_WORDS * (size_t)cells);
     const int w = VDBS_IMPORTANCE_MAP_WIDTH, h = VDBS_IMPORTANCE_MAP_HEIGHT;
     map->data = calloc(3 * (size_t)w * h, sizeof *map->data);
-    if (!params || !state || !sigma || !medium_sigma || !map->data) {
+    if (!params || !state || !sigma || !medium_sigma || !scatter || !map->data) {
         st = vdbs_error_set(err, VDBS_ERR_NOMEM, "out of memory for the importance grid");
         goto done;
     }
@@ -164,28 +152,30 @@ vdbs_status vdbs_importance_map(vdbs_runner *runner, const vdbs_volume *volume,
     if (st != VDBS_OK)
         goto done;
     vdbs_coarse_sigma(&medium, volume, box, scene->density_scale, medium_sigma);
+    /* The cells that scatter importance, once: weight V sigma_s Phi_W, the lobe's anisotropy,
+     * its direction and the cell's centroid; each map texel then sums over these. */
     const int64_t texels = (int64_t)f.n[0] * f.n[1];
+    int64_t sources = 0;
+    for (int64_t c = 0; c < cells; ++c) {
+        const float *cell = state + c * VS_POP_STATE_WORDS;
+        const double phi = cell[VS_POP_STATE_ACC_L];
+        if (!(phi > 0.0) || !(sigma[c] > 0.0))
+            continue;
+        double *src = scatter + sources++ * IMPORTANCE_SOURCE_WORDS;
+        src[0] = vdbs_radial_cell_volume(&f, c) * sigma[c] * albedo * phi;
+        src[1] = fmin(fmax(cell[VS_POP_STATE_ACC_LA] / phi, -0.99), 0.99);
+        memcpy(src + 2, f.dir + 3 * (c % texels), 3 * sizeof *src);
+        vdbs_radial_cell_centroid(&f, c, src + 5);
+    }
 #pragma omp parallel for schedule(dynamic, 1)
     for (int texel = 0; texel < w * h; ++texel) {
         double dir[3], m = 0.0;
         vdbs_envmap_direction(map, texel % w, texel / w, dir);
-        for (int64_t c = 0; c < cells; ++c) {
-            const float *cell = state + c * VS_POP_STATE_WORDS;
-            const double phi = cell[VS_POP_STATE_ACC_L];
-            if (!(phi > 0.0) || !(sigma[c] > 0.0))
-                continue;
-            const double *d = f.dir + 3 * (c % texels);
-            const double a = fmin(fmax(cell[VS_POP_STATE_ACC_LA] / phi, -0.99), 0.99);
-            const int k = (int)(c / texels);
-            const double r0 = f.radius[k], r1 = f.radius[k + 1];
-            const double rc =
-                0.75 * (r1 + r0) * (r1 * r1 + r0 * r0) / (r1 * r1 + r1 * r0 + r0 * r0);
-            double p[3];
-            for (int x = 0; x < 3; ++x)
-                p[x] = f.centre[x] + rc * d[x];
+        for (int64_t q = 0; q < sources; ++q) {
+            const double *src = scatter + q * IMPORTANCE_SOURCE_WORDS, *d = src + 2;
             const double mu = dir[0] * d[0] + dir[1] * d[1] + dir[2] * d[2];
-            m += vdbs_radial_cell_volume(&f, c) * sigma[c] * albedo * phi *
-                 vs_hg_eval_d(a, 1.0 - mu) * exp(-coarse_depth(&medium, medium_sigma, p, dir));
+            m += src[0] * vs_hg_eval_d(src[1], 1.0 - mu) *
+                 exp(-coarse_depth(&medium, medium_sigma, src + 5, dir));
         }
         map->rgb[3 * texel] = (float)m;
     }
@@ -207,6 +197,7 @@ done:
     free(state);
     free(sigma);
     free(medium_sigma);
+    free(scatter);
     vdbs_radial_free(&f);
     return st;
 }

@@ -119,6 +119,25 @@ uint32_t *vdbs_pop_radial_params(const vdbs_radial_frame *f, double g, const dou
     return params;
 }
 
+void vdbs_pop_start_lobes(float *state, int64_t cells, double a0, int tally_cell,
+                          const vdbs_radial_frame *radial)
+{
+    /* Light scattered in a cell travels half a crossing on average: 1/2 L^0 (times the
+     * lobe's mean chord with the chord tally, as every later crossing). */
+    const float first = 0.5f * (tally_cell ? 1.0f : vs_pop_chord((float)a0));
+    for (int64_t c = 0; c < cells; ++c) {
+        float *cell = state + c * VS_POP_STATE_WORDS;
+        const float area = radial ? (float)vdbs_radial_cell_area(radial, c) : 1.0f;
+        for (int ch = 0; ch < 3; ++ch) {
+            if (radial)
+                cell[VS_POP_STATE_L + ch] /= area;
+            cell[VS_POP_STATE_A + ch] = (float)a0;
+            cell[VS_POP_STATE_ACC_L + ch] = first * cell[VS_POP_STATE_L + ch];
+            cell[VS_POP_STATE_ACC_LA + ch] = first * cell[VS_POP_STATE_L + ch] * (float)a0;
+        }
+    }
+}
+
 /* ---- propagation through the runner ---- */
 
 typedef struct pop_kernel {
@@ -237,17 +256,7 @@ static double seed_grid(const pop_run *r, int l, const vdbs_coarse_frame *f, con
     }
     *beam = beam_total;
     const int64_t cells = vdbs_coarse_cells(f);
-    /* Light scattered in a cell travels half a crossing on average: 1/2 L^0 (times the
-     * lobe's mean chord with the chord tally, as every later crossing). */
-    const float first = 0.5f * (r->desc.tally_cell ? 1.0f : vs_pop_chord((float)a0));
-    for (int64_t c = 0; c < cells; ++c) {
-        float *cell = state + c * VS_POP_STATE_WORDS;
-        for (int ch = 0; ch < 3; ++ch) {
-            cell[VS_POP_STATE_A + ch] = (float)a0;
-            cell[VS_POP_STATE_ACC_L + ch] = first * cell[VS_POP_STATE_L + ch];
-            cell[VS_POP_STATE_ACC_LA + ch] = first * cell[VS_POP_STATE_L + ch] * (float)a0;
-        }
-    }
+    vdbs_pop_start_lobes(state, cells, a0, r->desc.tally_cell, NULL);
     return total;
 }
 
@@ -446,17 +455,7 @@ static double seed_radial(const pop_run *r, int l, const vdbs_radial_frame *f, d
         }
     }
     *beam = beam_total;
-    const float first = 0.5f * (r->desc.tally_cell ? 1.0f : vs_pop_chord((float)g));
-    for (int64_t c = 0; c < vdbs_radial_cells(f); ++c) {
-        float *cell = state + c * VS_POP_STATE_WORDS;
-        const float area = (float)vdbs_radial_cell_area(f, c);
-        for (int ch = 0; ch < 3; ++ch) {
-            cell[VS_POP_STATE_L + ch] /= area;
-            cell[VS_POP_STATE_A + ch] = (float)g;
-            cell[VS_POP_STATE_ACC_L + ch] = first * cell[VS_POP_STATE_L + ch];
-            cell[VS_POP_STATE_ACC_LA + ch] = first * cell[VS_POP_STATE_L + ch] * (float)g;
-        }
-    }
+    vdbs_pop_start_lobes(state, vdbs_radial_cells(f), g, r->desc.tally_cell, f);
     return total;
 }
 
@@ -653,13 +652,7 @@ vdbs_status vdbs_pop_solve(const vdbs_solve *s, const vdbs_pop_desc *desc, vdbs_
     vdbs_status st = VDBS_OK;
     double corners[8][3];
     vdbs_volume_support_corners(s->volume, corners);
-    double lo[3] = {HUGE_VAL, HUGE_VAL, HUGE_VAL}, hi[3] = {-HUGE_VAL, -HUGE_VAL, -HUGE_VAL};
-    for (int c = 0; c < 8; ++c)
-        for (int a = 0; a < 3; ++a) {
-            lo[a] = fmin(lo[a], corners[c][a]);
-            hi[a] = fmax(hi[a], corners[c][a]);
-        }
-    const double extent = fmax(hi[0] - lo[0], fmax(hi[1] - lo[1], hi[2] - lo[2]));
+    const double extent = vdbs_volume_support_extent(s->volume);
     const double sigma_t = s->scene->density_scale * vdbs_medium_mean_density(s->volume);
     const double g = s->scene->g;
     const double albedo = (s->scene->albedo[0] + s->scene->albedo[1] + s->scene->albedo[2]) / 3.0;

@@ -47,37 +47,6 @@ double vdbs_radial_direction(const vdbs_radial_frame *f, double x, double y, dou
     return jac / (len * len * len);
 }
 
-int vdbs_radial_texel_of(const vdbs_radial_frame *f, const double dir[3])
-{
-    double u, v;
-    if (f->map == VDBS_RADIAL_OCTAHEDRAL) {
-        double n = fabs(dir[0]) + fabs(dir[1]) + fabs(dir[2]);
-        if (!(n > 0.0))
-            return -1;
-        u = dir[0] / n;
-        v = dir[1] / n;
-        if (dir[2] < 0.0) {
-            double fu = (1.0 - fabs(v)) * (u >= 0.0 ? 1.0 : -1.0);
-            double fv = (1.0 - fabs(u)) * (v >= 0.0 ? 1.0 : -1.0);
-            u = fu;
-            v = fv;
-        }
-    } else {
-        double z = dir[0] * f->forward[0] + dir[1] * f->forward[1] + dir[2] * f->forward[2];
-        if (!(z > 0.0))
-            return -1;
-        u = (dir[0] * f->right[0] + dir[1] * f->right[1] + dir[2] * f->right[2]) / z /
-            f->tan_half[0];
-        v = (dir[0] * f->up[0] + dir[1] * f->up[1] + dir[2] * f->up[2]) / z / f->tan_half[1];
-        if (u < -1.0 || u > 1.0 || v < -1.0 || v > 1.0)
-            return -1;
-    }
-    int i = (int)floor(0.5 * (u + 1.0) * f->n[0]), j = (int)floor(0.5 * (v + 1.0) * f->n[1]);
-    i = i < 0 ? 0 : (i >= f->n[0] ? f->n[0] - 1 : i);
-    j = j < 0 ? 0 : (j >= f->n[1] ? f->n[1] - 1 : j);
-    return j * f->n[0] + i;
-}
-
 /* Texel solid angles and centre directions. */
 static void texel_tables(vdbs_radial_frame *f)
 {
@@ -198,6 +167,23 @@ double vdbs_radial_cell_area(const vdbs_radial_frame *f, int64_t cell)
     return f->omega[cell % texels] * (r1 * r1 + r1 * r0 + r0 * r0) / 3.0;
 }
 
+/* The centroid radius of the shell between ra and rb: 3/4 (rb^4 - ra^4) / (rb^3 - ra^3), without
+ * the differences (the kernel's vs_pop_radial_centre, in double). */
+static double shell_centroid(double ra, double rb)
+{
+    return 0.75 * (rb + ra) * (rb * rb + ra * ra) / (rb * rb + rb * ra + ra * ra);
+}
+
+void vdbs_radial_cell_centroid(const vdbs_radial_frame *f, int64_t cell, double world[3])
+{
+    int64_t texels = (int64_t)f->n[0] * f->n[1];
+    int k = (int)(cell / texels);
+    const double r = shell_centroid(f->radius[k], f->radius[k + 1]);
+    const double *d = f->dir + 3 * (cell % texels);
+    for (int a = 0; a < 3; ++a)
+        world[a] = f->centre[a] + r * d[a];
+}
+
 int vdbs_radial_cell_parts(const vdbs_radial_frame *f, int64_t cell, double side, double *world,
                            double *volume)
 {
@@ -213,7 +199,7 @@ int vdbs_radial_cell_parts(const vdbs_radial_frame *f, int64_t cell, double side
     for (int c = 0; c < m; ++c) {
         double ra = r0 + (r1 - r0) * c / m, rb = r0 + (r1 - r0) * (c + 1) / m;
         double shell = (rb * rb * rb - ra * ra * ra) / 3.0;
-        double centroid = 0.75 * (rb + ra) * (rb * rb + ra * ra) / (rb * rb + rb * ra + ra * ra);
+        double centroid = shell_centroid(ra, rb);
         for (int b = 0; b < m; ++b)
             for (int a = 0; a < m; ++a, ++p) {
                 double d[3];

@@ -184,20 +184,39 @@ void vdbs_volume_support_corners(const vdbs_volume *volume, double corners[8][3]
     }
 }
 
-void vdbs_volume_support_distances(const vdbs_volume *volume, const double p[3], double *near,
-                                   double *far)
+/* The world axis-aligned bounds of the support box's corners. */
+static void support_bounds(const double corners[8][3], double lo[3], double hi[3])
 {
-    double corners[8][3];
-    vdbs_volume_support_corners(volume, corners);
-    double lo[3] = {HUGE_VAL, HUGE_VAL, HUGE_VAL}, hi[3] = {-HUGE_VAL, -HUGE_VAL, -HUGE_VAL};
-    *far = 0.0;
-    for (int c = 0; c < 8; ++c) {
-        double d2 = 0.0;
+    for (int a = 0; a < 3; ++a) {
+        lo[a] = HUGE_VAL;
+        hi[a] = -HUGE_VAL;
+    }
+    for (int c = 0; c < 8; ++c)
         for (int a = 0; a < 3; ++a) {
             lo[a] = fmin(lo[a], corners[c][a]);
             hi[a] = fmax(hi[a], corners[c][a]);
-            d2 += (corners[c][a] - p[a]) * (corners[c][a] - p[a]);
         }
+}
+
+double vdbs_volume_support_extent(const vdbs_volume *volume)
+{
+    double corners[8][3], lo[3], hi[3];
+    vdbs_volume_support_corners(volume, corners);
+    support_bounds(corners, lo, hi);
+    return fmax(hi[0] - lo[0], fmax(hi[1] - lo[1], hi[2] - lo[2]));
+}
+
+void vdbs_volume_support_distances(const vdbs_volume *volume, const double p[3], double *near,
+                                   double *far)
+{
+    double corners[8][3], lo[3], hi[3];
+    vdbs_volume_support_corners(volume, corners);
+    support_bounds(corners, lo, hi);
+    *far = 0.0;
+    for (int c = 0; c < 8; ++c) {
+        double d2 = 0.0;
+        for (int a = 0; a < 3; ++a)
+            d2 += (corners[c][a] - p[a]) * (corners[c][a] - p[a]);
         *far = fmax(*far, sqrt(d2));
     }
     double n2 = 0.0;

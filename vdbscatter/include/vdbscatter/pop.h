@@ -101,6 +101,13 @@ vdbs_status vdbs_pop_propagate(vdbs_runner *runner, const uint32_t *params, size
                                const float *sigma, int64_t cells, float *state, int max_iterations,
                                double tolerance, int *iterations, double *left, vdbs_error *err);
 
+/* Turns seeded light into lobes: the L of every cell and channel (on a radial frame its power,
+ * divided here by the cell's mean section A; NULL: a rectilinear grid's L) gets anisotropy a0,
+ * and the accumulation starts with the half crossing the light travels on average in the
+ * cell where it scattered (times the lobe's mean chord unless tally_cell). */
+void vdbs_pop_start_lobes(float *state, int64_t cells, double a0, int tally_cell,
+                          const vdbs_radial_frame *radial);
+
 /* The parameter words of a radial grid over frame f (shaders/vs_pop.h): the header for a medium
  * of HG g and albedo with desc's decay law and tally, the flux-conserving compensation on, then
  * the shell radii and texel records. *words receives their count; NULL when out of memory.

@@ -62,11 +62,11 @@ int64_t vdbs_radial_cells(const vdbs_radial_frame *f);
 /* The unit direction at texel coordinates (x, y) (texel (i, j) spans [i, i + 1] x [j, j + 1])
  * and the solid angle per unit texel area there (returned). */
 double vdbs_radial_direction(const vdbs_radial_frame *f, double x, double y, double dir[3]);
-/* The texel whose area holds a direction (any length), or -1 outside a perspective map. */
-int vdbs_radial_texel_of(const vdbs_radial_frame *f, const double dir[3]);
 /* Volume of a cell, and its volume per unit radial length (the kernel's vs_pop_radial_area). */
 double vdbs_radial_cell_volume(const vdbs_radial_frame *f, int64_t cell);
 double vdbs_radial_cell_area(const vdbs_radial_frame *f, int64_t cell);
+/* World point at a cell's centroid radius along its texel's centre direction. */
+void vdbs_radial_cell_centroid(const vdbs_radial_frame *f, int64_t cell, double world[3]);
 /* The cell split into m^3 parts no wider than `side` (m <= VDBS_RADIAL_MAX_SPLIT): m x m in
  * texel coordinates, m equal steps in r. Writes each part's world centroid (3 doubles) and
  * volume (summing to the cell's), and returns the count m^3. */

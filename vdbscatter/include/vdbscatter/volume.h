@@ -51,6 +51,9 @@ void vdbs_volume_support_box(const vdbs_volume *volume, float lo[3], float hi[3]
 /* The support box's eight corners in world space (corner c takes hi on axis a where bit a of c
  * is set). */
 void vdbs_volume_support_corners(const vdbs_volume *volume, double corners[8][3]);
+/* The largest side of the world axis-aligned bounds of the support box: the extent the
+ * solvers' grids divide into cells. */
+double vdbs_volume_support_extent(const vdbs_volume *volume);
 /* World distances from p to the nearest point of the support box (0 inside) and to its
  * farthest corner. */
 void vdbs_volume_support_distances(const vdbs_volume *volume, const double p[3], double *near,
