@@ -59,6 +59,15 @@ static const char help[] =
     "  --fld-l1 on|off          FLD: write ms_l1 from the diffusive flux (default on)\n"
     "  --fld-p1 on|off          FLD: the first-scattered light's first moment (P1 source;\n"
     "                           default on) or an isotropic source\n"
+    "  --svd-directions D       SVD: discrete directions (default 32/64/128/512 per quality)\n"
+    "  --svd-terms N            SVD: factored phase terms, N = D exact (default: the fewest\n"
+    "                           within 10/5/2/1%% factorisation error per quality)\n"
+    "  --svd-res N              SVD: cells across the largest extent (default 16/24/32/32)\n"
+    "  --residual R             SVD: stop when the fluence changes by at most R per\n"
+    "                           iteration (default 1e-2/3e-3/1e-3/3e-4)\n"
+    "  --svd-iterations N       SVD: cap of source iterations (default 2000)\n"
+    "  --keep-state             SVD: also write the N radiance moment grids svd_m0000...\n"
+    "  --warm-start FILE.vdb    SVD: start from a --keep-state bake's moments (its D and N)\n"
     "\n"
     "other options:\n"
     "  -o, --output FILE        lit VDB to write (refused if equal to the input)\n"
@@ -87,6 +96,13 @@ static const cli_option options[] = {
     {"--fld-limiter", CLI_VALUE},
     {"--fld-l1", CLI_VALUE},
     {"--fld-p1", CLI_VALUE},
+    {"--svd-directions", CLI_VALUE},
+    {"--svd-terms", CLI_VALUE},
+    {"--svd-res", CLI_VALUE},
+    {"--residual", CLI_VALUE},
+    {"--svd-iterations", CLI_VALUE},
+    {"--keep-state", CLI_FLAG},
+    {"--warm-start", CLI_VALUE},
     {"--camera", CLI_VALUE},
     {NULL, CLI_FLAG},
 };
@@ -172,6 +188,34 @@ static cJSON *report_json(const char *input, const char *output, const vdbs_scen
         cJSON_AddStringToObject(fj, "l1", scene->fld_l1_off ? "off" : "on");
         cJSON_AddStringToObject(fj, "p1", scene->fld_p1_off ? "off" : "on");
     }
+    if (strcmp(scene->method, "svd") == 0) {
+        const vdbs_svd_stats *v = &r->svd;
+        cJSON_AddNumberToObject(t, "svd_source", v->seconds_source);
+        cJSON_AddNumberToObject(t, "svd_solve", v->seconds_solve);
+        cJSON_AddNumberToObject(t, "svd_upsample", v->seconds_upsample);
+        cJSON *sj = cJSON_AddObjectToObject(j, "svd");
+        cJSON_AddNumberToObject(sj, "directions", v->directions);
+        cJSON_AddNumberToObject(sj, "terms", v->terms);
+        cJSON_AddNumberToObject(sj, "factor_rmse", v->factor_rmse);
+        cJSON_AddNumberToObject(sj, "delta_m_f", v->delta_m_f);
+        cJSON_AddNumberToObject(sj, "g_scaled", v->g_scaled);
+        cJSON_AddNumberToObject(sj, "resolution", v->resolution);
+        cJSON_AddNumberToObject(sj, "cells", (double)v->cells);
+        cJSON_AddNumberToObject(sj, "cell_side", v->cell_side);
+        cJSON_AddNumberToObject(sj, "iterations", v->iterations);
+        cJSON_AddNumberToObject(sj, "residual", v->residual);
+        cJSON_AddBoolToObject(sj, "converged", v->converged);
+        cJSON_AddNumberToObject(sj, "steps_per_sweep", v->steps_per_sweep);
+        cJSON_AddNumberToObject(sj, "chunk", v->chunk);
+        cJSON_AddNumberToObject(sj, "cell_direction_updates", (double)v->cell_direction_updates);
+        cJSON_AddNumberToObject(sj, "first_power", v->first_power);
+        cJSON_AddNumberToObject(sj, "emitted", v->emitted);
+        cJSON_AddNumberToObject(sj, "collided", v->collided);
+        cJSON_AddNumberToObject(sj, "leaked", v->leaked);
+        cJSON_AddNumberToObject(sj, "balance", v->balance);
+        cJSON_AddNumberToObject(sj, "clamped", v->clamped);
+        cJSON_AddNumberToObject(sj, "clamped_fraction", v->clamped_fraction);
+    }
     double rmax[3] = {r->radiance_max[0], r->radiance_max[1], r->radiance_max[2]};
     cJSON_AddItemToObject(j, "radiance_max", cli_json_triple(rmax));
     const char *grids[] = {"density", "radiance", "ms",           "ms_l1x",
@@ -242,6 +286,8 @@ int cmd_bake(int argc, char **argv)
         return cli_fail("bake", st, err.message);
     o.from_levelset = cli_flag(&args, "--from-levelset");
     o.half = cli_flag(&args, "--half");
+    o.keep_state = cli_flag(&args, "--keep-state");
+    o.warm_start = cli_value(&args, "--warm-start");
     o.progress = !quiet && isatty(STDERR_FILENO);
     o.warn = cli_warn;
     o.warn_user = &quiet;

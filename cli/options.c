@@ -237,6 +237,25 @@ vdbs_status cli_build_scene(const cli_args *args, vdbs_scene *scene, int allow_n
             long k = 0;
             st = cli_integer(name, v, 2, VDBS_MAX_FLD_RESOLUTION, &k, err);
             scene->fld_resolution = (int)k;
+        } else if (strcmp(name, "--svd-directions") == 0 || strcmp(name, "--svd-terms") == 0) {
+            long k = 0;
+            int dirs = name[6] == 'd';
+            st = cli_integer(name, v, dirs ? 2 : 1, VDBS_MAX_SVD_DIRECTIONS, &k, err);
+            *(dirs ? &scene->svd_directions : &scene->svd_terms) = (int)k;
+        } else if (strcmp(name, "--svd-res") == 0) {
+            long k = 0;
+            st = cli_integer(name, v, 2, VDBS_MAX_SVD_RESOLUTION, &k, err);
+            scene->svd_resolution = (int)k;
+        } else if (strcmp(name, "--svd-iterations") == 0) {
+            long k = 0;
+            st = cli_integer(name, v, 1, VDBS_MAX_SVD_ITERATIONS, &k, err);
+            scene->svd_iterations = (int)k;
+        } else if (strcmp(name, "--residual") == 0) {
+            st = cli_number(name, v, &x, err);
+            if (st == VDBS_OK && !(x > 0.0 && x < 1.0))
+                st = vdbs_error_set(err, VDBS_ERR_INPUT,
+                                    "--residual: expected a number in (0, 1), got %s", v);
+            scene->svd_residual = x;
         } else if (strcmp(name, "--fld-limiter") == 0) {
             st = vdbs_scene_set_fld_limiter(scene, v, err);
         } else if (strcmp(name, "--fld-l1") == 0) {

@@ -63,6 +63,7 @@ static vdbs_status solve(const vdbs_bake_options *o, const vdbs_solver *solver,
     s->s1_stats = &stats;
     s->pop_stats = &report->pop;
     s->fld_stats = &report->fld;
+    s->svd_stats = &report->svd;
     st = solver->run(s, err);
     if (st == VDBS_OK && s->radiance_view && solver->writes_ms) {
         float *wo = vdbs_view_directions(volume, o->scene->camera.position);
@@ -102,6 +103,45 @@ vdbs_status vdbs_bake_volume(const vdbs_bake_options *o, const vdbs_volume *volu
     return st;
 }
 
+/* The name of moment grid k of --keep-state. */
+static void svd_grid_name(int k, char *name, size_t size)
+{
+    snprintf(name, size, "svd_m%04d", k);
+}
+
+/* --warm-start: the moments a --keep-state bake wrote, at this volume's output voxels. */
+static vdbs_status read_svd_state(const char *path, const vdbs_volume *volume, vdbs_svd_moments *m,
+                                  vdbs_error *err)
+{
+    vdbio_lit *lit = NULL;
+    vdbs_status st = vdbio_lit_open(path, &lit, err);
+    if (st != VDBS_OK)
+        return st;
+    const char *dt = vdbio_lit_meta(lit, "vdbscatter_svd_directions");
+    const char *nt = vdbio_lit_meta(lit, "vdbscatter_svd_terms");
+    const char *gt = vdbio_lit_meta(lit, "vdbscatter_g");
+    int directions = dt ? atoi(dt) : 0, terms = nt ? atoi(nt) : 0;
+    char name[32];
+    svd_grid_name(terms > 0 ? terms - 1 : 0, name, sizeof name);
+    if (directions < 2 || terms < 1 || terms > directions || !gt || !vdbio_lit_has_grid(lit, name))
+        st = vdbs_error_set(err, VDBS_ERR_INPUT,
+                            "--warm-start %s: no discrete-ordinates state in it (bake it with "
+                            "--method svd --keep-state)",
+                            path);
+    if (st == VDBS_OK)
+        st = vdbs_svd_moments_alloc(m, directions, terms, strtod(gt, NULL), volume->coord_count,
+                                    err);
+    for (int k = 0; k < terms && st == VDBS_OK; ++k) {
+        svd_grid_name(k, name, sizeof name);
+        for (size_t n = 0; n < volume->coord_count && st == VDBS_OK; ++n)
+            st = vdbio_lit_vec3(lit, name, volume->coords + 3 * n, m->voxels[k] + 3 * n, err);
+    }
+    if (st != VDBS_OK)
+        vdbs_svd_moments_free(m);
+    vdbio_lit_close(lit);
+    return st;
+}
+
 static char *format_double(double v)
 {
     char *s = malloc(32);
@@ -126,6 +166,9 @@ vdbs_status vdbs_bake(const vdbs_bake_options *o, vdbs_bake_report *report, vdbs
                               "--method %s is not implemented yet (available: %s)", scene->method,
                               names);
     }
+    if ((o->keep_state || o->warm_start) && solver->method != VDBS_METHOD_SVD)
+        return vdbs_error_set(err, VDBS_ERR_INPUT, "%s needs --method svd",
+                              o->keep_state ? "--keep-state" : "--warm-start");
     vdbs_status st = vdbio_check_output(o->output, input, err);
     if (st != VDBS_OK)
         return st;
@@ -149,6 +192,13 @@ vdbs_status vdbs_bake(const vdbs_bake_options *o, vdbs_bake_report *report, vdbs
     st = vdbs_volume_load(input, &read, &volume, err);
     if (st != VDBS_OK)
         return st;
+    vdbs_svd_moments warm = {0}, keep = {0};
+    vdbio_vec3_grid *grids = NULL;
+    char(*names)[16] = NULL;
+    if (o->warm_start && (st = read_svd_state(o->warm_start, &volume, &warm, err)) != VDBS_OK) {
+        vdbs_volume_free(&volume);
+        return st;
+    }
     report->seconds_load = vdbs_now() - t_start;
     snprintf(report->grid, sizeof report->grid, "%s", volume.info.name);
     report->active_voxels = volume.info.active_voxels;
@@ -174,6 +224,8 @@ vdbs_status vdbs_bake(const vdbs_bake_options *o, vdbs_bake_report *report, vdbs
         st = vdbs_error_set(err, VDBS_ERR_NOMEM, "out of memory for %zu output voxels", n);
         goto done;
     }
+    outputs.svd_warm = o->warm_start ? &warm : NULL;
+    outputs.svd_keep = o->keep_state ? &keep : NULL;
     double t_solve = vdbs_now();
     st = solve(o, solver, quality, &volume, &outputs, report, err);
     report->seconds_solve = vdbs_now() - t_solve;
@@ -183,9 +235,11 @@ vdbs_status vdbs_bake(const vdbs_bake_options *o, vdbs_bake_report *report, vdbs
         for (int c = 0; c < 3; ++c)
             report->radiance_max[c] = fmaxf(report->radiance_max[c], radiance[3 * v + c]);
 
-    char sky_text[16], solve_text[32];
+    char sky_text[16], solve_text[32], svd_d[16], svd_n[16];
     snprintf(sky_text, sizeof sky_text, "%d", sky);
     snprintf(solve_text, sizeof solve_text, "%.6f", report->seconds_solve);
+    snprintf(svd_d, sizeof svd_d, "%d", keep.directions);
+    snprintf(svd_n, sizeof svd_n, "%d", keep.terms);
     char *scale = format_double(scene->density_scale);
     char *g = format_double(scene->g);
     char albedo[96];
@@ -203,22 +257,38 @@ vdbs_status vdbs_bake(const vdbs_bake_options *o, vdbs_bake_report *report, vdbs
         {"vdbscatter_backend", report->backend},
         {"vdbscatter_solve_seconds", solve_text},
         {"vdbscatter_scene", scene_json},
+        /* the last two only with --keep-state */
+        {"vdbscatter_svd_directions", svd_d},
+        {"vdbscatter_svd_terms", svd_n},
     };
-    vdbio_vec3_grid grids[] = {
+    const vdbio_vec3_grid fixed[] = {
         {"radiance", radiance},       {"ms", outputs.ms},
         {"ms_l1x", outputs.ms_l1[0]}, {"ms_l1y", outputs.ms_l1[1]},
         {"ms_l1z", outputs.ms_l1[2]}, {"radiance_view", outputs.radiance_view},
     };
+    /* radiance_view, the last, only with a camera; then the moments */
+    const int fixed_count = (int)(sizeof fixed / sizeof fixed[0]) - (outputs.radiance_view ? 0 : 1);
+    grids = calloc((size_t)(fixed_count + keep.terms), sizeof *grids);
+    names = calloc((size_t)(keep.terms > 0 ? keep.terms : 1), sizeof *names);
+    if (!grids || !names) {
+        st = vdbs_error_set(err, VDBS_ERR_NOMEM, "out of memory for the grid list");
+        free(scale);
+        free(g);
+        goto done;
+    }
+    memcpy(grids, fixed, sizeof *grids * (size_t)fixed_count);
+    for (int k = 0; k < keep.terms; ++k) {
+        svd_grid_name(k, names[k], sizeof names[k]);
+        grids[fixed_count + k] = (vdbio_vec3_grid){names[k], keep.voxels[k]};
+    }
     vdbio_write_request request = {0};
     request.density = volume.density;
     request.coords = volume.coords;
     request.coord_count = volume.coord_count;
     request.vec3_grids = grids;
-    /* radiance_view, the last, only with a camera */
-    request.vec3_grid_count =
-        (int)(sizeof grids / sizeof grids[0]) - (outputs.radiance_view ? 0 : 1);
+    request.vec3_grid_count = fixed_count + keep.terms;
     request.file_meta = meta;
-    request.file_meta_count = (int)(sizeof meta / sizeof meta[0]);
+    request.file_meta_count = (int)(sizeof meta / sizeof meta[0]) - (keep.terms > 0 ? 0 : 2);
     request.half = o->half;
     request.warn = o->warn;
     request.warn_user = o->warn_user;
@@ -229,6 +299,10 @@ vdbs_status vdbs_bake(const vdbs_bake_options *o, vdbs_bake_report *report, vdbs
     free(g);
 done:
     report->seconds_total = vdbs_now() - t_start;
+    free(grids);
+    free(names);
+    vdbs_svd_moments_free(&warm);
+    vdbs_svd_moments_free(&keep);
     free(scene_json);
     for (int a = 0; a < 3; ++a)
         if (outputs.ms_l1[a] != outputs.ms)

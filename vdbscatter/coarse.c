@@ -39,6 +39,21 @@ void vdbs_coarse_fit(const double corners[8][3], const double axis[3][3], double
     }
 }
 
+int vdbs_coarse_world_frame(const vdbs_volume *volume, int resolution, vdbs_coarse_frame *f)
+{
+    double corners[8][3];
+    vdbs_volume_support_corners(volume, corners);
+    const double extent = vdbs_volume_support_extent(volume);
+    const int voxels_across = (int)ceil(extent / volume->mean_voxel_size - 1e-9);
+    if (resolution > voxels_across)
+        resolution = voxels_across;
+    if (resolution < 1)
+        resolution = 1;
+    const double world_axes[3][3] = {{1, 0, 0}, {0, 1, 0}, {0, 0, 1}};
+    vdbs_coarse_fit(corners, world_axes, extent / resolution, f);
+    return resolution;
+}
+
 int64_t vdbs_coarse_cells(const vdbs_coarse_frame *f)
 {
     return (int64_t)f->n[0] * f->n[1] * f->n[2];
@@ -90,14 +105,15 @@ void vdbs_coarse_sigma(const vdbs_coarse_frame *f, const vdbs_volume *volume,
     }
 }
 
-void vdbs_coarse_splat(const vdbs_coarse_frame *dst, double *acc, int width, const double p[3],
-                       const double *values, double scale)
+/* The trilinear weights of p's eight surrounding cells, renormalised over the cells inside
+ * the grid (the nearest cell alone beyond the outer centres on every side). */
+static void coarse_weights(const vdbs_coarse_frame *dst, const double p[3], double w[8],
+                           int64_t at[8])
 {
     int i0[3];
     double f[3];
     coarse_trilinear(dst, p, i0, f);
-    double w[8], wsum = 0.0;
-    int64_t at[8];
+    double wsum = 0.0;
     for (int c = 0; c < 8; ++c) {
         w[c] = 1.0;
         int inside = 1;
@@ -125,13 +141,36 @@ void vdbs_coarse_splat(const vdbs_coarse_frame *dst, double *acc, int width, con
         for (int c = 1; c < 8; ++c)
             w[c] = 0.0;
     }
+    for (int c = 0; c < 8; ++c)
+        w[c] /= wsum;
+}
+
+void vdbs_coarse_splat(const vdbs_coarse_frame *dst, double *acc, int width, const double p[3],
+                       const double *values, double scale)
+{
+    double w[8];
+    int64_t at[8];
+    coarse_weights(dst, p, w, at);
     for (int c = 0; c < 8; ++c) {
         if (w[c] == 0.0)
             continue;
-        double s = scale * w[c] / wsum;
+        double s = scale * w[c];
         for (int v = 0; v < width; ++v)
             acc[at[c] * width + v] += s * values[v];
     }
+}
+
+void vdbs_coarse_sample(const vdbs_coarse_frame *f, const float *values, int width,
+                        const double p[3], double *out)
+{
+    double w[8];
+    int64_t at[8];
+    coarse_weights(f, p, w, at);
+    for (int v = 0; v < width; ++v)
+        out[v] = 0.0;
+    for (int c = 0; c < 8; ++c)
+        for (int v = 0; w[c] != 0.0 && v < width; ++v)
+            out[v] += w[c] * (double)values[at[c] * width + v];
 }
 
 vdbs_status vdbs_coarse_upsample(const vdbs_coarse_frame *f, const double *values,

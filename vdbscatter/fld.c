@@ -755,15 +755,6 @@ vdbs_status vdbs_fld_solve_grid(vdbs_runner *runner, const vdbs_fld_grid *grid,
 
 /* ---- the bake ---- */
 
-/* |det| of the index-to-world map: a voxel's world volume. */
-static double voxel_volume(const vdbs_volume *volume)
-{
-    const double(*m)[4] = volume->index_to_world;
-    return fabs(m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1]) -
-                m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0]) +
-                m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0]));
-}
-
 /* Q per cell: every voxel's first-scattered power, sigma_s 4 pi S1 times its volume, splatted
  * into the cells (trilinear, renormalised: the total is kept) over the cell volume; with the
  * S1 pass's net flux F1 also the first moment g sigma_s F1 (9 per cell) the same way. */
@@ -773,7 +764,7 @@ static void gather_source(const vdbs_solve *s, const vdbs_coarse_frame *f, const
     const vdbs_volume *volume = s->volume;
     pnanovdb_buf_t buf = pnanovdb_make_buf(volume->nano, volume->nano_size / 4);
     pnanovdb_readaccessor_t acc = vs_density_accessor(buf);
-    const double scale = voxel_volume(volume) / (f->h * f->h * f->h);
+    const double scale = vdbs_volume_voxel_volume(volume) / (f->h * f->h * f->h);
     for (size_t n = 0; n < volume->coord_count; ++n) {
         const int32_t *c = volume->coords + 3 * n;
         double density = vs_density_voxel(buf, &acc, vs_coord(c[0], c[1], c[2]));
@@ -805,11 +796,7 @@ vdbs_status vdbs_fld_solve(const vdbs_solve *s, const vdbs_fld_desc *desc, vdbs_
     vdbs_fld_quality(s->quality ? s->quality->name : NULL, &preset);
     if (!(d.tolerance > 0.0))
         d.tolerance = preset.tolerance;
-    double corners[8][3];
-    vdbs_volume_support_corners(s->volume, corners);
     const double extent = vdbs_volume_support_extent(s->volume);
-    /* Never finer than the voxels: a cell of at least one mean voxel length. */
-    const int voxels_across = (int)ceil(extent / s->volume->mean_voxel_size - 1e-9);
     if (d.resolution <= 0) {
         /* From the medium: the preset's cells per mean transport free path across the
          * extent, at least its floor. */
@@ -819,12 +806,9 @@ vdbs_status vdbs_fld_solve(const vdbs_solve *s, const vdbs_fld_desc *desc, vdbs_
         double across = ceil(extent * stats->mean_sigma_tr * preset.cells_per_path);
         d.resolution = (int)fmin(fmax(across, (double)preset.min_resolution), 1e6);
     }
-    if (d.resolution > voxels_across)
-        d.resolution = voxels_across > 1 ? voxels_across : 1;
-    const double h = extent / d.resolution;
-    const double world_axes[3][3] = {{1, 0, 0}, {0, 1, 0}, {0, 0, 1}};
     vdbs_coarse_frame f;
-    vdbs_coarse_fit(corners, world_axes, h, &f);
+    d.resolution = vdbs_coarse_world_frame(s->volume, d.resolution, &f);
+    const double h = f.h;
     const int64_t cells = vdbs_coarse_cells(&f);
     stats->resolution = d.resolution;
     double t0 = vdbs_now();

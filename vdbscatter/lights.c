@@ -233,3 +233,29 @@ vdbs_status vdbs_lights_build(const vdbs_volume *volume, const vdbs_scene *scene
         vdbs_lights_free(table);
     return st;
 }
+
+void vdbs_lights_arrival(const vdbs_light_table *table, int light, const double p[3],
+                         double color[3], double travel[3])
+{
+    if (light >= table->direct_count) {
+        const vdbs_sky_ordinate *o = &table->ordinates[light - table->direct_count];
+        for (int a = 0; a < 3; ++a) {
+            color[a] = o->radiance[a] * o->weight;
+            travel[a] = -o->world[a];
+        }
+        return;
+    }
+    const vdbs_direct_light *dl = &table->direct[light];
+    memcpy(color, dl->color, 3 * sizeof *color);
+    if (dl->type != VDBS_LIGHT_POINT) {
+        memcpy(travel, dl->world, 3 * sizeof *travel);
+        return;
+    }
+    double d[3] = {p[0] - dl->world[0], p[1] - dl->world[1], p[2] - dl->world[2]};
+    double r = sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
+    double rc = fmax(r, table->min_distance);
+    for (int a = 0; a < 3; ++a) {
+        color[a] /= rc * rc;
+        travel[a] = r > 0.0 ? d[a] / r : (a == 2 ? 1.0 : 0.0);
+    }
+}

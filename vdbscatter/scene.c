@@ -603,9 +603,10 @@ static vdbs_status parse_camera(const parse_ctx *ctx, const cJSON *cam, vdbs_sce
 static vdbs_status parse_solver(const parse_ctx *ctx, const cJSON *sol, vdbs_scene *s)
 {
     static const char *const keys[] = {
-        "method",    "quality",        "sky_directions", "pop_res",    "pop_ordinates",
-        "pop_decay", "pop_iterations", "pop_tally",      "pop_radial", "pop_importance",
-        "fld_res",   "fld_limiter",    "fld_l1",         "fld_p1",     NULL};
+        "method",    "quality",        "sky_directions", "pop_res",      "pop_ordinates",
+        "pop_decay", "pop_iterations", "pop_tally",      "pop_radial",   "pop_importance",
+        "fld_res",   "fld_limiter",    "fld_l1",         "fld_p1",       "svd_directions",
+        "svd_terms", "svd_res",        "svd_iterations", "svd_residual", NULL};
     vdbs_status st;
     bool found = false;
     if ((st = expect_object(ctx, sol, "solver")) != VDBS_OK ||
@@ -633,7 +634,16 @@ static vdbs_status parse_solver(const parse_ctx *ctx, const cJSON *sol, vdbs_sce
         (st = get_int_in(ctx, sol, "solver", "pop_radial", 2, VDBS_MAX_POP_RADIAL,
                          &s->pop_radial)) != VDBS_OK ||
         (st = get_int_in(ctx, sol, "solver", "fld_res", 2, VDBS_MAX_FLD_RESOLUTION,
-                         &s->fld_resolution)) != VDBS_OK)
+                         &s->fld_resolution)) != VDBS_OK ||
+        (st = get_int_in(ctx, sol, "solver", "svd_directions", 2, VDBS_MAX_SVD_DIRECTIONS,
+                         &s->svd_directions)) != VDBS_OK ||
+        (st = get_int_in(ctx, sol, "solver", "svd_terms", 1, VDBS_MAX_SVD_DIRECTIONS,
+                         &s->svd_terms)) != VDBS_OK ||
+        (st = get_int_in(ctx, sol, "solver", "svd_res", 2, VDBS_MAX_SVD_RESOLUTION,
+                         &s->svd_resolution)) != VDBS_OK ||
+        (st = get_int_in(ctx, sol, "solver", "svd_iterations", 1, VDBS_MAX_SVD_ITERATIONS,
+                         &s->svd_iterations)) != VDBS_OK ||
+        (st = get_number(ctx, sol, "solver", "svd_residual", &s->svd_residual)) != VDBS_OK)
         return st;
     if (s->pop_radial % 2 != 0)
         return fail(ctx, "solver.pop_radial", "%d is odd (the octahedral map needs an even count)",
@@ -959,7 +969,12 @@ char *vdbs_scene_to_json(const vdbs_scene *s)
          (s->fld_resolution == 0 || add_int(sol, "fld_res", s->fld_resolution)) &&
          add_string(sol, "fld_limiter", on_off_names[s->fld_limiter_off != 0]) &&
          add_string(sol, "fld_l1", on_off_names[s->fld_l1_off != 0]) &&
-         add_string(sol, "fld_p1", on_off_names[s->fld_p1_off != 0]);
+         add_string(sol, "fld_p1", on_off_names[s->fld_p1_off != 0]) &&
+         (s->svd_directions == 0 || add_int(sol, "svd_directions", s->svd_directions)) &&
+         (s->svd_terms == 0 || add_int(sol, "svd_terms", s->svd_terms)) &&
+         (s->svd_resolution == 0 || add_int(sol, "svd_res", s->svd_resolution)) &&
+         (s->svd_iterations == 0 || add_int(sol, "svd_iterations", s->svd_iterations)) &&
+         (s->svd_residual == 0.0 || add_number(sol, "svd_residual", s->svd_residual));
     if (ok)
         text = cJSON_PrintUnformatted(root);
     cJSON_Delete(root);
@@ -1110,6 +1125,12 @@ vdbs_status vdbs_scene_validate(vdbs_scene *s, vdbs_error *err)
     if (!vdbs_quality_find(s->quality))
         return fail(&ctx, "solver.quality",
                     "unknown quality \"%s\" (expected low, medium, high or ultra)", s->quality);
+    if (!(s->svd_residual >= 0.0 && s->svd_residual < 1.0))
+        return fail(&ctx, "solver.svd_residual", "must be in [0, 1) (0: the quality's), got %g",
+                    s->svd_residual);
+    if (s->svd_directions > 0 && s->svd_terms > s->svd_directions)
+        return fail(&ctx, "solver.svd_terms", "%d terms for %d directions (at most D)",
+                    s->svd_terms, s->svd_directions);
     /* Normalise only once everything is known to be valid: a failed validation leaves
      * the scene as it was. */
     for (int i = 0; i < s->light_count; ++i)

@@ -74,39 +74,21 @@ vdbs_status vdbs_single_scatter(vdbs_runner *runner, const vdbs_volume *volume,
     return vdbs_kernel_run(runner, &desc, NULL, err);
 }
 
-/* One light's share of S1, by the light grids' optical depth at every output voxel. */
-typedef struct light_share {
-    const double *color;  /* RGB; a sky ordinate's radiance times its solid angle */
-    const double *point;  /* a point light's world position, else NULL */
-    const double *travel; /* a sun's or ordinate's unit direction of travel (point: NULL) */
-} light_share;
-
-/* Adds colour * exp(-depth) (over r^2 for a point light) to every output voxel's fluence,
- * with view directions wo the same times the phase toward wo to view, and with flux the same
- * times the direction of travel. */
-static void add_light(const vdbs_volume *volume, const float *depth, light_share light,
-                      double min_distance, double g, const float *wo, double *fluence, double *view,
+/* Adds light `light`'s colour * exp(-depth) at every output voxel (vdbs_lights_arrival) to
+ * its fluence, with view directions wo the same times the phase toward wo to view, and with
+ * flux the same times the direction of travel. */
+static void add_light(const vdbs_volume *volume, const vdbs_light_table *lights, int light,
+                      const float *depth, double g, const float *wo, double *fluence, double *view,
                       double *flux)
 {
     const int64_t count = (int64_t)volume->coord_count;
 #pragma omp parallel for schedule(static)
     for (int64_t n = 0; n < count; ++n) {
-        double weight = exp(-(double)depth[n]);
-        double travel[3] = {0.0, 0.0, 1.0};
-        if (light.point) {
-            const int32_t *c = volume->coords + 3 * n;
-            double index[3] = {c[0], c[1], c[2]}, world[3];
-            vdbs_volume_world_point(volume, index, world);
-            double d[3] = {world[0] - light.point[0], world[1] - light.point[1],
-                           world[2] - light.point[2]};
-            double r = sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
-            double rc = fmax(r, min_distance);
-            weight /= rc * rc;
-            for (int a = 0; a < 3 && r > 0.0; ++a)
-                travel[a] = d[a] / r;
-        } else {
-            memcpy(travel, light.travel, sizeof travel);
-        }
+        const int32_t *c = volume->coords + 3 * n;
+        double index[3] = {c[0], c[1], c[2]}, world[3], color[3], travel[3];
+        vdbs_volume_world_point(volume, index, world);
+        vdbs_lights_arrival(lights, light, world, color, travel);
+        const double weight = exp(-(double)depth[n]);
         double phase = 0.0;
         if (view) {
             /* 1 - mu from |travel - wo|^2 / 2 keeps the forward peak's digits. */
@@ -118,11 +100,11 @@ static void add_light(const vdbs_volume *volume, const float *depth, light_share
             phase = vs_hg_eval_d(g, 0.5 * s);
         }
         for (int ch = 0; ch < 3; ++ch) {
-            fluence[3 * n + ch] += light.color[ch] * weight;
+            fluence[3 * n + ch] += color[ch] * weight;
             if (view)
-                view[3 * n + ch] += light.color[ch] * weight * phase;
+                view[3 * n + ch] += color[ch] * weight * phase;
             for (int a = 0; flux && a < 3; ++a)
-                flux[9 * n + 3 * a + ch] += light.color[ch] * weight * travel[a];
+                flux[9 * n + 3 * a + ch] += color[ch] * weight * travel[a];
         }
     }
 }
@@ -174,25 +156,8 @@ vdbs_status vdbs_single_scatter_grids_out(vdbs_runner *runner, const vdbs_volume
             break;
         double t0 = omp_get_wtime();
         st = vdbs_light_grids_lookup_voxels(runner, volume, &set, 0, depth, err);
-        if (st == VDBS_OK) {
-            double color[3], travel[3];
-            light_share share = {color, NULL, travel};
-            if (d < lights->direct_count) {
-                const vdbs_direct_light *dl = &lights->direct[d];
-                memcpy(color, dl->color, sizeof color);
-                memcpy(travel, dl->world, sizeof travel);
-                if (dl->type == VDBS_LIGHT_POINT)
-                    share.point = dl->world;
-            } else {
-                const vdbs_sky_ordinate *o = &lights->ordinates[d - lights->direct_count];
-                for (int a = 0; a < 3; ++a) {
-                    color[a] = o->radiance[a] * o->weight;
-                    travel[a] = -o->world[a];
-                }
-            }
-            add_light(volume, depth, share, lights->min_distance, scene->g, wo, fluence, view,
-                      flux);
-        }
+        if (st == VDBS_OK)
+            add_light(volume, lights, d, depth, scene->g, wo, fluence, view, flux);
         stats->seconds_lookup += omp_get_wtime() - t0;
         stats->grids.cells += set.stats.cells;
         stats->grids.columns += set.stats.columns;

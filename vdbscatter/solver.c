@@ -6,6 +6,7 @@
 #include "vdbscatter/fld.h"
 #include "vdbscatter/pop.h"
 #include "vdbscatter/single.h"
+#include "vdbscatter/svd.h"
 
 static const vdbs_quality qualities[] = {
     {"low", 16, 1.0f},
@@ -103,6 +104,27 @@ static vdbs_status run_fld(const vdbs_solve *s, vdbs_error *err)
     return st;
 }
 
+/* Exact S1, then discrete ordinates with the factored phase on the first-scattered light. */
+static vdbs_status run_svd(const vdbs_solve *s, vdbs_error *err)
+{
+    vdbs_status st = run_single(s, err);
+    if (st != VDBS_OK)
+        return st;
+    vdbs_svd_desc desc = {0};
+    desc.directions = s->scene->svd_directions;
+    desc.terms = s->scene->svd_terms;
+    desc.resolution = s->scene->svd_resolution;
+    desc.residual = s->scene->svd_residual;
+    desc.max_iterations = s->scene->svd_iterations;
+    desc.warm = s->svd_warm;
+    desc.keep = s->svd_keep;
+    vdbs_svd_stats stats;
+    st = vdbs_svd_solve(s, &desc, &stats, err);
+    if (s->svd_stats)
+        *s->svd_stats = stats;
+    return st;
+}
+
 static const vdbs_solver solvers[VDBS_METHOD_COUNT] = {
     {VDBS_METHOD_SINGLE, "single", "exact single scattering only (no multiple scattering)", 0,
      run_single},
@@ -110,6 +132,9 @@ static const vdbs_solver solvers[VDBS_METHOD_COUNT] = {
      "exact single scattering + Principal-Ordinates Propagation (suns, skies, points)", 1, run_pop},
     {VDBS_METHOD_FLD, "fld",
      "exact single scattering + flux-limited diffusion of the first-scattered light", 1, run_fld},
+    {VDBS_METHOD_SVD, "svd",
+     "exact single scattering + discrete ordinates with the SVD-factored phase (Gong et al.)", 1,
+     run_svd},
 };
 
 const vdbs_solver *vdbs_solver_find(const char *name)

@@ -238,3 +238,11 @@ int vdbs_volume_in_support(const vdbs_volume *volume, const double world[3])
             return 0;
     return 1;
 }
+
+double vdbs_volume_voxel_volume(const vdbs_volume *volume)
+{
+    const double(*m)[4] = volume->index_to_world;
+    return fabs(m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1]) -
+                m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0]) +
+                m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0]));
+}

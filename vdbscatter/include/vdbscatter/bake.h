@@ -7,6 +7,7 @@
 #include "vdbscatter/fld.h"
 #include "vdbscatter/pop.h"
 #include "vdbscatter/scene.h"
+#include "vdbscatter/svd.h"
 #include "vdbscatter/status.h"
 #include "vdbscatter/volume.h"
 
@@ -25,6 +26,10 @@ typedef struct vdbs_bake_options {
     int from_levelset;
     int half;
     int progress; /* show progress on stderr */
+    /* --method svd: write the radiance moments (grids svd_m0000 ...) with keep_state, start
+     * from a lit VDB's with warm_start (its D and N unless the scene sets them) */
+    int keep_state;
+    const char *warm_start;
     vdbs_warn_fn warn;
     void *warn_user;
 } vdbs_bake_options;
@@ -43,6 +48,7 @@ typedef struct vdbs_bake_report {
     double seconds_s1_lookup;
     vdbs_pop_stats pop; /* --method pop: grids, iterations, residual, stage times */
     vdbs_fld_stats fld; /* --method fld: cells, iterations, residual, energy, stage times */
+    vdbs_svd_stats svd; /* --method svd: D, N, iterations, residual, energy, stage times */
     double seconds_load;
     double seconds_solve;
     double seconds_write;

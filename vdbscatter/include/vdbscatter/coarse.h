@@ -27,6 +27,10 @@ typedef struct vdbs_coarse_frame {
 /* The frame with the given axes spanning the box with these corners in cells of side h. */
 void vdbs_coarse_fit(const double corners[8][3], const double axis[3][3], double h,
                      vdbs_coarse_frame *f);
+/* The world-aligned frame of cubic cells over the volume's support box with `resolution`
+ * cells across its extent (vdbs_volume_support_extent), never finer than one mean voxel
+ * length; returns the resolution used (FLD's and the discrete ordinates' grids). */
+int vdbs_coarse_world_frame(const vdbs_volume *volume, int resolution, vdbs_coarse_frame *f);
 int64_t vdbs_coarse_cells(const vdbs_coarse_frame *f);
 /* World point at grid coordinates x (in cells from the origin); a cell's centre. */
 void vdbs_coarse_point(const vdbs_coarse_frame *f, const double x[3], double world[3]);
@@ -39,6 +43,11 @@ void vdbs_coarse_sigma(const vdbs_coarse_frame *f, const vdbs_volume *volume,
  * the cells gains exactly scale x values. */
 void vdbs_coarse_splat(const vdbs_coarse_frame *dst, double *acc, int width, const double p[3],
                        const double *values, double scale);
+
+/* The transpose of the splat: values (width floats per cell) interpolated at world point p
+ * with the same weights. */
+void vdbs_coarse_sample(const vdbs_coarse_frame *f, const float *values, int width,
+                        const double p[3], double *out);
 
 /* Per cell of the grid that is upsampled: ms (3 channels), then ms_l1 x, y, z (3 each). */
 #define VDBS_COARSE_MS 0

@@ -74,6 +74,13 @@ void vdbs_lights_free(vdbs_light_table *table);
  * lights. */
 vdbs_status vdbs_lights_pack(vdbs_light_table *table, vdbs_error *err);
 
+/* Light `light` of the table (the direct lights, then the sky ordinates, as the kernels number
+ * them) as it arrives at the world point p, before attenuation: its colour (a sun's
+ * irradiance, a point's intensity over r^2 with r clamped at min_distance, an ordinate's
+ * radiance times its solid angle) and its unit direction of travel. */
+void vdbs_lights_arrival(const vdbs_light_table *table, int light, const double p[3],
+                         double color[3], double travel[3]);
+
 /* K unit directions spread evenly over the sphere (spherical Fibonacci lattice), equal
  * weights 4 pi / K; `dirs` holds 3 K doubles. */
 void vdbs_sphere_directions(int count, double *dirs);

@@ -46,6 +46,9 @@ typedef struct vdbs_light {
 #define VDBS_MAX_POP_ITERATIONS 100000
 /* Most FLD cells across the largest extent (--fld-res). */
 #define VDBS_MAX_FLD_RESOLUTION 1024
+#define VDBS_MAX_SVD_DIRECTIONS 16384 /* VDBS_PHASEMAT_MAX_DIRECTIONS */
+#define VDBS_MAX_SVD_RESOLUTION 512
+#define VDBS_MAX_SVD_ITERATIONS 100000
 
 typedef struct vdbs_camera {
     int present;
@@ -90,6 +93,12 @@ typedef struct vdbs_scene {
     int fld_limiter_off; /* 1: classic diffusion (no flux limiter) */
     int fld_l1_off;      /* 1: ms_l1 stays 0 (default: from the diffusive flux) */
     int fld_p1_off;      /* 1: an isotropic source (default: with its first moment) */
+    /* Discrete ordinates (solver.svd_*, --svd-*, --residual): 0 = the quality's. */
+    int svd_directions;  /* D */
+    int svd_terms;       /* N <= D; 0: the fewest within the quality's factorisation error */
+    int svd_resolution;  /* cells across the largest extent */
+    int svd_iterations;  /* cap of source iterations; 0: the default */
+    double svd_residual; /* relative change of the fluence per iteration that stops it */
 } vdbs_scene;
 
 /* Defaults follow Blender Cycles' Principled Volume: density 1, albedo 0.5, g 0;

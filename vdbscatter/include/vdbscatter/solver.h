@@ -35,11 +35,14 @@ typedef enum vdbs_method {
     VDBS_METHOD_SINGLE = 0,
     VDBS_METHOD_POP,
     VDBS_METHOD_FLD,
+    VDBS_METHOD_SVD,
     VDBS_METHOD_COUNT
 } vdbs_method;
 
 struct vdbs_pop_stats;
 struct vdbs_fld_stats;
+struct vdbs_svd_stats;
+struct vdbs_svd_moments;
 
 /* What a solver reads and writes; the bake owns every buffer. */
 typedef struct vdbs_solve {
@@ -53,6 +56,9 @@ typedef struct vdbs_solve {
     vdbs_s1_stats *s1_stats;          /* filled when S1 comes from light grids; may be NULL */
     struct vdbs_pop_stats *pop_stats; /* filled by POP; may be NULL */
     struct vdbs_fld_stats *fld_stats; /* filled by FLD; may be NULL */
+    struct vdbs_svd_stats *svd_stats; /* filled by the discrete ordinates; may be NULL */
+    const struct vdbs_svd_moments *svd_warm; /* --warm-start, or NULL */
+    struct vdbs_svd_moments *svd_keep;       /* --keep-state: filled, or NULL */
     /* Outputs, 3 floats per output voxel (coords order), zeroed by the caller. */
     float *radiance;      /* S1 + Sms direction average */
     float *ms;            /* Sms direction average */

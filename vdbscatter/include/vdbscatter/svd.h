@@ -1,0 +1,142 @@
+/* Discrete ordinates with an SVD-factored phase (Gong et al., shared/papers/svd-phase.md;
+ * `--method svd`): the multiply-scattered light as the solution of the transport equation on D
+ * directions (phasemat.h: balanced phase matrix, delta-M, factorisation) over a world-aligned
+ * grid of cubic cells on the support box, by source iteration. Each iteration sweeps every
+ * direction upwind in dependency order through the kernel runner (shaders/vs_svd.h,
+ * svd_sweep.comp); the in-scattered source comes from N moments per cell,
+ * m_k = sum_d v_k(w_d) L_d, as sum_k v_k(w) lambda_k sigma_s* m_k, so that memory and the cost
+ * of the source grow with N, not D. N = D is the exact-phase baseline.
+ *
+ * The scene's light enters as its first scattering, from the unscattered light of the exact
+ * S1 pass's light grids: per cell and sun or point light the power it scatters, emitted by
+ * HG(g*) exactly per direction; the sky ordinates' the same, projected on the v_k once. With
+ * delta-M (peak fraction f), the solver works on the scaled problem: the beam attenuates with
+ * sigma_t* = sigma_t - f sigma_s, scatters with sigma_s* = (1 - f) sigma_s and the truncated
+ * phase; ms and ms_l1 are that problem's scattered field (README "Discrete ordinates"), while
+ * S1 stays the exact pass's. */
+#ifndef VDBSCATTER_SVD_H
+#define VDBSCATTER_SVD_H
+
+#include <stdint.h>
+
+#include "vdbscatter/kernel.h"
+#include "vdbscatter/phasemat.h"
+#include "vdbscatter/solver.h"
+#include "vdbscatter/status.h"
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+/* Zero-initialise; 0 means the default. */
+typedef struct vdbs_svd_desc {
+    int directions;     /* D (--svd-directions); default: the quality's */
+    int terms;          /* N (--svd-terms), at most D; default: the fewest whose factorisation
+                           RMSE is within the quality's tolerance */
+    int resolution;     /* cells across the support box's extent (--svd-res); default: the
+                           quality's; never finer than the voxels */
+    double residual;    /* stop once the relative change of the fluence per iteration is at
+                           most this (--residual); default: the quality's */
+    int max_iterations; /* the cap (--svd-iterations); default 2000 */
+    int delta_m;        /* phasemat.h: 0 auto, 1 always, -1 never */
+    int chunk;          /* directions per sweep step; default: an octant's on the C path, as
+                           many as keep a step under the GPU driver's loop limit on the GPU */
+    const struct vdbs_svd_moments *warm; /* --warm-start: moments to start from, or NULL;
+                                            its D and N unless directions or terms are set
+                                            (then they must match) */
+    struct vdbs_svd_moments *keep;       /* --keep-state: filled with the final moments, or
+                                            NULL */
+} vdbs_svd_desc;
+
+/* The radiance moments m_k at the output voxels, for --keep-state and --warm-start (the lit
+ * VDB's svd_m* grids): sampled trilinearly from the cells, and back, each cell the mean over
+ * the voxels whose centres lie in it. */
+typedef struct vdbs_svd_moments {
+    int directions; /* D */
+    int terms;      /* N */
+    double g;       /* the medium's g they were solved for */
+    float **voxels; /* N arrays of 3 floats per output voxel (coords order) */
+} vdbs_svd_moments;
+
+/* Allocates N zeroed arrays for `voxels` output voxels. Errors: out of memory. */
+vdbs_status vdbs_svd_moments_alloc(vdbs_svd_moments *m, int directions, int terms, double g,
+                                   size_t voxels, vdbs_error *err);
+void vdbs_svd_moments_free(vdbs_svd_moments *m);
+
+/* What a quality chooses. */
+typedef struct vdbs_svd_preset {
+    int directions;   /* low 32, medium 64, high 128, ultra 512 */
+    int resolution;   /* 16 / 24 / 32 / 32 */
+    double tolerance; /* factorisation RMSE of the default N: 10% / 5% / 2% / 1% */
+    double residual;  /* 1e-2 / 3e-3 / 1e-3 / 3e-4 */
+} vdbs_svd_preset;
+
+/* The preset of a quality name (medium's for an unknown one). */
+void vdbs_svd_quality(const char *quality, vdbs_svd_preset *preset);
+
+/* The fewest terms whose relative RMSE is at most tolerance (D when none is). */
+int vdbs_svd_terms_for(const vdbs_phasemat *pm, double tolerance);
+
+/* A direct light of a grid problem. */
+typedef struct vdbs_svd_light {
+    int point; /* 1: a point light at vec; 0: a sun travelling along vec (unit) */
+    double vec[3];
+} vdbs_svd_light;
+
+/* One problem on a grid of n[0] x n[1] x n[2] cubic cells of side h from `origin` (world),
+ * item (k n1 + j) n0 + i. */
+typedef struct vdbs_svd_grid {
+    int n[3];
+    double h;
+    double origin[3];
+    const float *sigma_t; /* per cell (the unscaled medium) */
+    double albedo[3];
+    const vdbs_phasemat *phase; /* D directions, f, g*, the factorisation */
+    int terms;                  /* N */
+    const vdbs_svd_light *lights;
+    int light_count;
+    const float *direct; /* per cell and light, 3 channels: the power per volume its
+                            unscattered light scatters there in the scaled problem, divided by
+                            the discrete normalisation sum_d HG(g*, travel . w_d) dw_d */
+    const float *sky;    /* per cell, N x 3: the sky's first scattering projected on the v_k
+                            (power per volume and steradian), or NULL */
+    const float *warm;   /* per cell, N x 3: the radiance moments to start from, or NULL */
+} vdbs_svd_grid;
+
+typedef struct vdbs_svd_stats {
+    int directions, terms, resolution;
+    int64_t cells;
+    double cell_side;
+    double delta_m_f, g_scaled; /* 0 and g without delta-M */
+    double factor_rmse;         /* of the N-term factorisation */
+    int chunk, steps_per_sweep;
+    int iterations;
+    double residual; /* the last iteration's relative change of the fluence */
+    int converged;   /* 0: stopped at the cap */
+    /* The last sweep's power balance (summed over channels, in double from per-cell float
+     * tallies): emitted = collided + leaked up to `balance`, the worst relative mismatch
+     * |emitted - collided - leaked| / emitted over every sweep. */
+    double emitted, collided, leaked, clamped, balance;
+    double clamped_fraction; /* clamped / (emitted + clamped), worst over the sweeps */
+    double first_power;      /* the first scattering's power (direct and sky) */
+    int64_t cell_direction_updates;
+    double seconds_source, seconds_solve, seconds_upsample;
+} vdbs_svd_stats;
+
+/* Source iteration on the grid: fluence (3 per cell, sum_d L_d dw_d), flux (9 per cell, the
+ * x, y, z components of R, G, B of sum_d L_d w_d dw_d) and the final radiance moments (N x 3
+ * per cell) out, each may be NULL. stats may be NULL. Errors: out of memory, the runner's. */
+vdbs_status vdbs_svd_solve_grid(vdbs_runner *runner, const vdbs_svd_grid *grid,
+                                const vdbs_svd_desc *desc, double *fluence, double *flux,
+                                float *moments, vdbs_svd_stats *stats, vdbs_error *err);
+
+/* The bake's solver: after the S1 pass (s->radiance holds S1), adds ms and ms_l1 to s->ms,
+ * s->ms_l1 and s->radiance. stats may be NULL. */
+vdbs_status vdbs_svd_solve(const vdbs_solve *s, const vdbs_svd_desc *desc, vdbs_svd_stats *stats,
+                           vdbs_error *err);
+
+#ifdef __cplusplus
+}
+#endif
+
+#endif

@@ -1,0 +1,646 @@
+#include "vdbscatter/svd.h"
+
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "vdbs_math.h"
+#include "vdbscatter/coarse.h"
+#include "vdbscatter/lightgrid.h"
+#include "vdbscatter/medium.h"
+#include "vdbscatter/progress.h"
+
+#define PNANOVDB_C
+#include <nanovdb/PNanoVDB.h>
+
+#include "vs_common.h"
+#include "vs_march.h"
+#include "vs_medium.h"
+#include "vs_pass.h"
+#include "vs_phase.h"
+#include "vs_svd.h"
+
+/* Loop trips one GPU sweep step may spend on its chunk of directions, well under llvmpipe's
+ * 65535 per invocation (vs_pass.h). */
+#define SVD_GPU_TRIPS 32768
+/* Default cap of source iterations. */
+#define SVD_MAX_ITERATIONS 2000
+
+void vdbs_svd_quality(const char *quality, vdbs_svd_preset *preset)
+{
+    static const struct {
+        const char *name;
+        vdbs_svd_preset preset;
+    } presets[] = {{"low", {32, 16, 0.10, 1e-2}},
+                   {"medium", {64, 24, 0.05, 3e-3}},
+                   {"high", {128, 32, 0.02, 1e-3}},
+                   {"ultra", {512, 32, 0.01, 3e-4}}};
+    *preset = presets[1].preset;
+    for (size_t q = 0; quality && q < sizeof presets / sizeof presets[0]; ++q)
+        if (strcmp(quality, presets[q].name) == 0)
+            *preset = presets[q].preset;
+}
+
+int vdbs_svd_terms_for(const vdbs_phasemat *pm, double tolerance)
+{
+    for (int n = 1; n < pm->d; ++n)
+        if (vdbs_phasemat_rmse(pm, n) <= tolerance)
+            return n;
+    return pm->d;
+}
+
+vdbs_status vdbs_svd_moments_alloc(vdbs_svd_moments *m, int directions, int terms, double g,
+                                   size_t voxels, vdbs_error *err)
+{
+    memset(m, 0, sizeof *m);
+    m->voxels = calloc((size_t)terms, sizeof *m->voxels);
+    if (!m->voxels)
+        return vdbs_error_set(err, VDBS_ERR_NOMEM, "out of memory for %d moment grids", terms);
+    m->directions = directions;
+    m->terms = terms;
+    m->g = g;
+    for (int k = 0; k < terms; ++k) {
+        m->voxels[k] = calloc(3 * (voxels ? voxels : 1), sizeof *m->voxels[k]);
+        if (!m->voxels[k]) {
+            vdbs_svd_moments_free(m);
+            return vdbs_error_set(err, VDBS_ERR_NOMEM, "out of memory for %d moment grids", terms);
+        }
+    }
+    return VDBS_OK;
+}
+
+void vdbs_svd_moments_free(vdbs_svd_moments *m)
+{
+    for (int k = 0; m->voxels && k < m->terms; ++k)
+        free(m->voxels[k]);
+    free(m->voxels);
+    memset(m, 0, sizeof *m);
+}
+
+/* ---- the sweep through the runner ---- */
+
+typedef struct svd_kernel {
+    const uint32_t *params;
+    const float *tables, *sigma, *direct, *source;
+} svd_kernel;
+
+static double svd_step(void *user, int step, const void *state_in, void *state_out, uint64_t begin,
+                       uint64_t end)
+{
+    (void)state_in; /* in place: the same buffer */
+    const svd_kernel *k = user;
+    for (uint64_t item = begin; item < end; ++item)
+        vs_svd_sweep(k->params, k->tables, k->sigma, k->direct, k->source, state_out, (int)item,
+                     step);
+    return 0.0;
+}
+
+/* The octant a direction is swept in (vs_svd.h). */
+static int octant_of(const double w[3])
+{
+    return (w[0] < 0.0 ? 1 : 0) | (w[1] < 0.0 ? 2 : 0) | (w[2] < 0.0 ? 4 : 0);
+}
+
+static void put_float(uint32_t *words, int at, double value)
+{
+    float f = (float)value;
+    memcpy(&words[at], &f, sizeof f);
+}
+
+/* Everything a sweep reads, laid out per vs_svd.h. */
+typedef struct svd_layout {
+    uint32_t params[VS_SVD_PARAM_WORDS];
+    float *tables;
+    size_t table_words;
+    int *order; /* sweep position -> direction of the phase matrix */
+    size_t state_words;
+    int planes, chunks, chunk;
+} svd_layout;
+
+static void layout_free(svd_layout *l)
+{
+    free(l->tables);
+    free(l->order);
+}
+
+static vdbs_status layout_build(const vdbs_svd_grid *g, int chunk, svd_layout *l, vdbs_error *err)
+{
+    memset(l, 0, sizeof *l);
+    const vdbs_phasemat *pm = g->phase;
+    const int D = pm->d, N = g->terms;
+    l->order = malloc(sizeof *l->order * (size_t)D);
+    l->table_words = (size_t)D * VS_SVD_DIR_WORDS + (size_t)D * (size_t)N +
+                     (size_t)g->light_count * VS_SVD_LIGHT_WORDS;
+    l->tables = malloc(sizeof *l->tables * l->table_words);
+    if (!l->order || !l->tables) {
+        layout_free(l);
+        return vdbs_error_set(err, VDBS_ERR_NOMEM, "out of memory for %d directions", D);
+    }
+    /* Directions sorted by octant, each octant's in the matrix's order. */
+    int start[VS_SVD_OCTANTS + 1] = {0}, widest = 0;
+    for (int o = 0, at = 0; o < VS_SVD_OCTANTS; ++o) {
+        start[o] = at;
+        for (int d = 0; d < D; ++d)
+            if (octant_of(pm->dirs + 3 * d) == o)
+                l->order[at++] = d;
+        start[o + 1] = at;
+        if (at - start[o] > widest)
+            widest = at - start[o];
+    }
+    l->chunk = chunk > 0 && chunk < widest ? chunk : (widest > 0 ? widest : 1);
+    l->chunks = (widest + l->chunk - 1) / l->chunk;
+    if (l->chunks < 1)
+        l->chunks = 1;
+    l->planes = g->n[0] + g->n[1] + g->n[2] - 2;
+    const size_t v_at = (size_t)D * VS_SVD_DIR_WORDS;
+    const size_t light_at = v_at + (size_t)D * (size_t)N;
+    for (int s = 0; s < D; ++s) {
+        const int d = l->order[s];
+        float *rec = l->tables + (size_t)s * VS_SVD_DIR_WORDS;
+        for (int a = 0; a < 3; ++a)
+            rec[VS_SVD_DIR_W + a] = (float)pm->dirs[3 * d + a];
+        rec[VS_SVD_DIR_WEIGHT] = (float)(4.0 * VDBS_PI / D);
+        for (int k = 0; k < N; ++k)
+            l->tables[v_at + (size_t)s * N + k] = (float)pm->eigvec[(size_t)d * D + k];
+    }
+    for (int i = 0; i < g->light_count; ++i) {
+        float *rec = l->tables + light_at + (size_t)i * VS_SVD_LIGHT_WORDS;
+        rec[VS_SVD_LIGHT_POINT] = g->lights[i].point ? 1.0f : 0.0f;
+        for (int a = 0; a < 3; ++a)
+            rec[VS_SVD_LIGHT_VEC + a] = (float)g->lights[i].vec[a];
+    }
+    const size_t cells = (size_t)g->n[0] * g->n[1] * g->n[2];
+    uint32_t *p = l->params;
+    for (int a = 0; a < 3; ++a) {
+        p[VS_SVD_OFF_N + a] = (uint32_t)g->n[a];
+        put_float(p, VS_SVD_OFF_ORIGIN + a, g->origin[a]);
+        put_float(p, VS_SVD_OFF_EXTINCT + a, 1.0 - pm->f * g->albedo[a]);
+    }
+    put_float(p, VS_SVD_OFF_H, g->h);
+    p[VS_SVD_OFF_TERMS] = (uint32_t)N;
+    p[VS_SVD_OFF_LIGHTS] = (uint32_t)g->light_count;
+    put_float(p, VS_SVD_OFF_G, pm->g_scaled);
+    p[VS_SVD_OFF_CHUNK] = (uint32_t)l->chunk;
+    p[VS_SVD_OFF_CHUNKS] = (uint32_t)l->chunks;
+    for (int o = 0; o <= VS_SVD_OCTANTS; ++o)
+        p[VS_SVD_OFF_OCTANT + o] = (uint32_t)start[o];
+    p[VS_SVD_OFF_STATE_OUT] = (uint32_t)(cells * (size_t)N * 3);
+    p[VS_SVD_OFF_STATE_PLANES] = (uint32_t)(cells * ((size_t)N * 3 + VS_SVD_OUT_WORDS));
+    p[VS_SVD_OFF_TABLE_V] = (uint32_t)v_at;
+    p[VS_SVD_OFF_TABLE_LIGHTS] = (uint32_t)light_at;
+    l->state_words = cells * ((size_t)N * 3 + VS_SVD_OUT_WORDS) +
+                     2 * (size_t)l->chunk * (size_t)g->n[0] * g->n[1] * 3;
+    return VDBS_OK;
+}
+
+/* The source moments of the next sweep: s_k = sky_k + lambda_k sigma_s* m_k. */
+static void next_source(const vdbs_svd_grid *g, const float *moments, float *source)
+{
+    const int N = g->terms;
+    const int64_t cells = (int64_t)g->n[0] * g->n[1] * g->n[2];
+    const double keep = 1.0 - g->phase->f;
+#pragma omp parallel for schedule(static)
+    for (int64_t c = 0; c < cells; ++c)
+        for (int k = 0; k < N; ++k)
+            for (int ch = 0; ch < 3; ++ch) {
+                size_t at = ((size_t)c * N + k) * 3 + ch;
+                double s = g->sky ? g->sky[at] : 0.0;
+                if (moments)
+                    s += g->phase->eigval[k] * keep * g->albedo[ch] * g->sigma_t[c] * moments[at];
+                source[at] = (float)s;
+            }
+}
+
+vdbs_status vdbs_svd_solve_grid(vdbs_runner *runner, const vdbs_svd_grid *grid,
+                                const vdbs_svd_desc *desc, double *fluence, double *flux,
+                                float *moments, vdbs_svd_stats *stats, vdbs_error *err)
+{
+    vdbs_svd_stats local;
+    if (!stats)
+        stats = &local;
+    const vdbs_phasemat *pm = grid->phase;
+    const int N = grid->terms;
+    const int64_t cells = (int64_t)grid->n[0] * grid->n[1] * grid->n[2];
+    stats->directions = pm->d;
+    stats->terms = N;
+    stats->cells = cells;
+    stats->cell_side = grid->h;
+    stats->delta_m_f = pm->f;
+    stats->g_scaled = pm->g_scaled;
+    stats->factor_rmse = vdbs_phasemat_rmse(pm, N);
+    int chunk = desc->chunk;
+    if (chunk <= 0 && vdbs_runner_backend(runner) == VDBS_BACKEND_GPU)
+        chunk = SVD_GPU_TRIPS / (2 * N + grid->light_count + 16);
+    if (chunk <= 0 && vdbs_runner_backend(runner) == VDBS_BACKEND_GPU)
+        chunk = 1;
+    svd_layout l;
+    vdbs_status st = layout_build(grid, chunk, &l, err);
+    if (st != VDBS_OK)
+        return st;
+    stats->chunk = l.chunk;
+    stats->steps_per_sweep = VS_SVD_OCTANTS * l.chunks * l.planes;
+    const size_t moment_floats = (size_t)cells * N * 3;
+    float *state = malloc(sizeof *state * l.state_words);
+    float *source = malloc(sizeof *source * moment_floats);
+    double *previous = calloc(3 * (size_t)cells, sizeof *previous);
+    if (!state || !source || !previous) {
+        st = vdbs_error_set(err, VDBS_ERR_NOMEM, "out of memory for %lld cells x %d terms",
+                            (long long)cells, N);
+        goto done;
+    }
+    next_source(grid, grid->warm, source);
+    const int max_iterations = desc->max_iterations > 0 ? desc->max_iterations : SVD_MAX_ITERATIONS;
+    svd_kernel k = {l.params, l.tables, grid->sigma_t, grid->direct, source};
+    vdbs_kernel_desc kd;
+    memset(&kd, 0, sizeof kd);
+    kd.items = (uint64_t)grid->n[0] * (uint64_t)grid->n[1];
+    kd.user = &k;
+    kd.cpu_step = svd_step;
+    kd.cpu_chunk = 16;
+    kd.shader = "svd_sweep.comp";
+    kd.inputs[1] = (vdbs_kernel_input){l.params, sizeof l.params};
+    kd.inputs[2] = (vdbs_kernel_input){l.tables, sizeof(float) * l.table_words};
+    kd.inputs[3] = (vdbs_kernel_input){grid->sigma_t, sizeof(float) * (size_t)cells};
+    kd.inputs[4] = (vdbs_kernel_input){grid->direct, sizeof(float) * 3 * (size_t)cells *
+                                                         (size_t)grid->light_count};
+    kd.inputs[5] = (vdbs_kernel_input){source, sizeof(float) * moment_floats};
+    kd.state = state;
+    kd.state_items = 1;
+    kd.state_words = l.state_words;
+    kd.in_place = 1;
+    kd.max_iterations = stats->steps_per_sweep;
+    stats->iterations = 0;
+    stats->converged = 0;
+    stats->balance = 0.0;
+    stats->clamped_fraction = 0.0;
+    stats->residual = 1.0;
+    for (int it = 0; it < max_iterations; ++it) {
+        memset(state, 0, sizeof *state * l.state_words);
+        st = vdbs_kernel_iterate(runner, &kd, NULL, err);
+        if (st != VDBS_OK)
+            break;
+        stats->cell_direction_updates += cells * pm->d;
+        double emitted = 0.0, collided = 0.0, leaked = 0.0, clamped = 0.0, change = 0.0,
+               total = 0.0;
+        const float *out = state + l.params[VS_SVD_OFF_STATE_OUT];
+        for (int64_t c = 0; c < cells; ++c) {
+            const float *rec = out + (size_t)c * VS_SVD_OUT_WORDS;
+            emitted += rec[VS_SVD_OUT_SOURCE];
+            collided += rec[VS_SVD_OUT_COLLIDE];
+            leaked += rec[VS_SVD_OUT_LEAK];
+            clamped += rec[VS_SVD_OUT_CLAMPED];
+            for (int ch = 0; ch < 3; ++ch) {
+                double phi = rec[VS_SVD_OUT_FLUENCE + ch];
+                change += fabs(phi - previous[3 * c + ch]);
+                total += fabs(phi);
+                previous[3 * c + ch] = phi;
+            }
+        }
+        if (it == 0)
+            stats->first_power = emitted;
+        stats->emitted = emitted;
+        stats->collided = collided;
+        stats->leaked = leaked;
+        stats->clamped = clamped;
+        if (emitted > 0.0)
+            stats->balance = fmax(stats->balance, fabs(emitted - collided - leaked) / emitted);
+        if (emitted + clamped > 0.0)
+            stats->clamped_fraction = fmax(stats->clamped_fraction, clamped / (emitted + clamped));
+        stats->iterations = it + 1;
+        stats->residual = total > 0.0 ? change / total : 0.0;
+        next_source(grid, state, source);
+        if (stats->residual <= desc->residual) {
+            stats->converged = 1;
+            break;
+        }
+    }
+    if (st == VDBS_OK) {
+        const float *out = state + l.params[VS_SVD_OFF_STATE_OUT];
+        for (int64_t c = 0; c < cells; ++c) {
+            const float *rec = out + (size_t)c * VS_SVD_OUT_WORDS;
+            for (int v = 0; fluence && v < 3; ++v)
+                fluence[3 * c + v] = rec[VS_SVD_OUT_FLUENCE + v];
+            for (int v = 0; flux && v < 9; ++v)
+                flux[9 * c + v] = rec[VS_SVD_OUT_FLUX + v];
+        }
+        if (moments)
+            memcpy(moments, state, sizeof *state * moment_floats);
+    }
+done:
+    layout_free(&l);
+    free(state);
+    free(source);
+    free(previous);
+    return st;
+}
+
+/* ---- the bake ---- */
+
+/* sum_d HG(g*, travel . w_d) dw_d in the kernel's float arithmetic: what makes the emitted
+ * power of a light's first scattering exact on the directions. */
+static double discrete_norm(const vdbs_phasemat *pm, const double travel[3])
+{
+    pnanovdb_vec3_t t = vs_vec3((float)travel[0], (float)travel[1], (float)travel[2]);
+    double sum = 0.0;
+    for (int d = 0; d < pm->d; ++d) {
+        const double *w = pm->dirs + 3 * d;
+        sum += vs_hg_dirs((float)pm->g_scaled, t, vs_vec3((float)w[0], (float)w[1], (float)w[2]));
+    }
+    return sum * 4.0 * VDBS_PI / pm->d;
+}
+
+/* The scaled problem's first scattering of light `light`, per cell and channel (power per
+ * volume): every output voxel's sigma_s* E T* times its volume, splatted into the cells
+ * (vdbs_coarse_splat keeps the total), T* = exp(-(1 - f albedo) tau) from the light grid. */
+static vdbs_status first_scattering(const vdbs_solve *s, const vdbs_coarse_frame *f,
+                                    const vdbs_phasemat *pm, int light, float *depth, double *acc,
+                                    vdbs_error *err)
+{
+    const vdbs_volume *volume = s->volume;
+    vdbs_light_grid_desc gdesc = {0};
+    if (s->s1_grids)
+        gdesc = *s->s1_grids;
+    vdbs_light_grids set;
+    vdbs_status st =
+        vdbs_light_grids_build(s->runner, volume, s->scene, s->lights, light, 1, &gdesc, &set, err);
+    if (st != VDBS_OK)
+        return st;
+    st = vdbs_light_grids_lookup_voxels(s->runner, volume, &set, 0, depth, err);
+    vdbs_light_grids_free(&set);
+    if (st != VDBS_OK)
+        return st;
+    pnanovdb_buf_t buf = pnanovdb_make_buf(volume->nano, volume->nano_size / 4);
+    pnanovdb_readaccessor_t a = vs_density_accessor(buf);
+    const double scale = vdbs_volume_voxel_volume(volume) / (f->h * f->h * f->h);
+    for (size_t n = 0; n < volume->coord_count; ++n) {
+        const int32_t *c = volume->coords + 3 * n;
+        double density = vs_density_voxel(buf, &a, vs_coord(c[0], c[1], c[2]));
+        if (!(density > 0.0))
+            continue;
+        double idx[3] = {c[0], c[1], c[2]}, w[3], color[3], travel[3], q[3];
+        vdbs_volume_world_point(volume, idx, w);
+        vdbs_lights_arrival(s->lights, light, w, color, travel);
+        const double sigma_t = s->scene->density_scale * density;
+        for (int ch = 0; ch < 3; ++ch) {
+            const double albedo = s->scene->albedo[ch];
+            q[ch] = (1.0 - pm->f) * albedo * sigma_t * color[ch] *
+                    exp(-(1.0 - pm->f * albedo) * (double)depth[n]);
+        }
+        vdbs_coarse_splat(f, acc, 3, w, q, scale);
+    }
+    return VDBS_OK;
+}
+
+/* The lights' first scattering on the grid: per cell and direct light its power over the
+ * discrete normalisation (vs_svd.h), and the sky ordinates' projected on the v_k. */
+static vdbs_status light_sources(const vdbs_solve *s, const vdbs_coarse_frame *f,
+                                 const vdbs_phasemat *pm, int terms, vdbs_svd_light *glights,
+                                 float *direct, float *sky, vdbs_error *err)
+{
+    const int64_t cells = vdbs_coarse_cells(f);
+    const vdbs_light_table *lt = s->lights;
+    const int total = lt->direct_count + lt->ordinate_count, L = lt->direct_count;
+    float *depth = malloc(sizeof *depth * (s->volume->coord_count ? s->volume->coord_count : 1));
+    double *acc = malloc(sizeof *acc * 3 * (size_t)cells);
+    double *project = malloc(sizeof *project * (size_t)terms);
+    vdbs_status st = VDBS_OK;
+    if (!depth || !acc || !project)
+        st = vdbs_error_set(err, VDBS_ERR_NOMEM, "out of memory for the lights' first scattering");
+    for (int light = 0; light < total && st == VDBS_OK; ++light) {
+        memset(acc, 0, sizeof *acc * 3 * (size_t)cells);
+        st = first_scattering(s, f, pm, light, depth, acc, err);
+        if (st != VDBS_OK)
+            break;
+        if (light < L) {
+            const vdbs_direct_light *dl = &lt->direct[light];
+            glights[light].point = dl->type == VDBS_LIGHT_POINT;
+            memcpy(glights[light].vec, dl->world, sizeof glights[light].vec);
+            double travel[3], color[3], norm = 0.0;
+            for (int64_t c = 0; c < cells; ++c) {
+                if (c == 0 || glights[light].point) {
+                    double centre[3];
+                    vdbs_coarse_cell_centre(f, c, centre);
+                    vdbs_lights_arrival(lt, light, centre, color, travel);
+                    norm = discrete_norm(pm, travel);
+                }
+                for (int ch = 0; ch < 3; ++ch)
+                    direct[((size_t)c * L + light) * 3 + ch] =
+                        norm > 0.0 ? (float)(acc[3 * c + ch] / norm) : 0.0f;
+            }
+            continue;
+        }
+        /* A sky ordinate: its emission HG(g*, travel . w_d) / norm projected on every v_k. */
+        double travel[3], color[3], centre[3] = {0.0, 0.0, 0.0};
+        vdbs_lights_arrival(lt, light, centre, color, travel);
+        const double norm = discrete_norm(pm, travel);
+        pnanovdb_vec3_t t = vs_vec3((float)travel[0], (float)travel[1], (float)travel[2]);
+        memset(project, 0, sizeof *project * (size_t)terms);
+        for (int d = 0; d < pm->d; ++d) {
+            const double *w = pm->dirs + 3 * d;
+            double p =
+                vs_hg_dirs((float)pm->g_scaled, t, vs_vec3((float)w[0], (float)w[1], (float)w[2])) /
+                norm;
+            for (int k = 0; k < terms; ++k)
+                project[k] += pm->eigvec[(size_t)d * pm->d + k] * p;
+        }
+#pragma omp parallel for schedule(static)
+        for (int64_t c = 0; c < cells; ++c) {
+            if (acc[3 * c] == 0.0 && acc[3 * c + 1] == 0.0 && acc[3 * c + 2] == 0.0)
+                continue;
+            for (int k = 0; k < terms; ++k)
+                for (int ch = 0; ch < 3; ++ch)
+                    sky[((size_t)c * terms + k) * 3 + ch] += (float)(acc[3 * c + ch] * project[k]);
+        }
+    }
+    free(depth);
+    free(acc);
+    free(project);
+    return st;
+}
+
+/* --warm-start: each cell the mean of the voxels whose centres lie in it. */
+static void moments_from_voxels(const vdbs_volume *volume, const vdbs_coarse_frame *f, int terms,
+                                const float *const *voxels, float *cells_out)
+{
+    const int64_t cells = vdbs_coarse_cells(f);
+    int *count = calloc((size_t)cells, sizeof *count);
+    double *sum = calloc((size_t)cells * terms * 3, sizeof *sum);
+    if (!count || !sum) {
+        free(count);
+        free(sum);
+        return; /* a cold start: the iteration still converges */
+    }
+    for (size_t n = 0; n < volume->coord_count; ++n) {
+        const int32_t *c = volume->coords + 3 * n;
+        double idx[3] = {c[0], c[1], c[2]}, w[3];
+        vdbs_volume_world_point(volume, idx, w);
+        int at[3], inside = 1;
+        for (int a = 0; a < 3; ++a) {
+            at[a] = (int)floor((w[a] - f->origin[a]) / f->h);
+            inside &= at[a] >= 0 && at[a] < f->n[a];
+        }
+        if (!inside)
+            continue;
+        size_t cell = ((size_t)at[2] * f->n[1] + at[1]) * f->n[0] + at[0];
+        ++count[cell];
+        for (int k = 0; k < terms; ++k)
+            for (int ch = 0; ch < 3; ++ch)
+                sum[(cell * terms + k) * 3 + ch] += voxels[k][3 * n + ch];
+    }
+    for (int64_t c = 0; c < cells; ++c)
+        for (int v = 0; v < terms * 3; ++v)
+            cells_out[(size_t)c * terms * 3 + v] =
+                count[c] ? (float)(sum[(size_t)c * terms * 3 + v] / count[c]) : 0.0f;
+    free(count);
+    free(sum);
+}
+
+/* --keep-state: the moments at every output voxel, trilinear from the cells. */
+static void moments_to_voxels(const vdbs_volume *volume, const vdbs_coarse_frame *f, int terms,
+                              const float *moments, float **voxels)
+{
+    const int64_t count = (int64_t)volume->coord_count;
+#pragma omp parallel
+    {
+        double *v = malloc(sizeof *v * 3 * (size_t)terms);
+#pragma omp for schedule(static)
+        for (int64_t n = 0; n < count; ++n) {
+            const int32_t *c = volume->coords + 3 * n;
+            double idx[3] = {c[0], c[1], c[2]}, w[3];
+            vdbs_volume_world_point(volume, idx, w);
+            if (v)
+                vdbs_coarse_sample(f, moments, 3 * terms, w, v);
+            for (int k = 0; k < terms; ++k)
+                for (int ch = 0; ch < 3; ++ch)
+                    voxels[k][3 * n + ch] = v ? (float)v[3 * k + ch] : 0.0f;
+        }
+        free(v);
+    }
+}
+
+vdbs_status vdbs_svd_solve(const vdbs_solve *s, const vdbs_svd_desc *desc, vdbs_svd_stats *stats,
+                           vdbs_error *err)
+{
+    vdbs_svd_stats local;
+    if (!stats)
+        stats = &local;
+    memset(stats, 0, sizeof *stats);
+    vdbs_svd_desc d = desc ? *desc : (vdbs_svd_desc){0};
+    vdbs_svd_preset preset;
+    vdbs_svd_quality(s->quality ? s->quality->name : NULL, &preset);
+    if (d.warm && d.directions > 0 && d.directions != d.warm->directions)
+        return vdbs_error_set(err, VDBS_ERR_INPUT,
+                              "--warm-start holds moments for %d directions, not %d",
+                              d.warm->directions, d.directions);
+    if (d.warm && d.terms > 0 && d.terms != d.warm->terms)
+        return vdbs_error_set(err, VDBS_ERR_INPUT, "--warm-start holds %d terms, not %d",
+                              d.warm->terms, d.terms);
+    if (d.warm && d.warm->g != s->scene->g)
+        return vdbs_error_set(err, VDBS_ERR_INPUT,
+                              "--warm-start was solved for g = %g, this medium has g = %g",
+                              d.warm->g, s->scene->g);
+    if (d.warm) {
+        d.directions = d.warm->directions;
+        d.terms = d.warm->terms;
+    }
+    if (d.directions <= 0)
+        d.directions = preset.directions;
+    if (!(d.residual > 0.0))
+        d.residual = preset.residual;
+    double t0 = vdbs_now();
+    vdbs_phasemat pm;
+    vdbs_phasemat_desc pdesc = {d.directions, s->scene->g, d.delta_m};
+    vdbs_status st = vdbs_phasemat_build(&pdesc, &pm, err);
+    if (st != VDBS_OK)
+        return st;
+    const int terms =
+        d.terms > 0 ? (d.terms < pm.d ? d.terms : pm.d) : vdbs_svd_terms_for(&pm, preset.tolerance);
+    vdbs_coarse_frame f;
+    stats->resolution =
+        vdbs_coarse_world_frame(s->volume, d.resolution > 0 ? d.resolution : preset.resolution, &f);
+    const int64_t cells = vdbs_coarse_cells(&f);
+    const int L = s->lights->direct_count;
+    vdbs_medium_box box;
+    int block = (int)floor(f.h / s->volume->mean_voxel_size);
+    st = vdbs_medium_box_build(s->volume, block < 1 ? 1 : block, &box, err);
+    if (st != VDBS_OK) {
+        vdbs_phasemat_free(&pm);
+        return st;
+    }
+    const size_t moment_floats = (size_t)cells * terms * 3;
+    float *sigma = malloc(sizeof *sigma * (size_t)cells);
+    float *direct = calloc((size_t)cells * 3 * (L > 0 ? L : 1), sizeof *direct);
+    float *sky = calloc(moment_floats, sizeof *sky);
+    float *warm = d.warm ? malloc(sizeof *warm * moment_floats) : NULL;
+    float *moments = d.keep ? malloc(sizeof *moments * moment_floats) : NULL;
+    if (d.keep)
+        st = vdbs_svd_moments_alloc(d.keep, pm.d, terms, s->scene->g, s->volume->coord_count, err);
+    vdbs_svd_light *glights = calloc((size_t)(L > 0 ? L : 1), sizeof *glights);
+    double *fluence = calloc(3 * (size_t)cells, sizeof *fluence);
+    double *flux = calloc(9 * (size_t)cells, sizeof *flux);
+    double *values = calloc(VDBS_COARSE_WIDTH * (size_t)cells, sizeof *values);
+    if (st == VDBS_OK && (!sigma || !direct || !sky || (d.warm && !warm) || (d.keep && !moments) ||
+                          !glights || !fluence || !flux || !values))
+        st = vdbs_error_set(err, VDBS_ERR_NOMEM,
+                            "out of memory for the discrete ordinates' %lld cells x %d terms",
+                            (long long)cells, terms);
+    if (st == VDBS_OK) {
+        vdbs_coarse_sigma(&f, s->volume, &box, s->scene->density_scale, sigma);
+        st = light_sources(s, &f, &pm, terms, glights, direct, sky, err);
+        if (warm)
+            moments_from_voxels(s->volume, &f, terms, (const float *const *)d.warm->voxels, warm);
+    }
+    stats->seconds_source = vdbs_now() - t0;
+    if (st == VDBS_OK) {
+        vdbs_svd_grid grid = {{f.n[0], f.n[1], f.n[2]},
+                              f.h,
+                              {f.origin[0], f.origin[1], f.origin[2]},
+                              sigma,
+                              {s->scene->albedo[0], s->scene->albedo[1], s->scene->albedo[2]},
+                              &pm,
+                              terms,
+                              glights,
+                              L,
+                              direct,
+                              sky,
+                              warm};
+        const int resolution = stats->resolution;
+        double t1 = vdbs_now();
+        st = vdbs_svd_solve_grid(s->runner, &grid, &d, fluence, flux, moments, stats, err);
+        stats->resolution = resolution;
+        stats->seconds_solve = vdbs_now() - t1;
+    }
+    if (st == VDBS_OK) {
+        double t2 = vdbs_now();
+        /* DESIGN.md: ms = (1/4pi) int Lms dw, ms_l1 = (3 g / 4pi) int Lms w dw with the medium's
+         * g (the full phase's first moment). */
+        const double l1 = 3.0 * s->scene->g * VDBS_INV_4PI;
+        for (int64_t c = 0; c < cells; ++c)
+            for (int ch = 0; ch < 3; ++ch) {
+                values[VDBS_COARSE_WIDTH * c + VDBS_COARSE_MS + ch] =
+                    fmax(fluence[3 * c + ch], 0.0) * VDBS_INV_4PI;
+                for (int a = 0; a < 3; ++a)
+                    values[VDBS_COARSE_WIDTH * c + VDBS_COARSE_L1 + 3 * a + ch] =
+                        l1 * flux[9 * c + 3 * a + ch];
+            }
+        st = vdbs_coarse_upsample(&f, values, s->volume, &box, s->scene->density_scale, s->ms,
+                                  s->ms_l1, s->radiance, err);
+        if (st == VDBS_OK && moments)
+            moments_to_voxels(s->volume, &f, terms, moments, d.keep->voxels);
+        stats->seconds_upsample = vdbs_now() - t2;
+    }
+    if (st != VDBS_OK && d.keep)
+        vdbs_svd_moments_free(d.keep);
+    vdbs_medium_box_free(&box);
+    vdbs_phasemat_free(&pm);
+    free(sigma);
+    free(direct);
+    free(sky);
+    free(warm);
+    free(moments);
+    free(glights);
+    free(fluence);
+    free(flux);
+    free(values);
+    return st;
+}
