@@ -748,7 +748,8 @@ static vdbs_status run_svd(vdbs_runner *runner, const void *scenario, float *out
             out[0] = (float)fmax(flux[v], 0.0);
             out[1] = (float)fmax(-flux[v], 0.0);
         }
-        for (int v = 0; v < SVD_TERMS * 3 * SVD_CELLS && s->desc.max_iterations == 1; ++v, out += 2) {
+        for (int v = 0; v < SVD_TERMS * 3 * SVD_CELLS && s->desc.max_iterations == 1;
+             ++v, out += 2) {
             out[0] = fmaxf(moments[v], 0.0f);
             out[1] = fmaxf(-moments[v], 0.0f);
         }

@@ -268,6 +268,14 @@ static void test_parse_errors(void **state)
          "scene: solver.fld_limiter: unknown limiter \"auto\""},
         {"{\"solver\": {\"fld_p1\": \"yes\"}}", "scene: solver.fld_p1: unknown value \"yes\""},
         {"{\"solver\": {\"pop_radial\": 9}}", "scene: solver.pop_radial: 9 is odd"},
+        {"{\"solver\": {\"svd_directions\": 1}}",
+         "scene: solver.svd_directions: must be in 2..16384, got 1"},
+        {"{\"solver\": {\"svd_terms\": 0}}", "scene: solver.svd_terms: must be in 1..16384, got 0"},
+        {"{\"solver\": {\"svd_res\": 513}}", "scene: solver.svd_res: must be in 2..512, got 513"},
+        {"{\"solver\": {\"svd_iterations\": 0}}",
+         "scene: solver.svd_iterations: must be in 1..100000, got 0"},
+        {"{\"solver\": {\"svd_residual\": \"small\"}}",
+         "scene: solver.svd_residual: expected a number"},
         {"{\"solver\": {\"pop_importance\": \"yes\"}}",
          "scene: solver.pop_importance: unknown value \"yes\""},
         {"{\"solver\": {\"pop_tally\": \"voxel\"}}",
@@ -398,6 +406,16 @@ static void test_validate_errors(void **state)
     assert_int_equal(vdbs_scene_validate(s, &err), VDBS_ERR_INPUT);
     assert_contains(err.message, "volume.g");
     s->g = 0.0;
+    s->svd_residual = 1.0;
+    assert_int_equal(vdbs_scene_validate(s, &err), VDBS_ERR_INPUT);
+    assert_contains(err.message, "solver.svd_residual");
+    s->svd_residual = 0.0;
+    s->svd_directions = 16;
+    s->svd_terms = 17;
+    assert_int_equal(vdbs_scene_validate(s, &err), VDBS_ERR_INPUT);
+    assert_contains(err.message, "solver.svd_terms");
+    s->svd_terms = 16;
+    assert_int_equal(vdbs_scene_validate(s, &err), VDBS_OK);
     snprintf(s->method, sizeof s->method, "%s", "bogus");
     assert_int_equal(vdbs_scene_validate(s, &err), VDBS_ERR_INPUT);
     assert_contains(err.message, "solver.method");
@@ -452,6 +470,11 @@ static void assert_scene_equal(const vdbs_scene *a, const vdbs_scene *b)
     assert_int_equal(a->fld_limiter_off, b->fld_limiter_off);
     assert_int_equal(a->fld_l1_off, b->fld_l1_off);
     assert_int_equal(a->fld_p1_off, b->fld_p1_off);
+    assert_int_equal(a->svd_directions, b->svd_directions);
+    assert_int_equal(a->svd_terms, b->svd_terms);
+    assert_int_equal(a->svd_resolution, b->svd_resolution);
+    assert_int_equal(a->svd_iterations, b->svd_iterations);
+    assert_true(a->svd_residual == b->svd_residual);
 }
 
 static void round_trip(const vdbs_scene *s)
@@ -512,6 +535,11 @@ static void test_round_trip(void **state)
     s->fld_limiter_off = 1;
     s->fld_l1_off = 1;
     s->fld_p1_off = 1;
+    s->svd_directions = 96;
+    s->svd_terms = 40;
+    s->svd_resolution = 20;
+    s->svd_iterations = 300;
+    s->svd_residual = 1.0 / 3.0;
     round_trip(s);
 
     /* grid names with an index, and with an '@' of their own */
