@@ -136,7 +136,7 @@ VS_FUNC void vs_svd_sweep(VS_DATA_PARAM(vs_uint, svd_params) VS_DATA_PARAM(float
     float st2 = sigma * vs_svd_param_float(VS_DATA_ARG(svd_params) VS_SVD_OFF_EXTINCT + 2);
     int v_at = VS_INT(svd_params[VS_SVD_OFF_TABLE_V]);
     int light_at = VS_INT(svd_params[VS_SVD_OFF_TABLE_LIGHTS]);
-    int out = VS_INT(svd_params[VS_SVD_OFF_STATE_OUT]) + cell * VS_SVD_OUT_WORDS;
+    int record = VS_INT(svd_params[VS_SVD_OFF_STATE_OUT]) + cell * VS_SVD_OUT_WORDS;
     int columns = n0 * n1;
     int plane_at = VS_INT(svd_params[VS_SVD_OFF_STATE_PLANES]);
     int here = plane_at + (plane & 1) * chunk_dirs * columns * 3;
@@ -237,22 +237,22 @@ VS_FUNC void vs_svd_sweep(VS_DATA_PARAM(vs_uint, svd_params) VS_DATA_PARAM(float
             (ip == n0 - 1 ? mx : 0.0f) + (jp == n1 - 1 ? my : 0.0f) + (kp == n2 - 1 ? mz : 0.0f);
         leaked += faces * (l0 + l1 + l2) * dw * area;
     }
-    svd_state[out + VS_SVD_OUT_FLUENCE] += fl0;
-    svd_state[out + VS_SVD_OUT_FLUENCE + 1] += fl1;
-    svd_state[out + VS_SVD_OUT_FLUENCE + 2] += fl2;
-    svd_state[out + VS_SVD_OUT_FLUX] += fx0;
-    svd_state[out + VS_SVD_OUT_FLUX + 1] += fx1;
-    svd_state[out + VS_SVD_OUT_FLUX + 2] += fx2;
-    svd_state[out + VS_SVD_OUT_FLUX + 3] += fy0;
-    svd_state[out + VS_SVD_OUT_FLUX + 4] += fy1;
-    svd_state[out + VS_SVD_OUT_FLUX + 5] += fy2;
-    svd_state[out + VS_SVD_OUT_FLUX + 6] += fz0;
-    svd_state[out + VS_SVD_OUT_FLUX + 7] += fz1;
-    svd_state[out + VS_SVD_OUT_FLUX + 8] += fz2;
-    svd_state[out + VS_SVD_OUT_SOURCE] += emitted;
-    svd_state[out + VS_SVD_OUT_COLLIDE] += collided;
-    svd_state[out + VS_SVD_OUT_LEAK] += leaked;
-    svd_state[out + VS_SVD_OUT_CLAMPED] += clamped;
+    svd_state[record + VS_SVD_OUT_FLUENCE] += fl0;
+    svd_state[record + VS_SVD_OUT_FLUENCE + 1] += fl1;
+    svd_state[record + VS_SVD_OUT_FLUENCE + 2] += fl2;
+    svd_state[record + VS_SVD_OUT_FLUX] += fx0;
+    svd_state[record + VS_SVD_OUT_FLUX + 1] += fx1;
+    svd_state[record + VS_SVD_OUT_FLUX + 2] += fx2;
+    svd_state[record + VS_SVD_OUT_FLUX + 3] += fy0;
+    svd_state[record + VS_SVD_OUT_FLUX + 4] += fy1;
+    svd_state[record + VS_SVD_OUT_FLUX + 5] += fy2;
+    svd_state[record + VS_SVD_OUT_FLUX + 6] += fz0;
+    svd_state[record + VS_SVD_OUT_FLUX + 7] += fz1;
+    svd_state[record + VS_SVD_OUT_FLUX + 8] += fz2;
+    svd_state[record + VS_SVD_OUT_SOURCE] += emitted;
+    svd_state[record + VS_SVD_OUT_COLLIDE] += collided;
+    svd_state[record + VS_SVD_OUT_LEAK] += leaked;
+    svd_state[record + VS_SVD_OUT_CLAMPED] += clamped;
 }
 
 #endif

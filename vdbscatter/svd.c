@@ -77,6 +77,25 @@ void vdbs_svd_moments_free(vdbs_svd_moments *m)
     memset(m, 0, sizeof *m);
 }
 
+vdbs_status vdbs_svd_warm_check(const vdbs_svd_moments *warm, int directions, int terms, double g,
+                                vdbs_error *err)
+{
+    if (!warm)
+        return VDBS_OK;
+    if (directions > 0 && directions != warm->directions)
+        return vdbs_error_set(err, VDBS_ERR_INPUT,
+                              "--warm-start holds moments for %d directions, not %d",
+                              warm->directions, directions);
+    if (terms > 0 && terms != warm->terms)
+        return vdbs_error_set(err, VDBS_ERR_INPUT, "--warm-start holds %d terms, not %d",
+                              warm->terms, terms);
+    if (g != warm->g)
+        return vdbs_error_set(err, VDBS_ERR_INPUT,
+                              "--warm-start was solved for g = %g, this medium has g = %g", warm->g,
+                              g);
+    return VDBS_OK;
+}
+
 /* ---- the sweep through the runner ---- */
 
 typedef struct svd_kernel {
@@ -528,17 +547,9 @@ vdbs_status vdbs_svd_solve(const vdbs_solve *s, const vdbs_svd_desc *desc, vdbs_
     vdbs_svd_desc d = desc ? *desc : (vdbs_svd_desc){0};
     vdbs_svd_preset preset;
     vdbs_svd_quality(s->quality ? s->quality->name : NULL, &preset);
-    if (d.warm && d.directions > 0 && d.directions != d.warm->directions)
-        return vdbs_error_set(err, VDBS_ERR_INPUT,
-                              "--warm-start holds moments for %d directions, not %d",
-                              d.warm->directions, d.directions);
-    if (d.warm && d.terms > 0 && d.terms != d.warm->terms)
-        return vdbs_error_set(err, VDBS_ERR_INPUT, "--warm-start holds %d terms, not %d",
-                              d.warm->terms, d.terms);
-    if (d.warm && d.warm->g != s->scene->g)
-        return vdbs_error_set(err, VDBS_ERR_INPUT,
-                              "--warm-start was solved for g = %g, this medium has g = %g",
-                              d.warm->g, s->scene->g);
+    vdbs_status st = vdbs_svd_warm_check(d.warm, d.directions, d.terms, s->scene->g, err);
+    if (st != VDBS_OK)
+        return st;
     if (d.warm) {
         d.directions = d.warm->directions;
         d.terms = d.warm->terms;
@@ -550,7 +561,7 @@ vdbs_status vdbs_svd_solve(const vdbs_solve *s, const vdbs_svd_desc *desc, vdbs_
     double t0 = vdbs_now();
     vdbs_phasemat pm;
     vdbs_phasemat_desc pdesc = {d.directions, s->scene->g, d.delta_m};
-    vdbs_status st = vdbs_phasemat_build(&pdesc, &pm, err);
+    st = vdbs_phasemat_build(&pdesc, &pm, err);
     if (st != VDBS_OK)
         return st;
     const int terms =

@@ -62,6 +62,10 @@ typedef struct vdbs_svd_moments {
 vdbs_status vdbs_svd_moments_alloc(vdbs_svd_moments *m, int directions, int terms, double g,
                                    size_t voxels, vdbs_error *err);
 void vdbs_svd_moments_free(vdbs_svd_moments *m);
+/* Whether a warm start fits a solve asking for D directions and N terms (0: any) with the
+ * medium's g. Errors (VDBS_ERR_INPUT) name --warm-start. */
+vdbs_status vdbs_svd_warm_check(const vdbs_svd_moments *warm, int directions, int terms, double g,
+                                vdbs_error *err);
 
 /* What a quality chooses. */
 typedef struct vdbs_svd_preset {
