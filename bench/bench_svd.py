@@ -87,12 +87,12 @@ def accuracy(b, lines, curves):
     lines += ["## Accuracy against the reference", "",
               "Error: relative RMSE of the baked image (render --mode baked) against a "
               f"{b.args.ref_seconds:g} s reference; C path; residual 1e-3 unless said.", ""]
-    sweeps = [("D (N = D, res 24)", [["--svd-directions", str(d), "--svd-res", "24"]
-                                     for d in (16, 32, 64, 128, 256)]),
+    sweeps = [("D (N = D, res 24)", [["--svd-directions", str(d), "--svd-terms", str(d),
+                                      "--svd-res", "24"] for d in (16, 32, 64, 128, 256)]),
               ("N (D 128, res 24)", [["--svd-directions", "128", "--svd-terms", str(n),
                                       "--svd-res", "24"] for n in (2, 4, 8, 16, 32, 64, 128)]),
-              ("res (D 64, N = D)", [["--svd-directions", "64", "--svd-res", str(r)]
-                                     for r in (8, 12, 16, 24, 32, 48)])]
+              ("res (D 64, N = D)", [["--svd-directions", "64", "--svd-terms", "64",
+                                      "--svd-res", str(r)] for r in (8, 12, 16, 24, 32, 48)])]
     for scene in ("sphere", "cloud"):
         lines += [f"### {scene}", ""] + SVD_HEADER
         for family, cases in sweeps:
