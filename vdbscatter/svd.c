@@ -370,7 +370,10 @@ static double discrete_norm(const vdbs_phasemat *pm, const double travel[3])
 
 /* The scaled problem's first scattering of light `light`, per cell and channel (power per
  * volume): every output voxel's sigma_s* E T* times its volume, splatted into the cells
- * (vdbs_coarse_splat keeps the total), T* = exp(-(1 - f albedo) tau) from the light grid. */
+ * (vdbs_coarse_splat keeps the total), T* = exp(-(1 - f albedo) tau) from the light grid.
+ * With delta-M the scaled beam also carries the light scattered only into the forward peak,
+ * E (T* - T): it has scattered, so it is Sms's (DESIGN.md), and it is added to ms, ms_l1 and
+ * radiance at the voxels themselves, a collimated beam along the light's travel. */
 static vdbs_status first_scattering(const vdbs_solve *s, const vdbs_coarse_frame *f,
                                     const vdbs_phasemat *pm, int light, float *depth, double *acc,
                                     vdbs_error *err)
@@ -391,21 +394,28 @@ static vdbs_status first_scattering(const vdbs_solve *s, const vdbs_coarse_frame
     pnanovdb_buf_t buf = pnanovdb_make_buf(volume->nano, volume->nano_size / 4);
     pnanovdb_readaccessor_t a = vs_density_accessor(buf);
     const double scale = vdbs_volume_voxel_volume(volume) / (f->h * f->h * f->h);
+    const double l1 = 3.0 * s->scene->g * VDBS_INV_4PI;
     for (size_t n = 0; n < volume->coord_count; ++n) {
         const int32_t *c = volume->coords + 3 * n;
         double density = vs_density_voxel(buf, &a, vs_coord(c[0], c[1], c[2]));
-        if (!(density > 0.0))
-            continue;
         double idx[3] = {c[0], c[1], c[2]}, w[3], color[3], travel[3], q[3];
         vdbs_volume_world_point(volume, idx, w);
         vdbs_lights_arrival(s->lights, light, w, color, travel);
         const double sigma_t = s->scene->density_scale * density;
         for (int ch = 0; ch < 3; ++ch) {
             const double albedo = s->scene->albedo[ch];
-            q[ch] = (1.0 - pm->f) * albedo * sigma_t * color[ch] *
-                    exp(-(1.0 - pm->f * albedo) * (double)depth[n]);
+            const double scaled = exp(-(1.0 - pm->f * albedo) * (double)depth[n]);
+            q[ch] = (1.0 - pm->f) * albedo * sigma_t * color[ch] * scaled;
+            if (pm->f > 0.0) {
+                const double peak = color[ch] * (scaled - exp(-(double)depth[n]));
+                s->ms[3 * n + ch] += (float)(peak * VDBS_INV_4PI);
+                s->radiance[3 * n + ch] += (float)(peak * VDBS_INV_4PI);
+                for (int ax = 0; ax < 3; ++ax)
+                    s->ms_l1[ax][3 * n + ch] += (float)(l1 * peak * travel[ax]);
+            }
         }
-        vdbs_coarse_splat(f, acc, 3, w, q, scale);
+        if (density > 0.0)
+            vdbs_coarse_splat(f, acc, 3, w, q, scale);
     }
     return VDBS_OK;
 }
