@@ -23,12 +23,6 @@ static int teardown(void **state)
 }
 
 static uint64_t rng_state = 0x2545f4914f6cdd1dull;
-static double uniform(void)
-{
-    rng_state = rng_state * 6364136223846793005ull + 1442695040888963407ull;
-    return (double)(rng_state >> 11) * 0x1.0p-53;
-}
-
 static int64_t cell_of(const int n[3], int i, int j, int k)
 {
     return ((int64_t)k * n[1] + j) * n[0] + i;
@@ -88,14 +82,15 @@ static void energy_medium(float *sigma, double *source)
                 int64_t c = cell_of(n, i, j, k);
                 double r2 =
                     (i - 12.0) * (i - 12.0) + (j - 6.0) * (j - 6.0) + (k - 14.0) * (k - 14.0);
-                double s = 0.5 + 7.5 * uniform();
-                if (r2 < 12.0 || uniform() < 0.15)
+                double s = 0.5 + 7.5 * test_uniform(&rng_state);
+                if (r2 < 12.0 || test_uniform(&rng_state) < 0.15)
                     s = 0.0;
                 sigma[c] = (float)s;
                 int box = (i < 5 && j < 6 && k < 7) || (i >= 8 && i < 11 && j >= 9 && k >= 18) ||
                           (i >= 15 && j >= 3 && j < 7 && k >= 4 && k < 9);
                 for (int ch = 0; ch < 3; ++ch)
-                    source[3 * c + ch] = box ? (1.0 + 0.5 * ch) * (0.2 + uniform()) : 0.0;
+                    source[3 * c + ch] =
+                        box ? (1.0 + 0.5 * ch) * (0.2 + test_uniform(&rng_state)) : 0.0;
             }
 }
 

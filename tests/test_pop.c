@@ -80,12 +80,6 @@ typedef struct grid {
 } grid;
 
 static uint64_t rng_state = 0x9e3779b97f4a7c15ull;
-static double uniform(void)
-{
-    rng_state = rng_state * 6364136223846793005ull + 1442695040888963407ull;
-    return (double)(rng_state >> 11) * 0x1.0p-53;
-}
-
 static double cdf_closed(double m, double a)
 {
     if (a == 0.0)
@@ -179,10 +173,10 @@ static void grid_random(grid *g, double albedo, double gg, int paper)
     g->albedo[1] = albedo * 0.9;
     g->albedo[2] = albedo * 0.8;
     for (size_t c = 0; c < cells; ++c) {
-        g->sigma[c] = uniform() < 0.2 ? 0.0 : 4.0 * uniform();
+        g->sigma[c] = test_uniform(&rng_state) < 0.2 ? 0.0 : 4.0 * test_uniform(&rng_state);
         for (int ch = 0; ch < 3; ++ch) {
-            g->l[3 * c + ch] = uniform() < 0.3 ? uniform() : 0.0;
-            g->a[3 * c + ch] = -0.3 + 1.25 * uniform();
+            g->l[3 * c + ch] = test_uniform(&rng_state) < 0.3 ? test_uniform(&rng_state) : 0.0;
+            g->a[3 * c + ch] = -0.3 + 1.25 * test_uniform(&rng_state);
             g->acc_l[3 * c + ch] = 0.5 * g->l[3 * c + ch];
             g->acc_la[3 * c + ch] = 0.5 * g->l[3 * c + ch] * g->a[3 * c + ch];
         }
@@ -373,11 +367,12 @@ static double radial_balance(int shells, int compensate, int iterations, double 
     double seeded = 0.0;
     for (int64_t c = 0; c < cells; ++c) {
         area[c] = vdbs_radial_cell_area(&f, c);
-        sigma[c] = uniform() < 0.2 ? 0.0f : (float)(4.0 * uniform());
+        sigma[c] = test_uniform(&rng_state) < 0.2 ? 0.0f : (float)(4.0 * test_uniform(&rng_state));
         for (int ch = 0; ch < 3; ++ch) {
             float *cell = st + c * VS_POP_STATE_WORDS;
-            cell[VS_POP_STATE_L + ch] = uniform() < 0.3 ? (float)uniform() : 0.0f;
-            cell[VS_POP_STATE_A + ch] = (float)(-0.6 + 1.55 * uniform());
+            cell[VS_POP_STATE_L + ch] =
+                test_uniform(&rng_state) < 0.3 ? (float)test_uniform(&rng_state) : 0.0f;
+            cell[VS_POP_STATE_A + ch] = (float)(-0.6 + 1.55 * test_uniform(&rng_state));
             seeded += cell[VS_POP_STATE_L + ch] * area[c];
         }
     }

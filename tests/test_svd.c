@@ -24,12 +24,6 @@ static int teardown(void **state)
 }
 
 static uint64_t rng_state = 0x9e3779b97f4a7c15ull;
-static double uniform(void)
-{
-    rng_state = rng_state * 6364136223846793005ull + 1442695040888963407ull;
-    return (double)(rng_state >> 11) * 0x1.0p-53;
-}
-
 /* A problem that owns its arrays. */
 typedef struct problem {
     vdbs_svd_grid grid;
@@ -70,12 +64,14 @@ static void heterogeneous(problem *p, int n, int directions, int terms, double g
     assert_non_null(p->direct);
     assert_non_null(p->sky);
     for (size_t c = 0; c < cells; ++c) {
-        p->sigma[c] = uniform() < 0.1 ? 0.0f : (float)(30.0 * uniform());
+        p->sigma[c] =
+            test_uniform(&rng_state) < 0.1 ? 0.0f : (float)(30.0 * test_uniform(&rng_state));
         for (int v = 0; v < 6; ++v)
-            p->direct[6 * c + v] = (float)(uniform() * p->sigma[c]);
+            p->direct[6 * c + v] = (float)(test_uniform(&rng_state) * p->sigma[c]);
         for (int k = 0; k < terms; ++k)
             for (int ch = 0; ch < 3; ++ch)
-                p->sky[(c * terms + k) * 3 + ch] = (float)(0.2 * (uniform() - 0.3) * p->sigma[c]);
+                p->sky[(c * terms + k) * 3 + ch] =
+                    (float)(0.2 * (test_uniform(&rng_state) - 0.3) * p->sigma[c]);
     }
     p->lights[0] = (vdbs_svd_light){0, {0.48, -0.8, 0.36}};
     p->lights[1] = (vdbs_svd_light){1, {-0.3, 0.25, 1.2}};

@@ -94,6 +94,12 @@ vdbs_status test_single_scatter(vdbs_runner *runner, const vdbs_volume *volume,
     return st;
 }
 
+double test_uniform(uint64_t *state)
+{
+    *state = *state * 6364136223846793005ull + 1442695040888963407ull;
+    return (double)(*state >> 11) * 0x1.0p-53;
+}
+
 float *test_twin(const char *label, test_twin_fn run, const void *scenario, size_t n)
 {
     float *out[2];

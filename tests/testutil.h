@@ -54,6 +54,9 @@ vdbs_status test_single_scatter(vdbs_runner *runner, const vdbs_volume *volume,
  * with more than half the values compared. Returns the C output (the caller frees it). */
 typedef vdbs_status (*test_twin_fn)(vdbs_runner *runner, const void *scenario, float *out,
                                     vdbs_error *err);
+/* The next value in [0, 1) of a 64-bit LCG (state updated): fixed pseudo-random inputs. */
+double test_uniform(uint64_t *state);
+
 float *test_twin(const char *label, test_twin_fn run, const void *scenario, size_t n);
 
 /* n-point Gauss-Legendre nodes x and weights w on [a, b] (Newton on the Legendre recurrence,

@@ -4,6 +4,8 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "vdbs_math.h"
+
 #define PNANOVDB_C
 #include <nanovdb/PNanoVDB.h>
 
@@ -171,6 +173,20 @@ void vdbs_coarse_sample(const vdbs_coarse_frame *f, const float *values, int wid
     for (int c = 0; c < 8; ++c)
         for (int v = 0; w[c] != 0.0 && v < width; ++v)
             out[v] += w[c] * (double)values[at[c] * width + v];
+}
+
+void vdbs_coarse_ms_values(int64_t cells, const double *phi, const double *flux, double g,
+                           double *values)
+{
+    const double l1 = 3.0 * g * VDBS_INV_4PI;
+    for (int64_t c = 0; c < cells; ++c)
+        for (int ch = 0; ch < 3; ++ch) {
+            values[VDBS_COARSE_WIDTH * c + VDBS_COARSE_MS + ch] =
+                fmax(phi[3 * c + ch], 0.0) * VDBS_INV_4PI;
+            for (int a = 0; a < 3; ++a)
+                values[VDBS_COARSE_WIDTH * c + VDBS_COARSE_L1 + 3 * a + ch] =
+                    flux ? l1 * flux[9 * c + 3 * a + ch] : 0.0;
+        }
 }
 
 vdbs_status vdbs_coarse_upsample(const vdbs_coarse_frame *f, const double *values,

@@ -843,15 +843,7 @@ vdbs_status vdbs_fld_solve(const vdbs_solve *s, const vdbs_fld_desc *desc, vdbs_
     }
     if (st == VDBS_OK) {
         double t2 = vdbs_now();
-        const double l1 = 3.0 * s->scene->g * VDBS_INV_4PI;
-        for (int64_t c = 0; c < cells; ++c)
-            for (int ch = 0; ch < 3; ++ch) {
-                values[VDBS_COARSE_WIDTH * c + VDBS_COARSE_MS + ch] =
-                    fmax(phi[3 * c + ch], 0.0) * VDBS_INV_4PI;
-                for (int a = 0; flux && a < 3; ++a)
-                    values[VDBS_COARSE_WIDTH * c + VDBS_COARSE_L1 + 3 * a + ch] =
-                        l1 * flux[9 * c + 3 * a + ch];
-            }
+        vdbs_coarse_ms_values(cells, phi, flux, s->scene->g, values);
         st = vdbs_coarse_upsample(&f, values, s->volume, &box, s->scene->density_scale, s->ms,
                                   s->ms_l1, s->radiance, err);
         stats->seconds_upsample = vdbs_now() - t2;

@@ -633,17 +633,8 @@ vdbs_status vdbs_svd_solve(const vdbs_solve *s, const vdbs_svd_desc *desc, vdbs_
     }
     if (st == VDBS_OK) {
         double t2 = vdbs_now();
-        /* DESIGN.md: ms = (1/4pi) int Lms dw, ms_l1 = (3 g / 4pi) int Lms w dw with the medium's
-         * g (the full phase's first moment). */
-        const double l1 = 3.0 * s->scene->g * VDBS_INV_4PI;
-        for (int64_t c = 0; c < cells; ++c)
-            for (int ch = 0; ch < 3; ++ch) {
-                values[VDBS_COARSE_WIDTH * c + VDBS_COARSE_MS + ch] =
-                    fmax(fluence[3 * c + ch], 0.0) * VDBS_INV_4PI;
-                for (int a = 0; a < 3; ++a)
-                    values[VDBS_COARSE_WIDTH * c + VDBS_COARSE_L1 + 3 * a + ch] =
-                        l1 * flux[9 * c + 3 * a + ch];
-            }
+        /* DESIGN.md's ms and ms_l1 with the medium's g (the full phase's first moment). */
+        vdbs_coarse_ms_values(cells, fluence, flux, s->scene->g, values);
         st = vdbs_coarse_upsample(&f, values, s->volume, &box, s->scene->density_scale, s->ms,
                                   s->ms_l1, s->radiance, err);
         if (st == VDBS_OK && moments)
