@@ -115,7 +115,7 @@ vdbs_status vdbs_single_scatter_grids(vdbs_runner *runner, const vdbs_volume *vo
                                       vdbs_s1_stats *stats, vdbs_progress *progress,
                                       vdbs_error *err)
 {
-    vdbs_s1_outputs out = {radiance, NULL, NULL};
+    vdbs_s1_outputs out = {radiance, NULL, NULL, NULL, NULL};
     return vdbs_single_scatter_grids_out(runner, volume, scene, lights, grids, &out, stats,
                                          progress, err);
 }
@@ -158,6 +158,8 @@ vdbs_status vdbs_single_scatter_grids_out(vdbs_runner *runner, const vdbs_volume
         st = vdbs_light_grids_lookup_voxels(runner, volume, &set, 0, depth, err);
         if (st == VDBS_OK)
             add_light(volume, lights, d, depth, scene->g, wo, fluence, view, flux);
+        if (st == VDBS_OK && out->light_depth)
+            out->light_depth(out->light_user, d, depth);
         stats->seconds_lookup += omp_get_wtime() - t0;
         stats->grids.cells += set.stats.cells;
         stats->grids.columns += set.stats.columns;

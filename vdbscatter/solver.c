@@ -29,20 +29,23 @@ int vdbs_quality_sky_directions(const char *name)
     return q ? q->sky_directions : 0;
 }
 
-/* S1 into radiance (and toward the camera), and with flux the unscattered light's net flux
- * (vdbs_s1_outputs). */
-static vdbs_status run_s1(const vdbs_solve *s, float *flux, vdbs_error *err)
+/* S1 into radiance (and toward the camera), with flux the unscattered light's net flux and
+ * with light_depth every light's optical depth (vdbs_s1_outputs). */
+static vdbs_status run_s1(const vdbs_solve *s, float *flux,
+                          void (*light_depth)(void *, int, const float *), void *light_user,
+                          vdbs_error *err)
 {
-    vdbs_s1_outputs out = {s->radiance, s->radiance_view, flux};
+    vdbs_s1_outputs out = {s->radiance, s->radiance_view, flux, light_depth, light_user};
     if (s->s1_grids)
         return vdbs_single_scatter_grids_out(s->runner, s->volume, s->scene, s->lights, s->s1_grids,
                                              &out, s->s1_stats, s->progress, err);
     vdbs_status st = vdbs_single_scatter(s->runner, s->volume, s->scene, s->lights, s->radiance,
                                          s->progress, err);
-    if (st != VDBS_OK || (!s->radiance_view && !flux))
+    if (st != VDBS_OK || (!s->radiance_view && !flux && !light_depth))
         return st;
-    /* The march has no per-light output: S1 toward the camera and the flux come from light
-     * grids at their default oversampling (a second S1 pass; README "radiance_view"). */
+    /* The march has no per-light output: S1 toward the camera, the flux and the lights' depths
+     * come from light grids at their default oversampling (a second S1 pass; README
+     * "radiance_view"). */
     vdbs_light_grid_desc grids = {0};
     out.radiance = NULL;
     return vdbs_single_scatter_grids_out(s->runner, s->volume, s->scene, s->lights, &grids, &out,
@@ -52,7 +55,7 @@ static vdbs_status run_s1(const vdbs_solve *s, float *flux, vdbs_error *err)
 /* Single scattering only; ms and its moments stay 0. */
 static vdbs_status run_single(const vdbs_solve *s, vdbs_error *err)
 {
-    return run_s1(s, NULL, err);
+    return run_s1(s, NULL, NULL, NULL, err);
 }
 
 /* Exact S1, then POP's multiple scattering from suns and skies. */
@@ -88,7 +91,7 @@ static vdbs_status run_fld(const vdbs_solve *s, vdbs_error *err)
                                   "out of memory for the S1 flux of %zu voxels",
                                   s->volume->coord_count);
     }
-    vdbs_status st = run_s1(s, flux, err);
+    vdbs_status st = run_s1(s, flux, NULL, NULL, err);
     if (st == VDBS_OK) {
         vdbs_fld_desc desc = {0};
         desc.resolution = s->scene->fld_resolution;
@@ -104,12 +107,10 @@ static vdbs_status run_fld(const vdbs_solve *s, vdbs_error *err)
     return st;
 }
 
-/* Exact S1, then discrete ordinates with the factored phase on the first-scattered light. */
+/* Exact S1, then discrete ordinates with the factored phase on the first-scattered light,
+ * which comes from the S1 pass's own light grids. */
 static vdbs_status run_svd(const vdbs_solve *s, vdbs_error *err)
 {
-    vdbs_status st = run_single(s, err);
-    if (st != VDBS_OK)
-        return st;
     vdbs_svd_desc desc = {0};
     desc.directions = s->scene->svd_directions;
     desc.terms = s->scene->svd_terms;
@@ -118,10 +119,13 @@ static vdbs_status run_svd(const vdbs_solve *s, vdbs_error *err)
     desc.max_iterations = s->scene->svd_iterations;
     desc.warm = s->svd_warm;
     desc.keep = s->svd_keep;
-    vdbs_svd_stats stats;
-    st = vdbs_svd_solve(s, &desc, &stats, err);
-    if (s->svd_stats)
-        *s->svd_stats = stats;
+    vdbs_svd_run *run = NULL;
+    vdbs_status st = vdbs_svd_begin(s, &desc, &run, err);
+    if (st == VDBS_OK)
+        st = run_s1(s, NULL, vdbs_svd_light_depth, run, err);
+    if (st == VDBS_OK)
+        st = vdbs_svd_finish(run, s->svd_stats, err);
+    vdbs_svd_end(run);
     return st;
 }
 

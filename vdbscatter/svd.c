@@ -368,123 +368,115 @@ static double discrete_norm(const vdbs_phasemat *pm, const double travel[3])
     return sum * 4.0 * VDBS_PI / pm->d;
 }
 
-/* The scaled problem's first scattering of light `light`, per cell and channel (power per
- * volume): every output voxel's sigma_s* E T* times its volume, splatted into the cells
- * (vdbs_coarse_splat keeps the total), T* = exp(-(1 - f albedo) tau) from the light grid.
- * With delta-M the scaled beam also carries the light scattered only into the forward peak,
- * E (T* - T): it has scattered, so it is Sms's (DESIGN.md), and it is added to ms, ms_l1 and
- * radiance at the voxels themselves, a collimated beam along the light's travel. */
-static vdbs_status first_scattering(const vdbs_solve *s, const vdbs_coarse_frame *f,
-                                    const vdbs_phasemat *pm, int light, float *depth, double *acc,
-                                    vdbs_error *err)
+/* A bake's discrete-ordinates solve between vdbs_svd_begin and vdbs_svd_end. */
+struct vdbs_svd_run {
+    const vdbs_solve *s;
+    vdbs_svd_desc desc;
+    vdbs_svd_stats stats;
+    double t0;
+    vdbs_phasemat pm;
+    int terms;
+    vdbs_coarse_frame f;
+    int64_t cells;
+    vdbs_medium_box box;
+    float *sigma, *direct, *sky, *warm, *moments;
+    vdbs_svd_light *lights;
+    float *density;  /* per output voxel */
+    double *scatter; /* 3 per output voxel: one light's sigma_s* E T* */
+    double *acc;     /* 3 per cell: the same splatted */
+    double *project; /* N: a sky ordinate's emission projected on the v_k */
+    double *fluence, *flux, *values;
+};
+
+/* One light's first scattering in the scaled problem, from the optical depth toward it at
+ * every output voxel (the S1 pass's light grids, vdbs_s1_outputs.light_depth): per voxel
+ * sigma_s* E T*, T* = exp(-(1 - f albedo) tau), times its volume, splatted into the cells
+ * (vdbs_coarse_splat keeps the total); a direct light keeps it per cell over its discrete
+ * normalisation (vs_svd.h), a sky ordinate's emission is projected on the v_k. With delta-M
+ * the scaled beam also carries the light scattered only into the forward peak, E (T* - T):
+ * it has scattered, so it is Sms's (DESIGN.md), and it goes into ms and ms_l1 at the voxels
+ * themselves, a collimated beam along the light's travel (vdbs_svd_finish adds ms to
+ * radiance). */
+void vdbs_svd_light_depth(void *user, int light, const float *depth)
 {
+    vdbs_svd_run *r = user;
+    const vdbs_solve *s = r->s;
     const vdbs_volume *volume = s->volume;
-    vdbs_light_grid_desc gdesc = {0};
-    if (s->s1_grids)
-        gdesc = *s->s1_grids;
-    vdbs_light_grids set;
-    vdbs_status st =
-        vdbs_light_grids_build(s->runner, volume, s->scene, s->lights, light, 1, &gdesc, &set, err);
-    if (st != VDBS_OK)
-        return st;
-    st = vdbs_light_grids_lookup_voxels(s->runner, volume, &set, 0, depth, err);
-    vdbs_light_grids_free(&set);
-    if (st != VDBS_OK)
-        return st;
-    pnanovdb_buf_t buf = pnanovdb_make_buf(volume->nano, volume->nano_size / 4);
-    pnanovdb_readaccessor_t a = vs_density_accessor(buf);
-    const double scale = vdbs_volume_voxel_volume(volume) / (f->h * f->h * f->h);
+    const vdbs_phasemat *pm = &r->pm;
     const double l1 = 3.0 * s->scene->g * VDBS_INV_4PI;
-    for (size_t n = 0; n < volume->coord_count; ++n) {
+    const int64_t count = (int64_t)volume->coord_count;
+#pragma omp parallel for schedule(static)
+    for (int64_t n = 0; n < count; ++n) {
         const int32_t *c = volume->coords + 3 * n;
-        double density = vs_density_voxel(buf, &a, vs_coord(c[0], c[1], c[2]));
-        double idx[3] = {c[0], c[1], c[2]}, w[3], color[3], travel[3], q[3];
+        double idx[3] = {c[0], c[1], c[2]}, w[3], color[3], travel[3];
         vdbs_volume_world_point(volume, idx, w);
         vdbs_lights_arrival(s->lights, light, w, color, travel);
-        const double sigma_t = s->scene->density_scale * density;
+        const double sigma_t = s->scene->density_scale * r->density[n];
         for (int ch = 0; ch < 3; ++ch) {
             const double albedo = s->scene->albedo[ch];
             const double scaled = exp(-(1.0 - pm->f * albedo) * (double)depth[n]);
-            q[ch] = (1.0 - pm->f) * albedo * sigma_t * color[ch] * scaled;
+            r->scatter[3 * n + ch] = (1.0 - pm->f) * albedo * sigma_t * color[ch] * scaled;
             if (pm->f > 0.0) {
                 const double peak = color[ch] * (scaled - exp(-(double)depth[n]));
                 s->ms[3 * n + ch] += (float)(peak * VDBS_INV_4PI);
-                s->radiance[3 * n + ch] += (float)(peak * VDBS_INV_4PI);
                 for (int ax = 0; ax < 3; ++ax)
                     s->ms_l1[ax][3 * n + ch] += (float)(l1 * peak * travel[ax]);
             }
         }
-        if (density > 0.0)
-            vdbs_coarse_splat(f, acc, 3, w, q, scale);
     }
-    return VDBS_OK;
-}
-
-/* The lights' first scattering on the grid: per cell and direct light its power over the
- * discrete normalisation (vs_svd.h), and the sky ordinates' projected on the v_k. */
-static vdbs_status light_sources(const vdbs_solve *s, const vdbs_coarse_frame *f,
-                                 const vdbs_phasemat *pm, int terms, vdbs_svd_light *glights,
-                                 float *direct, float *sky, vdbs_error *err)
-{
-    const int64_t cells = vdbs_coarse_cells(f);
-    const vdbs_light_table *lt = s->lights;
-    const int total = lt->direct_count + lt->ordinate_count, L = lt->direct_count;
-    float *depth = malloc(sizeof *depth * (s->volume->coord_count ? s->volume->coord_count : 1));
-    double *acc = malloc(sizeof *acc * 3 * (size_t)cells);
-    double *project = malloc(sizeof *project * (size_t)terms);
-    vdbs_status st = VDBS_OK;
-    if (!depth || !acc || !project)
-        st = vdbs_error_set(err, VDBS_ERR_NOMEM, "out of memory for the lights' first scattering");
-    for (int light = 0; light < total && st == VDBS_OK; ++light) {
-        memset(acc, 0, sizeof *acc * 3 * (size_t)cells);
-        st = first_scattering(s, f, pm, light, depth, acc, err);
-        if (st != VDBS_OK)
-            break;
-        if (light < L) {
-            const vdbs_direct_light *dl = &lt->direct[light];
-            glights[light].point = dl->type == VDBS_LIGHT_POINT;
-            memcpy(glights[light].vec, dl->world, sizeof glights[light].vec);
-            double travel[3], color[3], norm = 0.0;
-            for (int64_t c = 0; c < cells; ++c) {
-                if (c == 0 || glights[light].point) {
-                    double centre[3];
-                    vdbs_coarse_cell_centre(f, c, centre);
-                    vdbs_lights_arrival(lt, light, centre, color, travel);
-                    norm = discrete_norm(pm, travel);
-                }
-                for (int ch = 0; ch < 3; ++ch)
-                    direct[((size_t)c * L + light) * 3 + ch] =
-                        norm > 0.0 ? (float)(acc[3 * c + ch] / norm) : 0.0f;
-            }
+    const double scale = vdbs_volume_voxel_volume(volume) / (r->f.h * r->f.h * r->f.h);
+    memset(r->acc, 0, sizeof *r->acc * 3 * (size_t)r->cells);
+    for (int64_t n = 0; n < count; ++n) {
+        if (!(r->density[n] > 0.0f))
             continue;
-        }
-        /* A sky ordinate: its emission HG(g*, travel . w_d) / norm projected on every v_k. */
-        double travel[3], color[3], centre[3] = {0.0, 0.0, 0.0};
-        vdbs_lights_arrival(lt, light, centre, color, travel);
-        const double norm = discrete_norm(pm, travel);
-        pnanovdb_vec3_t t = vs_vec3((float)travel[0], (float)travel[1], (float)travel[2]);
-        memset(project, 0, sizeof *project * (size_t)terms);
-        for (int d = 0; d < pm->d; ++d) {
-            const double *w = pm->dirs + 3 * d;
-            double p =
-                vs_hg_dirs((float)pm->g_scaled, t, vs_vec3((float)w[0], (float)w[1], (float)w[2])) /
-                norm;
-            for (int k = 0; k < terms; ++k)
-                project[k] += pm->eigvec[(size_t)d * pm->d + k] * p;
-        }
-#pragma omp parallel for schedule(static)
-        for (int64_t c = 0; c < cells; ++c) {
-            if (acc[3 * c] == 0.0 && acc[3 * c + 1] == 0.0 && acc[3 * c + 2] == 0.0)
-                continue;
-            for (int k = 0; k < terms; ++k)
-                for (int ch = 0; ch < 3; ++ch)
-                    sky[((size_t)c * terms + k) * 3 + ch] += (float)(acc[3 * c + ch] * project[k]);
-        }
+        const int32_t *c = volume->coords + 3 * n;
+        double idx[3] = {c[0], c[1], c[2]}, w[3];
+        vdbs_volume_world_point(volume, idx, w);
+        vdbs_coarse_splat(&r->f, r->acc, 3, w, r->scatter + 3 * n, scale);
     }
-    free(depth);
-    free(acc);
-    free(project);
-    return st;
+    const vdbs_light_table *lt = s->lights;
+    const int L = lt->direct_count, terms = r->terms;
+    if (light < L) {
+        const vdbs_direct_light *dl = &lt->direct[light];
+        r->lights[light].point = dl->type == VDBS_LIGHT_POINT;
+        memcpy(r->lights[light].vec, dl->world, sizeof r->lights[light].vec);
+        double travel[3], color[3], norm = 0.0;
+        for (int64_t c = 0; c < r->cells; ++c) {
+            if (c == 0 || r->lights[light].point) {
+                double centre[3];
+                vdbs_coarse_cell_centre(&r->f, c, centre);
+                vdbs_lights_arrival(lt, light, centre, color, travel);
+                norm = discrete_norm(pm, travel);
+            }
+            for (int ch = 0; ch < 3; ++ch)
+                r->direct[((size_t)c * L + light) * 3 + ch] =
+                    norm > 0.0 ? (float)(r->acc[3 * c + ch] / norm) : 0.0f;
+        }
+        return;
+    }
+    /* A sky ordinate: its emission HG(g*, travel . w_d) / norm projected on every v_k. */
+    double travel[3], color[3], origin[3] = {0.0, 0.0, 0.0};
+    vdbs_lights_arrival(lt, light, origin, color, travel);
+    const double norm = discrete_norm(pm, travel);
+    pnanovdb_vec3_t t = vs_vec3((float)travel[0], (float)travel[1], (float)travel[2]);
+    memset(r->project, 0, sizeof *r->project * (size_t)terms);
+    for (int d = 0; d < pm->d; ++d) {
+        const double *w = pm->dirs + 3 * d;
+        double p =
+            vs_hg_dirs((float)pm->g_scaled, t, vs_vec3((float)w[0], (float)w[1], (float)w[2])) /
+            norm;
+        for (int k = 0; k < terms; ++k)
+            r->project[k] += pm->eigvec[(size_t)d * pm->d + k] * p;
+    }
+#pragma omp parallel for schedule(static)
+    for (int64_t c = 0; c < r->cells; ++c) {
+        const double *a = r->acc + 3 * c;
+        if (a[0] == 0.0 && a[1] == 0.0 && a[2] == 0.0)
+            continue;
+        for (int k = 0; k < terms; ++k)
+            for (int ch = 0; ch < 3; ++ch)
+                r->sky[((size_t)c * terms + k) * 3 + ch] += (float)(a[ch] * r->project[k]);
+    }
 }
 
 /* --warm-start: each cell the mean of the voxels whose centres lie in it. */
@@ -547,13 +539,32 @@ static void moments_to_voxels(const vdbs_volume *volume, const vdbs_coarse_frame
     }
 }
 
-vdbs_status vdbs_svd_solve(const vdbs_solve *s, const vdbs_svd_desc *desc, vdbs_svd_stats *stats,
+void vdbs_svd_end(vdbs_svd_run *r)
+{
+    if (!r)
+        return;
+    vdbs_medium_box_free(&r->box);
+    vdbs_phasemat_free(&r->pm);
+    free(r->sigma);
+    free(r->direct);
+    free(r->sky);
+    free(r->warm);
+    free(r->moments);
+    free(r->lights);
+    free(r->density);
+    free(r->scatter);
+    free(r->acc);
+    free(r->project);
+    free(r->fluence);
+    free(r->flux);
+    free(r->values);
+    free(r);
+}
+
+vdbs_status vdbs_svd_begin(const vdbs_solve *s, const vdbs_svd_desc *desc, vdbs_svd_run **out,
                            vdbs_error *err)
 {
-    vdbs_svd_stats local;
-    if (!stats)
-        stats = &local;
-    memset(stats, 0, sizeof *stats);
+    *out = NULL;
     vdbs_svd_desc d = desc ? *desc : (vdbs_svd_desc){0};
     vdbs_svd_preset preset;
     vdbs_svd_quality(s->quality ? s->quality->name : NULL, &preset);
@@ -568,91 +579,116 @@ vdbs_status vdbs_svd_solve(const vdbs_solve *s, const vdbs_svd_desc *desc, vdbs_
         d.directions = preset.directions;
     if (!(d.residual > 0.0))
         d.residual = preset.residual;
-    double t0 = vdbs_now();
-    vdbs_phasemat pm;
+    vdbs_svd_run *r = calloc(1, sizeof *r);
+    if (!r)
+        return vdbs_error_set(err, VDBS_ERR_NOMEM, "out of memory");
+    r->s = s;
+    r->desc = d;
+    r->t0 = vdbs_now();
     vdbs_phasemat_desc pdesc = {d.directions, s->scene->g, d.delta_m};
-    st = vdbs_phasemat_build(&pdesc, &pm, err);
-    if (st != VDBS_OK)
-        return st;
-    const int terms =
-        d.terms > 0 ? (d.terms < pm.d ? d.terms : pm.d) : vdbs_svd_terms_for(&pm, preset.tolerance);
-    vdbs_coarse_frame f;
-    stats->resolution =
-        vdbs_coarse_world_frame(s->volume, d.resolution > 0 ? d.resolution : preset.resolution, &f);
-    const int64_t cells = vdbs_coarse_cells(&f);
-    const int L = s->lights->direct_count;
-    vdbs_medium_box box;
-    int block = (int)floor(f.h / s->volume->mean_voxel_size);
-    st = vdbs_medium_box_build(s->volume, block < 1 ? 1 : block, &box, err);
+    st = vdbs_phasemat_build(&pdesc, &r->pm, err);
     if (st != VDBS_OK) {
-        vdbs_phasemat_free(&pm);
+        free(r);
         return st;
     }
-    const size_t moment_floats = (size_t)cells * terms * 3;
-    float *sigma = malloc(sizeof *sigma * (size_t)cells);
-    float *direct = calloc((size_t)cells * 3 * (L > 0 ? L : 1), sizeof *direct);
-    float *sky = calloc(moment_floats, sizeof *sky);
-    float *warm = d.warm ? malloc(sizeof *warm * moment_floats) : NULL;
-    float *moments = d.keep ? malloc(sizeof *moments * moment_floats) : NULL;
-    if (d.keep)
-        st = vdbs_svd_moments_alloc(d.keep, pm.d, terms, s->scene->g, s->volume->coord_count, err);
-    vdbs_svd_light *glights = calloc((size_t)(L > 0 ? L : 1), sizeof *glights);
-    double *fluence = calloc(3 * (size_t)cells, sizeof *fluence);
-    double *flux = calloc(9 * (size_t)cells, sizeof *flux);
-    double *values = calloc(VDBS_COARSE_WIDTH * (size_t)cells, sizeof *values);
-    if (st == VDBS_OK && (!sigma || !direct || !sky || (d.warm && !warm) || (d.keep && !moments) ||
-                          !glights || !fluence || !flux || !values))
-        st = vdbs_error_set(err, VDBS_ERR_NOMEM,
-                            "out of memory for the discrete ordinates' %lld cells x %d terms",
-                            (long long)cells, terms);
-    if (st == VDBS_OK) {
-        vdbs_coarse_sigma(&f, s->volume, &box, s->scene->density_scale, sigma);
-        st = light_sources(s, &f, &pm, terms, glights, direct, sky, err);
-        if (warm)
-            moments_from_voxels(s->volume, &f, terms, (const float *const *)d.warm->voxels, warm);
+    r->terms = d.terms > 0 ? (d.terms < r->pm.d ? d.terms : r->pm.d)
+                           : vdbs_svd_terms_for(&r->pm, preset.tolerance);
+    r->stats.resolution = vdbs_coarse_world_frame(
+        s->volume, d.resolution > 0 ? d.resolution : preset.resolution, &r->f);
+    r->cells = vdbs_coarse_cells(&r->f);
+    const int64_t cells = r->cells;
+    const size_t voxels = s->volume->coord_count ? s->volume->coord_count : 1;
+    const int L = s->lights->direct_count;
+    int block = (int)floor(r->f.h / s->volume->mean_voxel_size);
+    st = vdbs_medium_box_build(s->volume, block < 1 ? 1 : block, &r->box, err);
+    if (st != VDBS_OK) {
+        vdbs_phasemat_free(&r->pm);
+        free(r);
+        return st;
     }
-    stats->seconds_source = vdbs_now() - t0;
+    const size_t moment_floats = (size_t)cells * r->terms * 3;
+    r->sigma = malloc(sizeof *r->sigma * (size_t)cells);
+    r->direct = calloc((size_t)cells * 3 * (L > 0 ? L : 1), sizeof *r->direct);
+    r->sky = calloc(moment_floats, sizeof *r->sky);
+    r->warm = d.warm ? malloc(sizeof *r->warm * moment_floats) : NULL;
+    r->moments = d.keep ? malloc(sizeof *r->moments * moment_floats) : NULL;
+    r->lights = calloc((size_t)(L > 0 ? L : 1), sizeof *r->lights);
+    r->density = malloc(sizeof *r->density * voxels);
+    r->scatter = malloc(sizeof *r->scatter * 3 * voxels);
+    r->acc = malloc(sizeof *r->acc * 3 * (size_t)cells);
+    r->project = malloc(sizeof *r->project * (size_t)r->terms);
+    r->fluence = calloc(3 * (size_t)cells, sizeof *r->fluence);
+    r->flux = calloc(9 * (size_t)cells, sizeof *r->flux);
+    r->values = calloc(VDBS_COARSE_WIDTH * (size_t)cells, sizeof *r->values);
+    if (!r->sigma || !r->direct || !r->sky || (d.warm && !r->warm) || (d.keep && !r->moments) ||
+        !r->lights || !r->density || !r->scatter || !r->acc || !r->project || !r->fluence ||
+        !r->flux || !r->values) {
+        vdbs_svd_end(r);
+        return vdbs_error_set(err, VDBS_ERR_NOMEM,
+                              "out of memory for the discrete ordinates' %lld cells x %d terms",
+                              (long long)cells, r->terms);
+    }
+    vdbs_coarse_sigma(&r->f, s->volume, &r->box, s->scene->density_scale, r->sigma);
+    pnanovdb_buf_t buf = pnanovdb_make_buf(s->volume->nano, s->volume->nano_size / 4);
+    pnanovdb_readaccessor_t a = vs_density_accessor(buf);
+    for (size_t n = 0; n < s->volume->coord_count; ++n) {
+        const int32_t *c = s->volume->coords + 3 * n;
+        r->density[n] = (float)vs_density_voxel(buf, &a, vs_coord(c[0], c[1], c[2]));
+    }
+    if (r->warm)
+        moments_from_voxels(s->volume, &r->f, r->terms, (const float *const *)d.warm->voxels,
+                            r->warm);
+    *out = r;
+    return VDBS_OK;
+}
+
+vdbs_status vdbs_svd_finish(vdbs_svd_run *r, vdbs_svd_stats *stats, vdbs_error *err)
+{
+    const vdbs_solve *s = r->s;
+    vdbs_svd_desc *d = &r->desc;
+    vdbs_status st = VDBS_OK;
+    if (d->keep)
+        st = vdbs_svd_moments_alloc(d->keep, r->pm.d, r->terms, s->scene->g, s->volume->coord_count,
+                                    err);
+    r->stats.seconds_source = vdbs_now() - r->t0;
     if (st == VDBS_OK) {
-        vdbs_svd_grid grid = {{f.n[0], f.n[1], f.n[2]},
-                              f.h,
-                              {f.origin[0], f.origin[1], f.origin[2]},
-                              sigma,
+        vdbs_svd_grid grid = {{r->f.n[0], r->f.n[1], r->f.n[2]},
+                              r->f.h,
+                              {r->f.origin[0], r->f.origin[1], r->f.origin[2]},
+                              r->sigma,
                               {s->scene->albedo[0], s->scene->albedo[1], s->scene->albedo[2]},
-                              &pm,
-                              terms,
-                              glights,
-                              L,
-                              direct,
-                              sky,
-                              warm};
-        const int resolution = stats->resolution;
+                              &r->pm,
+                              r->terms,
+                              r->lights,
+                              s->lights->direct_count,
+                              r->direct,
+                              r->sky,
+                              r->warm};
+        const int resolution = r->stats.resolution;
+        const double seconds_source = r->stats.seconds_source;
         double t1 = vdbs_now();
-        st = vdbs_svd_solve_grid(s->runner, &grid, &d, fluence, flux, moments, stats, err);
-        stats->resolution = resolution;
-        stats->seconds_solve = vdbs_now() - t1;
+        st = vdbs_svd_solve_grid(s->runner, &grid, d, r->fluence, r->flux, r->moments, &r->stats,
+                                 err);
+        r->stats.resolution = resolution;
+        r->stats.seconds_source = seconds_source;
+        r->stats.seconds_solve = vdbs_now() - t1;
     }
     if (st == VDBS_OK) {
         double t2 = vdbs_now();
+        /* ms holds the forward peak's light so far (vdbs_svd_light_depth): into radiance too. */
+        for (size_t v = 0; v < 3 * s->volume->coord_count; ++v)
+            s->radiance[v] += s->ms[v];
         /* DESIGN.md's ms and ms_l1 with the medium's g (the full phase's first moment). */
-        vdbs_coarse_ms_values(cells, fluence, flux, s->scene->g, values);
-        st = vdbs_coarse_upsample(&f, values, s->volume, &box, s->scene->density_scale, s->ms,
-                                  s->ms_l1, s->radiance, err);
-        if (st == VDBS_OK && moments)
-            moments_to_voxels(s->volume, &f, terms, moments, d.keep->voxels);
-        stats->seconds_upsample = vdbs_now() - t2;
+        vdbs_coarse_ms_values(r->cells, r->fluence, r->flux, s->scene->g, r->values);
+        st = vdbs_coarse_upsample(&r->f, r->values, s->volume, &r->box, s->scene->density_scale,
+                                  s->ms, s->ms_l1, s->radiance, err);
+        if (st == VDBS_OK && r->moments)
+            moments_to_voxels(s->volume, &r->f, r->terms, r->moments, d->keep->voxels);
+        r->stats.seconds_upsample = vdbs_now() - t2;
     }
-    if (st != VDBS_OK && d.keep)
-        vdbs_svd_moments_free(d.keep);
-    vdbs_medium_box_free(&box);
-    vdbs_phasemat_free(&pm);
-    free(sigma);
-    free(direct);
-    free(sky);
-    free(warm);
-    free(moments);
-    free(glights);
-    free(fluence);
-    free(flux);
-    free(values);
+    if (st != VDBS_OK && d->keep)
+        vdbs_svd_moments_free(d->keep);
+    if (stats)
+        *stats = r->stats;
     return st;
 }

@@ -48,6 +48,11 @@ typedef struct vdbs_s1_outputs {
                              and wo */
     float *flux;          /* 9 per voxel: the unscattered light's net flux, its x, y, z
                              components of R, G, B (what FLD's first-moment source needs) */
+    /* Called once per light (direct lights, then sky ordinates) with the optical depth toward
+     * it at every output voxel, for solvers that need each light's own unscattered light (the
+     * discrete ordinates' first scattering); NULL: none. */
+    void (*light_depth)(void *user, int light, const float *depth);
+    void *light_user;
 } vdbs_s1_outputs;
 
 /* The same pass writing any of the outputs. */

@@ -134,10 +134,17 @@ vdbs_status vdbs_svd_solve_grid(vdbs_runner *runner, const vdbs_svd_grid *grid,
                                 const vdbs_svd_desc *desc, double *fluence, double *flux,
                                 float *moments, vdbs_svd_stats *stats, vdbs_error *err);
 
-/* The bake's solver: after the S1 pass (s->radiance holds S1), adds ms and ms_l1 to s->ms,
- * s->ms_l1 and s->radiance. stats may be NULL. */
-vdbs_status vdbs_svd_solve(const vdbs_solve *s, const vdbs_svd_desc *desc, vdbs_svd_stats *stats,
+/* The bake's solver, in three steps around the S1 pass so that the pass's light grids serve
+ * both: vdbs_svd_begin (the phase matrix, the grid, the medium; checks a warm start), the
+ * S1 pass with vdbs_svd_light_depth as its vdbs_s1_outputs.light_depth (every light's first
+ * scattering into the cells), then vdbs_svd_finish (the iteration; adds ms and ms_l1 to
+ * s->ms, s->ms_l1 and s->radiance) and vdbs_svd_end. stats may be NULL. */
+typedef struct vdbs_svd_run vdbs_svd_run;
+vdbs_status vdbs_svd_begin(const vdbs_solve *s, const vdbs_svd_desc *desc, vdbs_svd_run **run,
                            vdbs_error *err);
+void vdbs_svd_light_depth(void *run, int light, const float *depth);
+vdbs_status vdbs_svd_finish(vdbs_svd_run *run, vdbs_svd_stats *stats, vdbs_error *err);
+void vdbs_svd_end(vdbs_svd_run *run);
 
 #ifdef __cplusplus
 }
