@@ -1,5 +1,5 @@
 #!/usr/bin/python3
-"""Accuracy against time of every bake method (single, pop, fld) beside the Monte-Carlo
+"""Accuracy against time of every bake method (single, pop, fld, svd) beside the Monte-Carlo
 reference itself, side by side in one run on the C path: the samples/cloud.json scene (a sun
 and a constant sky, g 0.85) at --size; per method and quality the bake + baked-render time and
 the image's relative RMSE against a converged reference; the reference's own error at 1, 2, 4,
@@ -16,7 +16,7 @@ from benchlib import run_json, save_plot, timed
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 SCENE = os.path.join(os.path.dirname(HERE), "samples", "cloud.json")
-METHODS = ["single", "pop", "fld"]
+METHODS = ["single", "pop", "fld", "svd"]
 
 
 def read_curves(path):

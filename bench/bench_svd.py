@@ -11,7 +11,8 @@
   resolution and lights: the part of POP's error that is its method's bias and the part that
   is the grid's;
 - speed: per iteration, N chosen for 5% factorisation error (g 0.5, and g 0.85 after delta-M)
-  against N = D on the same grid, on the C path and in the shader (llvmpipe here).
+  against N = D on the same grid, on the C path and in the shader (llvmpipe here), after
+  time per iteration against D, N and the grid on the C path (run it alone: timings).
 
 Writes a Markdown file and a plot of error against bake seconds.
 
@@ -86,7 +87,8 @@ SVD_HEADER = ["| case | D | N | res | iterations | residual | s / iteration | so
 def accuracy(b, lines, curves):
     lines += ["## Accuracy against the reference", "",
               "Error: relative RMSE of the baked image (render --mode baked) against a "
-              f"{b.args.ref_seconds:g} s reference; C path; residual 1e-3 unless said.", ""]
+              f"{b.args.ref_seconds:g} s reference; C path; residual 1e-3. Timings here are "
+              "indicative only (see the speed tables, run alone).", ""]
     sweeps = [("D (N = D, res 24)", [["--svd-directions", str(d), "--svd-terms", str(d),
                                       "--svd-res", "24"] for d in (16, 32, 64, 128, 256)]),
               ("N (D 128, res 24)", [["--svd-directions", "128", "--svd-terms", str(n),
@@ -149,28 +151,51 @@ def five_percent(b, g, directions):
     return next((r["terms"] for r in rows if r["rmse"] <= 0.05), directions)
 
 
+def per_iteration(b, backend, extra, iterations):
+    """Seconds per iteration of the transport solve alone and cell-direction updates per
+    second, from a bake forced to run `iterations` iterations."""
+    _, rep = b.image("cloud", "svd", extra + ["--residual", "1e-12", "--svd-iterations",
+                                              str(iterations), "--backend", backend], "speed")
+    s = rep["svd"]
+    t = rep["seconds"]["svd_solve"]
+    return t / s["iterations"], s["cell_direction_updates"] / t, s
+
+
 def speed(b, lines):
-    lines += ["## Speed: factored against N = D", "",
-              "The cloud at --svd-res R, 6 iterations forced (--residual 1e-12 "
-              "--svd-iterations 6); N5 = the fewest terms with factorisation RMSE <= 5% "
-              "(phase-svd, delta-M as the solver uses it). Seconds per iteration of the "
-              "transport solve alone.", "",
+    lines += ["## Time per iteration against D, N and the grid (C path)", "",
+              "The cloud, 4 iterations forced (--residual 1e-12 --svd-iterations 4), seconds "
+              "per iteration of the transport solve alone; nothing else running. Time to "
+              "convergence is this times the iterations of the accuracy tables above.", "",
+              "| knob | D | N | res | cells | s / iteration | M cell-dir / s | "
+              "ns per cell-dir-term |", "|---|---|---|---|---|---|---|---|"]
+    cases = ([("D", ["--svd-directions", str(d), "--svd-terms", str(d), "--svd-res", "24"])
+              for d in (16, 32, 64, 128, 256)] +
+             [("N", ["--svd-directions", "128", "--svd-terms", str(n), "--svd-res", "24"])
+              for n in (4, 16, 64, 128)] +
+             [("res", ["--svd-directions", "64", "--svd-terms", "64", "--svd-res", str(r)])
+              for r in (12, 24, 48)])
+    for knob, extra in cases:
+        per, rate, s = per_iteration(b, "cpu", extra, 4)
+        term = per / (s["cells"] * s["directions"] * s["terms"]) * 1e9
+        row = (f"| {knob} | {s['directions']} | {s['terms']} | {s['resolution']} | "
+               f"{s['cells']} | {per:.3f} | {rate / 1e6:.2f} | {term:.2f} |")
+        lines.append(row)
+        print(row, flush=True)
+    lines += ["", "## Speed: factored against N = D", "",
+              "The cloud at --svd-res R, 4 iterations forced; N5 = the fewest terms with "
+              "factorisation RMSE <= 5% (phase-svd, delta-M as the solver uses it). Seconds "
+              "per iteration of the transport solve alone, side by side in one run.", "",
               "| backend | g | D | R | N5 | s / it (N5) | s / it (N = D) | speed-up | "
-              "M cell-dir / s (N5) | M cell-dir / s (N = D) |", "|---|---|---|---|---|---|---|---|---|---|"]
+              "M cell-dir / s (N5) | M cell-dir / s (N = D) |",
+              "|---|---|---|---|---|---|---|---|---|---|"]
     for backend, directions, res in (("cpu", 256, 16), ("gpu", 64, 12)):
         for g in (0.5, 0.85):
             n5 = five_percent(b, g, directions)
             per, rate = {}, {}
             for n in (n5, directions):
-                _, rep = b.image("cloud", "svd", ["--g", str(g), "--svd-directions",
-                                                  str(directions), "--svd-terms", str(n),
-                                                  "--svd-res", str(res), "--residual", "1e-12",
-                                                  "--svd-iterations", "6", "--backend",
-                                                  backend], "speed")
-                s = rep["svd"]
-                t = rep["seconds"]["svd_solve"]
-                per[n] = t / s["iterations"]
-                rate[n] = s["cell_direction_updates"] / t
+                per[n], rate[n], _ = per_iteration(
+                    b, backend, ["--g", str(g), "--svd-directions", str(directions),
+                                 "--svd-terms", str(n), "--svd-res", str(res)], 4)
             row = (f"| {backend} | {g} | {directions} | {res} | {n5} | {per[n5]:.3f} | "
                    f"{per[directions]:.3f} | {per[directions] / per[n5]:.2f}x | "
                    f"{rate[n5] / 1e6:.2f} | {rate[directions] / 1e6:.2f} |")
