@@ -119,6 +119,7 @@ static vdbs_status run_svd(const vdbs_solve *s, vdbs_error *err)
     desc.max_iterations = s->scene->svd_iterations;
     desc.warm = s->svd_warm;
     desc.keep = s->svd_keep;
+    desc.progress = s->progress;
     vdbs_svd_run *run = NULL;
     vdbs_status st = vdbs_svd_begin(s, &desc, &run, err);
     if (st == VDBS_OK)

@@ -1,6 +1,7 @@
 #include "vdbscatter/svd.h"
 
 #include <math.h>
+#include <stdint.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -209,6 +210,14 @@ static vdbs_status layout_build(const vdbs_svd_grid *g, int chunk, svd_layout *l
     p[VS_SVD_OFF_TABLE_LIGHTS] = (uint32_t)light_at;
     l->state_words = cells * ((size_t)N * 3 + VS_SVD_OUT_WORDS) +
                      2 * (size_t)l->chunk * (size_t)g->n[0] * g->n[1] * 3;
+    /* The kernel indexes with 32-bit ints (GLSL). */
+    if (l->state_words > (size_t)INT32_MAX || cells * (size_t)N * 3 > (size_t)INT32_MAX) {
+        layout_free(l);
+        return vdbs_error_set(err, VDBS_ERR_INPUT,
+                              "%zu cells x %d terms is too large for the sweep's 32-bit indices: "
+                              "lower --svd-res or --svd-terms",
+                              cells, N);
+    }
     return VDBS_OK;
 }
 
@@ -328,6 +337,12 @@ vdbs_status vdbs_svd_solve_grid(vdbs_runner *runner, const vdbs_svd_grid *grid,
         stats->iterations = it + 1;
         stats->residual = total > 0.0 ? change / total : 0.0;
         next_source(grid, state, source);
+        if (desc->progress && it == 0)
+            vdbs_progress_begin(desc->progress, desc->progress->enabled, "svd iterations", 1000);
+        if (desc->progress && desc->residual > 0.0 && desc->residual < 1.0) {
+            double done = log(fmax(stats->residual, desc->residual)) / log(desc->residual);
+            vdbs_progress_update(desc->progress, (uint64_t)(1000.0 * fmin(fmax(done, 0.0), 1.0)));
+        }
         if (stats->residual <= desc->residual) {
             stats->converged = 1;
             break;

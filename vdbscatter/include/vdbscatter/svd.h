@@ -21,6 +21,7 @@
 
 #include "vdbscatter/kernel.h"
 #include "vdbscatter/phasemat.h"
+#include "vdbscatter/progress.h"
 #include "vdbscatter/solver.h"
 #include "vdbscatter/status.h"
 
@@ -46,6 +47,8 @@ typedef struct vdbs_svd_desc {
                                             (then they must match) */
     struct vdbs_svd_moments *keep;       /* --keep-state: filled with the final moments, or
                                             NULL */
+    vdbs_progress *progress;             /* the iterations, as the residual's way from 1 to
+                                            `residual` on a log scale; may be NULL */
 } vdbs_svd_desc;
 
 /* The radiance moments m_k at the output voxels, for --keep-state and --warm-start (the lit
