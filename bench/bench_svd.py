@@ -14,7 +14,7 @@
   against N = D on the same grid, on the C path and in the shader (llvmpipe here), after
   time per iteration against D, N and the grid on the C path (run it alone: timings).
 
-Writes a Markdown file and a plot of error against bake seconds.
+Writes a Markdown file and a plot of the error against each knob.
 
 usage: bench/bench_svd.py BUILD_DIR [--out bench/svd.md] [--plot bench/svd.png]
        [--ref-seconds 120] [--sections accuracy,bar,split,speed]"""
@@ -105,7 +105,7 @@ def accuracy(b, lines, curves):
                 row = svd_row(family.split()[0], rep, err)
                 lines.append(row)
                 print(row, flush=True)
-                points.append((rep["seconds"]["total"], err))
+                points.append(err)
             curves[f"{scene}: {family}"] = points
         lines.append("")
 
@@ -204,6 +204,29 @@ def speed(b, lines):
     lines.append("")
 
 
+def read_curves(path):
+    """{scene: knob: [(value, error)]} from the accuracy tables of a file this script wrote."""
+    curves, scene = {}, None
+    for line in open(path):
+        if line.startswith("### "):
+            scene = line[4:].strip()
+        cells = [c.strip() for c in line.strip().strip("|").split("|")]
+        if scene and len(cells) == 11 and cells[0] in ("D", "N", "res"):
+            value = {"D": cells[1], "N": cells[2], "res": cells[3]}[cells[0]]
+            curves.setdefault(f"{scene}: {cells[0]}", []).append((int(value), float(cells[10])))
+    return curves
+
+
+def plot(path, curves):
+    def draw(ax):
+        for label, pts in curves.items():
+            ax.plot([p[0] for p in pts], [p[1] for p in pts], "o-", label=label)
+        ax.set_xscale("log", base=2)
+        ax.set_yscale("log")
+    save_plot(path, draw, "D (N = D, res 24), N (D 128, res 24) or cells across (D 64)",
+              "image relative RMSE", "--method svd: error against each knob")
+
+
 def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("build")
@@ -211,7 +234,12 @@ def main():
     ap.add_argument("--plot", default=os.path.join(HERE, "svd.png"))
     ap.add_argument("--ref-seconds", type=float, default=120.0)
     ap.add_argument("--sections", default="accuracy,bar,split,speed")
+    ap.add_argument("--replot", action="store_true",
+                    help="redraw --plot from the tables in --out without running anything")
     args = ap.parse_args()
+    if args.replot:
+        plot(args.plot, read_curves(args.out))
+        return
     b = Bench(args)
     sections = args.sections.split(",")
     lines = [f"`bench/bench_svd.py BUILD --ref-seconds {args.ref_seconds:g} --sections "
@@ -230,13 +258,7 @@ def main():
     with open(args.out, "w") as fh:
         fh.write("\n".join(lines) + "\n")
     if curves:
-        def draw(ax):
-            for label, pts in curves.items():
-                ax.plot([p[0] for p in pts], [p[1] for p in pts], "o-", label=label)
-            ax.set_xscale("log")
-            ax.set_yscale("log")
-        save_plot(args.plot, draw, "bake seconds (C path)", "image relative RMSE",
-                  "--method svd: error against cost per knob")
+        plot(args.plot, read_curves(args.out))
     print(open(args.out).read())
     if not ok:
         raise SystemExit("svd missed the bar on the cloud at --quality high")

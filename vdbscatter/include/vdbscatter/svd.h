@@ -12,8 +12,9 @@
  * HG(g*) exactly per direction; the sky ordinates' the same, projected on the v_k once. With
  * delta-M (peak fraction f), the solver works on the scaled problem: the beam attenuates with
  * sigma_t* = sigma_t - f sigma_s, scatters with sigma_s* = (1 - f) sigma_s and the truncated
- * phase; ms and ms_l1 are that problem's scattered field (README "Discrete ordinates"), while
- * S1 stays the exact pass's. */
+ * phase; ms and ms_l1 are that problem's scattered field plus the light its beam carries
+ * after scattering only into the forward peak (README "Discrete ordinates"), while S1 stays
+ * the exact pass's. */
 #ifndef VDBSCATTER_SVD_H
 #define VDBSCATTER_SVD_H
 
