@@ -38,17 +38,9 @@
 
 void vdbs_fld_quality(const char *quality, vdbs_fld_preset *preset)
 {
-    static const struct {
-        const char *name;
-        vdbs_fld_preset preset;
-    } presets[] = {{"low", {1.0, 12, 1e-4}},
-                   {"medium", {2.0, 16, 1e-5}},
-                   {"high", {4.0, 24, 1e-6}},
-                   {"ultra", {8.0, 32, 1e-7}}};
-    *preset = presets[1].preset;
-    for (size_t q = 0; quality && q < sizeof presets / sizeof presets[0]; ++q)
-        if (strcmp(quality, presets[q].name) == 0)
-            *preset = presets[q].preset;
+    static const vdbs_fld_preset presets[] = {
+        {1.0, 12, 1e-4}, {2.0, 16, 1e-5}, {4.0, 24, 1e-6}, {8.0, 32, 1e-7}};
+    *preset = presets[vdbs_quality_level(quality)];
 }
 
 /* ---- the operator through the runner ---- */

@@ -34,25 +34,15 @@
 void vdbs_pop_quality(const char *quality, int *ordinates, double *epsilon_l, int *radial)
 {
     static const struct {
-        const char *name;
         int ordinates;
         double epsilon_l;
         int radial;
-    } presets[] = {{"low", 8, 1e-2, 8},
-                   {"medium", 16, 1e-3, 16},
-                   {"high", 32, 1e-4, 32},
-                   {"ultra", 64, 1e-5, 64}};
-    *ordinates = 16;
-    *epsilon_l = 1e-3;
+    } presets[] = {{8, 1e-2, 8}, {16, 1e-3, 16}, {32, 1e-4, 32}, {64, 1e-5, 64}};
+    const int q = vdbs_quality_level(quality);
+    *ordinates = presets[q].ordinates;
+    *epsilon_l = presets[q].epsilon_l;
     if (radial)
-        *radial = 16;
-    for (size_t q = 0; quality && q < sizeof presets / sizeof presets[0]; ++q)
-        if (strcmp(quality, presets[q].name) == 0) {
-            *ordinates = presets[q].ordinates;
-            *epsilon_l = presets[q].epsilon_l;
-            if (radial)
-                *radial = presets[q].radial;
-        }
+        *radial = presets[q].radial;
 }
 
 /* The header words of a grid of n cells of side h (rectilinear) for a medium of HG g and albedo. */

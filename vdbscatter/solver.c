@@ -23,6 +23,12 @@ const vdbs_quality *vdbs_quality_find(const char *name)
     return NULL;
 }
 
+int vdbs_quality_level(const char *name)
+{
+    const vdbs_quality *q = vdbs_quality_find(name);
+    return q ? (int)(q - qualities) : 1;
+}
+
 int vdbs_quality_sky_directions(const char *name)
 {
     const vdbs_quality *q = vdbs_quality_find(name);

@@ -29,17 +29,9 @@
 
 void vdbs_svd_quality(const char *quality, vdbs_svd_preset *preset)
 {
-    static const struct {
-        const char *name;
-        vdbs_svd_preset preset;
-    } presets[] = {{"low", {32, 16, 0.10, 1e-2}},
-                   {"medium", {64, 24, 0.05, 3e-3}},
-                   {"high", {128, 32, 0.02, 1e-3}},
-                   {"ultra", {512, 32, 0.01, 3e-4}}};
-    *preset = presets[1].preset;
-    for (size_t q = 0; quality && q < sizeof presets / sizeof presets[0]; ++q)
-        if (strcmp(quality, presets[q].name) == 0)
-            *preset = presets[q].preset;
+    static const vdbs_svd_preset presets[] = {
+        {32, 16, 0.10, 1e-2}, {64, 24, 0.05, 3e-3}, {128, 32, 0.02, 1e-3}, {512, 32, 0.01, 3e-4}};
+    *preset = presets[vdbs_quality_level(quality)];
 }
 
 int vdbs_svd_terms_for(const vdbs_phasemat *pm, double tolerance)

@@ -28,6 +28,9 @@ typedef struct vdbs_quality {
 
 /* The preset of a quality name, or NULL if unknown. */
 const vdbs_quality *vdbs_quality_find(const char *name);
+/* The quality's step, 0 (low) to 3 (ultra): the index into a solver's own presets; medium's
+ * (1) for NULL or an unknown name. */
+int vdbs_quality_level(const char *name);
 /* Number of sky quadrature directions for a quality name, or 0 if unknown. */
 int vdbs_quality_sky_directions(const char *name);
 
