@@ -84,9 +84,8 @@ static void add_light(const vdbs_volume *volume, const vdbs_light_table *lights,
     const int64_t count = (int64_t)volume->coord_count;
 #pragma omp parallel for schedule(static)
     for (int64_t n = 0; n < count; ++n) {
-        const int32_t *c = volume->coords + 3 * n;
-        double index[3] = {c[0], c[1], c[2]}, world[3], color[3], travel[3];
-        vdbs_volume_world_point(volume, index, world);
+        double world[3], color[3], travel[3];
+        vdbs_volume_voxel_point(volume, (size_t)n, world);
         vdbs_lights_arrival(lights, light, world, color, travel);
         const double weight = exp(-(double)depth[n]);
         double phase = 0.0;

@@ -414,9 +414,8 @@ void vdbs_svd_light_depth(void *user, int light, const float *depth)
     const int64_t count = (int64_t)volume->coord_count;
 #pragma omp parallel for schedule(static)
     for (int64_t n = 0; n < count; ++n) {
-        const int32_t *c = volume->coords + 3 * n;
-        double idx[3] = {c[0], c[1], c[2]}, w[3], color[3], travel[3];
-        vdbs_volume_world_point(volume, idx, w);
+        double w[3], color[3], travel[3];
+        vdbs_volume_voxel_point(volume, (size_t)n, w);
         vdbs_lights_arrival(s->lights, light, w, color, travel);
         const double sigma_t = s->scene->density_scale * r->density[n];
         for (int ch = 0; ch < 3; ++ch) {
@@ -436,9 +435,8 @@ void vdbs_svd_light_depth(void *user, int light, const float *depth)
     for (int64_t n = 0; n < count; ++n) {
         if (!(r->density[n] > 0.0f))
             continue;
-        const int32_t *c = volume->coords + 3 * n;
-        double idx[3] = {c[0], c[1], c[2]}, w[3];
-        vdbs_volume_world_point(volume, idx, w);
+        double w[3];
+        vdbs_volume_voxel_point(volume, (size_t)n, w);
         vdbs_coarse_splat(&r->f, r->acc, 3, w, r->scatter + 3 * n, scale);
     }
     const vdbs_light_table *lt = s->lights;
@@ -499,9 +497,8 @@ static void moments_from_voxels(const vdbs_volume *volume, const vdbs_coarse_fra
         return; /* a cold start: the iteration still converges */
     }
     for (size_t n = 0; n < volume->coord_count; ++n) {
-        const int32_t *c = volume->coords + 3 * n;
-        double idx[3] = {c[0], c[1], c[2]}, w[3];
-        vdbs_volume_world_point(volume, idx, w);
+        double w[3];
+        vdbs_volume_voxel_point(volume, n, w);
         int at[3], inside = 1;
         for (int a = 0; a < 3; ++a) {
             at[a] = (int)floor((w[a] - f->origin[a]) / f->h);
@@ -533,9 +530,8 @@ static void moments_to_voxels(const vdbs_volume *volume, const vdbs_coarse_frame
         double *v = malloc(sizeof *v * 3 * (size_t)terms);
 #pragma omp for schedule(static)
         for (int64_t n = 0; n < count; ++n) {
-            const int32_t *c = volume->coords + 3 * n;
-            double idx[3] = {c[0], c[1], c[2]}, w[3];
-            vdbs_volume_world_point(volume, idx, w);
+            double w[3];
+            vdbs_volume_voxel_point(volume, (size_t)n, w);
             if (v)
                 vdbs_coarse_sample(f, moments, 3 * terms, w, v);
             for (int k = 0; k < terms; ++k)

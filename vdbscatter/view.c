@@ -18,9 +18,8 @@ float *vdbs_view_directions(const vdbs_volume *volume, const double eye[3])
         return NULL;
 #pragma omp parallel for schedule(static)
     for (int64_t n = 0; n < count; ++n) {
-        const int32_t *c = volume->coords + 3 * n;
-        double index[3] = {c[0], c[1], c[2]}, x[3];
-        vdbs_volume_world_point(volume, index, x);
+        double x[3];
+        vdbs_volume_voxel_point(volume, (size_t)n, x);
         double d[3] = {eye[0] - x[0], eye[1] - x[1], eye[2] - x[2]};
         double len = sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
         for (int a = 0; a < 3; ++a)

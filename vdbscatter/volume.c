@@ -246,3 +246,10 @@ double vdbs_volume_voxel_volume(const vdbs_volume *volume)
                 m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0]) +
                 m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0]));
 }
+
+void vdbs_volume_voxel_point(const vdbs_volume *volume, size_t n, double world[3])
+{
+    const int32_t *c = volume->coords + 3 * n;
+    const double index[3] = {c[0], c[1], c[2]};
+    vdbs_volume_world_point(volume, index, world);
+}

@@ -38,6 +38,8 @@ void vdbs_volume_free(vdbs_volume *volume);
 void vdbs_volume_index_vector(const vdbs_volume *volume, const double world[3], double index[3]);
 void vdbs_volume_index_point(const vdbs_volume *volume, const double world[3], double index[3]);
 void vdbs_volume_world_point(const vdbs_volume *volume, const double index[3], double world[3]);
+/* The world centre of output voxel n (volume->coords[3 n ...]). */
+void vdbs_volume_voxel_point(const vdbs_volume *volume, size_t n, double world[3]);
 /* |det| of the index-to-world map: a voxel's world volume. */
 double vdbs_volume_voxel_volume(const vdbs_volume *volume);
 
