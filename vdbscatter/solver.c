@@ -37,9 +37,8 @@ int vdbs_quality_sky_directions(const char *name)
 
 /* S1 into radiance (and toward the camera), with flux the unscattered light's net flux and
  * with light_depth every light's optical depth (vdbs_s1_outputs). */
-static vdbs_status run_s1(const vdbs_solve *s, float *flux,
-                          void (*light_depth)(void *, int, const float *), void *light_user,
-                          vdbs_error *err)
+static vdbs_status run_s1(const vdbs_solve *s, float *flux, vdbs_s1_light_fn light_depth,
+                          void *light_user, vdbs_error *err)
 {
     vdbs_s1_outputs out = {s->radiance, s->radiance_view, flux, light_depth, light_user};
     if (s->s1_grids)

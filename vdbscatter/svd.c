@@ -159,10 +159,9 @@ static vdbs_status layout_build(const vdbs_svd_grid *g, int chunk, svd_layout *l
         if (at - start[o] > widest)
             widest = at - start[o];
     }
-    l->chunk = chunk > 0 && chunk < widest ? chunk : (widest > 0 ? widest : 1);
+    /* D >= 2 (phasemat.h), so some octant has a direction. */
+    l->chunk = chunk > 0 && chunk < widest ? chunk : widest;
     l->chunks = (widest + l->chunk - 1) / l->chunk;
-    if (l->chunks < 1)
-        l->chunks = 1;
     l->planes = g->n[0] + g->n[1] + g->n[2] - 2;
     const size_t v_at = (size_t)D * VS_SVD_DIR_WORDS;
     const size_t light_at = v_at + (size_t)D * (size_t)N;
@@ -363,14 +362,19 @@ done:
 /* ---- the bake ---- */
 
 /* sum_d HG(g*, travel . w_d) dw_d in the kernel's float arithmetic: what makes the emitted
- * power of a light's first scattering exact on the directions. */
-static double discrete_norm(const vdbs_phasemat *pm, const double travel[3])
+ * power of a light's first scattering exact on the directions. With `phase` (D values) also
+ * each direction's HG. */
+static double discrete_norm(const vdbs_phasemat *pm, const double travel[3], double *phase)
 {
     pnanovdb_vec3_t t = vs_vec3((float)travel[0], (float)travel[1], (float)travel[2]);
     double sum = 0.0;
     for (int d = 0; d < pm->d; ++d) {
         const double *w = pm->dirs + 3 * d;
-        sum += vs_hg_dirs((float)pm->g_scaled, t, vs_vec3((float)w[0], (float)w[1], (float)w[2]));
+        double p =
+            vs_hg_dirs((float)pm->g_scaled, t, vs_vec3((float)w[0], (float)w[1], (float)w[2]));
+        if (phase)
+            phase[d] = p;
+        sum += p;
     }
     return sum * 4.0 * VDBS_PI / pm->d;
 }
@@ -392,6 +396,7 @@ struct vdbs_svd_run {
     double *scatter; /* 3 per output voxel: one light's sigma_s* E T* */
     double *acc;     /* 3 per cell: the same splatted */
     double *project; /* N: a sky ordinate's emission projected on the v_k */
+    double *phase;   /* D: a sky ordinate's HG toward every direction */
     double *fluence, *flux, *values;
 };
 
@@ -442,16 +447,13 @@ void vdbs_svd_light_depth(void *user, int light, const float *depth)
     const vdbs_light_table *lt = s->lights;
     const int L = lt->direct_count, terms = r->terms;
     if (light < L) {
-        const vdbs_direct_light *dl = &lt->direct[light];
-        r->lights[light].point = dl->type == VDBS_LIGHT_POINT;
-        memcpy(r->lights[light].vec, dl->world, sizeof r->lights[light].vec);
         double travel[3], color[3], norm = 0.0;
         for (int64_t c = 0; c < r->cells; ++c) {
             if (c == 0 || r->lights[light].point) {
                 double centre[3];
                 vdbs_coarse_cell_centre(&r->f, c, centre);
                 vdbs_lights_arrival(lt, light, centre, color, travel);
-                norm = discrete_norm(pm, travel);
+                norm = discrete_norm(pm, travel, NULL);
             }
             for (int ch = 0; ch < 3; ++ch)
                 r->direct[((size_t)c * L + light) * 3 + ch] =
@@ -462,14 +464,10 @@ void vdbs_svd_light_depth(void *user, int light, const float *depth)
     /* A sky ordinate: its emission HG(g*, travel . w_d) / norm projected on every v_k. */
     double travel[3], color[3], origin[3] = {0.0, 0.0, 0.0};
     vdbs_lights_arrival(lt, light, origin, color, travel);
-    const double norm = discrete_norm(pm, travel);
-    pnanovdb_vec3_t t = vs_vec3((float)travel[0], (float)travel[1], (float)travel[2]);
+    const double norm = discrete_norm(pm, travel, r->phase);
     memset(r->project, 0, sizeof *r->project * (size_t)terms);
     for (int d = 0; d < pm->d; ++d) {
-        const double *w = pm->dirs + 3 * d;
-        double p =
-            vs_hg_dirs((float)pm->g_scaled, t, vs_vec3((float)w[0], (float)w[1], (float)w[2])) /
-            norm;
+        const double p = r->phase[d] / norm;
         for (int k = 0; k < terms; ++k)
             r->project[k] += pm->eigvec[(size_t)d * pm->d + k] * p;
     }
@@ -558,6 +556,7 @@ void vdbs_svd_end(vdbs_svd_run *r)
     free(r->scatter);
     free(r->acc);
     free(r->project);
+    free(r->phase);
     free(r->fluence);
     free(r->flux);
     free(r->values);
@@ -591,7 +590,7 @@ vdbs_status vdbs_svd_begin(const vdbs_solve *s, const vdbs_svd_desc *desc, vdbs_
     vdbs_phasemat_desc pdesc = {d.directions, s->scene->g, d.delta_m};
     st = vdbs_phasemat_build(&pdesc, &r->pm, err);
     if (st != VDBS_OK) {
-        free(r);
+        vdbs_svd_end(r);
         return st;
     }
     r->terms = d.terms > 0 ? (d.terms < r->pm.d ? d.terms : r->pm.d)
@@ -605,8 +604,7 @@ vdbs_status vdbs_svd_begin(const vdbs_solve *s, const vdbs_svd_desc *desc, vdbs_
     int block = (int)floor(r->f.h / s->volume->mean_voxel_size);
     st = vdbs_medium_box_build(s->volume, block < 1 ? 1 : block, &r->box, err);
     if (st != VDBS_OK) {
-        vdbs_phasemat_free(&r->pm);
-        free(r);
+        vdbs_svd_end(r);
         return st;
     }
     const size_t moment_floats = (size_t)cells * r->terms * 3;
@@ -620,18 +618,24 @@ vdbs_status vdbs_svd_begin(const vdbs_solve *s, const vdbs_svd_desc *desc, vdbs_
     r->scatter = malloc(sizeof *r->scatter * 3 * voxels);
     r->acc = malloc(sizeof *r->acc * 3 * (size_t)cells);
     r->project = malloc(sizeof *r->project * (size_t)r->terms);
+    r->phase = malloc(sizeof *r->phase * (size_t)r->pm.d);
     r->fluence = calloc(3 * (size_t)cells, sizeof *r->fluence);
     r->flux = calloc(9 * (size_t)cells, sizeof *r->flux);
     r->values = calloc(VDBS_COARSE_WIDTH * (size_t)cells, sizeof *r->values);
     if (!r->sigma || !r->direct || !r->sky || (d.warm && !r->warm) || (d.keep && !r->moments) ||
-        !r->lights || !r->density || !r->scatter || !r->acc || !r->project || !r->fluence ||
-        !r->flux || !r->values) {
+        !r->lights || !r->density || !r->scatter || !r->acc || !r->project || !r->phase ||
+        !r->fluence || !r->flux || !r->values) {
         vdbs_svd_end(r);
         return vdbs_error_set(err, VDBS_ERR_NOMEM,
                               "out of memory for the discrete ordinates' %lld cells x %d terms",
                               (long long)cells, r->terms);
     }
     vdbs_coarse_sigma(&r->f, s->volume, &r->box, s->scene->density_scale, r->sigma);
+    for (int l = 0; l < L; ++l) {
+        const vdbs_direct_light *dl = &s->lights->direct[l];
+        r->lights[l].point = dl->type == VDBS_LIGHT_POINT;
+        memcpy(r->lights[l].vec, dl->world, sizeof r->lights[l].vec);
+    }
     pnanovdb_buf_t buf = pnanovdb_make_buf(s->volume->nano, s->volume->nano_size / 4);
     pnanovdb_readaccessor_t a = vs_density_accessor(buf);
     for (size_t n = 0; n < s->volume->coord_count; ++n) {
@@ -667,13 +671,9 @@ vdbs_status vdbs_svd_finish(vdbs_svd_run *r, vdbs_svd_stats *stats, vdbs_error *
                               r->direct,
                               r->sky,
                               r->warm};
-        const int resolution = r->stats.resolution;
-        const double seconds_source = r->stats.seconds_source;
         double t1 = vdbs_now();
         st = vdbs_svd_solve_grid(s->runner, &grid, d, r->fluence, r->flux, r->moments, &r->stats,
                                  err);
-        r->stats.resolution = resolution;
-        r->stats.seconds_source = seconds_source;
         r->stats.seconds_solve = vdbs_now() - t1;
     }
     if (st == VDBS_OK) {

@@ -39,6 +39,10 @@ vdbs_status vdbs_single_scatter_grids(vdbs_runner *runner, const vdbs_volume *vo
                                       vdbs_s1_stats *stats, vdbs_progress *progress,
                                       vdbs_error *err);
 
+/* Called once per light (direct lights, then sky ordinates) with the optical depth toward it
+ * at every output voxel. */
+typedef void (*vdbs_s1_light_fn)(void *user, int light, const float *depth);
+
 /* What the light-grid S1 pass writes, 3 floats per output voxel unless said; each may be
  * NULL. */
 typedef struct vdbs_s1_outputs {
@@ -48,10 +52,9 @@ typedef struct vdbs_s1_outputs {
                              and wo */
     float *flux;          /* 9 per voxel: the unscattered light's net flux, its x, y, z
                              components of R, G, B (what FLD's first-moment source needs) */
-    /* Called once per light (direct lights, then sky ordinates) with the optical depth toward
-     * it at every output voxel, for solvers that need each light's own unscattered light (the
-     * discrete ordinates' first scattering); NULL: none. */
-    void (*light_depth)(void *user, int light, const float *depth);
+    /* For solvers that need each light's own unscattered light (the discrete ordinates' first
+     * scattering); NULL: none. */
+    vdbs_s1_light_fn light_depth;
     void *light_user;
 } vdbs_s1_outputs;
 
