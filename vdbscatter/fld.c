@@ -762,14 +762,14 @@ static void gather_source(const vdbs_solve *s, const vdbs_coarse_frame *f, const
         double density = vs_density_voxel(buf, &acc, vs_coord(c[0], c[1], c[2]));
         if (!(density > 0.0))
             continue;
-        double q[12], idx[3] = {c[0], c[1], c[2]}, w[3];
+        double q[12], w[3];
         for (int ch = 0; ch < 3; ++ch) {
             const double sigma_s = s->scene->density_scale * density * s->scene->albedo[ch];
             q[ch] = sigma_s * 4.0 * VDBS_PI * (double)s->radiance[3 * n + ch];
             for (int a = 0; s1_flux && a < 3; ++a)
                 q[3 + 3 * a + ch] = s->scene->g * sigma_s * (double)s1_flux[9 * n + 3 * a + ch];
         }
-        vdbs_volume_world_point(volume, idx, w);
+        vdbs_volume_voxel_point(volume, n, w);
         vdbs_coarse_splat(f, source, 3, w, q, scale);
         if (s1_flux)
             vdbs_coarse_splat(f, moment, 9, w, q + 3, scale);
