@@ -126,6 +126,13 @@ static void test_sweep_balance(void **state)
     }
 }
 
+/* A positive radiance field for the normalisation test: per cell a level and a lobe along one
+ * axis per channel. */
+static double test_radiance(size_t cell, int ch, const double w[3])
+{
+    return (1.0 + (double)(cell % 5)) * (1.0 + 0.8 * w[ch] * (cell % 2 ? 1.0 : -1.0));
+}
+
 /* The source of the next sweep from the moments: its power is exactly the first scattering
  * plus sigma_s* / sigma_t* times the power that collided in the sweep before (every row of
  * the discrete phase sums to 1, and the energy mode, the constant vector with eigenvalue 1,
@@ -151,17 +158,14 @@ static void test_phase_normalisation(void **state)
         float *after = malloc(sizeof *after * cells * cases[i].terms * 3);
         assert_non_null(warm);
         assert_non_null(after);
-        /* Moments of a positive radiance field: L_d = 1 + cell-varying lobes. */
+        /* Moments of the field (test_radiance). */
         for (size_t c = 0; c < cells; ++c)
             for (int k = 0; k < cases[i].terms; ++k)
                 for (int ch = 0; ch < 3; ++ch) {
                     double m = 0.0;
-                    for (int d = 0; d < p.pm.d; ++d) {
-                        const double *w = p.pm.dirs + 3 * d;
-                        double L =
-                            (1.0 + (double)(c % 5)) * (1.0 + 0.8 * w[ch] * (c % 2 ? 1.0 : -1.0));
-                        m += p.pm.eigvec[(size_t)d * p.pm.d + k] * L;
-                    }
+                    for (int d = 0; d < p.pm.d; ++d)
+                        m += p.pm.eigvec[(size_t)d * p.pm.d + k] *
+                             test_radiance(c, ch, p.pm.dirs + 3 * d);
                     warm[(c * cases[i].terms + k) * 3 + ch] = (float)m;
                 }
         p.grid.warm = warm;
@@ -175,10 +179,8 @@ static void test_phase_normalisation(void **state)
         for (size_t c = 0; c < cells; ++c)
             for (int ch = 0; ch < 3; ++ch) {
                 double power = 0.0;
-                for (int d = 0; d < p.pm.d; ++d) {
-                    const double *w = p.pm.dirs + 3 * d;
-                    power += (1.0 + (double)(c % 5)) * (1.0 + 0.8 * w[ch] * (c % 2 ? 1.0 : -1.0));
-                }
+                for (int d = 0; d < p.pm.d; ++d)
+                    power += test_radiance(c, ch, p.pm.dirs + 3 * d);
                 expect += 0.9 * p.sigma[c] * power * 4.0 * PI / p.pm.d * 1e-3;
             }
         double e1 = fabs(first.emitted - first.clamped - expect) / expect;
