@@ -672,7 +672,7 @@ int main(int argc, char **argv)
         {"point in the smoke", "smoke", 64, 1, 10.0, o.photons_cloud, 1, {0.0, -0.5, 0.0}},
         {"point outside the cloud", "cloud", 64, 1, 20.0, o.photons_cloud, 1, {0.0, 1.6, 0.0}},
     };
-    vdbs_runner_desc rd = {VDBS_BACKEND_CPU};
+    vdbs_runner_desc rd = {.backend = VDBS_BACKEND_CPU};
     vdbs_runner *runner = NULL;
     vdbs_error err;
     if (vdbs_runner_create(&rd, &runner, &err) != VDBS_OK)

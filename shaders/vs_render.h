@@ -47,7 +47,13 @@
 /* Camera right * tan(half horizontal fov), up * tan(half vertical fov), world (xyz). */
 #define VS_RENDER_OFF_RIGHT 5
 #define VS_RENDER_OFF_UP 6
-#define VS_RENDER_SIZE 7
+/* The viewer's knobs, neutral for `render`: (interleave block M, 1 to include S1, 0, 0).
+ * With M > 1 pixel (px, py) samples S at the fraction (k + 0.5) / M^2 of each segment,
+ * k = px mod M + M (py mod M), instead of at its midpoint: M x M neighbours together take
+ * M^2 stratified samples per segment, and a box filter of M x M (vs_gather.h) averages
+ * them (interleaved sampling, Keller and Heidrich 2001; Toth and Umenhoffer 2009 4.1). */
+#define VS_RENDER_OFF_VIEW 7
+#define VS_RENDER_SIZE 8
 
 /* The three tables every render function reads: parameters in C, SSBOs in GLSL. */
 #define VS_RENDER_TABLES                                                                           \
@@ -197,6 +203,7 @@ struct vs_render_ray_info {
     pnanovdb_vec3_t dir;    /* index-space image of a unit world step */
     pnanovdb_vec3_t wo;     /* world, unit: -(ray direction) */
     float t0;               /* segments cover [t0, t0 + span] in n equal parts */
+    float sample_at;        /* where in a segment S is sampled: 0.5, or the interleave phase */
     float span;
     float inv_n;
     int n; /* 0 when the ray misses the support box or the medium is empty */
@@ -248,6 +255,7 @@ VS_FUNC vs_render_ray_info vs_render_ray_begin(VS_DATA_PARAM(vs_vec4, medium_dat
     ray.span = t1 - ray.t0;
     ray.n = 0;
     ray.inv_n = 1.0f;
+    ray.sample_at = 0.5f;
     if (ray.t0 < t1 && vs_medium_density_scale(VS_DATA_ONLY_ARG(medium_data)) > 0.0f) {
         /* World length of step_voxels voxels along this ray. */
         float h = render_data[VS_RENDER_OFF_MARCH].x / vs_sqrt(vs_vec3_dot(dir, dir));
@@ -279,9 +287,14 @@ VS_FUNC vs_render_ray_info vs_render_camera_ray(VS_DATA_PARAM(vs_vec4, medium_da
                      vs_vec3_from_vec4(render_data[VS_RENDER_OFF_UP]), sy);
     pnanovdb_vec3_t world = vs_vec3_scale(d, 1.0f / vs_sqrt(vs_vec3_dot(d, d)));
     pnanovdb_vec3_t dir = vs_medium_to_index(VS_DATA_ARG(medium_data) world);
-    return vs_render_ray_begin(VS_DATA_ARG(medium_data) VS_DATA_ARG(render_data)
-                                   vs_vec3_from_vec4(render_data[VS_RENDER_OFF_ORIGIN]),
-                               dir, vs_vec3_scale(world, -1.0f));
+    vs_render_ray_info ray =
+        vs_render_ray_begin(VS_DATA_ARG(medium_data) VS_DATA_ARG(render_data)
+                                vs_vec3_from_vec4(render_data[VS_RENDER_OFF_ORIGIN]),
+                            dir, vs_vec3_scale(world, -1.0f));
+    int m = VS_INT(render_data[VS_RENDER_OFF_VIEW].x);
+    if (m > 1)
+        ray.sample_at = (VS_FLOAT(px % m + m * (py % m)) + 0.5f) / VS_FLOAT(m * m);
+    return ray;
 }
 
 VS_FUNC vs_render_state vs_render_state_init(vs_render_ray_info ray)
@@ -315,8 +328,10 @@ VS_FUNC void vs_render_unit(VS_RENDER_TABLES pnanovdb_buf_t buf,
                             PNANOVDB_INOUT(vs_render_state) st)
 {
     VS_UNUSED(env_data); /* read by vs_render_result */
-    int light_count = vs_lights_direct_count(VS_DATA_ONLY_ARG(light_data));
-    int sky_count = vs_lights_ordinate_count(VS_DATA_ONLY_ARG(light_data));
+    /* Without S1 (the viewer's "multiple only") the units toward the lights are skipped. */
+    int with_s1 = render_data[VS_RENDER_OFF_VIEW].y != 0.0f ? 1 : 0;
+    int light_count = with_s1 * vs_lights_direct_count(VS_DATA_ONLY_ARG(light_data));
+    int sky_count = with_s1 * vs_lights_ordinate_count(VS_DATA_ONLY_ARG(light_data));
     float density_scale = vs_medium_density_scale(VS_DATA_ONLY_ARG(medium_data));
     pnanovdb_vec3_t box_lo = vs_medium_box_lo(VS_DATA_ONLY_ARG(medium_data));
     pnanovdb_vec3_t box_hi = vs_medium_box_hi(VS_DATA_ONLY_ARG(medium_data));
@@ -326,7 +341,9 @@ VS_FUNC void vs_render_unit(VS_RENDER_TABLES pnanovdb_buf_t buf,
     VS_PRECISE float a = ray.t0 + ray.span * (VS_FLOAT(seg) * ray.inv_n);
     VS_PRECISE float b =
         seg + 1 == ray.n ? ray.t0 + ray.span : ray.t0 + ray.span * (VS_FLOAT(seg + 1) * ray.inv_n);
-    pnanovdb_vec3_t mid = vs_vec3_madd(ray.origin, ray.dir, 0.5f * (a + b));
+    /* At sample_at 0.5 this is the midpoint, 0.5 a + 0.5 b = 0.5 (a + b) exactly. */
+    pnanovdb_vec3_t mid =
+        vs_vec3_madd(ray.origin, ray.dir, a * (1.0f - ray.sample_at) + b * ray.sample_at);
 
     /* What this unit marches: origin, direction, length; and how its result is used. */
     pnanovdb_vec3_t origin = mid;

@@ -97,8 +97,8 @@ static vdbs_status solve(vdbs_runner *runner, int iterations, double tolerance, 
     desc.cpu_step = jacobi_step;
     desc.cpu_chunk = 100;
     desc.shader = "test_jacobi.comp";
-    desc.inputs[1] = (vdbs_kernel_input){P.rhs, sizeof P.rhs};
-    desc.inputs[2] = (vdbs_kernel_input){P.dims, sizeof P.dims};
+    desc.inputs[1] = (vdbs_kernel_input){.data = P.rhs, .size = sizeof P.rhs};
+    desc.inputs[2] = (vdbs_kernel_input){.data = P.dims, .size = sizeof P.dims};
     desc.state_words = 1;
     desc.state = u;
     desc.max_iterations = iterations;
@@ -221,7 +221,7 @@ static void test_sweep_in_place(void **state)
             desc.cpu_step = sweep_step;
             desc.cpu_chunk = 50;
             desc.shader = "test_sweep.comp";
-            desc.inputs[1] = (vdbs_kernel_input){rhs, sizeof rhs};
+            desc.inputs[1] = (vdbs_kernel_input){.data = rhs, .size = sizeof rhs};
             desc.state = u;
             desc.state_items = ITEMS;
             desc.in_place = 1;

@@ -393,6 +393,15 @@ static void test_render_baked_synthetic(void **state)
     lit_scene(&scene, 8.0, 0.85);
     render_scenario s = {&volume, &ms, &scene, march_options(16, 1.0f, 0, 0)};
     render_twin("render baked, synthetic ms grids", &s);
+    /* The viewer's knobs: interleaved phases and the gather pass, and each term alone. */
+    s.options.interleave = 3;
+    render_twin("render baked, interleaved 3 x 3 with the gather", &s);
+    s.options.interleave = 0;
+    s.options.no_single = 1;
+    render_twin("render baked, multiple scattering only", &s);
+    s.options.no_single = 0;
+    s.options.no_multiple = 1;
+    render_twin("render baked, single scattering only", &s);
     vdbs_ms_grids_free(&ms);
     vdbs_volume_free(&volume);
 }

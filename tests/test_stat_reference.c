@@ -874,7 +874,7 @@ static void march_render(const vdbs_volume *volume, const vdbs_scene *scene,
     options.s1_march = 1;
     image_make(image, frame->width, frame->height);
     vdbs_runner *runner = NULL;
-    vdbs_runner_desc rd = {VDBS_BACKEND_CPU};
+    vdbs_runner_desc rd = {.backend = VDBS_BACKEND_CPU};
     assert_int_equal(vdbs_runner_create(&rd, &runner, &err), VDBS_OK);
     if (vdbs_render_march(runner, volume, NULL, scene, frame, &options, image, &err) != VDBS_OK)
         fail_msg("%s", err.message);

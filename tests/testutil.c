@@ -65,7 +65,7 @@ static vdbs_runner *runners[3];
 vdbs_runner *test_runner(vdbs_backend backend)
 {
     if (!runners[backend]) {
-        vdbs_runner_desc desc = {backend};
+        vdbs_runner_desc desc = {.backend = backend};
         vdbs_error err;
         if (vdbs_runner_create(&desc, &runners[backend], &err) != VDBS_OK)
             fail_msg("no %s runner: %s", backend == VDBS_BACKEND_GPU ? "GPU" : "C", err.message);

@@ -76,9 +76,10 @@ vdbs_status vdbs_fld_operator(vdbs_runner *runner, const uint32_t *params, const
     desc.user = &k;
     desc.cpu_step = fld_step;
     desc.shader = "fld_apply.comp";
-    desc.inputs[1] = (vdbs_kernel_input){params, sizeof(uint32_t) * VS_FLD_PARAM_WORDS};
-    desc.inputs[2] =
-        (vdbs_kernel_input){coef, sizeof(float) * VS_FLD_COEF_WORDS * 3 * (size_t)cells};
+    desc.inputs[1] =
+        (vdbs_kernel_input){.data = params, .size = sizeof(uint32_t) * VS_FLD_PARAM_WORDS};
+    desc.inputs[2] = (vdbs_kernel_input){
+        .data = coef, .size = sizeof(float) * VS_FLD_COEF_WORDS * 3 * (size_t)cells};
     desc.state_words = 1;
     desc.state = y;
     desc.max_iterations = 1;

@@ -13,7 +13,7 @@
 #define MAX_EGL_DEVICES 32
 
 struct vdbs_gpu {
-    EGLDisplay display;
+    EGLDisplay display; /* EGL_NO_DISPLAY for an adopted context */
     EGLContext context;
     vdbs_gpu_info info;
 };
@@ -172,6 +172,30 @@ static void copy_gl_string(char *dst, size_t size, GLenum name)
 
 /* Initialises `dpy`, makes a 4.3+ core context current and fills gpu on success;
  * otherwise writes what went wrong to `why` and leaves the display as it was. */
+/* What the current context is and can do. */
+static void read_info(vdbs_gpu_info *info)
+{
+    copy_gl_string(info->vendor, sizeof info->vendor, GL_VENDOR);
+    copy_gl_string(info->renderer, sizeof info->renderer, GL_RENDERER);
+    copy_gl_string(info->version, sizeof info->version, GL_VERSION);
+    copy_gl_string(info->glsl_version, sizeof info->glsl_version, GL_SHADING_LANGUAGE_VERSION);
+    static const char *const software_names[] = {"llvmpipe", "softpipe", "swrast", "SwiftShader"};
+    for (size_t i = 0; i < sizeof software_names / sizeof software_names[0]; i++)
+        if (strstr(info->renderer, software_names[i]))
+            info->is_software = 1;
+    GLint64 ssbo = 0;
+    glGetInteger64v(GL_MAX_SHADER_STORAGE_BLOCK_SIZE, &ssbo);
+    info->max_ssbo_bytes = ssbo;
+    GLint value = 0;
+    glGetIntegerv(GL_MAX_COMPUTE_WORK_GROUP_INVOCATIONS, &value);
+    info->max_work_group_invocations = value;
+    for (GLuint i = 0; i < 3; i++) {
+        value = 0;
+        glGetIntegeri_v(GL_MAX_COMPUTE_WORK_GROUP_COUNT, i, &value);
+        info->max_work_group_count[i] = value;
+    }
+}
+
 static int try_display(vdbs_gpu *gpu, EGLDisplay dpy, char *why, size_t why_size)
 {
     if (dpy == EGL_NO_DISPLAY) {
@@ -236,26 +260,7 @@ static int try_display(vdbs_gpu *gpu, EGLDisplay dpy, char *why, size_t why_size
 
     gpu->display = dpy;
     gpu->context = ctx;
-    vdbs_gpu_info *info = &gpu->info;
-    copy_gl_string(info->vendor, sizeof info->vendor, GL_VENDOR);
-    copy_gl_string(info->renderer, sizeof info->renderer, GL_RENDERER);
-    copy_gl_string(info->version, sizeof info->version, GL_VERSION);
-    copy_gl_string(info->glsl_version, sizeof info->glsl_version, GL_SHADING_LANGUAGE_VERSION);
-    static const char *const software_names[] = {"llvmpipe", "softpipe", "swrast", "SwiftShader"};
-    for (size_t i = 0; i < sizeof software_names / sizeof software_names[0]; i++)
-        if (strstr(info->renderer, software_names[i]))
-            info->is_software = 1;
-    GLint64 ssbo = 0;
-    glGetInteger64v(GL_MAX_SHADER_STORAGE_BLOCK_SIZE, &ssbo);
-    info->max_ssbo_bytes = ssbo;
-    GLint value = 0;
-    glGetIntegerv(GL_MAX_COMPUTE_WORK_GROUP_INVOCATIONS, &value);
-    info->max_work_group_invocations = value;
-    for (GLuint i = 0; i < 3; i++) {
-        value = 0;
-        glGetIntegeri_v(GL_MAX_COMPUTE_WORK_GROUP_COUNT, i, &value);
-        info->max_work_group_count[i] = value;
-    }
+    read_info(&gpu->info);
     return 1;
 
 fail:
@@ -331,10 +336,34 @@ vdbs_status vdbs_gpu_create(vdbs_gpu **out, vdbs_error *err)
     return VDBS_OK;
 }
 
+vdbs_status vdbs_gpu_adopt_current(vdbs_gpu **out, vdbs_error *err)
+{
+    *out = NULL;
+    if (epoxy_gl_version() < 43 ||
+        (epoxy_gl_version() < 45 && !epoxy_has_gl_extension("GL_ARB_direct_state_access")))
+        return vdbs_error_set(err, VDBS_ERR_GPU,
+                              "the current OpenGL context (version %d.%d) lacks compute shaders "
+                              "or direct state access (4.3 and 4.5 needed)",
+                              epoxy_gl_version() / 10, epoxy_gl_version() % 10);
+    vdbs_gpu *gpu = calloc(1, sizeof *gpu);
+    if (!gpu)
+        return vdbs_error_set(err, VDBS_ERR_NOMEM, "out of memory adopting the GL context");
+    gpu->display = EGL_NO_DISPLAY;
+    gpu->context = EGL_NO_CONTEXT;
+    read_info(&gpu->info);
+    snprintf(gpu->info.platform, sizeof gpu->info.platform, "window");
+    *out = gpu;
+    return VDBS_OK;
+}
+
 void vdbs_gpu_destroy(vdbs_gpu *gpu)
 {
     if (!gpu)
         return;
+    if (gpu->display == EGL_NO_DISPLAY) { /* adopted: the window owns the context */
+        free(gpu);
+        return;
+    }
     eglMakeCurrent(gpu->display, EGL_NO_SURFACE, EGL_NO_SURFACE, EGL_NO_CONTEXT);
     eglDestroyContext(gpu->display, gpu->context);
     display_release(gpu->display);

@@ -13,10 +13,29 @@
 #define CANARY_TRIPS 2u
 #define MAX_UNITS 0x7fffffff
 
+/* Programs are built once per runner (an interactive caller runs the same kernel every
+ * frame); resident inputs stay on the GPU under their caller's id until released. */
+#define RUNNER_MAX_PROGRAMS 32
+#define RUNNER_MAX_RESIDENT 16
+
+typedef struct runner_program {
+    const char *shader; /* the embedded source's name: static storage */
+    vdbs_gpu_program program;
+} runner_program;
+
+typedef struct runner_resident {
+    uint64_t id; /* 0: free slot */
+    size_t size;
+    vdbs_gpu_buffer buffer;
+} runner_resident;
+
 struct vdbs_runner {
     vdbs_backend backend;
     vdbs_gpu *gpu;
     char device[256];
+    runner_program programs[RUNNER_MAX_PROGRAMS];
+    runner_resident resident[RUNNER_MAX_RESIDENT];
+    uint64_t next_resident_id;
 };
 
 vdbs_status vdbs_backend_parse(const char *text, vdbs_backend *backend, vdbs_error *err)
@@ -44,7 +63,8 @@ vdbs_status vdbs_runner_create(const vdbs_runner_desc *desc, vdbs_runner **out, 
     if (r->backend == VDBS_BACKEND_AUTO)
         r->backend = vdbs_gpu_hardware_available() ? VDBS_BACKEND_GPU : VDBS_BACKEND_CPU;
     if (r->backend == VDBS_BACKEND_GPU) {
-        vdbs_status st = vdbs_gpu_create(&r->gpu, err);
+        vdbs_status st = desc && desc->current_context ? vdbs_gpu_adopt_current(&r->gpu, err)
+                                                       : vdbs_gpu_create(&r->gpu, err);
         if (st != VDBS_OK) {
             free(r);
             return st;
@@ -61,9 +81,28 @@ void vdbs_runner_destroy(vdbs_runner *runner)
 {
     if (!runner)
         return;
-    if (runner->gpu)
+    if (runner->gpu) {
+        for (int i = 0; i < RUNNER_MAX_PROGRAMS; ++i)
+            vdbs_gpu_program_destroy(runner->gpu, runner->programs[i].program);
+        for (int i = 0; i < RUNNER_MAX_RESIDENT; ++i)
+            vdbs_gpu_buffer_destroy(runner->gpu, runner->resident[i].buffer);
         vdbs_gpu_destroy(runner->gpu);
+    }
     free(runner);
+}
+
+uint64_t vdbs_runner_resident_id(vdbs_runner *runner)
+{
+    return ++runner->next_resident_id;
+}
+
+void vdbs_runner_release(vdbs_runner *runner, uint64_t id)
+{
+    for (int i = 0; id && i < RUNNER_MAX_RESIDENT; ++i)
+        if (runner->resident[i].id == id) {
+            vdbs_gpu_buffer_destroy(runner->gpu, runner->resident[i].buffer);
+            memset(&runner->resident[i], 0, sizeof runner->resident[i]);
+        }
 }
 
 vdbs_backend vdbs_runner_backend(const vdbs_runner *runner)
@@ -177,8 +216,8 @@ static vdbs_status cpu_iterate(const vdbs_kernel_desc *d, int max_iterations,
 
 typedef struct gpu_job {
     vdbs_gpu *gpu;
-    vdbs_gpu_program program;
-    vdbs_gpu_buffer inputs[VDBS_KERNEL_MAX_INPUTS];
+    vdbs_gpu_program program;                       /* the runner's */
+    vdbs_gpu_buffer inputs[VDBS_KERNEL_MAX_INPUTS]; /* 0 for resident ones (the runner's) */
     vdbs_gpu_buffer states[2];
     vdbs_gpu_buffer output;
     vdbs_gpu_buffer partials;
@@ -193,7 +232,67 @@ static void job_free(gpu_job *job)
         vdbs_gpu_buffer_destroy(job->gpu, job->states[1]);
     vdbs_gpu_buffer_destroy(job->gpu, job->output);
     vdbs_gpu_buffer_destroy(job->gpu, job->partials);
-    vdbs_gpu_program_destroy(job->gpu, job->program);
+}
+
+/* The runner's program for `shader`, built on first use. */
+static vdbs_status runner_program_get(vdbs_runner *runner, const char *shader,
+                                      vdbs_gpu_program *program, vdbs_error *err)
+{
+    int slot = -1;
+    for (int i = 0; i < RUNNER_MAX_PROGRAMS; ++i) {
+        if (runner->programs[i].shader && strcmp(runner->programs[i].shader, shader) == 0) {
+            *program = runner->programs[i].program;
+            return VDBS_OK;
+        }
+        if (!runner->programs[i].shader && slot < 0)
+            slot = i;
+    }
+    const vdbs_shader_source *source = vdbs_shader_find(shader);
+    if (!source)
+        return vdbs_error_set(err, VDBS_ERR_INTERNAL, "shader %s not embedded", shader);
+    vdbs_status st = vdbs_gpu_program_create(runner->gpu, source, NULL, program, err);
+    if (st == VDBS_OK && slot >= 0)
+        runner->programs[slot] = (runner_program){source->name, *program};
+    else if (st == VDBS_OK) /* more kernels than slots: a fresh build each time */
+        return vdbs_error_set(err, VDBS_ERR_INTERNAL, "more than %d kernels in one runner",
+                              RUNNER_MAX_PROGRAMS);
+    return st;
+}
+
+/* Binds input i: a resident one from the runner's buffers (uploaded when its id is new
+ * or its size changed), else a buffer of this job. */
+static vdbs_status bind_input(gpu_job *job, vdbs_runner *runner, const vdbs_kernel_input *in, int i,
+                              vdbs_error *err)
+{
+    if (!in->resident) {
+        vdbs_status st = vdbs_gpu_buffer_create(job->gpu, in->size, in->data, &job->inputs[i], err);
+        if (st == VDBS_OK)
+            vdbs_gpu_buffer_bind(job->gpu, job->inputs[i], (unsigned)i);
+        return st;
+    }
+    runner_resident *slot = NULL;
+    for (int k = 0; k < RUNNER_MAX_RESIDENT && !slot; ++k)
+        if (runner->resident[k].id == in->resident)
+            slot = &runner->resident[k];
+    if (slot && slot->size != in->size) {
+        vdbs_runner_release(runner, in->resident);
+        slot = NULL;
+    }
+    if (!slot) {
+        for (int k = 0; k < RUNNER_MAX_RESIDENT && !slot; ++k)
+            if (!runner->resident[k].id)
+                slot = &runner->resident[k];
+        if (!slot)
+            return vdbs_error_set(err, VDBS_ERR_INTERNAL, "more than %d resident inputs",
+                                  RUNNER_MAX_RESIDENT);
+        vdbs_status st = vdbs_gpu_buffer_create(job->gpu, in->size, in->data, &slot->buffer, err);
+        if (st != VDBS_OK)
+            return st;
+        slot->id = in->resident;
+        slot->size = in->size;
+    }
+    vdbs_gpu_buffer_bind(job->gpu, slot->buffer, (unsigned)i);
+    return VDBS_OK;
 }
 
 /* Builds the program and uploads the inputs; the state buffers start with `state`
@@ -203,19 +302,12 @@ static vdbs_status job_init(gpu_job *job, vdbs_runner *runner, const vdbs_kernel
 {
     memset(job, 0, sizeof *job);
     job->gpu = runner->gpu;
-    const vdbs_shader_source *source = d->shader ? vdbs_shader_find(d->shader) : NULL;
-    if (!source)
-        return vdbs_error_set(err, VDBS_ERR_INTERNAL, "shader %s not embedded",
-                              d->shader ? d->shader : "(none)");
-    vdbs_status st = vdbs_gpu_program_create(job->gpu, source, NULL, &job->program, err);
-    for (int i = 0; i < VDBS_KERNEL_MAX_INPUTS && st == VDBS_OK; ++i) {
-        if (d->inputs[i].size == 0)
-            continue;
-        st = vdbs_gpu_buffer_create(job->gpu, d->inputs[i].size, d->inputs[i].data, &job->inputs[i],
-                                    err);
-        if (st == VDBS_OK)
-            vdbs_gpu_buffer_bind(job->gpu, job->inputs[i], (unsigned)i);
-    }
+    if (!d->shader)
+        return vdbs_error_set(err, VDBS_ERR_INTERNAL, "kernel without a shader");
+    vdbs_status st = runner_program_get(runner, d->shader, &job->program, err);
+    for (int i = 0; i < VDBS_KERNEL_MAX_INPUTS && st == VDBS_OK; ++i)
+        if (d->inputs[i].size > 0)
+            st = bind_input(job, runner, &d->inputs[i], i, err);
     for (int i = 0; i < (d->in_place ? 1 : 2) && st == VDBS_OK; ++i)
         st = vdbs_gpu_buffer_create(job->gpu, state_bytes(d), i == 0 ? state : NULL,
                                     &job->states[i], err);

@@ -376,10 +376,11 @@ static vdbs_status sweep_grid(vdbs_runner *runner, const vdbs_volume *volume, co
         desc.cpu_items = sweep_items;
         desc.cpu_chunk = 16;
         desc.shader = "lightgrid_sweep.comp";
-        desc.inputs[0] = (vdbs_kernel_input){volume->nano, volume->nano_size};
-        desc.inputs[1] = (vdbs_kernel_input){medium, sizeof(float) * 4 * VS_MEDIUM_SIZE};
-        desc.inputs[2] = (vdbs_kernel_input){words, sizeof *words * prefix_words};
-        desc.inputs[3] = (vdbs_kernel_input){params, sizeof params};
+        desc.inputs[0] = (vdbs_kernel_input){.data = volume->nano, .size = volume->nano_size};
+        desc.inputs[1] =
+            (vdbs_kernel_input){.data = medium, .size = sizeof(float) * 4 * VS_MEDIUM_SIZE};
+        desc.inputs[2] = (vdbs_kernel_input){.data = words, .size = sizeof *words * prefix_words};
+        desc.inputs[3] = (vdbs_kernel_input){.data = params, .size = sizeof params};
         desc.output_words = (size_t)g->n[2];
         desc.output = tile;
         desc.units_per_dispatch = 1;
@@ -589,10 +590,12 @@ vdbs_status vdbs_light_grids_lookup_voxels(vdbs_runner *runner, const vdbs_volum
     desc.cpu_items = lookup_items;
     desc.cpu_chunk = 4096;
     desc.shader = "lightgrid_lookup.comp";
-    desc.inputs[1] = (vdbs_kernel_input){grids->medium, sizeof grids->medium};
-    desc.inputs[2] = (vdbs_kernel_input){grids->words, sizeof *grids->words * grids->word_count};
-    desc.inputs[3] = (vdbs_kernel_input){params, sizeof params};
-    desc.inputs[4] = (vdbs_kernel_input){volume->coords, 3 * sizeof(int32_t) * volume->coord_count};
+    desc.inputs[1] = (vdbs_kernel_input){.data = grids->medium, .size = sizeof grids->medium};
+    desc.inputs[2] =
+        (vdbs_kernel_input){.data = grids->words, .size = sizeof *grids->words * grids->word_count};
+    desc.inputs[3] = (vdbs_kernel_input){.data = params, .size = sizeof params};
+    desc.inputs[4] = (vdbs_kernel_input){.data = volume->coords,
+                                         .size = 3 * sizeof(int32_t) * volume->coord_count};
     desc.output_words = 1;
     desc.output = depth;
     desc.total_units = 1;

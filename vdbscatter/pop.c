@@ -158,8 +158,8 @@ vdbs_status vdbs_pop_propagate(vdbs_runner *runner, const uint32_t *params, size
     desc.user = &k;
     desc.cpu_step = pop_step;
     desc.shader = "pop_propagate.comp";
-    desc.inputs[1] = (vdbs_kernel_input){params, sizeof(uint32_t) * param_words};
-    desc.inputs[2] = (vdbs_kernel_input){sigma, sizeof(float) * (size_t)cells};
+    desc.inputs[1] = (vdbs_kernel_input){.data = params, .size = sizeof(uint32_t) * param_words};
+    desc.inputs[2] = (vdbs_kernel_input){.data = sigma, .size = sizeof(float) * (size_t)cells};
     desc.state_words = VS_POP_STATE_WORDS;
     desc.state = state;
     desc.max_iterations = max_iterations;

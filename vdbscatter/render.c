@@ -25,6 +25,7 @@
 #include "vs_march.h"
 #include "vs_phase.h"
 #include "vs_render.h"
+#include "vs_gather.h"
 
 /* Pixels per GPU dispatch chunk: short enough for a display driver's watchdog on real
  * GPUs, large enough to keep llvmpipe's threads busy. */
@@ -89,6 +90,8 @@ vdbs_status vdbs_render_table(const vdbs_volume *volume, const vdbs_ms_grids *ms
                        (double)(units[2] & 0xffffu), (double)(units[3] >> 16),
                        (double)(units[3] & 0xffffu));
     }
+    vdbs_table_put(t + 4 * VS_RENDER_OFF_VIEW, options->interleave > 1 ? options->interleave : 1,
+                   options->no_single ? 0.0 : 1.0, 0.0, 0.0);
     double origin[3];
     vdbs_volume_index_point(volume, frame->origin, origin);
     vdbs_table_put(t + 4 * VS_RENDER_OFF_ORIGIN, origin[0], origin[1], origin[2], frame->width);
@@ -166,73 +169,200 @@ static void march_items(void *user, uint64_t begin, uint64_t end)
     }
 }
 
-vdbs_status vdbs_render_march(vdbs_runner *runner, const vdbs_volume *volume,
-                              const vdbs_ms_grids *ms, const vdbs_scene *scene,
-                              const vdbs_camera_frame *frame, const vdbs_march_options *options,
-                              vdbs_image *image, vdbs_error *err)
+/* What a session keeps between pictures: everything but the camera. On the GPU the
+ * grids, lights and light grids stay resident under the runner's ids. */
+struct vdbs_march_session {
+    vdbs_runner *runner;
+    const vdbs_volume *volume;
+    const vdbs_ms_grids *ms;
+    vdbs_march_options options; /* as given to create (the lights' settings) */
+    uint32_t *grids;            /* density then ms grids (vdbs_render_buffer) */
+    size_t grids_size;
+    int grids_owned;
+    int have_lights;
+    vdbs_light_table lights;
+    vdbs_light_grids light_grids;
+    float medium[4 * VDBS_MEDIUM_TABLE_ENTRIES];
+    float no_env[VS_ENV_OFF_TEXELS];
+    uint32_t no_grids[4];
+    uint64_t id_grids, id_lights, id_light_grids, id_env;
+};
+
+static void session_drop_lights(vdbs_march_session *s)
+{
+    if (!s->have_lights)
+        return;
+    vdbs_runner_release(s->runner, s->id_lights);
+    vdbs_runner_release(s->runner, s->id_light_grids);
+    vdbs_runner_release(s->runner, s->id_env);
+    vdbs_light_grids_free(&s->light_grids);
+    vdbs_lights_free(&s->lights);
+    s->have_lights = 0;
+}
+
+void vdbs_march_session_destroy(vdbs_march_session *session)
+{
+    if (!session)
+        return;
+    session_drop_lights(session);
+    vdbs_runner_release(session->runner, session->id_grids);
+    if (session->grids_owned)
+        free(session->grids);
+    free(session);
+}
+
+vdbs_status vdbs_march_session_create(vdbs_runner *runner, const vdbs_volume *volume,
+                                      const vdbs_ms_grids *ms, const vdbs_scene *scene,
+                                      const vdbs_march_options *options, vdbs_march_session **out,
+                                      vdbs_error *err)
+{
+    *out = NULL;
+    vdbs_march_session *s = calloc(1, sizeof *s);
+    if (!s)
+        return vdbs_error_set(err, VDBS_ERR_NOMEM, "out of memory for a render session");
+    s->runner = runner;
+    s->volume = volume;
+    s->ms = vdbs_ms_grids_present(ms) ? ms : NULL;
+    s->options = *options;
+    vdbs_status st =
+        vdbs_render_buffer(volume, s->ms, &s->grids, &s->grids_size, &s->grids_owned, err);
+    /* GLSL addresses bytes with 32-bit unsigned integers. */
+    if (st == VDBS_OK && vdbs_runner_backend(runner) == VDBS_BACKEND_GPU &&
+        s->grids_size > 0xffffffffu)
+        st = vdbs_error_set(err, VDBS_ERR_GPU,
+                            "%zu bytes of grids exceed the 4 GiB a shader can address; use "
+                            "--backend cpu",
+                            s->grids_size);
+    s->id_grids = vdbs_runner_resident_id(runner);
+    if (st == VDBS_OK)
+        st = vdbs_march_session_set_scene(s, scene, err);
+    if (st != VDBS_OK) {
+        vdbs_march_session_destroy(s);
+        return st;
+    }
+    *out = s;
+    return VDBS_OK;
+}
+
+vdbs_status vdbs_march_session_set_scene(vdbs_march_session *s, const vdbs_scene *scene,
+                                         vdbs_error *err)
+{
+    session_drop_lights(s);
+    const vdbs_march_options *options = &s->options;
+    vdbs_lights_desc lights_desc = {0};
+    lights_desc.sky_ordinates = options->sky_directions;
+    vdbs_status st = vdbs_lights_build(s->volume, scene, &lights_desc, &s->lights, err);
+    if (st != VDBS_OK)
+        return st;
+    memset(&s->light_grids, 0, sizeof s->light_grids);
+    s->have_lights = 1;
+    s->id_lights = vdbs_runner_resident_id(s->runner);
+    s->id_light_grids = vdbs_runner_resident_id(s->runner);
+    s->id_env = vdbs_runner_resident_id(s->runner);
+    /* The light grids of every light and sky ordinate, built once (none for the march).
+     * Bilinear across columns: a camera sample's error averages along the ray and over the
+     * lights, and the lookups are memory-bound (bench/RESULTS.md). */
+    if (!options->s1_march) {
+        vdbs_light_grid_desc gd = {options->s1_oversample, 1};
+        st = vdbs_light_grids_build(s->runner, s->volume, scene, &s->lights, 0,
+                                    s->lights.direct_count + s->lights.ordinate_count, &gd,
+                                    &s->light_grids, err);
+        if (st == VDBS_OK)
+            st = vdbs_light_grids_fit(s->runner, &s->light_grids, err);
+        if (options->stats)
+            options->stats->grids = s->light_grids.stats;
+    }
+    vdbs_medium medium_params;
+    vdbs_medium_init(&medium_params, s->volume, scene);
+    vdbs_medium_pack(&medium_params, s->medium);
+    return st;
+}
+
+/* Interleaved sampling's gather (vs_gather.h): across, then down. */
+typedef struct gather_job {
+    const vs_vec4 *table;
+    const float *in;
+    float *out;
+} gather_job;
+
+static void gather_items(void *user, uint64_t begin, uint64_t end)
+{
+    const gather_job *job = user;
+    for (uint64_t n = begin; n < end; ++n)
+        for (int c = 0; c < 3; ++c)
+            job->out[3 * n + (uint64_t)c] = vs_gather_channel(job->table, job->in, (int)n, c);
+}
+
+vdbs_status vdbs_render_gather(vdbs_runner *runner, vdbs_image *image, int block, vdbs_error *err)
+{
+    if (block <= 1)
+        return VDBS_OK;
+    size_t pixels = (size_t)image->width * (size_t)image->height;
+    float *other = malloc(sizeof *other * 3 * (pixels ? pixels : 1));
+    if (!other)
+        return vdbs_error_set(err, VDBS_ERR_NOMEM, "out of memory for the gather pass");
+    vdbs_status st = VDBS_OK;
+    float *in = image->rgb, *out = other;
+    for (int down = 0; down < 2 && st == VDBS_OK; ++down) {
+        float table[4 * VS_GATHER_SIZE] = {(float)image->width, (float)image->height, (float)block,
+                                           (float)down};
+        gather_job job = {(const vs_vec4 *)table, in, out};
+        vdbs_kernel_desc desc = {0};
+        desc.items = pixels;
+        desc.user = &job;
+        desc.cpu_items = gather_items;
+        desc.cpu_chunk = 1024;
+        desc.shader = "render_gather.comp";
+        desc.inputs[1] = (vdbs_kernel_input){.data = table, .size = sizeof table};
+        desc.inputs[2] = (vdbs_kernel_input){.data = in, .size = sizeof *in * 3 * pixels};
+        desc.output_words = 3;
+        desc.output = out;
+        st = vdbs_kernel_run(runner, &desc, NULL, err);
+        float *t = in;
+        in = out;
+        out = t;
+    }
+    /* Two passes: the result is back in image->rgb. */
+    free(other);
+    return st;
+}
+
+vdbs_status vdbs_march_session_draw(vdbs_march_session *s, const vdbs_camera_frame *frame,
+                                    const vdbs_march_options *options, vdbs_image *image,
+                                    vdbs_error *err)
 {
     vdbs_status st = check_image(frame, image, err);
     if (st != VDBS_OK)
         return st;
+    const int block = options->interleave > 1 ? options->interleave : 1;
+    if (block > VDBS_MAX_INTERLEAVE)
+        return vdbs_error_set(err, VDBS_ERR_INPUT, "interleave block %d beyond %d", block,
+                              VDBS_MAX_INTERLEAVE);
+    /* Each pixel takes 1/M^2 of the samples; its M x M neighbours take the others. */
+    vdbs_march_options frame_options = *options;
+    frame_options.step_voxels = options->step_voxels * (float)(block * block);
     float *table = NULL;
     size_t entries = 0;
-    if ((st = vdbs_render_table(volume, ms, frame, options, &table, &entries, err)) != VDBS_OK)
+    const vdbs_ms_grids *ms = options->no_multiple ? NULL : s->ms;
+    if ((st = vdbs_render_table(s->volume, ms, frame, &frame_options, &table, &entries, err)) !=
+        VDBS_OK)
         return st;
-    vdbs_lights_desc lights_desc = {0};
-    lights_desc.sky_ordinates = options->sky_directions;
-    vdbs_light_table lights;
-    if ((st = vdbs_lights_build(volume, scene, &lights_desc, &lights, err)) != VDBS_OK) {
-        free(table);
-        return st;
-    }
-    uint32_t *grids = NULL;
-    size_t grids_size = 0;
-    int owned = 0;
-    if ((st = vdbs_render_buffer(volume, ms, &grids, &grids_size, &owned, err)) != VDBS_OK) {
-        vdbs_lights_free(&lights);
-        free(table);
-        return st;
-    }
-    /* GLSL addresses bytes with 32-bit unsigned integers. */
-    if (vdbs_runner_backend(runner) == VDBS_BACKEND_GPU && grids_size > 0xffffffffu)
-        st = vdbs_error_set(err, VDBS_ERR_GPU,
-                            "%zu bytes of grids exceed the 4 GiB a shader can address; use "
-                            "--backend cpu",
-                            grids_size);
-    /* The light grids of every light and sky ordinate, built once (none for the march). */
-    vdbs_light_grids light_grids;
-    memset(&light_grids, 0, sizeof light_grids);
-    uint32_t no_grids[4] = {0, 0, 0, 0};
-    const uint32_t *lgrid_words = no_grids;
-    size_t lgrid_bytes = sizeof no_grids;
-    if (st == VDBS_OK && !options->s1_march) {
-        /* Bilinear across columns: a camera sample's error averages along the ray and over
-         * the lights, and the lookups are memory-bound (bench/RESULTS.md). */
-        vdbs_light_grid_desc gd = {options->s1_oversample, 1};
-        st = vdbs_light_grids_build(runner, volume, scene, &lights, 0,
-                                    lights.direct_count + lights.ordinate_count, &gd, &light_grids,
-                                    err);
-        lgrid_words = light_grids.words;
-        lgrid_bytes = sizeof *light_grids.words * light_grids.word_count;
+    if (!s->options.s1_march)
         table[4 * VS_RENDER_OFF_MARCH + 2] = 1.0f;
-        if (st == VDBS_OK)
-            st = vdbs_light_grids_fit(runner, &light_grids, err);
-    }
+    const uint32_t *lgrid_words = s->options.s1_march ? s->no_grids : s->light_grids.words;
+    size_t lgrid_bytes = s->options.s1_march
+                             ? sizeof s->no_grids
+                             : sizeof *s->light_grids.words * s->light_grids.word_count;
     /* The map the rays that leave see, already in the kernels' layout; a zero header
      * without one. */
-    const float no_env[VS_ENV_OFF_TEXELS] = {0.0f, 0.0f, 0.0f, 0.0f};
-    const float *env = lights.env ? lights.env->data : no_env;
-    size_t env_bytes = lights.env ? lights.env->bytes : sizeof no_env;
-    vdbs_medium medium_params;
-    vdbs_medium_init(&medium_params, volume, scene);
-    float medium[4 * VDBS_MEDIUM_TABLE_ENTRIES];
-    vdbs_medium_pack(&medium_params, medium);
-    march_job job = {(const vs_vec4 *)medium,
-                     (const vs_vec4 *)lights.packed,
+    const float *env = s->lights.env ? s->lights.env->data : s->no_env;
+    size_t env_bytes = s->lights.env ? s->lights.env->bytes : sizeof s->no_env;
+    march_job job = {(const vs_vec4 *)s->medium,
+                     (const vs_vec4 *)s->lights.packed,
                      (const vs_vec4 *)table,
                      lgrid_words,
                      env,
-                     pnanovdb_make_buf(grids, grids_size / 4),
+                     pnanovdb_make_buf(s->grids, s->grids_size / 4),
                      frame->width,
                      image->rgb};
 
@@ -242,31 +372,44 @@ vdbs_status vdbs_render_march(vdbs_runner *runner, const vdbs_volume *volume,
     desc.cpu_items = march_items;
     desc.cpu_chunk = RENDER_CPU_CHUNK;
     desc.shader = "render_march.comp";
-    desc.inputs[0] = (vdbs_kernel_input){grids, grids_size};
-    desc.inputs[1] = (vdbs_kernel_input){medium, sizeof medium};
-    desc.inputs[2] = (vdbs_kernel_input){lights.packed, lights.packed_entries * 4 * sizeof(float)};
-    desc.inputs[3] = (vdbs_kernel_input){table, entries * 4 * sizeof(float)};
-    desc.inputs[4] = (vdbs_kernel_input){lgrid_words, lgrid_bytes};
-    desc.inputs[5] = (vdbs_kernel_input){env, env_bytes};
+    desc.inputs[0] = (vdbs_kernel_input){s->grids, s->grids_size, s->id_grids};
+    desc.inputs[1] = (vdbs_kernel_input){.data = s->medium, .size = sizeof s->medium};
+    desc.inputs[2] = (vdbs_kernel_input){
+        s->lights.packed, s->lights.packed_entries * 4 * sizeof(float), s->id_lights};
+    desc.inputs[3] = (vdbs_kernel_input){.data = table, .size = entries * 4 * sizeof(float)};
+    desc.inputs[4] = (vdbs_kernel_input){lgrid_words, lgrid_bytes, s->id_light_grids};
+    desc.inputs[5] = (vdbs_kernel_input){env, env_bytes, s->id_env};
     desc.state_words = VS_RENDER_STATE_WORDS;
     desc.output_words = 3;
     desc.output = image->rgb;
     desc.units_per_dispatch =
-        options->gpu_units > 0 ? options->gpu_units : vdbs_volume_gpu_marches_per_pass(volume);
+        options->gpu_units > 0 ? options->gpu_units : vdbs_volume_gpu_marches_per_pass(s->volume);
     desc.gpu_chunk = RENDER_GPU_CHUNK;
     desc.progress = options->progress;
     double t_march = omp_get_wtime();
+    st = vdbs_kernel_run(s->runner, &desc, NULL, err);
     if (st == VDBS_OK)
-        st = vdbs_kernel_run(runner, &desc, NULL, err);
-    if (options->stats) {
-        options->stats->grids = light_grids.stats;
+        st = vdbs_render_gather(s->runner, image, block, err);
+    if (options->stats)
         options->stats->seconds_march = omp_get_wtime() - t_march;
-    }
-    vdbs_light_grids_free(&light_grids);
-    if (owned)
-        free(grids);
-    vdbs_lights_free(&lights);
     free(table);
+    return st;
+}
+
+vdbs_status vdbs_render_march(vdbs_runner *runner, const vdbs_volume *volume,
+                              const vdbs_ms_grids *ms, const vdbs_scene *scene,
+                              const vdbs_camera_frame *frame, const vdbs_march_options *options,
+                              vdbs_image *image, vdbs_error *err)
+{
+    vdbs_status st = check_image(frame, image, err);
+    if (st != VDBS_OK)
+        return st;
+    vdbs_march_session *session = NULL;
+    if ((st = vdbs_march_session_create(runner, volume, ms, scene, options, &session, err)) !=
+        VDBS_OK)
+        return st;
+    st = vdbs_march_session_draw(session, frame, options, image, err);
+    vdbs_march_session_destroy(session);
     return st;
 }
 
@@ -398,7 +541,7 @@ static vdbs_status render_image(const vdbs_render_desc *d, vdbs_render_mode mode
                             pixels * (uint64_t)ro.spp);
         st = vdbs_reference_render(volume, scene, frame, &ro, image, &report->spp, err);
     } else {
-        vdbs_runner_desc rd = {d->backend};
+        vdbs_runner_desc rd = {.backend = d->backend};
         vdbs_runner *runner = NULL;
         if ((st = vdbs_runner_create(&rd, &runner, err)) != VDBS_OK)
             return st;

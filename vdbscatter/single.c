@@ -58,11 +58,12 @@ vdbs_status vdbs_single_scatter(vdbs_runner *runner, const vdbs_volume *volume,
     desc.user = &job;
     desc.cpu_items = single_items;
     desc.shader = "single_scatter.comp";
-    desc.inputs[0] = (vdbs_kernel_input){volume->nano, volume->nano_size};
-    desc.inputs[1] = (vdbs_kernel_input){medium, sizeof medium};
-    desc.inputs[2] =
-        (vdbs_kernel_input){lights->packed, lights->packed_entries * 4 * sizeof(float)};
-    desc.inputs[3] = (vdbs_kernel_input){volume->coords, 3 * sizeof(int32_t) * volume->coord_count};
+    desc.inputs[0] = (vdbs_kernel_input){.data = volume->nano, .size = volume->nano_size};
+    desc.inputs[1] = (vdbs_kernel_input){.data = medium, .size = sizeof medium};
+    desc.inputs[2] = (vdbs_kernel_input){.data = lights->packed,
+                                         .size = lights->packed_entries * 4 * sizeof(float)};
+    desc.inputs[3] = (vdbs_kernel_input){.data = volume->coords,
+                                         .size = 3 * sizeof(int32_t) * volume->coord_count};
     desc.state_words = 3;
     desc.output_words = 3;
     desc.output = radiance;

@@ -277,12 +277,14 @@ vdbs_status vdbs_svd_solve_grid(vdbs_runner *runner, const vdbs_svd_grid *grid,
     kd.cpu_step = svd_step;
     kd.cpu_chunk = 16;
     kd.shader = "svd_sweep.comp";
-    kd.inputs[1] = (vdbs_kernel_input){l.params, sizeof l.params};
-    kd.inputs[2] = (vdbs_kernel_input){l.tables, sizeof(float) * l.table_words};
-    kd.inputs[3] = (vdbs_kernel_input){grid->sigma_t, sizeof(float) * (size_t)cells};
-    kd.inputs[4] = (vdbs_kernel_input){grid->direct, sizeof(float) * 3 * (size_t)cells *
-                                                         (size_t)grid->light_count};
-    kd.inputs[5] = (vdbs_kernel_input){source, sizeof(float) * moment_floats};
+    kd.inputs[1] = (vdbs_kernel_input){.data = l.params, .size = sizeof l.params};
+    kd.inputs[2] = (vdbs_kernel_input){.data = l.tables, .size = sizeof(float) * l.table_words};
+    kd.inputs[3] =
+        (vdbs_kernel_input){.data = grid->sigma_t, .size = sizeof(float) * (size_t)cells};
+    kd.inputs[4] =
+        (vdbs_kernel_input){.data = grid->direct,
+                            .size = sizeof(float) * 3 * (size_t)cells * (size_t)grid->light_count};
+    kd.inputs[5] = (vdbs_kernel_input){.data = source, .size = sizeof(float) * moment_floats};
     kd.state = state;
     kd.state_items = 1;
     kd.state_words = l.state_words;

@@ -13,7 +13,8 @@ extern "C" {
 #endif
 
 typedef struct vdbs_gpu_info {
-    char platform[32];  /* "device", "surfaceless" or "default": the EGL platform that worked */
+    char platform[32];  /* "device", "surfaceless" or "default": the EGL platform that worked;
+                         "window" for an adopted context */
     char vendor[128];   /* GL_VENDOR */
     char renderer[256]; /* GL_RENDERER */
     char version[128];  /* GL_VERSION */
@@ -44,6 +45,10 @@ typedef struct vdbs_gpu_buffer {
  * Creating and destroying contexts is not thread-safe (EGL displays are shared and
  * reference-counted across vdbs_gpu objects). */
 vdbs_status vdbs_gpu_create(vdbs_gpu **out, vdbs_error *err);
+/* Wraps the GL context current on the calling thread (a window's, e.g. GLFW's) instead
+ * of creating one; info.platform is "window". Destroying it leaves the context alone.
+ * Errors: no current context of version 4.3 with direct state access. */
+vdbs_status vdbs_gpu_adopt_current(vdbs_gpu **out, vdbs_error *err);
 void vdbs_gpu_destroy(vdbs_gpu *gpu);
 const vdbs_gpu_info *vdbs_gpu_get_info(const vdbs_gpu *gpu);
 

@@ -41,6 +41,9 @@ typedef struct vdbs_runner vdbs_runner;
 /* Zero-initialise; 0 means "choose the default". */
 typedef struct vdbs_runner_desc {
     vdbs_backend backend; /* default auto */
+    /* GPU: run on the GL context current on the calling thread (a window's) instead of a
+     * new headless EGL one. */
+    int current_context;
 } vdbs_runner_desc;
 
 /* Resolves the backend and, for the GPU, creates the GL context (current on the calling
@@ -55,11 +58,19 @@ const char *vdbs_runner_backend_name(const vdbs_runner *runner);
 const char *vdbs_runner_device(const vdbs_runner *runner);
 /* NULL on the C path. */
 vdbs_gpu *vdbs_runner_gpu(vdbs_runner *runner);
+/* A fresh id for a resident input (vdbs_kernel_input.resident), never 0. */
+uint64_t vdbs_runner_resident_id(vdbs_runner *runner);
+/* Frees the GPU copy kept under id (nothing on the C path or for an unknown id). */
+void vdbs_runner_release(vdbs_runner *runner, uint64_t id);
 
 /* A read-only input of a shader, bound at its index in vdbs_kernel_desc.inputs. */
 typedef struct vdbs_kernel_input {
     const void *data;
     size_t size; /* bytes; 0 = binding unused */
+    /* 0: uploaded for this call only. Else an id from vdbs_runner_resident_id: the GPU keeps
+     * the data under it and later calls with the same id and size upload nothing (a viewer's
+     * grids, every frame). Give a new id (or release the old) when the data change. */
+    uint64_t resident;
 } vdbs_kernel_input;
 
 #define VDBS_KERNEL_MAX_INPUTS 8

@@ -39,6 +39,13 @@ typedef struct vdbs_march_options {
      * per light and sky ordinate per camera sample; 1 by the exact march (the oracle). */
     int s1_march;
     int s1_oversample; /* light-grid oversampling; 0 = the default */
+    /* The viewer's knobs (0 for `render`): interleaved sampling over M x M pixel blocks
+     * (2..VDBS_MAX_INTERLEAVE; 0 or 1 off): every pixel steps step_voxels * M^2 with its own
+     * phase (shaders/vs_render.h) and the gather pass (vdbs_render_gather) averages the
+     * blocks; and which terms S holds. */
+    int interleave;
+    int no_single;   /* 1: no S1 (multiple scattering only) */
+    int no_multiple; /* 1: no Sms (single scattering only) */
     /* Filled by vdbs_render_march when not NULL. */
     struct vdbs_render_stats *stats;
 } vdbs_march_options;
@@ -74,6 +81,32 @@ vdbs_status vdbs_render_march(vdbs_runner *runner, const vdbs_volume *volume,
                               const vdbs_ms_grids *ms, const vdbs_scene *scene,
                               const vdbs_camera_frame *frame, const vdbs_march_options *options,
                               vdbs_image *image, vdbs_error *err);
+
+#define VDBS_MAX_INTERLEAVE 4
+
+/* A render that keeps everything but the camera between pictures (the viewer): the grids,
+ * the light table and the light grids are built once, and on the GPU they stay resident.
+ * volume and ms must outlive the session. */
+typedef struct vdbs_march_session vdbs_march_session;
+
+/* options: sky_directions, s1_march, s1_oversample and stats (light grids) are read here. */
+vdbs_status vdbs_march_session_create(vdbs_runner *runner, const vdbs_volume *volume,
+                                      const vdbs_ms_grids *ms, const vdbs_scene *scene,
+                                      const vdbs_march_options *options, vdbs_march_session **out,
+                                      vdbs_error *err);
+/* New lights or medium (a moved sun): the light table and light grids are rebuilt. */
+vdbs_status vdbs_march_session_set_scene(vdbs_march_session *session, const vdbs_scene *scene,
+                                         vdbs_error *err);
+/* One picture, as vdbs_render_march; options: step_voxels, the viewer's knobs, gpu_units,
+ * progress and stats (the march's time). */
+vdbs_status vdbs_march_session_draw(vdbs_march_session *session, const vdbs_camera_frame *frame,
+                                    const vdbs_march_options *options, vdbs_image *image,
+                                    vdbs_error *err);
+void vdbs_march_session_destroy(vdbs_march_session *session);
+
+/* Interleaved sampling's gather (shaders/vs_gather.h) in place on image->rgb: a box filter
+ * of `block` pixels across, then down, on the runner's backend. block <= 1: nothing. */
+vdbs_status vdbs_render_gather(vdbs_runner *runner, vdbs_image *image, int block, vdbs_error *err);
 
 typedef enum vdbs_render_mode {
     VDBS_RENDER_DEFAULT = 0, /* baked for a lit VDB, single otherwise */
