@@ -92,25 +92,6 @@ typedef struct render_args {
     int no_env_nee;
 } render_args;
 
-static vdbs_status parse_size(const char *text, int *width, int *height, vdbs_error *err)
-{
-    char *end = NULL;
-    errno = 0;
-    long w = strtol(text, &end, 10);
-    if (end != text && (*end == 'x' || *end == 'X') && errno == 0) {
-        const char *rest = end + 1;
-        long h = strtol(rest, &end, 10);
-        if (end != rest && *end == '\0' && errno == 0 && w >= 1 && w <= 16384 && h >= 1 &&
-            h <= 16384 && text[0] != '-' && text[0] != '+' && rest[0] != '-' && rest[0] != '+') {
-            *width = (int)w;
-            *height = (int)h;
-            return VDBS_OK;
-        }
-    }
-    return vdbs_error_set(err, VDBS_ERR_INPUT,
-                          "--size: expected WxH with integers in [1, 16384], got '%s'", text);
-}
-
 static int has_suffix(const char *path, const char *suffix)
 {
     size_t n = strlen(path), m = strlen(suffix);
@@ -146,7 +127,7 @@ static vdbs_status parse_args(const cli_args *args, render_args *r, vdbs_error *
         (st = cli_number("--exposure", v, &r->exposure, err)) != VDBS_OK)
         return st;
     if ((v = cli_value(args, "--size"))) {
-        if ((st = parse_size(v, &r->width, &r->height, err)) != VDBS_OK)
+        if ((st = cli_size(v, &r->width, &r->height, err)) != VDBS_OK)
             return st;
         r->size_given = 1;
     }
@@ -194,29 +175,6 @@ static void warn_line(int quiet, const char *fmt, const char *arg)
     char line[512];
     snprintf(line, sizeof line, fmt, arg);
     cli_warn(&quiet, line);
-}
-
-/* Which scene fields the flags set: for a lit VDB they go on top of its baked scene. */
-static unsigned scene_flags_given(const cli_args *args)
-{
-    unsigned set = 0;
-    if (cli_value(args, "--density-scale"))
-        set |= VDBS_SCENE_SET_DENSITY_SCALE;
-    if (cli_value(args, "--albedo"))
-        set |= VDBS_SCENE_SET_ALBEDO;
-    if (cli_value(args, "--g"))
-        set |= VDBS_SCENE_SET_G;
-    if (cli_value(args, "--quality"))
-        set |= VDBS_SCENE_SET_QUALITY;
-    if (cli_value(args, "--sky-directions"))
-        set |= VDBS_SCENE_SET_SKY_DIRECTIONS;
-    if (cli_value(args, "--sun") || cli_value(args, "--point") || cli_value(args, "--env"))
-        set |= VDBS_SCENE_SET_LIGHTS;
-    if (cli_value(args, "--grid"))
-        set |= VDBS_SCENE_SET_GRID;
-    if (cli_value(args, "--scene"))
-        set |= VDBS_SCENE_FROM_FILE;
-    return set;
 }
 
 static void print_json(const char *input, const render_args *r, const vdbs_render_report *rep)
@@ -303,7 +261,7 @@ int cmd_render(int argc, char **argv)
     desc.input = input;
     desc.output = r.output;
     desc.scene = scene;
-    desc.scene_set = scene_flags_given(&args);
+    desc.scene_set = cli_scene_flags(&args);
     desc.mode = r.mode;
     desc.backend = r.backend;
     desc.s1_march = r.s1_march;

@@ -9,6 +9,8 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "vdbscatter/render.h"
+
 static const cli_option *find_option(const cli_option *options, const char *name, size_t len)
 {
     for (const cli_option *o = options; o->name; ++o)
@@ -395,4 +397,45 @@ vdbs_status cli_camera(const char *text, vdbs_camera *camera, vdbs_error *err)
         camera->up[2] = -1.0;
     }
     return VDBS_OK;
+}
+
+vdbs_status cli_size(const char *text, int *width, int *height, vdbs_error *err)
+{
+    char *end = NULL;
+    errno = 0;
+    long w = strtol(text, &end, 10);
+    if (end != text && (*end == 'x' || *end == 'X') && errno == 0) {
+        const char *rest = end + 1;
+        long h = strtol(rest, &end, 10);
+        if (end != rest && *end == '\0' && errno == 0 && w >= 1 && w <= 16384 && h >= 1 &&
+            h <= 16384 && text[0] != '-' && text[0] != '+' && rest[0] != '-' && rest[0] != '+') {
+            *width = (int)w;
+            *height = (int)h;
+            return VDBS_OK;
+        }
+    }
+    return vdbs_error_set(err, VDBS_ERR_INPUT,
+                          "--size: expected WxH with integers in [1, 16384], got '%s'", text);
+}
+
+unsigned cli_scene_flags(const cli_args *args)
+{
+    unsigned set = 0;
+    if (cli_value(args, "--density-scale"))
+        set |= VDBS_SCENE_SET_DENSITY_SCALE;
+    if (cli_value(args, "--albedo"))
+        set |= VDBS_SCENE_SET_ALBEDO;
+    if (cli_value(args, "--g"))
+        set |= VDBS_SCENE_SET_G;
+    if (cli_value(args, "--quality"))
+        set |= VDBS_SCENE_SET_QUALITY;
+    if (cli_value(args, "--sky-directions"))
+        set |= VDBS_SCENE_SET_SKY_DIRECTIONS;
+    if (cli_value(args, "--sun") || cli_value(args, "--point") || cli_value(args, "--env"))
+        set |= VDBS_SCENE_SET_LIGHTS;
+    if (cli_value(args, "--grid"))
+        set |= VDBS_SCENE_SET_GRID;
+    if (cli_value(args, "--scene"))
+        set |= VDBS_SCENE_FROM_FILE;
+    return set;
 }

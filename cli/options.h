@@ -67,6 +67,13 @@ vdbs_status cli_camera(const char *text, vdbs_camera *camera, vdbs_error *err);
 vdbs_status cli_build_scene(const cli_args *args, vdbs_scene *scene, int allow_no_lights,
                             vdbs_error *err);
 
+/* --size WxH, integers in [1, 16384]. */
+vdbs_status cli_size(const char *text, int *width, int *height, vdbs_error *err);
+
+/* Which scene fields the flags set (VDBS_SCENE_SET_* of render.h): for a lit VDB they go on
+ * top of its baked scene. */
+unsigned cli_scene_flags(const cli_args *args);
+
 /* JSON pieces of the bake and render reports. */
 struct cJSON;
 struct cJSON *cli_json_triple(const double v[3]);

@@ -48,10 +48,12 @@
 #define VS_RENDER_OFF_RIGHT 5
 #define VS_RENDER_OFF_UP 6
 /* The viewer's knobs, neutral for `render`: (interleave block M, 1 to include S1, 0, 0).
- * With M > 1 pixel (px, py) samples S at the fraction (k + 0.5) / M^2 of each segment,
- * k = px mod M + M (py mod M), instead of at its midpoint: M x M neighbours together take
- * M^2 stratified samples per segment, and a box filter of M x M (vs_gather.h) averages
- * them (interleaved sampling, Keller and Heidrich 2001; Toth and Umenhoffer 2009 4.1). */
+ * With M > 1 the segments are dealt out over M x M pixel blocks (interleaved sampling,
+ * Keller and Heidrich 2001; Toth and Umenhoffer 2009 4.1): pixel (px, py) has phase
+ * k = px mod M + M (py mod M) and evaluates S (the units toward the lights and the Sms
+ * sample) only on segments j = k mod M^2, weighted M^2; every segment still marches its
+ * own transmittance, so the weights stay exact in heterogeneous media. A box filter of
+ * M x M (vs_gather.h) then sums the block's phases back into every segment. */
 #define VS_RENDER_OFF_VIEW 7
 #define VS_RENDER_SIZE 8
 
@@ -203,7 +205,8 @@ struct vs_render_ray_info {
     pnanovdb_vec3_t dir;    /* index-space image of a unit world step */
     pnanovdb_vec3_t wo;     /* world, unit: -(ray direction) */
     float t0;               /* segments cover [t0, t0 + span] in n equal parts */
-    float sample_at;        /* where in a segment S is sampled: 0.5, or the interleave phase */
+    int phase;              /* interleaved sampling: this pixel's segments are phase mod phases */
+    int phases;             /* M^2, 1 without interleaving */
     float span;
     float inv_n;
     int n; /* 0 when the ray misses the support box or the medium is empty */
@@ -255,7 +258,8 @@ VS_FUNC vs_render_ray_info vs_render_ray_begin(VS_DATA_PARAM(vs_vec4, medium_dat
     ray.span = t1 - ray.t0;
     ray.n = 0;
     ray.inv_n = 1.0f;
-    ray.sample_at = 0.5f;
+    ray.phase = 0;
+    ray.phases = 1;
     if (ray.t0 < t1 && vs_medium_density_scale(VS_DATA_ONLY_ARG(medium_data)) > 0.0f) {
         /* World length of step_voxels voxels along this ray. */
         float h = render_data[VS_RENDER_OFF_MARCH].x / vs_sqrt(vs_vec3_dot(dir, dir));
@@ -292,8 +296,10 @@ VS_FUNC vs_render_ray_info vs_render_camera_ray(VS_DATA_PARAM(vs_vec4, medium_da
                                 vs_vec3_from_vec4(render_data[VS_RENDER_OFF_ORIGIN]),
                             dir, vs_vec3_scale(world, -1.0f));
     int m = VS_INT(render_data[VS_RENDER_OFF_VIEW].x);
-    if (m > 1)
-        ray.sample_at = (VS_FLOAT(px % m + m * (py % m)) + 0.5f) / VS_FLOAT(m * m);
+    if (m > 1) {
+        ray.phase = px % m + m * (py % m);
+        ray.phases = m * m;
+    }
     return ray;
 }
 
@@ -341,9 +347,7 @@ VS_FUNC void vs_render_unit(VS_RENDER_TABLES pnanovdb_buf_t buf,
     VS_PRECISE float a = ray.t0 + ray.span * (VS_FLOAT(seg) * ray.inv_n);
     VS_PRECISE float b =
         seg + 1 == ray.n ? ray.t0 + ray.span : ray.t0 + ray.span * (VS_FLOAT(seg + 1) * ray.inv_n);
-    /* At sample_at 0.5 this is the midpoint, 0.5 a + 0.5 b = 0.5 (a + b) exactly. */
-    pnanovdb_vec3_t mid =
-        vs_vec3_madd(ray.origin, ray.dir, a * (1.0f - ray.sample_at) + b * ray.sample_at);
+    pnanovdb_vec3_t mid = vs_vec3_madd(ray.origin, ray.dir, 0.5f * (a + b));
 
     /* What this unit marches: origin, direction, length; and how its result is used. */
     pnanovdb_vec3_t origin = mid;
@@ -414,11 +418,11 @@ VS_FUNC void vs_render_unit(VS_RENDER_TABLES pnanovdb_buf_t buf,
         } else {
             PNANOVDB_DEREF(st).transmittance = vs_accum_exp_neg(PNANOVDB_DEREF(st).tau);
         }
-        if (!(w > 0.0f)) {
+        if (!(w > 0.0f) || seg % ray.phases != ray.phase) {
             vs_render_next_segment(ray, st);
             return;
         }
-        PNANOVDB_DEREF(st).weight = w;
+        PNANOVDB_DEREF(st).weight = w * VS_FLOAT(ray.phases);
         PNANOVDB_DEREF(st).source = render_data[VS_RENDER_OFF_MARCH].y != 0.0f
                                         ? vs_render_ms(buf, accs, mid, ray.wo)
                                         : vs_vec3(0.0f, 0.0f, 0.0f);

@@ -338,13 +338,11 @@ vdbs_status vdbs_march_session_draw(vdbs_march_session *s, const vdbs_camera_fra
     if (block > VDBS_MAX_INTERLEAVE)
         return vdbs_error_set(err, VDBS_ERR_INPUT, "interleave block %d beyond %d", block,
                               VDBS_MAX_INTERLEAVE);
-    /* Each pixel takes 1/M^2 of the samples; its M x M neighbours take the others. */
-    vdbs_march_options frame_options = *options;
-    frame_options.step_voxels = options->step_voxels * (float)(block * block);
+    const vdbs_march_options *frame_options = options;
     float *table = NULL;
     size_t entries = 0;
     const vdbs_ms_grids *ms = options->no_multiple ? NULL : s->ms;
-    if ((st = vdbs_render_table(s->volume, ms, frame, &frame_options, &table, &entries, err)) !=
+    if ((st = vdbs_render_table(s->volume, ms, frame, frame_options, &table, &entries, err)) !=
         VDBS_OK)
         return st;
     if (!s->options.s1_march)
@@ -567,6 +565,62 @@ static vdbs_status render_image(const vdbs_render_desc *d, vdbs_render_mode mode
     return st;
 }
 
+vdbs_status vdbs_render_open(const vdbs_render_desc *d, vdbs_render_input *in, vdbs_error *err)
+{
+    memset(in, 0, sizeof *in);
+    const char *input = d->input ? d->input : d->scene->volume_file;
+    if (!input || !input[0])
+        return vdbs_error_set(err, VDBS_ERR_INPUT,
+                              "no input VDB (give IN.vdb or volume.file in --scene)");
+    in->scene = malloc(sizeof *in->scene);
+    if (!in->scene)
+        return vdbs_error_set(err, VDBS_ERR_NOMEM, "out of memory for a scene");
+    vdbio_lit *lit = NULL;
+    vdbs_status st = resolve_scene(d, input, &lit, &in->mode, &in->is_lit, in->scene, err);
+    if (st == VDBS_OK) {
+        for (int i = 0; i < in->scene->light_count; ++i)
+            if (in->scene->lights[i].type == VDBS_LIGHT_SUN &&
+                in->scene->lights[i].angular_diameter_deg > 0) {
+                warn(d, "sun angular_diameter_deg is treated as 0 (a delta light)");
+                break;
+            }
+        if (in->mode == VDBS_RENDER_REFERENCE && d->backend == VDBS_BACKEND_GPU)
+            warn(d, "--mode reference runs on the C path; --backend gpu is ignored");
+        if (!vdbs_render_quality(in->scene->quality, &in->march))
+            st = vdbs_error_set(err, VDBS_ERR_INPUT, "unknown quality");
+        if (in->scene->sky_directions > 0)
+            in->march.sky_directions = in->scene->sky_directions;
+    }
+    /* The density: a lit VDB's own `density` grid unless the caller names one. */
+    if (st == VDBS_OK) {
+        int own_grid = in->is_lit && !(d->scene_set & VDBS_SCENE_SET_GRID);
+        const char *grid = own_grid ? "density" : in->scene->grid;
+        vdbio_read_options read = {0};
+        read.grid_name = grid[0] ? grid : NULL;
+        read.grid_index = own_grid ? 0 : in->scene->grid_index;
+        read.warn = d->warn;
+        read.warn_user = d->warn_user;
+        st = vdbs_volume_load(input, &read, &in->volume, err);
+        if (st == VDBS_OK && in->mode == VDBS_RENDER_BAKED)
+            st = vdbs_ms_grids_load(lit, in->volume.index_to_world, &in->ms, err);
+    }
+    if (lit)
+        vdbio_lit_close(lit);
+    if (st == VDBS_OK)
+        choose_camera(d, in->scene, &in->volume, &in->camera);
+    if (st != VDBS_OK)
+        vdbs_render_input_free(in);
+    return st;
+}
+
+void vdbs_render_input_free(vdbs_render_input *in)
+{
+    vdbs_ms_grids_free(&in->ms);
+    vdbs_volume_free(&in->volume);
+    free(in->scene);
+    memset(in, 0, sizeof *in);
+}
+
 vdbs_status vdbs_render(const vdbs_render_desc *d, vdbs_render_report *report, vdbs_error *err)
 {
     memset(report, 0, sizeof *report);
@@ -578,86 +632,43 @@ vdbs_status vdbs_render(const vdbs_render_desc *d, vdbs_render_report *report, v
     vdbs_status st = vdbio_check_output(d->output, input, err);
     if (st != VDBS_OK)
         return st;
-
-    vdbio_lit *lit = NULL;
-    vdbs_render_mode mode = VDBS_RENDER_DEFAULT;
-    int is_lit = 0;
-    vdbs_scene *scene = malloc(sizeof *scene);
-    if (!scene)
-        return vdbs_error_set(err, VDBS_ERR_NOMEM, "out of memory for a scene");
-    st = resolve_scene(d, input, &lit, &mode, &is_lit, scene, err);
-    vdbs_march_options march = {0};
-    if (st == VDBS_OK) {
-        report->mode = vdbs_render_mode_name(mode);
-        for (int i = 0; i < scene->light_count; ++i)
-            if (scene->lights[i].type == VDBS_LIGHT_SUN &&
-                scene->lights[i].angular_diameter_deg > 0) {
-                warn(d, "sun angular_diameter_deg is treated as 0 (a delta light)");
-                break;
-            }
-        if (mode == VDBS_RENDER_REFERENCE && d->backend == VDBS_BACKEND_GPU)
-            warn(d, "--mode reference runs on the C path; --backend gpu is ignored");
-        if (!vdbs_render_quality(scene->quality, &march))
-            st = vdbs_error_set(err, VDBS_ERR_INPUT, "unknown quality");
-        if (scene->sky_directions > 0)
-            march.sky_directions = scene->sky_directions;
-    }
-
-    /* The density: a lit VDB's own `density` grid unless the caller names one. */
-    vdbs_volume volume;
-    memset(&volume, 0, sizeof volume);
-    vdbs_ms_grids ms;
-    memset(&ms, 0, sizeof ms);
-    if (st == VDBS_OK) {
-        int own_grid = is_lit && !(d->scene_set & VDBS_SCENE_SET_GRID);
-        const char *grid = own_grid ? "density" : scene->grid;
-        vdbio_read_options read = {0};
-        read.grid_name = grid[0] ? grid : NULL;
-        read.grid_index = own_grid ? 0 : scene->grid_index;
-        read.warn = d->warn;
-        read.warn_user = d->warn_user;
-        st = vdbs_volume_load(input, &read, &volume, err);
-        if (st == VDBS_OK && mode == VDBS_RENDER_BAKED)
-            st = vdbs_ms_grids_load(lit, volume.index_to_world, &ms, err);
-    }
-    if (lit)
-        vdbio_lit_close(lit);
+    vdbs_render_input in;
+    if ((st = vdbs_render_open(d, &in, err)) != VDBS_OK)
+        return st;
+    report->mode = vdbs_render_mode_name(in.mode);
+    report->camera = in.camera;
     double t_loaded = vdbs_now();
 
     vdbs_camera_frame frame;
     vdbs_image image;
     memset(&image, 0, sizeof image);
-    if (st == VDBS_OK) {
-        choose_camera(d, scene, &volume, &report->camera);
-        st = vdbs_camera_frame_init(&report->camera, &frame, err);
-    }
+    st = vdbs_camera_frame_init(&report->camera, &frame, err);
     if (st == VDBS_OK)
         st = vdbs_image_alloc(&image, report->camera.width, report->camera.height,
-                              mode == VDBS_RENDER_REFERENCE, err);
+                              in.mode == VDBS_RENDER_REFERENCE, err);
     double t_render = vdbs_now();
     if (st == VDBS_OK)
-        st = render_image(d, mode, &volume, &ms, scene, &frame, &march, &image, report, err);
+        st = render_image(d, in.mode, &in.volume, &in.ms, in.scene, &frame, &in.march, &image,
+                          report, err);
     double t_rendered = vdbs_now();
     if (st == VDBS_OK)
         st = vdbs_image_write(d->output, &image, d->exposure, err);
     double t_written = vdbs_now();
 
     if (st == VDBS_OK) {
-        snprintf(report->grid, sizeof report->grid, "%s", volume.info.name);
-        snprintf(report->quality, sizeof report->quality, "%s", scene->quality);
+        snprintf(report->grid, sizeof report->grid, "%s", in.volume.info.name);
+        snprintf(report->quality, sizeof report->quality, "%s", in.scene->quality);
         report->width = report->camera.width;
         report->height = report->camera.height;
-        report->sky_directions = march.sky_directions;
-        report->step_voxels = march.step_voxels;
+        report->sky_directions = in.march.sky_directions;
+        report->step_voxels = in.march.step_voxels;
         memcpy(report->camera_up, frame.up, sizeof report->camera_up);
         report->seconds_load = t_loaded - t_start;
         report->seconds_render = t_rendered - t_render;
         report->seconds_write = t_written - t_rendered;
         report->seconds_total = vdbs_now() - t_start;
     }
-    vdbs_ms_grids_free(&ms);
     vdbs_image_free(&image);
-    vdbs_volume_free(&volume);
-    free(scene);
+    vdbs_render_input_free(&in);
     return st;
 }

@@ -40,9 +40,9 @@ typedef struct vdbs_march_options {
     int s1_march;
     int s1_oversample; /* light-grid oversampling; 0 = the default */
     /* The viewer's knobs (0 for `render`): interleaved sampling over M x M pixel blocks
-     * (2..VDBS_MAX_INTERLEAVE; 0 or 1 off): every pixel steps step_voxels * M^2 with its own
-     * phase (shaders/vs_render.h) and the gather pass (vdbs_render_gather) averages the
-     * blocks; and which terms S holds. */
+     * (2..VDBS_MAX_INTERLEAVE; 0 or 1 off): every pixel evaluates S on 1/M^2 of the
+     * segments, its own phase (shaders/vs_render.h), and the gather pass
+     * (vdbs_render_gather) sums the phases back; and which terms S holds. */
     int interleave;
     int no_single;   /* 1: no S1 (multiple scattering only) */
     int no_multiple; /* 1: no Sms (single scattering only) */
@@ -177,6 +177,25 @@ typedef struct vdbs_render_report {
 } vdbs_render_report;
 
 vdbs_status vdbs_render(const vdbs_render_desc *desc, vdbs_render_report *report, vdbs_error *err);
+
+/* What a render works from, resolved once (the viewer keeps it open): the mode, the scene (a
+ * lit VDB's baked scene with the caller's settings on top), the density, the ms grids
+ * (baked mode), the camera (the desc's, the scene's or a view of the whole volume, with
+ * the desc's size) and the quality's march options. */
+typedef struct vdbs_render_input {
+    vdbs_render_mode mode; /* never DEFAULT */
+    int is_lit;
+    vdbs_scene *scene;
+    vdbs_volume volume;
+    vdbs_ms_grids ms;
+    vdbs_camera camera;
+    vdbs_march_options march;
+} vdbs_render_input;
+
+/* desc->output is not read. Errors as vdbs_render's; on error *input is freed. */
+vdbs_status vdbs_render_open(const vdbs_render_desc *desc, vdbs_render_input *input,
+                             vdbs_error *err);
+void vdbs_render_input_free(vdbs_render_input *input);
 
 #ifdef __cplusplus
 }

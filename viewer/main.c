@@ -1,0 +1,647 @@
+/* vdbscatter-view LIT.vdb: an interactive window on a lit VDB. Every frame is the ray-march
+ * kernel of `render --mode baked` (vdbs_march_session: the same kernel text, C path or
+ * compute shader in the window's own GL context), shown with exposure; the camera orbits,
+ * the light moves (its light grids rebuilt), and a key re-bakes the multiple scattering in
+ * the background with the library. --screenshot renders in a hidden window and saves. */
+#define _POSIX_C_SOURCE 200809L
+#include <epoxy/gl.h>
+
+#include <GLFW/glfw3.h>
+
+#include <math.h>
+#include <pthread.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <strings.h>
+#include <time.h>
+#include <unistd.h>
+
+#include "display.h"
+#include "options.h"
+#include "orbit.h"
+#include "vdbscatter/bake.h"
+#include "vdbscatter/camera.h"
+#include "vdbscatter/kernel.h"
+#include "vdbscatter/litvdb.h"
+#include "vdbscatter/render.h"
+#include "vdbscatter/vdbio.h"
+
+#define PROGRAM "vdbscatter-view"
+#define DEFAULT_INTERLEAVE 2
+#define MOVING_SECONDS 0.25 /* input this recent: draw with coarser steps */
+
+static const char help[] =
+    "usage: vdbscatter-view LIT.vdb [options]\n"
+    "\n"
+    "Shows a lit VDB written by `vdbscatter bake`: every frame is the ray march of\n"
+    "`vdbscatter render --mode baked` (single scattering toward the camera from light grids\n"
+    "plus the baked multiple scattering). A density-only VDB opens too, single scattering\n"
+    "only. Moving a light rebuilds its light grids at once; the baked multiple scattering\n"
+    "then belongs to the old light until `b` re-bakes it in the background.\n"
+    "\n"
+    "scene (as render; flags override --scene, light flags replace the scene's lights):\n"
+    "  --scene FILE.json  --grid NAME[@INDEX]  --density-scale S  --albedo A|R,G,B  --g G\n"
+    "  --sun DX,DY,DZ[:R,G,B]  --point X,Y,Z[:R,G,B]  --env R,G,B|FILE[:S]\n"
+    "  --quality low|medium|high|ultra  --sky-directions K  --s1 grid|march\n"
+    "  --s1-oversample F\n"
+    "\n"
+    "view:\n"
+    "  --camera PX,PY,PZ:TX,TY,TZ:FOV   start camera (default: the scene's, else the volume)\n"
+    "  --size WxH               window and picture size (default: the camera's, else 640x480)\n"
+    "  --exposure EV            display exposure (default 0)\n"
+    "  --interleave M           interleaved sampling over M x M pixels, 2..4 (default 2)\n"
+    "  --no-interleave          one full set of march steps in every pixel\n"
+    "  --backend auto|cpu|gpu   the march on the C path or as a compute shader in the\n"
+    "                           window's GL context (auto: gpu on a hardware GPU)\n"
+    "  --screenshot OUT.png|OUT.exr   render in a hidden window, save the last frame, exit\n"
+    "                           (.exr: linear floats as render writes; .png: with exposure)\n"
+    "  --warmup-frames N        frames drawn before the screenshot (default 1)\n"
+    "  -q                       no warnings\n"
+    "\n"
+    "mouse: left drag orbits, middle drag (or shift + left) pans, wheel zooms,\n"
+    "right drag turns the first light (a sun's direction, a point light around the volume)\n";
+
+static const char keys_help[] =
+    "keys:\n"
+    "  arrows      turn the first light            1 / 2 / 3   single / multiple / both\n"
+    "  i           interleaved sampling on/off     m           interleave block 2 -> 3 -> 4\n"
+    "  [ / ]       coarser / finer march steps     - / =       exposure down / up (EV)\n"
+    "  b           re-bake the multiple scattering for the current light (background)\n"
+    "  r           reset the camera                h           this help\n"
+    "  q / Esc     quit\n";
+
+static const cli_option options[] = {
+    {"--scene", CLI_VALUE},
+    {"--grid", CLI_VALUE},
+    {"--density-scale", CLI_VALUE},
+    {"--albedo", CLI_VALUE},
+    {"--g", CLI_VALUE},
+    {"--sun", CLI_VALUE},
+    {"--point", CLI_VALUE},
+    {"--env", CLI_VALUE},
+    {"--quality", CLI_VALUE},
+    {"--sky-directions", CLI_VALUE},
+    {"--s1", CLI_VALUE},
+    {"--s1-oversample", CLI_VALUE},
+    {"--camera", CLI_VALUE},
+    {"--size", CLI_VALUE},
+    {"--exposure", CLI_VALUE},
+    {"--interleave", CLI_VALUE},
+    {"--no-interleave", CLI_FLAG},
+    {"--backend", CLI_VALUE},
+    {"--screenshot", CLI_VALUE},
+    {"--warmup-frames", CLI_VALUE},
+    {"-q", CLI_FLAG},
+    {NULL, CLI_FLAG},
+};
+
+static int fail(int status, const char *message)
+{
+    fprintf(stderr, PROGRAM ": %s\n", message);
+    return status == VDBS_ERR_INPUT ? CLI_EXIT_USAGE : CLI_EXIT_FAILURE;
+}
+
+static double now(void)
+{
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
+}
+
+static int has_suffix(const char *path, const char *suffix)
+{
+    size_t n = strlen(path), m = strlen(suffix);
+    return n > m && strcasecmp(path + n - m, suffix) == 0;
+}
+
+/* A re-bake of the multiple scattering on a worker thread (the C path: the GL context
+ * belongs to the window's thread), into a temporary lit VDB read back when done. */
+typedef struct rebake {
+    pthread_t thread;
+    int running;
+    volatile int done; /* set by the worker */
+    vdbs_status status;
+    vdbs_error err;
+    vdbs_scene *scene;
+    char input[VDBS_PATH_MAX];
+    char output[64];
+} rebake;
+
+static void *rebake_main(void *user)
+{
+    rebake *job = user;
+    vdbs_bake_options bo = {0};
+    bo.input = job->input;
+    bo.output = job->output;
+    bo.scene = job->scene;
+    bo.backend = VDBS_BACKEND_CPU;
+    vdbs_bake_report report;
+    job->status = vdbs_bake(&bo, &report, &job->err);
+    __atomic_store_n(&job->done, 1, __ATOMIC_RELEASE);
+    return NULL;
+}
+
+typedef struct viewer {
+    const char *input;
+    vdbs_runner *runner;
+    vdbs_render_input in;
+    vdbs_march_session *session;
+    vdbs_march_options march;
+    view_display display;
+    view_orbit orbit, orbit_home;
+    vdbs_camera size; /* width and height */
+    vdbs_image image;
+    double exposure;
+    int interleave_on, interleave;
+    float step_scale; /* [ and ] */
+    int show_single, show_multiple;
+    int ms_stale;
+    int dirty;
+    double last_input;
+    double frame_ms;
+    double centre[3];
+    int dragging; /* 0, 1 orbit, 2 pan, 3 light */
+    double drag_x, drag_y;
+    rebake bake;
+    char message[VDBS_ERROR_MAX + 32]; /* last error of an interactive action, shown in the title */
+} viewer;
+
+static void volume_centre(const vdbs_volume *volume, double centre[3])
+{
+    vdbs_camera cam;
+    vdbs_camera_frame_volume(volume, 16, 16, &cam);
+    memcpy(centre, cam.target, sizeof cam.target);
+}
+
+/* The march options of the next frame. */
+static vdbs_march_options frame_options(const viewer *v, int moving)
+{
+    vdbs_march_options o = v->march;
+    o.step_voxels = v->march.step_voxels * v->step_scale * (moving ? 2.0f : 1.0f);
+    o.interleave = v->interleave_on ? v->interleave : 0;
+    o.no_single = !v->show_single;
+    o.no_multiple = !v->show_multiple;
+    return o;
+}
+
+static vdbs_status draw_frame(viewer *v, int moving, vdbs_error *err)
+{
+    vdbs_camera camera;
+    view_orbit_camera(&v->orbit, &v->size, &camera);
+    vdbs_camera_frame frame;
+    vdbs_status st = vdbs_camera_frame_init(&camera, &frame, err);
+    vdbs_march_options o = frame_options(v, moving);
+    double t0 = now();
+    if (st == VDBS_OK)
+        st = vdbs_march_session_draw(v->session, &frame, &o, &v->image, err);
+    v->frame_ms = 1e3 * (now() - t0);
+    return st;
+}
+
+static void set_title(GLFWwindow *window, const viewer *v)
+{
+    const char *terms = v->show_single && v->show_multiple ? "single+multiple"
+                        : v->show_single                   ? "single"
+                                                           : "multiple";
+    char interleave[32] = "interleave off";
+    if (v->interleave_on)
+        snprintf(interleave, sizeof interleave, "interleave %dx%d", v->interleave, v->interleave);
+    char title[VDBS_ERROR_MAX + 512];
+    snprintf(title, sizeof title, PROGRAM " | %.1f ms | %s | %s | step %.3g vox | EV %+.1f%s%s%s",
+             v->frame_ms, v->in.mode == VDBS_RENDER_BAKED ? terms : "single (density only)",
+             interleave, (double)(v->march.step_voxels * v->step_scale), v->exposure,
+             v->bake.running ? " | re-baking..."
+             : v->ms_stale   ? " | multiple scattering stale: b re-bakes"
+                             : "",
+             v->message[0] ? " | " : "", v->message);
+    glfwSetWindowTitle(window, title);
+}
+
+static void touch(viewer *v)
+{
+    v->dirty = 1;
+    v->last_input = now();
+}
+
+static void light_moved(viewer *v, double yaw, double pitch)
+{
+    if (!view_light_turn(v->in.scene, 0, v->centre, yaw, pitch))
+        return;
+    vdbs_error err;
+    if (vdbs_march_session_set_scene(v->session, v->in.scene, &err) != VDBS_OK)
+        snprintf(v->message, sizeof v->message, "%s", err.message);
+    v->ms_stale = v->in.mode == VDBS_RENDER_BAKED;
+    touch(v);
+}
+
+static void start_rebake(viewer *v)
+{
+    if (v->bake.running || v->in.mode != VDBS_RENDER_BAKED)
+        return;
+    rebake *job = &v->bake;
+    job->scene = malloc(sizeof *job->scene);
+    if (!job->scene)
+        return;
+    *job->scene = *v->in.scene;
+    snprintf(job->scene->grid, sizeof job->scene->grid, "density");
+    job->scene->grid_index = 0;
+    snprintf(job->input, sizeof job->input, "%s", v->input);
+    snprintf(job->output, sizeof job->output, "/tmp/vdbscatter-view-%ld.vdb", (long)getpid());
+    job->done = 0;
+    if (pthread_create(&job->thread, NULL, rebake_main, job) != 0) {
+        free(job->scene);
+        snprintf(v->message, sizeof v->message, "could not start the re-bake");
+        return;
+    }
+    job->running = 1;
+    touch(v);
+}
+
+/* Takes a finished re-bake's multiple scattering into the session. */
+static void finish_rebake(viewer *v)
+{
+    rebake *job = &v->bake;
+    if (!job->running || !__atomic_load_n(&job->done, __ATOMIC_ACQUIRE))
+        return;
+    pthread_join(job->thread, NULL);
+    job->running = 0;
+    free(job->scene);
+    vdbs_error err;
+    vdbs_status st = job->status;
+    vdbs_ms_grids ms;
+    memset(&ms, 0, sizeof ms);
+    if (st == VDBS_OK) {
+        vdbio_lit *lit = NULL;
+        st = vdbio_lit_open(job->output, &lit, &err);
+        if (st == VDBS_OK) {
+            st = vdbs_ms_grids_load(lit, v->in.volume.index_to_world, &ms, &err);
+            vdbio_lit_close(lit);
+        }
+    } else {
+        err = job->err;
+    }
+    remove(job->output);
+    if (st == VDBS_OK) {
+        /* The session reads in.ms: a new one over the new grids. */
+        vdbs_march_session_destroy(v->session);
+        v->session = NULL;
+        vdbs_ms_grids_free(&v->in.ms);
+        v->in.ms = ms;
+        st = vdbs_march_session_create(v->runner, &v->in.volume, &v->in.ms, v->in.scene, &v->march,
+                                       &v->session, &err);
+        v->ms_stale = 0;
+    } else {
+        vdbs_ms_grids_free(&ms);
+    }
+    if (st != VDBS_OK)
+        snprintf(v->message, sizeof v->message, "re-bake failed: %s", err.message);
+    touch(v);
+}
+
+static void on_key(GLFWwindow *window, int key, int scancode, int action, int mods)
+{
+    (void)scancode;
+    (void)mods;
+    viewer *v = glfwGetWindowUserPointer(window);
+    if (action != GLFW_PRESS && action != GLFW_REPEAT)
+        return;
+    const double turn = 0.05;
+    switch (key) {
+    case GLFW_KEY_ESCAPE:
+    case GLFW_KEY_Q:
+        glfwSetWindowShouldClose(window, 1);
+        return;
+    case GLFW_KEY_H:
+        fputs(keys_help, stdout);
+        fflush(stdout);
+        return;
+    case GLFW_KEY_LEFT:
+        light_moved(v, -turn, 0.0);
+        return;
+    case GLFW_KEY_RIGHT:
+        light_moved(v, turn, 0.0);
+        return;
+    case GLFW_KEY_UP:
+        light_moved(v, 0.0, turn);
+        return;
+    case GLFW_KEY_DOWN:
+        light_moved(v, 0.0, -turn);
+        return;
+    case GLFW_KEY_1:
+        v->show_single = 1;
+        v->show_multiple = 0;
+        break;
+    case GLFW_KEY_2:
+        v->show_single = 0;
+        v->show_multiple = 1;
+        break;
+    case GLFW_KEY_3:
+        v->show_single = v->show_multiple = 1;
+        break;
+    case GLFW_KEY_I:
+        v->interleave_on = !v->interleave_on;
+        break;
+    case GLFW_KEY_M:
+        v->interleave = v->interleave >= VDBS_MAX_INTERLEAVE ? 2 : v->interleave + 1;
+        break;
+    case GLFW_KEY_LEFT_BRACKET:
+        v->step_scale = v->step_scale < 16.0f ? v->step_scale * 2.0f : v->step_scale;
+        break;
+    case GLFW_KEY_RIGHT_BRACKET:
+        v->step_scale = v->step_scale > 1.0f / 16.0f ? v->step_scale * 0.5f : v->step_scale;
+        break;
+    case GLFW_KEY_MINUS:
+        v->exposure -= 0.5;
+        break;
+    case GLFW_KEY_EQUAL:
+        v->exposure += 0.5;
+        break;
+    case GLFW_KEY_B:
+        start_rebake(v);
+        return;
+    case GLFW_KEY_R:
+        v->orbit = v->orbit_home;
+        break;
+    default:
+        return;
+    }
+    touch(v);
+}
+
+static void on_button(GLFWwindow *window, int button, int action, int mods)
+{
+    viewer *v = glfwGetWindowUserPointer(window);
+    if (action == GLFW_RELEASE) {
+        v->dragging = 0;
+        touch(v); /* refine once the drag ends */
+        return;
+    }
+    glfwGetCursorPos(window, &v->drag_x, &v->drag_y);
+    if (button == GLFW_MOUSE_BUTTON_LEFT)
+        v->dragging = (mods & GLFW_MOD_SHIFT) ? 2 : 1;
+    else if (button == GLFW_MOUSE_BUTTON_MIDDLE)
+        v->dragging = 2;
+    else if (button == GLFW_MOUSE_BUTTON_RIGHT)
+        v->dragging = 3;
+}
+
+static void on_cursor(GLFWwindow *window, double x, double y)
+{
+    viewer *v = glfwGetWindowUserPointer(window);
+    if (!v->dragging)
+        return;
+    double dx = x - v->drag_x, dy = y - v->drag_y;
+    v->drag_x = x;
+    v->drag_y = y;
+    if (v->dragging == 1)
+        view_orbit_rotate(&v->orbit, dx, dy);
+    else if (v->dragging == 2)
+        view_orbit_pan(&v->orbit, dx, dy, v->size.height);
+    else
+        light_moved(v, 0.01 * dx, -0.01 * dy);
+    touch(v);
+}
+
+static void on_scroll(GLFWwindow *window, double dx, double dy)
+{
+    (void)dx;
+    viewer *v = glfwGetWindowUserPointer(window);
+    view_orbit_zoom(&v->orbit, dy);
+    touch(v);
+}
+
+static void on_glfw_error(int code, const char *description)
+{
+    (void)code;
+    fprintf(stderr, PROGRAM ": GLFW: %s\n", description);
+}
+
+typedef struct view_args {
+    vdbs_render_desc desc;
+    vdbs_camera camera;
+    vdbs_backend backend;
+    const char *screenshot;
+    long warmup;
+    long interleave;
+    int no_interleave;
+    double exposure;
+    int quiet;
+} view_args;
+
+static vdbs_status parse_view_args(const cli_args *args, view_args *a, vdbs_error *err)
+{
+    vdbs_status st;
+    const char *v;
+    a->warmup = 1;
+    a->interleave = DEFAULT_INTERLEAVE;
+    if ((v = cli_value(args, "--backend")) && (st = vdbs_backend_parse(v, &a->backend, err)))
+        return st;
+    if ((st = cli_s1_options(args, &a->desc.s1_march, &a->desc.s1_oversample, err)) != VDBS_OK)
+        return st;
+    if ((v = cli_value(args, "--size")) &&
+        (st = cli_size(v, &a->desc.width, &a->desc.height, err)) != VDBS_OK)
+        return st;
+    if ((v = cli_value(args, "--camera"))) {
+        if ((st = cli_camera(v, &a->camera, err)) != VDBS_OK)
+            return st;
+        a->desc.camera = &a->camera;
+    }
+    if ((v = cli_value(args, "--exposure")) &&
+        (st = cli_number("--exposure", v, &a->exposure, err)) != VDBS_OK)
+        return st;
+    if ((v = cli_value(args, "--interleave")) &&
+        (st = cli_integer("--interleave", v, 2, VDBS_MAX_INTERLEAVE, &a->interleave, err)) !=
+            VDBS_OK)
+        return st;
+    a->no_interleave = cli_flag(args, "--no-interleave");
+    if ((v = cli_value(args, "--warmup-frames")) &&
+        (st = cli_integer("--warmup-frames", v, 1, 100000, &a->warmup, err)) != VDBS_OK)
+        return st;
+    if ((a->screenshot = cli_value(args, "--screenshot")) && !has_suffix(a->screenshot, ".png") &&
+        !has_suffix(a->screenshot, ".exr"))
+        return vdbs_error_set(err, VDBS_ERR_INPUT,
+                              "--screenshot: unsupported image type '%s' (use .exr or .png)",
+                              a->screenshot);
+    if (cli_value(args, "--warmup-frames") && !a->screenshot)
+        return vdbs_error_set(err, VDBS_ERR_INPUT, "--warmup-frames needs --screenshot");
+    a->quiet = cli_flag(args, "-q");
+    return VDBS_OK;
+}
+
+/* Everything up to the first frame; on failure the caller frees what was made. */
+static vdbs_status viewer_open(viewer *v, const view_args *a, GLFWwindow **window, vdbs_error *err)
+{
+    vdbs_status st = vdbs_render_open(&a->desc, &v->in, err);
+    if (st != VDBS_OK)
+        return st;
+    if (v->in.mode != VDBS_RENDER_BAKED && !a->quiet)
+        fprintf(stderr, PROGRAM ": %s is a density VDB: showing single scattering only\n",
+                v->input);
+    v->size = v->in.camera;
+    view_orbit_from_camera(&v->in.camera, &v->orbit);
+    v->orbit_home = v->orbit;
+    volume_centre(&v->in.volume, v->centre);
+    v->march = v->in.march;
+    v->march.s1_march = a->desc.s1_march;
+    v->march.s1_oversample = a->desc.s1_oversample;
+    v->exposure = a->exposure;
+    v->interleave = (int)a->interleave;
+    v->interleave_on = !a->no_interleave;
+    v->step_scale = 1.0f;
+    v->show_single = v->show_multiple = 1;
+
+    glfwSetErrorCallback(on_glfw_error);
+    if (!glfwInit())
+        return vdbs_error_set(err, VDBS_ERR_GPU, "no window system (is DISPLAY set? try xvfb-run)");
+    glfwWindowHint(GLFW_CONTEXT_VERSION_MAJOR, 4);
+    glfwWindowHint(GLFW_CONTEXT_VERSION_MINOR, 3);
+    glfwWindowHint(GLFW_OPENGL_PROFILE, GLFW_OPENGL_CORE_PROFILE);
+    glfwWindowHint(GLFW_OPENGL_FORWARD_COMPAT, GLFW_TRUE);
+    glfwWindowHint(GLFW_VISIBLE, a->screenshot ? GLFW_FALSE : GLFW_TRUE);
+    *window = glfwCreateWindow(v->size.width, v->size.height, PROGRAM, NULL, NULL);
+    if (!*window)
+        return vdbs_error_set(err, VDBS_ERR_GPU, "no OpenGL 4.3 core window");
+    glfwMakeContextCurrent(*window);
+    glfwSwapInterval(0);
+    vdbs_runner_desc rd = {.backend = a->backend, .current_context = 1};
+    if ((st = vdbs_runner_create(&rd, &v->runner, err)) != VDBS_OK)
+        return st;
+    if ((st = view_display_init(&v->display, err)) != VDBS_OK)
+        return st;
+    if ((st = vdbs_image_alloc(&v->image, v->size.width, v->size.height, 0, err)) != VDBS_OK)
+        return st;
+    return vdbs_march_session_create(v->runner, &v->in.volume,
+                                     v->in.mode == VDBS_RENDER_BAKED ? &v->in.ms : NULL,
+                                     v->in.scene, &v->march, &v->session, err);
+}
+
+static void viewer_close(viewer *v, GLFWwindow *window)
+{
+    if (v->bake.running) {
+        pthread_join(v->bake.thread, NULL);
+        free(v->bake.scene);
+        remove(v->bake.output);
+    }
+    vdbs_march_session_destroy(v->session);
+    vdbs_image_free(&v->image);
+    if (window) {
+        view_display_free(&v->display);
+        vdbs_runner_destroy(v->runner);
+        glfwDestroyWindow(window);
+    }
+    glfwTerminate();
+    vdbs_render_input_free(&v->in);
+}
+
+static vdbs_status run_screenshot(viewer *v, GLFWwindow *window, const view_args *a,
+                                  vdbs_error *err)
+{
+    vdbs_status st = VDBS_OK;
+    for (long f = 0; f < a->warmup && st == VDBS_OK; ++f) {
+        st = draw_frame(v, 0, err);
+        int fw = 0, fh = 0;
+        glfwGetFramebufferSize(window, &fw, &fh);
+        if (st == VDBS_OK)
+            view_display_draw(&v->display, &v->image, v->exposure, fw, fh);
+        glfwSwapBuffers(window);
+        glfwPollEvents();
+    }
+    /* The picture on screen, as floats: the EXR compares with `render`'s. */
+    if (st == VDBS_OK)
+        st = vdbs_image_write(a->screenshot, &v->image, v->exposure, err);
+    if (st == VDBS_OK && !a->quiet)
+        fprintf(stderr, PROGRAM ": %dx%d in %.1f ms on %s -> %s\n", v->image.width, v->image.height,
+                v->frame_ms, vdbs_runner_device(v->runner), a->screenshot);
+    return st;
+}
+
+static vdbs_status run_interactive(viewer *v, GLFWwindow *window, vdbs_error *err)
+{
+    glfwSetWindowUserPointer(window, v);
+    glfwSetKeyCallback(window, on_key);
+    glfwSetMouseButtonCallback(window, on_button);
+    glfwSetCursorPosCallback(window, on_cursor);
+    glfwSetScrollCallback(window, on_scroll);
+    fputs(keys_help, stdout);
+    fflush(stdout);
+    v->dirty = 1;
+    int refined = 0;
+    while (!glfwWindowShouldClose(window)) {
+        finish_rebake(v);
+        int moving = now() - v->last_input < MOVING_SECONDS || v->dragging;
+        /* Still after moving: one more frame at the full step. */
+        if (!moving && !refined)
+            v->dirty = 1;
+        if (v->dirty) {
+            vdbs_status st = draw_frame(v, moving, err);
+            if (st != VDBS_OK)
+                return st;
+            v->dirty = 0;
+            refined = !moving;
+        }
+        int fw = 0, fh = 0;
+        glfwGetFramebufferSize(window, &fw, &fh);
+        view_display_draw(&v->display, &v->image, v->exposure, fw, fh);
+        set_title(window, v);
+        glfwSwapBuffers(window);
+        /* Idle without spinning; wake for the re-bake and the refinement. */
+        if (v->bake.running || moving)
+            glfwWaitEventsTimeout(0.05);
+        else
+            glfwWaitEvents();
+    }
+    return VDBS_OK;
+}
+
+int main(int argc, char **argv)
+{
+    cli_args args;
+    vdbs_error err;
+    vdbs_status st;
+    if (cli_parse(argc - 1, argv + 1, options, &args, &err) != VDBS_OK)
+        return fail(VDBS_ERR_INPUT, err.message);
+    if (args.help) {
+        fputs(help, stdout);
+        fputs("\n", stdout);
+        fputs(keys_help, stdout);
+        return CLI_EXIT_OK;
+    }
+    if (args.positional_count > 1)
+        return fail(VDBS_ERR_INPUT, "expected one input VDB");
+    view_args a;
+    memset(&a, 0, sizeof a);
+    if ((st = parse_view_args(&args, &a, &err)) != VDBS_OK)
+        return fail(st, err.message);
+    vdbs_scene *scene = malloc(sizeof *scene);
+    if (!scene)
+        return fail(VDBS_ERR_NOMEM, "out of memory");
+    if ((st = cli_build_scene(&args, scene, 1, &err)) != VDBS_OK) {
+        free(scene);
+        return fail(st, err.message);
+    }
+    viewer *v = calloc(1, sizeof *v);
+    if (!v) {
+        free(scene);
+        return fail(VDBS_ERR_NOMEM, "out of memory");
+    }
+    v->input = args.positional_count ? args.positional[0] : scene->volume_file;
+    a.desc.input = v->input;
+    a.desc.scene = scene;
+    a.desc.scene_set = cli_scene_flags(&args);
+    a.desc.warn = cli_warn;
+    a.desc.warn_user = &a.quiet;
+    if (a.screenshot && (st = vdbio_check_output(a.screenshot, v->input, &err)) != VDBS_OK) {
+        free(v);
+        free(scene);
+        return fail(st, err.message);
+    }
+    GLFWwindow *window = NULL;
+    st = viewer_open(v, &a, &window, &err);
+    if (st == VDBS_OK)
+        st = a.screenshot ? run_screenshot(v, window, &a, &err) : run_interactive(v, window, &err);
+    viewer_close(v, window);
+    free(v);
+    free(scene);
+    return st == VDBS_OK ? CLI_EXIT_OK : fail(st, err.message);
+}
