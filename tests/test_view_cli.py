@@ -1,0 +1,177 @@
+#!/usr/bin/python3
+"""`vdbscatter-view` through its screenshots, under xvfb-run with Mesa: the picture of a lit
+cloud equals `vdbscatter render --mode baked` of the same camera, size and lights (2%
+relative RMSE without interleaved sampling, 5% with it), the compute shader in the window's
+context matches the C path, a density VDB opens with single scattering only, and bad files
+and flags get one line, exit 2 and no image."""
+import json
+import os
+import shutil
+import subprocess
+import tempfile
+import unittest
+
+EXE = os.environ["VDBSCATTER"]
+VIEW = os.environ["VDBSCATTER_VIEW"]
+SAMPLES = os.environ["VDBSCATTER_SAMPLES_DIR"]
+XVFB = ["xvfb-run", "-a", "-s", "-screen 0 1280x720x24"]
+
+
+def run(*args, check=None):
+    p = subprocess.run([EXE, *map(str, args)], capture_output=True, text=True, timeout=900)
+    if check is not None and p.returncode != check:
+        raise AssertionError(f"{args}: exit {p.returncode}, stderr: {p.stderr}")
+    return p
+
+
+def view(*args, check=None, display=True):
+    cmd = (XVFB if display else []) + [VIEW, *map(str, args)]
+    p = subprocess.run(cmd, capture_output=True, text=True, timeout=900)
+    if check is not None and p.returncode != check:
+        raise AssertionError(f"{args}: exit {p.returncode}, stderr: {p.stderr}")
+    return p
+
+
+def sample(name):
+    return os.path.join(SAMPLES, name)
+
+
+def relrmse(a, b):
+    p = run("compare", a, b, "--json", check=0)
+    return json.loads(p.stdout)["relrmse"]
+
+
+class Base(unittest.TestCase):
+    @classmethod
+    def setUpClass(cls):
+        cls.tmp = tempfile.mkdtemp(prefix="vdbs_view_", dir=os.environ.get("VDBSCATTER_TMP"))
+
+    @classmethod
+    def tearDownClass(cls):
+        shutil.rmtree(cls.tmp, ignore_errors=True)
+
+    @classmethod
+    def path(cls, name):
+        return os.path.join(cls.tmp, name)
+
+
+class Screenshot(Base):
+    """The lit cloud (POP bake, quality low) at the sample camera's 320x240."""
+
+    @classmethod
+    def setUpClass(cls):
+        super().setUpClass()
+        cls.lit = cls.path("cloud_lit.vdb")
+        run("bake", "--scene", sample("cloud.json"), "--method", "pop", "--quality", "low", "-o", cls.lit,
+            "-q", check=0)
+        cls.rendered = cls.path("render.exr")
+        run("render", cls.lit, "--mode", "baked", "-o", cls.rendered, "-q", check=0)
+
+    def screenshot(self, name, *extra):
+        out = self.path(name)
+        view(self.lit, "--screenshot", out, "--backend", "cpu", "-q", *extra, check=0)
+        return out
+
+    def test_equals_render_without_interleave(self):
+        shot = self.screenshot("plain.exr", "--no-interleave")
+        error = relrmse(shot, self.rendered)
+        print(f"\nviewer without interleaving against render --mode baked: relative RMSE {error:.2e}")
+        self.assertLessEqual(error, 0.02)
+
+    def test_equals_render_with_interleave(self):
+        shot = self.screenshot("interleaved.exr")  # the default, 2 x 2
+        error = relrmse(shot, self.rendered)
+        print(f"\nviewer with 2x2 interleaving against render --mode baked: relative RMSE {error:.2e}")
+        self.assertLessEqual(error, 0.05)
+        # The gather is not a no-op: the phases really are dealt out.
+        self.assertGreater(relrmse(shot, self.screenshot("plain2.exr", "--no-interleave")), 1e-4)
+
+    def test_same_camera_and_png(self):
+        out = self.path("moved.png")
+        view(self.lit, "--screenshot", out, "--backend", "cpu", "--camera", "0,0.3,3:0,0,0:40", "--size",
+             "48x36", "--exposure", "1", "--no-interleave", "-q", check=0)
+        ref = self.path("moved_render.png")
+        run("render", self.lit, "-o", ref, "--camera", "0,0.3,3:0,0,0:40", "--size", "48x36", "--exposure",
+            "1", "-q", check=0)
+        with open(out, "rb") as a, open(ref, "rb") as b:
+            self.assertEqual(a.read()[:24], b.read()[:24])  # PNG signature and IHDR: same size
+        self.assertLessEqual(relrmse(out, ref), 0.02)
+
+    def test_shader_in_window_context_matches_c_path(self):
+        small = ("--size", "48x36", "--quality", "low")
+        gpu = self.path("gpu.exr")
+        p = view(self.lit, "--screenshot", gpu, "--backend", "gpu", *small, check=0)
+        self.assertNotIn("C (OpenMP", p.stderr)  # the summary names the GL renderer
+        cpu = self.screenshot("cpu.exr", *small)
+        error = relrmse(gpu, cpu)
+        print(f"\nviewer compute shader (window context) against the C path: relative RMSE {error:.2e}")
+        self.assertLessEqual(error, 1e-4)
+
+    def test_density_vdb_shows_single_scattering(self):
+        out, ref = self.path("density.exr"), self.path("density_render.exr")
+        p = view(sample("cloud.vdb"), "--scene", sample("cloud.json"), "--screenshot", out, "--backend", "cpu",
+                 "--size", "48x36", "--no-interleave", check=0)
+        self.assertIn("single scattering only", p.stderr)
+        run("render", sample("cloud.vdb"), "--scene", sample("cloud.json"), "--mode", "single", "-o", ref,
+            "--size", "48x36", "-q", check=0)
+        self.assertLessEqual(relrmse(out, ref), 1e-6)
+
+
+class BadInput(Base):
+    def refuse(self, *args, needle=None):
+        out = self.path("never.png")
+        p = view(*args, "--screenshot", out, display=False)
+        self.assertEqual(p.returncode, 2, p.stderr)
+        lines = p.stderr.strip().splitlines()
+        self.assertEqual(len(lines), 1, p.stderr)
+        self.assertTrue(lines[0].startswith("vdbscatter-view: "), lines[0])
+        if needle:
+            self.assertIn(needle, lines[0])
+        self.assertFalse(os.path.exists(out))
+        return lines[0]
+
+    def test_help(self):
+        p = view("--help", display=False)
+        self.assertEqual(p.returncode, 0)
+        self.assertIn("--screenshot", p.stdout)
+        self.assertIn("keys:", p.stdout)
+
+    def test_missing_file(self):
+        self.refuse(self.path("nope.vdb"), needle="nope.vdb")
+
+    def test_foreign_and_truncated_files(self):
+        text = self.path("text.vdb")
+        with open(text, "w") as f:
+            f.write("not a vdb\n")
+        self.refuse(text, needle="text.vdb")
+        cut = self.path("cut.vdb")
+        with open(sample("cloud.vdb"), "rb") as f:
+            blob = f.read()
+        with open(cut, "wb") as f:
+            f.write(blob[:len(blob) // 2])
+        self.refuse(cut, needle="cut.vdb")
+
+    def test_bad_flags(self):
+        lit = sample("cloud.vdb")
+        self.refuse(lit, "--interleave", "5", needle="--interleave")
+        self.refuse(lit, "--size", "0x4", needle="--size")
+        self.refuse(lit, "--warp", needle="--warp")
+        self.refuse(lit, "--g", "nan", needle="--g")
+        self.refuse(lit, "--backend", "tpu", needle="--backend")
+        p = view(lit, "--screenshot", self.path("x.jpg"), display=False)
+        self.assertEqual(p.returncode, 2)
+        self.assertIn(".jpg", p.stderr)
+        p = view(lit, "--warmup-frames", "3", display=False)
+        self.assertEqual(p.returncode, 2)
+        self.assertIn("--screenshot", p.stderr)
+
+    def test_malformed_scene(self):
+        scene = self.path("bad.json")
+        with open(scene, "w") as f:
+            f.write('{"volume": {"file": "%s"}, "lights": [{"type": "sun", "direction": [0, -1, 0]}], '
+                    '"colour": 1}' % sample("cloud.vdb"))
+        self.refuse("--scene", scene, needle="colour")
+
+
+if __name__ == "__main__":
+    unittest.main()
