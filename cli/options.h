@@ -67,6 +67,13 @@ vdbs_status cli_camera(const char *text, vdbs_camera *camera, vdbs_error *err);
 vdbs_status cli_build_scene(const cli_args *args, vdbs_scene *scene, int allow_no_lights,
                             vdbs_error *err);
 
+/* For the commands that ignore the scene's occluders and fog (bake, render): reads every
+ * OBJ occluder once, so that a missing or malformed file is an error before any work
+ * ("scene FILE: occluders[I].file: OBJ:LINE: ..."), then warns once (unless quiet) that
+ * `command` ignores the occluders and the fog. Nothing happens for a scene without them. */
+vdbs_status cli_scene_occluders(const char *command, const cli_args *args, const vdbs_scene *scene,
+                                int quiet, vdbs_error *err);
+
 /* JSON pieces of the bake and render reports. */
 struct cJSON;
 struct cJSON *cli_json_triple(const double v[3]);

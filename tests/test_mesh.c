@@ -420,12 +420,36 @@ static void test_scene_occluders(void **state)
     free(s);
 }
 
+/* samples/pillar.obj (samples/make_pillar.py): 52 triangles, closed pieces wound outward,
+ * an octagonal shaft of radius 0.25 and height 1.7 between two 0.7 x 0.15 x 0.7 slabs. */
+static void test_sample_pillar(void **state)
+{
+    (void)state;
+    char path[4096];
+    snprintf(path, sizeof path, "%s/pillar.obj", VDBS_TEST_SAMPLES_DIR);
+    vdbs_error err = {{0}};
+    vdbs_mesh m = {0};
+    if (vdbs_mesh_load_obj(path, NULL, &m, &err) != VDBS_OK)
+        fail_msg("%s", err.message);
+    assert_int_equal(m.triangle_count, 52);
+    double lo[3], hi[3];
+    vdbs_mesh_bounds(&m, lo, hi);
+    assert_near(lo[1], -1.0, 1e-6, "pillar bottom");
+    assert_near(hi[1], 1.0, 1e-6, "pillar top");
+    assert_near(hi[0], 0.35, 1e-6, "pillar half width");
+    double octagon = 2.0 * sqrt(2.0) * 0.25 * 0.25;
+    double volume = octagon * 1.7 + 2.0 * 0.7 * 0.15 * 0.7;
+    assert_near(vdbs_mesh_volume(&m), volume, 1e-5, "pillar volume");
+    vdbs_mesh_free(&m);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_obj_cube),      cmocka_unit_test(test_obj_negative_indices),
         cmocka_unit_test(test_obj_malformed), cmocka_unit_test(test_sphere),
         cmocka_unit_test(test_box_and_plane), cmocka_unit_test(test_scene_occluders),
+        cmocka_unit_test(test_sample_pillar),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
