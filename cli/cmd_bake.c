@@ -260,6 +260,8 @@ int cmd_bake(int argc, char **argv)
     vdbs_scene scene;
     if ((st = cli_build_scene(&args, &scene, 0, &err)) != VDBS_OK)
         return cli_fail("bake", st, err.message);
+    if ((st = cli_scene_occluders("bake", &args, &scene, cli_flag(&args, "-q"), &err)) != VDBS_OK)
+        return cli_fail("bake", st, err.message);
     const char *camera = cli_value(&args, "--camera");
     if (camera) {
         vdbs_camera c;

@@ -248,6 +248,10 @@ int cmd_render(int argc, char **argv)
         free(scene);
         return cli_fail("render", st, err.message);
     }
+    if ((st = cli_scene_occluders("render", &args, scene, quiet, &err)) != VDBS_OK) {
+        free(scene);
+        return cli_fail("render", st, err.message);
+    }
     const char *input = args.positional_count ? args.positional[0] : scene->volume_file;
     if (r.mode != VDBS_RENDER_REFERENCE) {
         static const char *const ref_only[] = {"--spp", "--time", "--max-bounces", "--seed",

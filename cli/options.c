@@ -1,6 +1,8 @@
 #define _POSIX_C_SOURCE 200809L
 #include "options.h"
 
+#include "vdbscatter/mesh.h"
+
 #include <cjson/cJSON.h>
 
 #include <errno.h>
@@ -306,6 +308,31 @@ vdbs_status cli_build_scene(const cli_args *args, vdbs_scene *scene, int allow_n
     if (scene->light_count == 0 && allow_no_lights)
         return VDBS_OK;
     return vdbs_scene_validate(scene, err);
+}
+
+vdbs_status cli_scene_occluders(const char *command, const cli_args *args, const vdbs_scene *scene,
+                                int quiet, vdbs_error *err)
+{
+    int count = scene->occluder_count;
+    if (count == 0 && !scene->fog.present)
+        return VDBS_OK;
+    vdbs_error inner = {{0}};
+    vdbs_status st = vdbs_occluders_check(scene, &inner);
+    if (st != VDBS_OK) {
+        const char *file = cli_value(args, "--scene");
+        if (file)
+            return vdbs_error_set(err, st, "scene %s: %s", file, inner.message);
+        return vdbs_error_set(err, st, "scene: %s", inner.message);
+    }
+    char line[256];
+    char occluders[64] = "";
+    if (count > 0)
+        snprintf(occluders, sizeof occluders, "%d occluder%s", count, count == 1 ? "" : "s");
+    snprintf(line, sizeof line, "%s: ignoring %s%s%s of the scene (only vdbscatter-view draws %s)",
+             command, occluders, count > 0 && scene->fog.present ? " and " : "",
+             scene->fog.present ? "the fog" : "", count + scene->fog.present > 1 ? "them" : "it");
+    cli_warn(&quiet, line);
+    return VDBS_OK;
 }
 
 int cli_fail(const char *command, int status, const char *message)

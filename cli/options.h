@@ -74,6 +74,13 @@ vdbs_status cli_size(const char *text, int *width, int *height, vdbs_error *err)
  * top of its baked scene. */
 unsigned cli_scene_flags(const cli_args *args);
 
+/* For the commands that ignore the scene's occluders and fog (bake, render): reads every
+ * OBJ occluder once, so that a missing or malformed file is an error before any work
+ * ("scene FILE: occluders[I].file: OBJ:LINE: ..."), then warns once (unless quiet) that
+ * `command` ignores the occluders and the fog. Nothing happens for a scene without them. */
+vdbs_status cli_scene_occluders(const char *command, const cli_args *args, const vdbs_scene *scene,
+                                int quiet, vdbs_error *err);
+
 /* JSON pieces of the bake and render reports. */
 struct cJSON;
 struct cJSON *cli_json_triple(const double v[3]);

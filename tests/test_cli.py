@@ -847,5 +847,77 @@ class Samples(Base):
         self.assertRegex(gpu["version"], r"^4\.[3-6]")
 
 
+class Occluders(Base):
+    """Scenes with occluders and fog: bake and render check every OBJ file (one error line,
+    exit 2, no output) and otherwise warn once that they ignore them."""
+
+    def scene(self, name, occluders, fog=None):
+        with open(os.path.join(SAMPLES, "cloud.json")) as f:
+            scene = json.load(f)
+        scene["volume"]["file"] = os.path.join(SAMPLES, "cloud.vdb")
+        scene["solver"]["quality"] = "low"
+        scene["occluders"] = occluders
+        if fog is not None:
+            scene["fog"] = fog
+        path = self.path(name)
+        with open(path, "w") as f:
+            json.dump(scene, f)
+        return path
+
+    def test_bad_occluders_are_one_error_line(self):
+        with open(self.path("bad.obj"), "w") as f:
+            f.write("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 9\n")
+        cases = [
+            (self.scene("malformed.json", [{"type": "obj", "file": "bad.obj"}]),
+             "occluders[0].file: " + self.path("bad.obj") + ":4: f: corner '9': vertex index 9 out of range"),
+            (self.scene("missing.json", [{"type": "box", "min": [0, 1, 0], "max": [1, 2, 1]},
+                                         {"type": "obj", "file": "missing.obj"}]),
+             "occluders[1].file: " + self.path("missing.obj") + ": cannot open"),
+            (self.scene("key.json", [{"type": "sphere", "center": [0, 1, 0], "radius": 0.2, "colour": 1}]),
+             'occluders[0]: unknown key "colour"'),
+            (self.scene("range.json", [{"type": "sphere", "center": [0, 1, 0], "radius": 0}]),
+             "occluders[0].radius: must be finite and > 0"),
+            (self.scene("fog.json", [], fog={"sigma_t": -1}), "fog.sigma_t"),
+        ]
+        for scene, needle in cases:
+            line = self.assert_bad_input(["bake", "--scene", scene, "-o", self.path("out.vdb")], needle)
+            self.assertTrue(line.startswith("vdbscatter bake: scene " + scene + ": "), line)
+            self.assert_bad_input(["render", "--scene", scene, "-o", self.path("out.png")], needle,
+                                  output="out.png")
+
+    def test_bake_and_render_warn_once(self):
+        scene = self.scene("box.json", [{"type": "box", "min": [-0.4, 0.9, -0.4], "max": [0.2, 1.1, 0.2]}])
+        out = self.path("lit.vdb")
+        p = run("bake", "--scene", scene, "-o", out, "--json", check=0)
+        self.assertTrue(os.path.exists(out))
+        warnings = [l for l in p.stderr.splitlines() if "warning" in l]
+        self.assertEqual(warnings, ["vdbscatter: warning: bake: ignoring 1 occluder of the scene "
+                                    "(only vdbscatter-view draws it)"], p.stderr)
+        # the report's scene keeps them as given
+        report = json.loads(p.stdout)
+        self.assertEqual(report["scene"]["occluders"],
+                         [{"type": "box", "min": [-0.4, 0.9, -0.4], "max": [0.2, 1.1, 0.2],
+                           "albedo": [0.5, 0.5, 0.5]}])
+        image = self.path("box.png")
+        p = run("render", "--scene", scene, "-o", image, "--size", "32x24", check=0)
+        self.assertTrue(os.path.exists(image))
+        warnings = [l for l in p.stderr.splitlines() if "warning" in l]
+        self.assertEqual(len(warnings), 1, p.stderr)
+        self.assertIn("render: ignoring 1 occluder of the scene", warnings[0])
+        # -q silences it
+        p = run("render", "--scene", scene, "-o", image, "--size", "32x24", "-q", check=0)
+        self.assertEqual(p.stderr, "")
+
+    def test_sample_scene(self):
+        """samples/cloud_occluder.json: the pillar OBJ, a sphere, a floor and the fog."""
+        image = self.path("cloud_occluder.png")
+        p = run("render", "--scene", os.path.join(SAMPLES, "cloud_occluder.json"), "-o", image,
+                "--size", "32x24", "--quality", "low", check=0)
+        self.assertTrue(os.path.exists(image))
+        warnings = [l for l in p.stderr.splitlines() if "warning" in l]
+        self.assertEqual(warnings, ["vdbscatter: warning: render: ignoring 3 occluders and the fog of "
+                                    "the scene (only vdbscatter-view draws them)"], p.stderr)
+
+
 if __name__ == "__main__":
     unittest.main(verbosity=2)

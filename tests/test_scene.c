@@ -199,6 +199,7 @@ typedef struct error_case {
 } error_case;
 
 static const char *const sun = "{\"type\": \"sun\", \"direction\": [0,-1,0]}";
+#define SPHERE "{\"type\": \"sphere\", \"center\": [0,0,0], \"radius\": 1}"
 
 static void test_parse_errors(void **state)
 {
@@ -297,6 +298,75 @@ static void test_parse_errors(void **state)
         {"{} trailing", "scene: invalid JSON"},
         {"", "scene: invalid JSON"},
         {"[]", "scene: expected a JSON object at the top level"},
+        /* occluders: keys, types, presence */
+        {"{\"occluders\": {}}", "scene: occluders: expected an array, got an object"},
+        {"{\"occluders\": [1]}", "scene: occluders[0]: expected an object"},
+        {"{\"occluders\": [{\"center\": [0,0,0]}]}", "scene: occluders[0]: missing \"type\""},
+        {"{\"occluders\": [{\"type\": \"cone\"}]}",
+         "scene: occluders[0].type: unknown occluder type \"cone\""},
+        {"{\"occluders\": [{\"type\": 2}]}", "scene: occluders[0].type: expected a string"},
+        {"{\"occluders\": [" SPHERE ", {\"type\": \"sphere\", \"center\": [0,0,0], "
+         "\"radius\": 1, \"colour\": 1}]}",
+         "scene: occluders[1]: unknown key \"colour\""},
+        {"{\"occluders\": [{\"type\": \"box\", \"min\": [0,0,0], \"max\": [1,1,1], "
+         "\"radius\": 1}]}",
+         "scene: occluders[0]: unknown key \"radius\" (a box takes"},
+        {"{\"occluders\": [{\"type\": \"obj\", \"file\": \"a.obj\", \"rotate\": [0,0,0]}]}",
+         "scene: occluders[0]: unknown key \"rotate\""},
+        {"{\"occluders\": [{\"type\": \"obj\"}]}", "scene: occluders[0]: missing \"file\""},
+        {"{\"occluders\": [{\"type\": \"obj\", \"file\": \"\"}]}",
+         "scene: occluders[0].file: expected a non-empty string"},
+        {"{\"occluders\": [{\"type\": \"sphere\", \"center\": [0,0,0]}]}",
+         "scene: occluders[0]: missing \"radius\""},
+        {"{\"occluders\": [{\"type\": \"box\", \"max\": [1,1,1]}]}",
+         "scene: occluders[0]: missing \"min\""},
+        {"{\"occluders\": [{\"type\": \"plane\", \"point\": [0,0,0]}]}",
+         "scene: occluders[0]: missing \"normal\""},
+        {"{\"occluders\": [{\"type\": \"obj\", \"file\": \"a.obj\", \"scale\": [1, 2]}]}",
+         "scene: occluders[0].scale: expected a number or an array of 3 numbers"},
+        {"{\"occluders\": [{\"type\": \"obj\", \"file\": \"a.obj\", \"translate\": 1}]}",
+         "scene: occluders[0].translate: expected an array of 3 numbers"},
+        {"{\"occluders\": [{\"type\": \"sphere\", \"center\": [0,1e999,0], \"radius\": 1}]}",
+         "scene: occluders[0].center[1]: expected a finite number"},
+        {"{\"occluders\": [{\"type\": \"sphere\", \"center\": [0,0,0], \"radius\": \"1\"}]}",
+         "scene: occluders[0].radius: expected a number"},
+        {"{\"occluders\": [{\"type\": \"sphere\", \"center\": [0,0,0], \"radius\": 1, "
+         "\"radius\": 2}]}",
+         "scene: occluders[0]: duplicate key \"radius\""},
+        /* occluders: ranges, checked at parse too */
+        {"{\"occluders\": [{\"type\": \"sphere\", \"center\": [0,0,0], \"radius\": 0}]}",
+         "scene: occluders[0].radius: must be finite and > 0, got 0"},
+        {"{\"occluders\": [{\"type\": \"box\", \"min\": [0,0,0], \"max\": [1,0,1]}]}",
+         "scene: occluders[0].max: must exceed min on every axis"},
+        {"{\"occluders\": [{\"type\": \"plane\", \"point\": [0,0,0], \"normal\": [0,0,0]}]}",
+         "scene: occluders[0].normal: must be a non-zero vector"},
+        {"{\"occluders\": [{\"type\": \"sphere\", \"center\": [0,0,0], \"radius\": 1, "
+         "\"albedo\": 1.5}]}",
+         "scene: occluders[0].albedo: each component must be in [0, 1]"},
+        {"{\"occluders\": [{\"type\": \"box\", \"min\": [0,0,0], \"max\": [1,1,1], "
+         "\"albedo\": [0.5, -0.1, 0.5]}]}",
+         "scene: occluders[0].albedo:"},
+        {"{\"occluders\": [{\"type\": \"obj\", \"file\": \"a.obj\", \"scale\": 0}]}",
+         "scene: occluders[0].scale: each component must be finite and > 0"},
+        {"{\"occluders\": [{\"type\": \"obj\", \"file\": \"a.obj\", \"scale\": [1, -1, 1]}]}",
+         "scene: occluders[0].scale:"},
+        /* fog */
+        {"{\"fog\": 0.1}", "scene: fog: expected an object, got a number"},
+        {"{\"fog\": {\"albedo\": 1}}", "scene: fog: missing \"sigma_t\""},
+        {"{\"fog\": {\"sigma_t\": 0.1, \"density\": 1}}", "scene: fog: unknown key \"density\""},
+        {"{\"fog\": {\"sigma_t\": \"thick\"}}", "scene: fog.sigma_t: expected a number"},
+        {"{\"fog\": {\"sigma_t\": -0.1}}", "scene: fog.sigma_t: must be finite and >= 0"},
+        {"{\"fog\": {\"sigma_t\": 0.1, \"albedo\": 1.01}}", "scene: fog.albedo:"},
+        {"{\"fog\": {\"sigma_t\": 0.1, \"box\": [0,0,0]}}", "scene: fog.box: expected an object"},
+        {"{\"fog\": {\"sigma_t\": 0.1, \"box\": {\"min\": [0,0,0]}}}",
+         "scene: fog.box: missing \"max\""},
+        {"{\"fog\": {\"sigma_t\": 0.1, \"box\": {\"min\": [0,0,0], \"max\": [1,1,1], "
+         "\"centre\": 0}}}",
+         "scene: fog.box: unknown key \"centre\""},
+        {"{\"fog\": {\"sigma_t\": 0.1, \"box\": {\"min\": [0,0,0], \"max\": [1,1,-1]}}}",
+         "scene: fog.box.max: must exceed min on every axis"},
+        {"{\"fog\": {\"sigma_t\": 0.1, \"box\": {\"min\": [0,\"a\",0], \"max\": [1,1,1]}}}",
+         "scene: fog.box.min[1]: expected a number"},
     };
     vdbs_scene *s = new_scene();
     vdbs_scene *before = new_scene();
@@ -475,6 +545,36 @@ static void assert_scene_equal(const vdbs_scene *a, const vdbs_scene *b)
     assert_int_equal(a->svd_resolution, b->svd_resolution);
     assert_int_equal(a->svd_iterations, b->svd_iterations);
     assert_true(a->svd_residual == b->svd_residual);
+    assert_int_equal(a->occluder_count, b->occluder_count);
+    for (int i = 0; i < a->occluder_count; ++i) {
+        const vdbs_occluder *oa = &a->occluders[i], *ob = &b->occluders[i];
+        assert_int_equal(oa->type, ob->type);
+        assert_string_equal(vdbs_occluder_obj_file(a, oa), vdbs_occluder_obj_file(b, ob));
+        for (int c = 0; c < 3; ++c) {
+            assert_true(oa->translate[c] == ob->translate[c]);
+            assert_true(oa->scale[c] == ob->scale[c]);
+            assert_true(oa->rotate_deg[c] == ob->rotate_deg[c]);
+            assert_true(oa->center[c] == ob->center[c]);
+            assert_true(oa->min[c] == ob->min[c]);
+            assert_true(oa->max[c] == ob->max[c]);
+            assert_true(oa->point[c] == ob->point[c]);
+            assert_true(oa->normal[c] == ob->normal[c]);
+            assert_true(oa->albedo[c] == ob->albedo[c]);
+        }
+        assert_true(oa->radius == ob->radius);
+    }
+    assert_int_equal(a->fog.present, b->fog.present);
+    if (!a->fog.present)
+        return;
+    assert_true(a->fog.sigma_t == b->fog.sigma_t);
+    assert_int_equal(a->fog.has_box, b->fog.has_box);
+    for (int c = 0; c < 3; ++c) {
+        assert_true(a->fog.albedo[c] == b->fog.albedo[c]);
+        if (a->fog.has_box) {
+            assert_true(a->fog.box_min[c] == b->fog.box_min[c]);
+            assert_true(a->fog.box_max[c] == b->fog.box_max[c]);
+        }
+    }
 }
 
 static void round_trip(const vdbs_scene *s)
@@ -548,6 +648,30 @@ static void test_round_trip(void **state)
     assert_int_equal(vdbs_scene_set_grid(s, "a@b@0", &err), VDBS_OK);
     assert_string_equal(s->grid, "a@b");
     round_trip(s);
+
+    /* every occluder type, a fog with a box, numbers that need 17 digits */
+    const char *occ =
+        "{\"lights\": [{\"type\": \"sun\", \"direction\": [0.3, -1, 0.2]}],"
+        " \"occluders\": ["
+        "  {\"type\": \"obj\", \"file\": \"pillar.obj\", \"translate\": [0.1, 0.2, 0.3],"
+        "   \"scale\": [1, 2, 3], \"rotate_deg\": [10, 20, 30], \"albedo\": [0.1, 0.2, 0.3]},"
+        "  {\"type\": \"sphere\", \"center\": [1, 2, 3], \"radius\": 0.3333333333333333},"
+        "  {\"type\": \"box\", \"min\": [-1, -2, -3], \"max\": [1, 2, 3], \"albedo\": 0},"
+        "  {\"type\": \"plane\", \"point\": [0, -1, 0], \"normal\": [0.1, 1, 0.2]}],"
+        " \"fog\": {\"sigma_t\": 0.05, \"albedo\": [0.9, 0.8, 0.7],"
+        "          \"box\": {\"min\": [-5, -1, -5], \"max\": [5, 4, 5]}}}";
+    vdbs_scene *o = new_scene();
+    assert_int_equal(vdbs_scene_parse(occ, "/scenes", o, &err), VDBS_OK);
+    round_trip(o);
+    assert_int_equal(vdbs_scene_validate(o, &err), VDBS_OK);
+    round_trip(o); /* the normalised plane normal */
+    o->fog.has_box = 0;
+    o->fog.sigma_t = 0.0;
+    round_trip(o);
+    o->fog.present = 0;
+    o->occluder_count = 1;
+    round_trip(o);
+    free(o);
 
     /* strings that need escaping, many lights, no camera */
     snprintf(s->volume_file, sizeof s->volume_file, "%s", "/tmp/we\"ird\\name\tx.vdb");
@@ -690,14 +814,167 @@ static void test_env_paths(void **state)
     free(s);
 }
 
+/* Occluders and fog: every type, defaults, resolved OBJ paths stored once, and ranges
+ * of values set by code checked by vdbs_scene_validate. */
+static void test_occluders_and_fog(void **state)
+{
+    (void)state;
+    vdbs_scene *s = new_scene();
+    vdbs_error err = {{0}};
+    const char *json =
+        "{\"occluders\": ["
+        "  {\"type\": \"obj\", \"file\": \"meshes/pillar.obj\"},"
+        "  {\"type\": \"obj\", \"file\": \"meshes/pillar.obj\", \"translate\": [1, 0, 0],"
+        "   \"scale\": 2, \"rotate_deg\": [0, 90, 0], \"albedo\": 0.8},"
+        "  {\"type\": \"sphere\", \"center\": [0, 1, 0], \"radius\": 0.5},"
+        "  {\"type\": \"box\", \"min\": [0, 0, 0], \"max\": [1, 2, 3], \"albedo\": [0.1, 0.2, "
+        "0.3]},"
+        "  {\"type\": \"plane\", \"point\": [0, -1, 0], \"normal\": [0, 2, 0]},"
+        "  {\"type\": \"obj\", \"file\": \"/abs/rock.obj\"}],"
+        " \"fog\": {\"sigma_t\": 0.02}}";
+    assert_int_equal(s->occluder_count, 0); /* none by default */
+    assert_int_equal(s->fog.present, 0);
+    if (vdbs_scene_parse(json, "/scenes", s, &err) != VDBS_OK)
+        fail_msg("%s", err.message);
+    assert_int_equal(s->occluder_count, 6);
+    const vdbs_occluder *o = s->occluders;
+    assert_int_equal(o[0].type, VDBS_OCCLUDER_OBJ);
+    assert_string_equal(vdbs_occluder_obj_file(s, &o[0]), "/scenes/meshes/pillar.obj");
+    assert_int_equal(o[1].obj_file, o[0].obj_file); /* one path, stored once */
+    assert_string_equal(vdbs_occluder_obj_file(s, &o[5]), "/abs/rock.obj");
+    assert_string_equal(vdbs_occluder_obj_file(s, &o[2]), ""); /* not an obj */
+    assert_vec3(o[0].translate, 0, 0, 0);
+    assert_vec3(o[0].scale, 1, 1, 1);
+    assert_vec3(o[0].rotate_deg, 0, 0, 0);
+    assert_vec3(o[0].albedo, 0.5, 0.5, 0.5);
+    assert_vec3(o[1].translate, 1, 0, 0);
+    assert_vec3(o[1].scale, 2, 2, 2);
+    assert_vec3(o[1].rotate_deg, 0, 90, 0);
+    assert_vec3(o[1].albedo, 0.8, 0.8, 0.8);
+    assert_int_equal(o[2].type, VDBS_OCCLUDER_SPHERE);
+    assert_vec3(o[2].center, 0, 1, 0);
+    assert_true(o[2].radius == 0.5);
+    assert_vec3(o[2].albedo, 0.5, 0.5, 0.5);
+    assert_int_equal(o[3].type, VDBS_OCCLUDER_BOX);
+    assert_vec3(o[3].min, 0, 0, 0);
+    assert_vec3(o[3].max, 1, 2, 3);
+    assert_vec3(o[3].albedo, 0.1, 0.2, 0.3);
+    assert_int_equal(o[4].type, VDBS_OCCLUDER_PLANE);
+    assert_vec3(o[4].point, 0, -1, 0);
+    assert_vec3(o[4].normal, 0, 2, 0); /* normalised by validate, not by parse */
+    assert_int_equal(s->fog.present, 1);
+    assert_true(s->fog.sigma_t == 0.02);
+    assert_vec3(s->fog.albedo, 1, 1, 1); /* default: scatters, absorbs nothing */
+    assert_int_equal(s->fog.has_box, 0); /* the volume's bounds */
+
+    s->lights[0].type = VDBS_LIGHT_SUN;
+    s->lights[0].direction[1] = -1.0;
+    s->lights[0].color[0] = s->lights[0].color[1] = s->lights[0].color[2] = 1.0;
+    s->light_count = 1;
+    assert_int_equal(vdbs_scene_validate(s, &err), VDBS_OK);
+    assert_vec3(s->occluders[4].normal, 0, 1, 0);
+
+    /* light copies leave the OBJ paths alone */
+    vdbs_scene *other = new_scene();
+    vdbs_scene_copy_lights(s, other);
+    vdbs_scene_clear_lights(s);
+    assert_string_equal(vdbs_occluder_obj_file(s, &o[0]), "/scenes/meshes/pillar.obj");
+
+    /* values set by code are validated, naming the key; a failure normalises nothing */
+    s->light_count = 1;
+    s->lights[0] = other->lights[0];
+    s->lights[0].type = VDBS_LIGHT_ENV;
+    s->lights[0].color[0] = 1.0;
+    s->occluders[4].normal[1] = 3.0;
+    const struct {
+        double *field;
+        double bad;
+        const char *message;
+    } cases[] = {
+        {&s->occluders[2].radius, -1.0, "scene: occluders[2].radius: must be finite and > 0"},
+        {&s->occluders[2].radius, NAN, "scene: occluders[2].radius:"},
+        {&s->occluders[2].center[0], INFINITY, "scene: occluders[2].center: must be 3 finite"},
+        {&s->occluders[3].max[2], 0.0, "scene: occluders[3].max: must exceed min"},
+        {&s->occluders[3].min[0], NAN, "scene: occluders[3].min: must be 3 finite"},
+        {&s->occluders[1].scale[1], 0.0, "scene: occluders[1].scale:"},
+        {&s->occluders[1].rotate_deg[1], NAN, "scene: occluders[1].rotate_deg:"},
+        {&s->occluders[1].translate[0], -INFINITY, "scene: occluders[1].translate:"},
+        {&s->occluders[0].albedo[2], 1.5, "scene: occluders[0].albedo:"},
+        {&s->occluders[4].normal[1], 0.0, "scene: occluders[4].normal: must be a non-zero"},
+        {&s->fog.sigma_t, -1.0, "scene: fog.sigma_t:"},
+        {&s->fog.albedo[0], NAN, "scene: fog.albedo:"},
+    };
+    vdbs_scene *copy = new_scene();
+    for (size_t i = 0; i < sizeof cases / sizeof cases[0]; ++i) {
+        double keep = *cases[i].field;
+        *cases[i].field = cases[i].bad;
+        memcpy(copy, s, sizeof *s);
+        if (vdbs_scene_validate(s, &err) != VDBS_ERR_INPUT)
+            fail_msg("case %zu (%s): validates", i, cases[i].message);
+        assert_contains(err.message, cases[i].message);
+        assert_memory_equal(s, copy, sizeof *s);
+        *cases[i].field = keep;
+    }
+    assert_int_equal(vdbs_scene_validate(s, &err), VDBS_OK);
+    s->fog.has_box = 1; /* a box of zeros */
+    assert_int_equal(vdbs_scene_validate(s, &err), VDBS_ERR_INPUT);
+    assert_contains(err.message, "scene: fog.box.max: must exceed min");
+    s->fog.has_box = 0;
+    s->occluders[5].obj_file = 9999; /* not a path of this scene */
+    assert_int_equal(vdbs_scene_validate(s, &err), VDBS_ERR_INTERNAL);
+    assert_contains(err.message, "occluders[5]");
+    s->occluders[5].type = (vdbs_occluder_type)7;
+    assert_int_equal(vdbs_scene_validate(s, &err), VDBS_ERR_INPUT);
+    assert_contains(err.message, "occluders[5].type");
+
+    /* at most VDBS_MAX_OCCLUDERS */
+    char *many = malloc((VDBS_MAX_OCCLUDERS + 1) * 80 + 64);
+    assert_non_null(many);
+    int n = sprintf(many, "{\"occluders\": [");
+    for (int i = 0; i <= VDBS_MAX_OCCLUDERS; ++i)
+        n += sprintf(many + n, "%s" SPHERE, i ? ", " : "");
+    sprintf(many + n, "]}");
+    assert_int_equal(vdbs_scene_parse(many, NULL, copy, &err), VDBS_ERR_INPUT);
+    assert_contains(err.message, "scene: occluders: 33 occluders, at most 32");
+    /* ... and the OBJ paths share VDBS_OCCLUDER_PATHS_MAX bytes */
+    char *long_path = malloc(VDBS_PATH_MAX);
+    assert_non_null(long_path);
+    memset(long_path, 'a', VDBS_PATH_MAX - 1);
+    long_path[VDBS_PATH_MAX / 2] = '\0';
+    char *two = malloc(2 * VDBS_PATH_MAX + 256);
+    assert_non_null(two);
+    sprintf(two,
+            "{\"occluders\": [{\"type\": \"obj\", \"file\": \"/%s\"}, {\"type\": \"obj\", "
+            "\"file\": \"/b%s\"}]}",
+            long_path, long_path);
+    assert_int_equal(vdbs_scene_parse(two, NULL, copy, &err), VDBS_ERR_INPUT);
+    assert_contains(err.message, "scene: occluders[1].file: the OBJ paths of a scene take at most");
+    /* the setter refuses the same, leaving the occluder as it was */
+    int before = s->occluders[0].obj_file;
+    assert_int_equal(vdbs_occluder_set_obj_file(s, &s->occluders[0], long_path, &err), VDBS_OK);
+    long_path[0] = 'b';
+    assert_int_equal(vdbs_occluder_set_obj_file(s, &s->occluders[1], long_path, &err),
+                     VDBS_ERR_INPUT);
+    assert_int_not_equal(s->occluders[0].obj_file, before);
+    assert_int_equal(s->occluders[1].obj_file, before);
+    assert_int_equal(vdbs_occluder_set_obj_file(s, &s->occluders[1], "", &err), VDBS_ERR_INPUT);
+    free(two);
+    free(long_path);
+    free(many);
+    free(copy);
+    free(other);
+    free(s);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
-        cmocka_unit_test(test_design_sketch),  cmocka_unit_test(test_defaults_and_scalars),
-        cmocka_unit_test(test_relative_paths), cmocka_unit_test(test_load),
-        cmocka_unit_test(test_parse_errors),   cmocka_unit_test(test_validate_errors),
-        cmocka_unit_test(test_round_trip),     cmocka_unit_test(test_grid_spec),
-        cmocka_unit_test(test_quality),        cmocka_unit_test(test_env_paths),
+        cmocka_unit_test(test_design_sketch),     cmocka_unit_test(test_defaults_and_scalars),
+        cmocka_unit_test(test_relative_paths),    cmocka_unit_test(test_load),
+        cmocka_unit_test(test_parse_errors),      cmocka_unit_test(test_validate_errors),
+        cmocka_unit_test(test_round_trip),        cmocka_unit_test(test_grid_spec),
+        cmocka_unit_test(test_quality),           cmocka_unit_test(test_env_paths),
+        cmocka_unit_test(test_occluders_and_fog),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -378,27 +378,27 @@ void vdbs_scene_init(vdbs_scene *scene)
     snprintf(scene->quality, sizeof scene->quality, "%s", "medium");
 }
 
-/* ---- env-map paths ---- */
+/* ---- path pools (env maps, OBJ files) ---- */
 
-/* The path env_map refers to, or NULL unless it is the start of a NUL-terminated
- * non-empty string of the scene's env_paths. */
-static const char *env_path_at(const vdbs_scene *s, int env_map)
+/* The path `ref` refers to in a pool of `cap` bytes, or NULL unless it is the start of a
+ * NUL-terminated non-empty string of the pool. */
+static const char *pool_path_at(const char *pool, size_t cap, int ref)
 {
-    if (env_map < 1 || env_map > VDBS_ENV_PATHS_MAX)
+    if (ref < 1 || (size_t)ref > cap)
         return NULL;
-    size_t off = (size_t)env_map - 1;
-    const char *p = s->env_paths + off;
-    if (!p[0] || (off > 0 && p[-1] != '\0') || !memchr(p, '\0', sizeof s->env_paths - off))
+    size_t off = (size_t)ref - 1;
+    const char *p = pool + off;
+    if (!p[0] || (off > 0 && p[-1] != '\0') || !memchr(p, '\0', cap - off))
         return NULL;
     return p;
 }
 
-/* env_map of path in s->env_paths, added if new; 0 when there is no room. */
-static int env_path_add(vdbs_scene *s, const char *path)
+/* The reference of path in a pool of `cap` bytes, added if new; 0 when there is no room. */
+static int pool_path_add(char *pool, size_t cap, const char *path)
 {
-    size_t len = strlen(path), off = 0, cap = sizeof s->env_paths;
-    while (off < cap && s->env_paths[off]) {
-        const char *p = s->env_paths + off;
+    size_t len = strlen(path), off = 0;
+    while (off < cap && pool[off]) {
+        const char *p = pool + off;
         const char *end = memchr(p, '\0', cap - off);
         if (!end)
             return 0; /* unterminated: nothing can be appended */
@@ -409,8 +409,49 @@ static int env_path_add(vdbs_scene *s, const char *path)
     }
     if (off >= cap || len + 1 > cap - off)
         return 0;
-    memcpy(s->env_paths + off, path, len + 1);
+    memcpy(pool + off, path, len + 1);
     return (int)off + 1;
+}
+
+static const char *env_path_at(const vdbs_scene *s, int env_map)
+{
+    return pool_path_at(s->env_paths, sizeof s->env_paths, env_map);
+}
+
+static int env_path_add(vdbs_scene *s, const char *path)
+{
+    return pool_path_add(s->env_paths, sizeof s->env_paths, path);
+}
+
+static const char *occluder_path_at(const vdbs_scene *s, int obj_file)
+{
+    return pool_path_at(s->occluder_paths, sizeof s->occluder_paths, obj_file);
+}
+
+const char *vdbs_occluder_obj_file(const vdbs_scene *scene, const vdbs_occluder *occluder)
+{
+    if (occluder->type != VDBS_OCCLUDER_OBJ)
+        return "";
+    const char *p = occluder_path_at(scene, occluder->obj_file);
+    return p ? p : "";
+}
+
+vdbs_status vdbs_occluder_set_obj_file(vdbs_scene *scene, vdbs_occluder *occluder, const char *path,
+                                       vdbs_error *err)
+{
+    if (!path || !path[0])
+        return vdbs_error_set(err, VDBS_ERR_INPUT, "scene: occluder OBJ path is empty");
+    if (strlen(path) >= VDBS_PATH_MAX)
+        return vdbs_error_set(err, VDBS_ERR_INPUT,
+                              "scene: occluder OBJ path too long (at most %d bytes)",
+                              VDBS_PATH_MAX - 1);
+    int ref = pool_path_add(scene->occluder_paths, sizeof scene->occluder_paths, path);
+    if (!ref)
+        return vdbs_error_set(err, VDBS_ERR_INPUT,
+                              "scene: occluder OBJ paths take more than %d bytes together",
+                              VDBS_OCCLUDER_PATHS_MAX);
+    occluder->obj_file = ref;
+    return VDBS_OK;
 }
 
 const char *vdbs_light_env_file(const vdbs_scene *scene, const vdbs_light *light)
@@ -682,6 +723,160 @@ static vdbs_status parse_solver(const parse_ctx *ctx, const cJSON *sol, vdbs_sce
     return VDBS_OK;
 }
 
+/* One occluder into o (whose OBJ path goes into s->occluder_paths). Types and presence
+ * are checked here, ranges by check_occluders_and_fog. */
+static vdbs_status parse_occluder(const parse_ctx *ctx, const cJSON *obj, const char *path,
+                                  vdbs_scene *s, vdbs_occluder *o)
+{
+    static const char *const obj_keys[] = {"type",       "file",   "translate", "scale",
+                                           "rotate_deg", "albedo", NULL};
+    static const char *const sphere_keys[] = {"type", "center", "radius", "albedo", NULL};
+    static const char *const box_keys[] = {"type", "min", "max", "albedo", NULL};
+    static const char *const plane_keys[] = {"type", "point", "normal", "albedo", NULL};
+    /* Required keys per type, for a "missing" message before any other. */
+    static const char *const obj_required[] = {"file", NULL};
+    static const char *const sphere_required[] = {"center", "radius", NULL};
+    static const char *const box_required[] = {"min", "max", NULL};
+    static const char *const plane_required[] = {"point", "normal", NULL};
+    const char *const *keys, *const *required;
+    const char *hint;
+    vdbs_status st;
+    char tpath[PATH_LEN];
+
+    if ((st = expect_object(ctx, obj, path)) != VDBS_OK)
+        return st;
+    const cJSON *type = cJSON_GetObjectItemCaseSensitive(obj, "type");
+    join_path(tpath, path, "type");
+    if (!type)
+        return fail(ctx, path, "missing \"type\" (obj, sphere, box or plane)");
+    if (!cJSON_IsString(type))
+        return fail(ctx, tpath, "expected a string, got %s", type_name(type));
+    memset(o, 0, sizeof *o);
+    o->scale[0] = o->scale[1] = o->scale[2] = 1.0;
+    o->albedo[0] = o->albedo[1] = o->albedo[2] = 0.5;
+    if (strcmp(type->valuestring, "obj") == 0) {
+        o->type = VDBS_OCCLUDER_OBJ;
+        keys = obj_keys;
+        required = obj_required;
+        hint = " (an obj occluder takes type, file, translate, scale, rotate_deg, albedo)";
+    } else if (strcmp(type->valuestring, "sphere") == 0) {
+        o->type = VDBS_OCCLUDER_SPHERE;
+        keys = sphere_keys;
+        required = sphere_required;
+        hint = " (a sphere takes type, center, radius, albedo)";
+    } else if (strcmp(type->valuestring, "box") == 0) {
+        o->type = VDBS_OCCLUDER_BOX;
+        keys = box_keys;
+        required = box_required;
+        hint = " (a box takes type, min, max, albedo)";
+    } else if (strcmp(type->valuestring, "plane") == 0) {
+        o->type = VDBS_OCCLUDER_PLANE;
+        keys = plane_keys;
+        required = plane_required;
+        hint = " (a plane takes type, point, normal, albedo)";
+    } else {
+        return fail(ctx, tpath, "unknown occluder type \"%s\" (expected obj, sphere, box or plane)",
+                    type->valuestring);
+    }
+    if ((st = check_keys(ctx, obj, path, keys, hint)) != VDBS_OK)
+        return st;
+    for (const char *const *r = required; *r; ++r)
+        if (!cJSON_GetObjectItemCaseSensitive(obj, *r))
+            return fail(ctx, path, "missing \"%s\"", *r);
+    if ((st = get_vec3(ctx, obj, path, "albedo", true, o->albedo)) != VDBS_OK)
+        return st;
+    switch (o->type) {
+    case VDBS_OCCLUDER_OBJ: {
+        char file[VDBS_PATH_MAX];
+        bool found = false;
+        if ((st = get_path(ctx, obj, path, "file", file, &found)) != VDBS_OK ||
+            (st = get_vec3(ctx, obj, path, "translate", false, o->translate)) != VDBS_OK ||
+            (st = get_vec3(ctx, obj, path, "scale", true, o->scale)) != VDBS_OK ||
+            (st = get_vec3(ctx, obj, path, "rotate_deg", false, o->rotate_deg)) != VDBS_OK)
+            return st;
+        if (!(o->obj_file = pool_path_add(s->occluder_paths, sizeof s->occluder_paths, file))) {
+            char fpath[PATH_LEN];
+            join_path(fpath, path, "file");
+            return fail(ctx, fpath, "the OBJ paths of a scene take at most %d bytes together",
+                        VDBS_OCCLUDER_PATHS_MAX);
+        }
+        break;
+    }
+    case VDBS_OCCLUDER_SPHERE:
+        if ((st = get_vec3(ctx, obj, path, "center", false, o->center)) != VDBS_OK ||
+            (st = get_number(ctx, obj, path, "radius", &o->radius)) != VDBS_OK)
+            return st;
+        break;
+    case VDBS_OCCLUDER_BOX:
+        if ((st = get_vec3(ctx, obj, path, "min", false, o->min)) != VDBS_OK ||
+            (st = get_vec3(ctx, obj, path, "max", false, o->max)) != VDBS_OK)
+            return st;
+        break;
+    case VDBS_OCCLUDER_PLANE:
+        if ((st = get_vec3(ctx, obj, path, "point", false, o->point)) != VDBS_OK ||
+            (st = get_vec3(ctx, obj, path, "normal", false, o->normal)) != VDBS_OK)
+            return st;
+        break;
+    }
+    return VDBS_OK;
+}
+
+static vdbs_status parse_occluders(const parse_ctx *ctx, const cJSON *arr, vdbs_scene *s)
+{
+    vdbs_status st;
+    if (!cJSON_IsArray(arr))
+        return fail(ctx, "occluders", "expected an array, got %s", type_name(arr));
+    int n = cJSON_GetArraySize(arr);
+    if (n > VDBS_MAX_OCCLUDERS)
+        return fail(ctx, "occluders", "%d occluders, at most %d are supported", n,
+                    VDBS_MAX_OCCLUDERS);
+    int i = 0;
+    for (const cJSON *c = arr->child; c; c = c->next, ++i) {
+        char path[PATH_LEN];
+        fmt_path(path, "occluders[%d]", i);
+        if ((st = parse_occluder(ctx, c, path, s, &s->occluders[i])) != VDBS_OK)
+            return st;
+    }
+    s->occluder_count = n;
+    return VDBS_OK;
+}
+
+static vdbs_status parse_fog(const parse_ctx *ctx, const cJSON *obj, vdbs_scene *s)
+{
+    static const char *const keys[] = {"sigma_t", "albedo", "box", NULL};
+    static const char *const box_keys[] = {"min", "max", NULL};
+    vdbs_fog *f = &s->fog;
+    vdbs_status st;
+    if ((st = expect_object(ctx, obj, "fog")) != VDBS_OK ||
+        (st = check_keys(ctx, obj, "fog", keys, " (fog takes sigma_t, albedo, box)")) != VDBS_OK)
+        return st;
+    if (!cJSON_GetObjectItemCaseSensitive(obj, "sigma_t"))
+        return fail(ctx, "fog", "missing \"sigma_t\" (extinction per world unit)");
+    memset(f, 0, sizeof *f);
+    f->albedo[0] = f->albedo[1] = f->albedo[2] = 1.0;
+    if ((st = get_number(ctx, obj, "fog", "sigma_t", &f->sigma_t)) != VDBS_OK ||
+        (st = get_vec3(ctx, obj, "fog", "albedo", true, f->albedo)) != VDBS_OK)
+        return st;
+    const cJSON *box = cJSON_GetObjectItemCaseSensitive(obj, "box");
+    if (box) {
+        if ((st = expect_object(ctx, box, "fog.box")) != VDBS_OK ||
+            (st = check_keys(ctx, box, "fog.box", box_keys, " (a box takes min, max)")) != VDBS_OK)
+            return st;
+        if (!cJSON_GetObjectItemCaseSensitive(box, "min"))
+            return fail(ctx, "fog.box", "missing \"min\"");
+        if (!cJSON_GetObjectItemCaseSensitive(box, "max"))
+            return fail(ctx, "fog.box", "missing \"max\"");
+        if ((st = get_vec3(ctx, box, "fog.box", "min", false, f->box_min)) != VDBS_OK ||
+            (st = get_vec3(ctx, box, "fog.box", "max", false, f->box_max)) != VDBS_OK)
+            return st;
+        f->has_box = 1;
+    }
+    f->present = 1;
+    return VDBS_OK;
+}
+
+static vdbs_status check_occluders_and_fog(const parse_ctx *ctx, const vdbs_scene *s);
+
 /* 1-based line and column of a byte offset, for JSON syntax errors. */
 static void text_position(const char *text, const char *at, int *line, int *col)
 {
@@ -699,7 +894,8 @@ static void text_position(const char *text, const char *at, int *line, int *col)
 
 static vdbs_status parse_scene(const parse_ctx *ctx, const char *json_text, vdbs_scene *out)
 {
-    static const char *const keys[] = {"volume", "lights", "camera", "solver", NULL};
+    static const char *const keys[] = {"volume",    "lights", "camera", "solver",
+                                       "occluders", "fog",    NULL};
     const char *end = NULL;
     const cJSON *item;
     vdbs_status st = VDBS_OK;
@@ -725,7 +921,8 @@ static vdbs_status parse_scene(const parse_ctx *ctx, const char *json_text, vdbs
     if (!cJSON_IsObject(root))
         st = fail(ctx, NULL, "expected a JSON object at the top level, got %s", type_name(root));
     if (st == VDBS_OK)
-        st = check_keys(ctx, root, "", keys, " (expected volume, lights, camera, solver)");
+        st = check_keys(ctx, root, "", keys,
+                        " (expected volume, lights, camera, solver, occluders, fog)");
     if (st == VDBS_OK && (item = cJSON_GetObjectItemCaseSensitive(root, "volume")))
         st = parse_volume(ctx, item, s);
     if (st == VDBS_OK && (item = cJSON_GetObjectItemCaseSensitive(root, "lights")))
@@ -734,6 +931,14 @@ static vdbs_status parse_scene(const parse_ctx *ctx, const char *json_text, vdbs
         st = parse_camera(ctx, item, s);
     if (st == VDBS_OK && (item = cJSON_GetObjectItemCaseSensitive(root, "solver")))
         st = parse_solver(ctx, item, s);
+    if (st == VDBS_OK && (item = cJSON_GetObjectItemCaseSensitive(root, "occluders")))
+        st = parse_occluders(ctx, item, s);
+    if (st == VDBS_OK && (item = cJSON_GetObjectItemCaseSensitive(root, "fog")))
+        st = parse_fog(ctx, item, s);
+    /* Occluder and fog ranges are checked at load as well: a render without lights never
+     * validates, and the viewer should not have to remember to. */
+    if (st == VDBS_OK)
+        st = check_occluders_and_fog(ctx, s);
     if (st == VDBS_OK)
         memcpy(out, s, sizeof *s);
     free(s);
@@ -921,6 +1126,48 @@ static bool add_light(cJSON *arr, const vdbs_scene *s, const vdbs_light *l)
     return ok;
 }
 
+static bool add_occluder(cJSON *arr, const vdbs_scene *s, const vdbs_occluder *o)
+{
+    cJSON *j = cJSON_CreateObject();
+    bool ok = j && cJSON_AddItemToArray(arr, j);
+    if (!ok)
+        return false;
+    switch (o->type) {
+    case VDBS_OCCLUDER_OBJ:
+        ok = add_string(j, "type", "obj") && add_string(j, "file", vdbs_occluder_obj_file(s, o)) &&
+             add_vec3(j, "translate", o->translate) && add_vec3(j, "scale", o->scale) &&
+             add_vec3(j, "rotate_deg", o->rotate_deg);
+        break;
+    case VDBS_OCCLUDER_SPHERE:
+        ok = add_string(j, "type", "sphere") && add_vec3(j, "center", o->center) &&
+             add_number(j, "radius", o->radius);
+        break;
+    case VDBS_OCCLUDER_BOX:
+        ok = add_string(j, "type", "box") && add_vec3(j, "min", o->min) &&
+             add_vec3(j, "max", o->max);
+        break;
+    case VDBS_OCCLUDER_PLANE:
+        ok = add_string(j, "type", "plane") && add_vec3(j, "point", o->point) &&
+             add_vec3(j, "normal", o->normal);
+        break;
+    default:
+        ok = add_string(j, "type", "invalid");
+        break;
+    }
+    return ok && add_vec3(j, "albedo", o->albedo);
+}
+
+static bool add_fog(cJSON *root, const vdbs_fog *f)
+{
+    cJSON *j = cJSON_AddObjectToObject(root, "fog");
+    bool ok = j && add_number(j, "sigma_t", f->sigma_t) && add_vec3(j, "albedo", f->albedo);
+    if (ok && f->has_box) {
+        cJSON *box = cJSON_AddObjectToObject(j, "box");
+        ok = box && add_vec3(box, "min", f->box_min) && add_vec3(box, "max", f->box_max);
+    }
+    return ok;
+}
+
 char *vdbs_scene_to_json(const vdbs_scene *s)
 {
     cJSON *root = cJSON_CreateObject();
@@ -975,6 +1222,15 @@ char *vdbs_scene_to_json(const vdbs_scene *s)
          (s->svd_resolution == 0 || add_int(sol, "svd_res", s->svd_resolution)) &&
          (s->svd_iterations == 0 || add_int(sol, "svd_iterations", s->svd_iterations)) &&
          (s->svd_residual == 0.0 || add_number(sol, "svd_residual", s->svd_residual));
+    /* Written only when there are any, so that scenes without them read as before. */
+    if (ok && s->occluder_count > 0) {
+        cJSON *occ = cJSON_AddArrayToObject(root, "occluders");
+        ok = occ != NULL;
+        for (int i = 0; ok && i < s->occluder_count && i < VDBS_MAX_OCCLUDERS; ++i)
+            ok = add_occluder(occ, s, &s->occluders[i]);
+    }
+    if (ok && s->fog.present)
+        ok = add_fog(root, &s->fog);
     if (ok)
         text = cJSON_PrintUnformatted(root);
     cJSON_Delete(root);
@@ -1060,6 +1316,113 @@ static vdbs_status validate_light(const parse_ctx *ctx, const vdbs_scene *s, int
     return fail(ctx, path, "invalid light type %d", (int)l->type);
 }
 
+static vdbs_status check_unit_range(const parse_ctx *ctx, const char *path, const double c[3])
+{
+    for (int i = 0; i < 3; ++i)
+        if (!(c[i] >= 0.0 && c[i] <= 1.0))
+            return fail(ctx, path, "each component must be in [0, 1], got [%g, %g, %g]", c[0], c[1],
+                        c[2]);
+    return VDBS_OK;
+}
+
+static vdbs_status check_finite3(const parse_ctx *ctx, const char *path, const double v[3])
+{
+    if (!finite3(v))
+        return fail(ctx, path, "must be 3 finite numbers");
+    return VDBS_OK;
+}
+
+/* min < max on every axis (a flat or inverted box has no inside). */
+static vdbs_status check_box(const parse_ctx *ctx, const char *min_path, const char *max_path,
+                             const double lo[3], const double hi[3])
+{
+    vdbs_status st;
+    if ((st = check_finite3(ctx, min_path, lo)) != VDBS_OK ||
+        (st = check_finite3(ctx, max_path, hi)) != VDBS_OK)
+        return st;
+    for (int a = 0; a < 3; ++a)
+        if (!(lo[a] < hi[a]))
+            return fail(ctx, max_path,
+                        "must exceed min on every axis, got min [%g, %g, %g], max "
+                        "[%g, %g, %g]",
+                        lo[0], lo[1], lo[2], hi[0], hi[1], hi[2]);
+    return VDBS_OK;
+}
+
+static vdbs_status check_occluder(const parse_ctx *ctx, const vdbs_scene *s, int i,
+                                  const vdbs_occluder *o)
+{
+    char path[PATH_LEN], path2[PATH_LEN];
+    vdbs_status st;
+    fmt_path(path, "occluders[%d].albedo", i);
+    if ((st = check_unit_range(ctx, path, o->albedo)) != VDBS_OK)
+        return st;
+    switch (o->type) {
+    case VDBS_OCCLUDER_OBJ:
+        if (!occluder_path_at(s, o->obj_file))
+            return vdbs_error_set(ctx->err, VDBS_ERR_INTERNAL,
+                                  "%s: occluders[%d]: obj_file %d is not a path of this scene",
+                                  ctx->prefix, i, o->obj_file);
+        fmt_path(path, "occluders[%d].translate", i);
+        if ((st = check_finite3(ctx, path, o->translate)) != VDBS_OK)
+            return st;
+        fmt_path(path, "occluders[%d].rotate_deg", i);
+        if ((st = check_finite3(ctx, path, o->rotate_deg)) != VDBS_OK)
+            return st;
+        fmt_path(path, "occluders[%d].scale", i);
+        /* Positive only: a mirroring scale would turn the triangles inside out. */
+        if (!finite3(o->scale) || !(o->scale[0] > 0.0 && o->scale[1] > 0.0 && o->scale[2] > 0.0))
+            return fail(ctx, path, "each component must be finite and > 0, got [%g, %g, %g]",
+                        o->scale[0], o->scale[1], o->scale[2]);
+        return VDBS_OK;
+    case VDBS_OCCLUDER_SPHERE:
+        fmt_path(path, "occluders[%d].center", i);
+        if ((st = check_finite3(ctx, path, o->center)) != VDBS_OK)
+            return st;
+        fmt_path(path, "occluders[%d].radius", i);
+        if (!(isfinite(o->radius) && o->radius > 0.0))
+            return fail(ctx, path, "must be finite and > 0, got %g", o->radius);
+        return VDBS_OK;
+    case VDBS_OCCLUDER_BOX:
+        fmt_path(path, "occluders[%d].min", i);
+        fmt_path(path2, "occluders[%d].max", i);
+        return check_box(ctx, path, path2, o->min, o->max);
+    case VDBS_OCCLUDER_PLANE:
+        fmt_path(path, "occluders[%d].point", i);
+        if ((st = check_finite3(ctx, path, o->point)) != VDBS_OK)
+            return st;
+        fmt_path(path, "occluders[%d].normal", i);
+        if ((st = check_finite3(ctx, path, o->normal)) != VDBS_OK)
+            return st;
+        if (norm3(o->normal) == 0.0)
+            return fail(ctx, path, "must be a non-zero vector");
+        return VDBS_OK;
+    }
+    fmt_path(path, "occluders[%d].type", i);
+    return fail(ctx, path, "invalid occluder type %d", (int)o->type);
+}
+
+static vdbs_status check_occluders_and_fog(const parse_ctx *ctx, const vdbs_scene *s)
+{
+    vdbs_status st;
+    if (s->occluder_count < 0 || s->occluder_count > VDBS_MAX_OCCLUDERS)
+        return fail(ctx, "occluders", "%d occluders, at most %d are supported", s->occluder_count,
+                    VDBS_MAX_OCCLUDERS);
+    for (int i = 0; i < s->occluder_count; ++i)
+        if ((st = check_occluder(ctx, s, i, &s->occluders[i])) != VDBS_OK)
+            return st;
+    const vdbs_fog *f = &s->fog;
+    if (!f->present)
+        return VDBS_OK;
+    if (!(isfinite(f->sigma_t) && f->sigma_t >= 0.0))
+        return fail(ctx, "fog.sigma_t", "must be finite and >= 0, got %g", f->sigma_t);
+    if ((st = check_unit_range(ctx, "fog.albedo", f->albedo)) != VDBS_OK)
+        return st;
+    if (f->has_box)
+        return check_box(ctx, "fog.box.min", "fog.box.max", f->box_min, f->box_max);
+    return VDBS_OK;
+}
+
 static vdbs_status validate_camera(const parse_ctx *ctx, const vdbs_camera *c)
 {
     double fwd[3], cr[3];
@@ -1131,10 +1494,15 @@ vdbs_status vdbs_scene_validate(vdbs_scene *s, vdbs_error *err)
     if (s->svd_directions > 0 && s->svd_terms > s->svd_directions)
         return fail(&ctx, "solver.svd_terms", "%d terms for %d directions (at most D)",
                     s->svd_terms, s->svd_directions);
+    if ((st = check_occluders_and_fog(&ctx, s)) != VDBS_OK)
+        return st;
     /* Normalise only once everything is known to be valid: a failed validation leaves
      * the scene as it was. */
     for (int i = 0; i < s->light_count; ++i)
         if (s->lights[i].type == VDBS_LIGHT_SUN)
             normalise3(s->lights[i].direction);
+    for (int i = 0; i < s->occluder_count; ++i)
+        if (s->occluders[i].type == VDBS_OCCLUDER_PLANE)
+            normalise3(s->occluders[i].normal);
     return VDBS_OK;
 }

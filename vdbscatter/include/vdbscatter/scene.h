@@ -36,6 +36,52 @@ typedef struct vdbs_light {
     /* Fields a light type does not use are 0, except color = 1 for an env map. */
 } vdbs_light;
 
+/* Solid occluders and a homogeneous fog (DESIGN.md "Scene files"): only vdbscatter-view
+ * draws them; bake and render accept them and say that they ignore them. */
+#define VDBS_MAX_OCCLUDERS 32
+/* Bytes of OBJ paths a scene holds, all occluders together (each distinct path once):
+ * one path of the longest length, or 32 of 127 bytes. Kept apart from env_paths so that
+ * copying lights never moves an occluder's file; one VDBS_PATH_MAX keeps the scene within
+ * the 32 KiB it may take (test_scene). */
+#define VDBS_OCCLUDER_PATHS_MAX VDBS_PATH_MAX
+
+typedef enum vdbs_occluder_type {
+    VDBS_OCCLUDER_OBJ = 0,
+    VDBS_OCCLUDER_SPHERE = 1,
+    VDBS_OCCLUDER_BOX = 2,
+    VDBS_OCCLUDER_PLANE = 3
+} vdbs_occluder_type;
+
+typedef struct vdbs_occluder {
+    vdbs_occluder_type type;
+    /* obj: the Wavefront OBJ file, as 1 + the byte offset of its resolved path in the
+     * scene's occluder_paths (read it with vdbs_occluder_obj_file). */
+    int obj_file;
+    /* obj: p_world = translate + R (scale * p_file), R = Rz Ry Rx of rotate_deg (rotation
+     * about X first, then Y, then Z, each counter-clockwise looking down the axis). */
+    double translate[3];
+    double scale[3]; /* > 0 each; default 1 */
+    double rotate_deg[3];
+    double center[3]; /* sphere */
+    double radius;    /* sphere, > 0 */
+    double min[3];    /* box: min < max on every axis */
+    double max[3];
+    double point[3];  /* plane: a point on it */
+    double normal[3]; /* plane: non-zero (normalised by vdbs_scene_validate); the lit side */
+    double albedo[3]; /* diffuse reflectance in [0,1]; default 0.5 */
+    /* Fields a type does not use are 0 (scale 1 for every type). */
+} vdbs_occluder;
+
+/* A homogeneous fog filling a box (the volume's bounds when it has none). */
+typedef struct vdbs_fog {
+    int present;
+    double sigma_t;   /* extinction per world unit, >= 0 */
+    double albedo[3]; /* single-scattering albedo in [0,1]; default 1 (scatters, absorbs nothing) */
+    int has_box;      /* 0: the volume's bounds, resolved by the viewer */
+    double box_min[3];
+    double box_max[3];
+} vdbs_fog;
+
 /* The most sky ordinates a scene may ask for. */
 #define VDBS_MAX_SKY_DIRECTIONS 65536
 /* Most POP cells across the largest extent (--pop-res). */
@@ -99,6 +145,11 @@ typedef struct vdbs_scene {
     int svd_resolution;  /* cells across the largest extent */
     int svd_iterations;  /* cap of source iterations; 0: the default */
     double svd_residual; /* relative change of the fluence per iteration that stops it */
+    vdbs_occluder occluders[VDBS_MAX_OCCLUDERS];
+    int occluder_count;
+    /* The occluders' OBJ paths, NUL-terminated one after the other (as env_paths). */
+    char occluder_paths[VDBS_OCCLUDER_PATHS_MAX];
+    vdbs_fog fog;
 } vdbs_scene;
 
 /* Defaults follow Blender Cycles' Principled Volume: density 1, albedo 0.5, g 0;
@@ -112,7 +163,13 @@ void vdbs_scene_init(vdbs_scene *scene);
  * *scene is left untouched. Ranges are checked by vdbs_scene_validate, not here.
  * Per light type: sun {direction (required), irradiance = 1, angular_diameter_deg = 0},
  * point {position (required), intensity = 1}, env {color | file [, scale = 1]}; a camera
- * needs position and target. Colours and albedo take one number or three. */
+ * needs position and target. Colours and albedo take one number or three.
+ * Occluders: obj {file (required), translate = 0, scale = 1 (one number or three),
+ * rotate_deg = 0}, sphere {center, radius}, box {min, max}, plane {point, normal}, each
+ * with albedo = 0.5; fog {sigma_t (required), albedo = 1, box {min, max} (absent: the
+ * volume's bounds)}. Unlike the other keys, occluder and fog ranges are checked here too
+ * (as in vdbs_scene_validate). OBJ paths are resolved, not opened: vdbs_occluders_check
+ * (mesh.h) reads the files. */
 vdbs_status vdbs_scene_parse(const char *json_text, const char *base_dir, vdbs_scene *scene,
                              vdbs_error *err);
 
@@ -130,7 +187,9 @@ char *vdbs_scene_to_json(const vdbs_scene *scene);
  * (|g| <= 0.999), non-zero sun directions (normalised in place), non-negative colours,
  * at least one light, camera fov in (0,180) and positive size. Also: width and height
  * at most 16384, target != position, up not parallel to the view direction, sun
- * angular_diameter_deg in [0,180), env scale >= 0, a known method and quality. Errors
+ * angular_diameter_deg in [0,180), env scale >= 0, a known method and quality, the
+ * occluders' and fog's ranges (albedo in [0,1], scale > 0, radius > 0, box min < max,
+ * non-zero plane normal (normalised in place), fog sigma_t >= 0). Errors
  * name the key path ("scene: volume.g: ..."); on error nothing is normalised. An env
  * light whose env_map is not a path of this scene (a light copied from another scene
  * without its paths) is a VDBS_ERR_INTERNAL error. */
@@ -171,6 +230,17 @@ void vdbs_scene_copy_lights(vdbs_scene *dst, const vdbs_scene *src);
 
 /* Removes every light and every env-map path. */
 void vdbs_scene_clear_lights(vdbs_scene *scene);
+
+/* The resolved OBJ path of an obj occluder of `scene`; "" for another type, and also for
+ * an obj_file that is not a path of this scene (vdbs_scene_validate reports that). */
+const char *vdbs_occluder_obj_file(const vdbs_scene *scene, const vdbs_occluder *occluder);
+
+/* Points `occluder` (one of scene's, or one about to be stored there) at the OBJ file
+ * `path`, adding it to scene->occluder_paths unless it is there already. Errors
+ * (VDBS_ERR_INPUT, occluder unchanged): an empty path, one of VDBS_PATH_MAX bytes or more,
+ * or no room left in occluder_paths. */
+vdbs_status vdbs_occluder_set_obj_file(vdbs_scene *scene, vdbs_occluder *occluder, const char *path,
+                                       vdbs_error *err);
 
 #ifdef __cplusplus
 }
