@@ -254,38 +254,40 @@ VS_FUNC float vs_fog_sun_span(VS_DATA_PARAM(float, fog_data) pnanovdb_vec3_t o, 
     slope[0] = vs_fog_slab_slope(w.x, d.x);
     slope[1] = vs_fog_slab_slope(w.y, d.y);
     slope[2] = vs_fog_slab_slope(w.z, d.z);
-    /* Cut points: the span's ends and the slabs' pairwise crossings inside it, sorted. */
-    float cut[5];
-    int n = 0;
-    cut[n++] = s0;
-    for (int i = 0; i < 3; ++i) {
-        for (int j = i + 1; j < 3; ++j) {
-            float ds = slope[i] - slope[j];
-            if (ds != 0.0f && base[i] < VS_T_INFINITE && base[j] < VS_T_INFINITE) {
-                float sc = (base[j] - base[i]) / ds;
-                if (sc > s0 && sc < s1)
-                    cut[n++] = sc;
-            }
-        }
-    }
-    cut[n++] = s1;
-    for (int i = 1; i < n; ++i) {
-        for (int j = i; j > 0 && cut[j] < cut[j - 1]; --j) {
-            float tmp = cut[j];
-            cut[j] = cut[j - 1];
-            cut[j - 1] = tmp;
+    /* D is concave: walk its pieces from s0, each time to the earliest crossing with a slab
+     * of smaller slope, which then becomes the active one (at most three pieces, the slope
+     * decreasing strictly; the active slab is carried over rather than re-chosen, so that
+     * rounding at a crossing cannot stall the walk). */
+    int k = 0;
+    float best = base[0] + slope[0] * s0;
+    for (int i = 1; i < 3; ++i) {
+        float v = base[i] + slope[i] * s0;
+        if (v < best || (v == best && slope[i] < slope[k])) {
+            k = i;
+            best = v;
         }
     }
     float sum = 0.0f;
-    float tau_prev = 0.0f;
-    for (int i = 0; i < n; ++i) {
-        float s = cut[i];
-        float dist =
-            vs_min(base[0] + slope[0] * s, vs_min(base[1] + slope[1] * s, base[2] + slope[2] * s));
-        float tau = sigma_t * ((s - s_enter) + vs_max(dist, 0.0f));
-        if (i > 0)
-            sum += vs_fog_exp_segment(tau_prev, tau, s - cut[i - 1]);
-        tau_prev = tau;
+    float s = s0;
+    for (int piece = 0; piece < 3; ++piece) {
+        float s_next = s1;
+        int k_next = k;
+        for (int i = 0; i < 3; ++i) {
+            if (slope[i] < slope[k] && base[i] < VS_T_INFINITE) {
+                float sc = (base[i] - base[k]) / (slope[k] - slope[i]);
+                if (sc < s_next) {
+                    s_next = vs_max(sc, s);
+                    k_next = i;
+                }
+            }
+        }
+        float tau_a = sigma_t * ((s - s_enter) + vs_max(base[k] + slope[k] * s, 0.0f));
+        float tau_b = sigma_t * ((s_next - s_enter) + vs_max(base[k] + slope[k] * s_next, 0.0f));
+        sum += vs_fog_exp_segment(tau_a, tau_b, s_next - s);
+        s = s_next;
+        k = k_next;
+        if (!(s < s1))
+            break;
     }
     float phase =
         vs_hg_dirs(vs_fog_g(VS_DATA_ONLY_ARG(fog_data)), sun_dir, vs_vec3_scale(d, -1.0f));
