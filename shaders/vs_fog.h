@@ -33,7 +33,7 @@
  * (= 1 - k e^k E1(k), vs_fog_e2), which has Gt's shape: both go like 2/c * E(lambda c) near
  * gamma = pi/2, where Gt depends on lambda and pi/2 - gamma only through their ratio (no
  * bilinear table resolves that corner), and like 1/lambda for large lambda. The stored
- * ratio is then a smooth weighted mean of p, between p(-1) and p(1) times a factor <= 2.
+ * ratio is then a smooth, bounded weighted mean of p (p(-1) / 0.995924 at gamma = pi/2).
  * Biri's Gamma itself is
  * Gamma(gamma) = exp(-lambda) Gt(0) - exp(-lambda u(gamma)) Gt(gamma) (vs_fog_gamma).
  */
