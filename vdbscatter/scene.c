@@ -845,7 +845,7 @@ static vdbs_status parse_fog(const parse_ctx *ctx, const cJSON *obj, vdbs_scene 
 {
     static const char *const keys[] = {"sigma_t", "albedo", "box", NULL};
     static const char *const box_keys[] = {"min", "max", NULL};
-    vdbs_fog *f = &s->fog;
+    vdbs_scene_fog *f = &s->fog;
     vdbs_status st;
     if ((st = expect_object(ctx, obj, "fog")) != VDBS_OK ||
         (st = check_keys(ctx, obj, "fog", keys, " (fog takes sigma_t, albedo, box)")) != VDBS_OK)
@@ -1157,7 +1157,7 @@ static bool add_occluder(cJSON *arr, const vdbs_scene *s, const vdbs_occluder *o
     return ok && add_vec3(j, "albedo", o->albedo);
 }
 
-static bool add_fog(cJSON *root, const vdbs_fog *f)
+static bool add_fog(cJSON *root, const vdbs_scene_fog *f)
 {
     cJSON *j = cJSON_AddObjectToObject(root, "fog");
     bool ok = j && add_number(j, "sigma_t", f->sigma_t) && add_vec3(j, "albedo", f->albedo);
@@ -1411,7 +1411,7 @@ static vdbs_status check_occluders_and_fog(const parse_ctx *ctx, const vdbs_scen
     for (int i = 0; i < s->occluder_count; ++i)
         if ((st = check_occluder(ctx, s, i, &s->occluders[i])) != VDBS_OK)
             return st;
-    const vdbs_fog *f = &s->fog;
+    const vdbs_scene_fog *f = &s->fog;
     if (!f->present)
         return VDBS_OK;
     if (!(isfinite(f->sigma_t) && f->sigma_t >= 0.0))

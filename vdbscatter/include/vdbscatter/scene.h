@@ -73,14 +73,14 @@ typedef struct vdbs_occluder {
 } vdbs_occluder;
 
 /* A homogeneous fog filling a box (the volume's bounds when it has none). */
-typedef struct vdbs_fog {
+typedef struct vdbs_scene_fog {
     int present;
     double sigma_t;   /* extinction per world unit, >= 0 */
     double albedo[3]; /* single-scattering albedo in [0,1]; default 1 (scatters, absorbs nothing) */
     int has_box;      /* 0: the volume's bounds, resolved by the viewer */
     double box_min[3];
     double box_max[3];
-} vdbs_fog;
+} vdbs_scene_fog;
 
 /* The most sky ordinates a scene may ask for. */
 #define VDBS_MAX_SKY_DIRECTIONS 65536
@@ -149,7 +149,7 @@ typedef struct vdbs_scene {
     int occluder_count;
     /* The occluders' OBJ paths, NUL-terminated one after the other (as env_paths). */
     char occluder_paths[VDBS_OCCLUDER_PATHS_MAX];
-    vdbs_fog fog;
+    vdbs_scene_fog fog;
 } vdbs_scene;
 
 /* Defaults follow Blender Cycles' Principled Volume: density 1, albedo 0.5, g 0;
