@@ -15,6 +15,10 @@ layout(std430, binding = 3) readonly buffer RenderBuffer { vec4 render_data[]; }
 layout(std430, binding = 4) readonly buffer LightGridBuffer { uint lgrid_data[]; };
 /* The environment map (vs_envmap.h; a zero header without one). */
 layout(std430, binding = 5) readonly buffer EnvBuffer { float env_data[]; };
+/* Occluders' shadow maps (vs_shadow.h; a zero count without occluders). */
+layout(std430, binding = 6) readonly buffer ShadowBuffer { float shadow_data[]; };
+/* Per pixel (distance to the first solid surface, its radiance), when the table says so. */
+layout(std430, binding = 7) readonly buffer BackdropBuffer { vec4 backdrop_data[]; };
 layout(std430, binding = VS_PASS_BINDING_STATE_IN) readonly buffer StateIn { uint state_in[]; };
 layout(std430, binding = VS_PASS_BINDING_STATE_OUT) writeonly buffer StateOut { uint state_out[]; };
 layout(std430, binding = VS_PASS_BINDING_OUTPUT) writeonly buffer ImageBuffer { float image_rgb[]; };
@@ -27,6 +31,7 @@ layout(std430, binding = VS_PASS_BINDING_OUTPUT) writeonly buffer ImageBuffer { 
 #include "vs_lights.h"
 #include "vs_lightgrid.h"
 #include "vs_envmap.h"
+#include "vs_shadow.h"
 #include "vs_render.h"
 
 void main()

@@ -1,5 +1,5 @@
 /* Deterministic ray-marched rendering (`render --mode single|baked`, later the viewer),
- * shared by C and GLSL. Include after vs_common.h, vs_march.h, vs_phase.h, vs_medium.h,
+ * shared by C and GLSL. Include after vs_common.h, vs_march.h, vs_phase.h, vs_medium.h, vs_shadow.h,
  * vs_lights.h, vs_lightgrid.h and vs_envmap.h.
  *
  * Along a camera ray, L = integral T(0,t) sigma_s(x) S(x, wo) dt + T_total L_background,
@@ -55,17 +55,27 @@
  * own transmittance, so the weights stay exact in heterogeneous media. A box filter of
  * M x M (vs_gather.h) then sums the block's phases back into every segment. */
 #define VS_RENDER_OFF_VIEW 7
-#define VS_RENDER_SIZE 8
+/* The camera's world position (xyz; the occluders' shadow maps are looked up in world
+ * space, vs_shadow.h) and 1 when a backdrop is given (w): per pixel a vec4 (distance along
+ * the ray to the first solid surface, its radiance rgb), the viewer's rasterised
+ * occluders; the ray stops there and sees the surface instead of the background. */
+#define VS_RENDER_OFF_WORLD_ORIGIN 8
+#define VS_RENDER_SIZE 9
 
 /* The three tables every render function reads: parameters in C, SSBOs in GLSL. */
 #define VS_RENDER_TABLES                                                                           \
     VS_DATA_PARAM(vs_vec4, medium_data)                                                            \
     VS_DATA_PARAM(vs_vec4, light_data)                                                             \
     VS_DATA_PARAM(vs_vec4, render_data)                                                            \
-    VS_DATA_PARAM(vs_uint, lgrid_data) VS_DATA_PARAM(float, env_data)
+    VS_DATA_PARAM(vs_uint, lgrid_data)                                                             \
+    VS_DATA_PARAM(float, env_data)                                                                 \
+    VS_DATA_PARAM(float, shadow_data) VS_DATA_PARAM(vs_vec4, backdrop_data)
 #define VS_RENDER_TABLES_ARG                                                                       \
     VS_DATA_ARG(medium_data)                                                                       \
-    VS_DATA_ARG(light_data) VS_DATA_ARG(render_data) VS_DATA_ARG(lgrid_data) VS_DATA_ARG(env_data)
+    VS_DATA_ARG(light_data)                                                                        \
+    VS_DATA_ARG(render_data)                                                                       \
+    VS_DATA_ARG(lgrid_data)                                                                        \
+    VS_DATA_ARG(env_data) VS_DATA_ARG(shadow_data) VS_DATA_ARG(backdrop_data)
 
 /* Guard on segments per camera ray (a step of 1/8 voxel across a 2^17-voxel grid). */
 #define VS_RENDER_MAX_SEGMENTS 1048576
@@ -207,6 +217,9 @@ struct vs_render_ray_info {
     float t0;               /* segments cover [t0, t0 + span] in n equal parts */
     int phase;              /* interleaved sampling: this pixel's segments are phase mod phases */
     int phases;             /* M^2, 1 without interleaving */
+    pnanovdb_vec3_t world_origin; /* the camera, world */
+    int backdrop;                 /* a solid surface ends the ray: backdrop_colour behind it */
+    pnanovdb_vec3_t backdrop_colour;
     float span;
     float inv_n;
     int n; /* 0 when the ray misses the support box or the medium is empty */
@@ -241,7 +254,8 @@ PNANOVDB_STRUCT_TYPEDEF(vs_render_state)
 VS_FUNC vs_render_ray_info vs_render_ray_begin(VS_DATA_PARAM(vs_vec4, medium_data)
                                                    VS_DATA_PARAM(vs_vec4, render_data)
                                                        pnanovdb_vec3_t origin,
-                                               pnanovdb_vec3_t dir, pnanovdb_vec3_t wo)
+                                               pnanovdb_vec3_t dir, pnanovdb_vec3_t wo,
+                                               float t_surface)
 {
     pnanovdb_vec3_t box_lo = vs_medium_box_lo(VS_DATA_ONLY_ARG(medium_data));
     pnanovdb_vec3_t box_hi = vs_medium_box_hi(VS_DATA_ONLY_ARG(medium_data));
@@ -252,14 +266,17 @@ VS_FUNC vs_render_ray_info vs_render_ray_begin(VS_DATA_PARAM(vs_vec4, medium_dat
     ray.t0 = vs_max(0.0f, vs_max(vs_axis_enter(origin.x, dir.x, box_lo.x, box_hi.x),
                                  vs_max(vs_axis_enter(origin.y, dir.y, box_lo.y, box_hi.y),
                                         vs_axis_enter(origin.z, dir.z, box_lo.z, box_hi.z))));
-    float t1 = vs_min(vs_axis_exit(origin.x, dir.x, box_lo.x, box_hi.x),
-                      vs_min(vs_axis_exit(origin.y, dir.y, box_lo.y, box_hi.y),
-                             vs_axis_exit(origin.z, dir.z, box_lo.z, box_hi.z)));
+    float t1 = vs_min(t_surface, vs_min(vs_axis_exit(origin.x, dir.x, box_lo.x, box_hi.x),
+                                        vs_min(vs_axis_exit(origin.y, dir.y, box_lo.y, box_hi.y),
+                                               vs_axis_exit(origin.z, dir.z, box_lo.z, box_hi.z))));
     ray.span = t1 - ray.t0;
     ray.n = 0;
     ray.inv_n = 1.0f;
     ray.phase = 0;
     ray.phases = 1;
+    ray.world_origin = vs_vec3_from_vec4(render_data[VS_RENDER_OFF_WORLD_ORIGIN]);
+    ray.backdrop = 0;
+    ray.backdrop_colour = vs_vec3(0.0f, 0.0f, 0.0f);
     if (ray.t0 < t1 && vs_medium_density_scale(VS_DATA_ONLY_ARG(medium_data)) > 0.0f) {
         /* World length of step_voxels voxels along this ray. */
         float h = render_data[VS_RENDER_OFF_MARCH].x / vs_sqrt(vs_vec3_dot(dir, dir));
@@ -278,7 +295,9 @@ VS_FUNC int vs_render_width(VS_DATA_ONLY(vs_vec4, render_data))
 
 /* The camera ray through the centre of pixel (px, py), row 0 on top. */
 VS_FUNC vs_render_ray_info vs_render_camera_ray(VS_DATA_PARAM(vs_vec4, medium_data)
-                                                    VS_DATA_PARAM(vs_vec4, render_data) int px,
+                                                    VS_DATA_PARAM(vs_vec4, render_data)
+                                                        VS_DATA_PARAM(vs_vec4,
+                                                                      backdrop_data) int px,
                                                 int py)
 {
     float width = render_data[VS_RENDER_OFF_ORIGIN].w;
@@ -291,10 +310,22 @@ VS_FUNC vs_render_ray_info vs_render_camera_ray(VS_DATA_PARAM(vs_vec4, medium_da
                      vs_vec3_from_vec4(render_data[VS_RENDER_OFF_UP]), sy);
     pnanovdb_vec3_t world = vs_vec3_scale(d, 1.0f / vs_sqrt(vs_vec3_dot(d, d)));
     pnanovdb_vec3_t dir = vs_medium_to_index(VS_DATA_ARG(medium_data) world);
+    float t_surface = VS_T_INFINITE;
+    pnanovdb_vec3_t surface_colour = vs_vec3(0.0f, 0.0f, 0.0f);
+    if (render_data[VS_RENDER_OFF_WORLD_ORIGIN].w != 0.0f) {
+        t_surface = backdrop_data[py * VS_INT(width) + px].x;
+        surface_colour = vs_vec3(backdrop_data[py * VS_INT(width) + px].y,
+                                 backdrop_data[py * VS_INT(width) + px].z,
+                                 backdrop_data[py * VS_INT(width) + px].w);
+    }
     vs_render_ray_info ray =
         vs_render_ray_begin(VS_DATA_ARG(medium_data) VS_DATA_ARG(render_data)
                                 vs_vec3_from_vec4(render_data[VS_RENDER_OFF_ORIGIN]),
-                            dir, vs_vec3_scale(world, -1.0f));
+                            dir, vs_vec3_scale(world, -1.0f), t_surface);
+    if (t_surface < VS_T_INFINITE) {
+        ray.backdrop = 1;
+        ray.backdrop_colour = surface_colour;
+    }
     int m = VS_INT(render_data[VS_RENDER_OFF_VIEW].x);
     if (m > 1) {
         ray.phase = px % m + m * (py % m);
@@ -333,7 +364,8 @@ VS_FUNC void vs_render_unit(VS_RENDER_TABLES pnanovdb_buf_t buf,
                             PNANOVDB_INOUT(vs_render_accessors) accs, vs_render_ray_info ray,
                             PNANOVDB_INOUT(vs_render_state) st)
 {
-    VS_UNUSED(env_data); /* read by vs_render_result */
+    VS_UNUSED(env_data);      /* read by vs_render_result */
+    VS_UNUSED(backdrop_data); /* read by vs_render_camera_ray */
     /* Without S1 (the viewer's "multiple only") the units toward the lights are skipped. */
     int with_s1 = render_data[VS_RENDER_OFF_VIEW].y != 0.0f ? 1 : 0;
     int light_count = with_s1 * vs_lights_direct_count(VS_DATA_ONLY_ARG(light_data));
@@ -428,6 +460,11 @@ VS_FUNC void vs_render_unit(VS_RENDER_TABLES pnanovdb_buf_t buf,
                                         : vs_vec3(0.0f, 0.0f, 0.0f);
     } else {
         float transmittance = vs_accum_exp_neg(depth);
+        /* Solid occluders between the point and a direct light (no table: visible). */
+        if (light < light_count)
+            transmittance *=
+                vs_shadow_visibility(VS_DATA_ARG(shadow_data) light,
+                                     vs_vec3_madd(ray.world_origin, ray.wo, -0.5f * (a + b)));
         PNANOVDB_DEREF(st).source =
             vs_vec3_madd(PNANOVDB_DEREF(st).source, color, transmittance * phase * falloff);
     }
@@ -462,6 +499,8 @@ VS_FUNC pnanovdb_vec3_t vs_render_result(VS_DATA_PARAM(vs_vec4, light_data)
                                              VS_DATA_PARAM(float, env_data) vs_render_ray_info ray,
                                          vs_render_state st)
 {
+    if (ray.backdrop != 0)
+        return vs_vec3_madd(st.radiance, ray.backdrop_colour, st.transmittance);
     pnanovdb_vec3_t sky = vs_lights_background(VS_DATA_ONLY_ARG(light_data));
     pnanovdb_vec3_t map = vs_env_radiance(VS_DATA_ARG(env_data) vs_vec3_scale(ray.wo, -1.0f));
     return vs_vec3_madd(st.radiance, vs_vec3(sky.x + map.x, sky.y + map.y, sky.z + map.z),
@@ -474,8 +513,8 @@ VS_FUNC pnanovdb_vec3_t vs_render_ray(VS_RENDER_TABLES pnanovdb_buf_t buf,
                                       pnanovdb_vec3_t origin, pnanovdb_vec3_t dir,
                                       pnanovdb_vec3_t wo)
 {
-    vs_render_ray_info ray =
-        vs_render_ray_begin(VS_DATA_ARG(medium_data) VS_DATA_ARG(render_data) origin, dir, wo);
+    vs_render_ray_info ray = vs_render_ray_begin(
+        VS_DATA_ARG(medium_data) VS_DATA_ARG(render_data) origin, dir, wo, VS_T_INFINITE);
     vs_render_state st = vs_render_state_init(ray);
     vs_render_advance(VS_RENDER_TABLES_ARG buf, accs, ray, PNANOVDB_REF(st), 2147483647);
     return vs_render_result(VS_DATA_ARG(light_data) VS_DATA_ARG(env_data) ray, st);
@@ -484,8 +523,8 @@ VS_FUNC pnanovdb_vec3_t vs_render_ray(VS_RENDER_TABLES pnanovdb_buf_t buf,
 VS_FUNC pnanovdb_vec3_t vs_render_pixel(VS_RENDER_TABLES pnanovdb_buf_t buf,
                                         PNANOVDB_INOUT(vs_render_accessors) accs, int px, int py)
 {
-    vs_render_ray_info ray =
-        vs_render_camera_ray(VS_DATA_ARG(medium_data) VS_DATA_ARG(render_data) px, py);
+    vs_render_ray_info ray = vs_render_camera_ray(
+        VS_DATA_ARG(medium_data) VS_DATA_ARG(render_data) VS_DATA_ARG(backdrop_data) px, py);
     vs_render_state st = vs_render_state_init(ray);
     vs_render_advance(VS_RENDER_TABLES_ARG buf, accs, ray, PNANOVDB_REF(st), 2147483647);
     return vs_render_result(VS_DATA_ARG(light_data) VS_DATA_ARG(env_data) ray, st);

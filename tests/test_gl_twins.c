@@ -24,6 +24,7 @@
 #include "vdbscatter/pop.h"
 #include "vdbscatter/render.h"
 #include "vdbscatter/scene.h"
+#include "vdbscatter/shadow.h"
 #include "vdbscatter/svd.h"
 #include "vdbscatter/vdbio.h"
 #include "vdbscatter/volume.h"
@@ -211,6 +212,7 @@ typedef struct render_scenario {
     const vdbs_ms_grids *ms;
     const vdbs_scene *scene;
     vdbs_march_options options;
+    const vdbs_shadow_table *shadows; /* may be NULL */
 } render_scenario;
 
 static vdbs_status run_render(vdbs_runner *runner, const void *scenario, float *out,
@@ -226,9 +228,18 @@ static vdbs_status run_render(vdbs_runner *runner, const void *scenario, float *
     image.width = SIZE;
     image.height = SIZE;
     image.rgb = out;
-    if (st == VDBS_OK)
+    if (st == VDBS_OK && !s->shadows)
         st =
             vdbs_render_march(runner, s->volume, s->ms, s->scene, &frame, &s->options, &image, err);
+    vdbs_march_session *session = NULL;
+    if (st == VDBS_OK && s->shadows)
+        st = vdbs_march_session_create(runner, s->volume, s->ms, s->scene, &s->options, &session,
+                                       err);
+    if (st == VDBS_OK && s->shadows) {
+        vdbs_march_session_set_shadows(session, s->shadows->data, s->shadows->floats);
+        st = vdbs_march_session_draw(session, &frame, &s->options, &image, err);
+    }
+    vdbs_march_session_destroy(session);
     return st;
 }
 
@@ -265,7 +276,7 @@ static void test_render_single_cloud(void **state)
     vdbs_scene scene;
     lit_scene(&scene, 12.0, 0.7);
     scene.albedo[1] = 0.9;
-    render_scenario s = {&volume, NULL, &scene, march_options(16, 1.0f, 0, 1)};
+    render_scenario s = {&volume, NULL, &scene, march_options(16, 1.0f, 0, 1), NULL};
     render_twin("render single, cloud, light marches", &s);
     s.options.s1_march = 0;
     render_twin("render single, cloud, light grids", &s);
@@ -284,7 +295,7 @@ static void test_render_single_real_rotated_file(void **state)
     rotated_file(&volume);
     vdbs_scene scene;
     lit_scene(&scene, 5.0, 0.5);
-    render_scenario s = {&volume, NULL, &scene, march_options(4, 2.0f, 0, 1)};
+    render_scenario s = {&volume, NULL, &scene, march_options(4, 2.0f, 0, 1), NULL};
     render_twin("render single, rotated dragon, light marches", &s);
     s.options.s1_march = 0;
     s.options.s1_oversample = 1; /* agreement, not accuracy: the smallest grids */
@@ -321,7 +332,7 @@ static void test_render_env_map(void **state)
     scene.lights[0].env_scale = 0.5;
     assert_int_equal(vdbs_light_set_env_file(&scene, &scene.lights[0], path, &err), VDBS_OK);
     assert_int_equal(vdbs_scene_validate(&scene, &err), VDBS_OK);
-    render_scenario s = {&volume, NULL, &scene, march_options(16, 1.0f, 0, 0)};
+    render_scenario s = {&volume, NULL, &scene, march_options(16, 1.0f, 0, 0), NULL};
     render_twin("render single, cloud under the test sky", &s);
     vdbs_volume_free(&volume);
 }
@@ -339,7 +350,7 @@ static void test_render_gpu_passes(void **state)
     const int units[3] = {0, 1, 1 << 30};
     float *images[3];
     for (int i = 0; i < 3; ++i) {
-        render_scenario s = {&volume, NULL, &scene, march_options(16, 1.0f, units[i], 1)};
+        render_scenario s = {&volume, NULL, &scene, march_options(16, 1.0f, units[i], 1), NULL};
         images[i] = calloc(3 * SIZE * SIZE, sizeof(float));
         vdbs_error err;
         if (run_render(test_runner(VDBS_BACKEND_GPU), &s, images[i], &err) != VDBS_OK)
@@ -391,7 +402,7 @@ static void test_render_baked_synthetic(void **state)
     test_load_ms_grids(path, volume.index_to_world, &ms);
     vdbs_scene scene;
     lit_scene(&scene, 8.0, 0.85);
-    render_scenario s = {&volume, &ms, &scene, march_options(16, 1.0f, 0, 0)};
+    render_scenario s = {&volume, &ms, &scene, march_options(16, 1.0f, 0, 0), NULL};
     render_twin("render baked, synthetic ms grids", &s);
     /* The viewer's knobs: interleaved phases and the gather pass, and each term alone. */
     s.options.interleave = 3;
@@ -402,6 +413,49 @@ static void test_render_baked_synthetic(void **state)
     s.options.no_single = 0;
     s.options.no_multiple = 1;
     render_twin("render baked, single scattering only", &s);
+    /* Occluders: a sun map darkening half of the volume, and solid surfaces in front of a
+     * band of pixels (a backdrop that ends those rays). */
+    s.options.no_multiple = 0;
+    vdbs_error err;
+    vdbs_shadow_sun_frame f;
+    double lo[3], hi[3];
+    vdbs_volume_support_bounds(&volume, lo, hi);
+    assert_int_equal(vdbs_shadow_sun_frame_fit(scene.lights[0].direction, lo, hi, &f, &err),
+                     VDBS_OK);
+    enum { MAP = 32 };
+    float depths[MAP * MAP];
+    for (int n = 0; n < MAP * MAP; ++n)
+        depths[n] = n % MAP < MAP / 2 ? (float)(0.5 * f.range) : VDBS_NO_OCCLUDER;
+    vdbs_shadow_table shadows;
+    assert_int_equal(vdbs_shadow_table_init(&shadows, scene.light_count, &err), VDBS_OK);
+    assert_int_equal(vdbs_shadow_table_set_sun(&shadows, 0, &f, MAP, depths, 0.0, &err), VDBS_OK);
+    float *cube = malloc(sizeof *cube * 6 * MAP * MAP);
+    for (int n = 0; n < 6 * MAP * MAP; ++n)
+        cube[n] = (n / MAP) % 4 == 0 ? 0.3f : VDBS_NO_OCCLUDER; /* stripes at 0.3 */
+    assert_int_equal(
+        vdbs_shadow_table_set_cube(&shadows, 1, scene.lights[1].position, MAP, cube, 0.0, &err),
+        VDBS_OK);
+    free(cube);
+    s.shadows = &shadows;
+    render_twin("render baked, a sun's shadow map and a point light's cube", &s);
+    float *backdrop = malloc(sizeof *backdrop * 4 * SIZE * SIZE);
+    vdbs_camera camera;
+    vdbs_camera_frame_volume(&volume, SIZE, SIZE, &camera);
+    double dx = camera.target[0] - camera.position[0], dy = camera.target[1] - camera.position[1],
+           dz = camera.target[2] - camera.position[2];
+    float distance = (float)sqrt(dx * dx + dy * dy + dz * dz);
+    for (int n = 0; n < SIZE * SIZE; ++n) {
+        int band = (n / SIZE) % 8 < 3;
+        backdrop[4 * n] = band ? distance : VDBS_NO_SURFACE;
+        backdrop[4 * n + 1] = 0.25f;
+        backdrop[4 * n + 2] = 0.5f;
+        backdrop[4 * n + 3] = 0.75f;
+    }
+    s.options.backdrop = backdrop;
+    s.options.interleave = 2;
+    render_twin("render baked, shadow map, backdrop, interleaved", &s);
+    free(backdrop);
+    vdbs_shadow_table_free(&shadows);
     vdbs_ms_grids_free(&ms);
     vdbs_volume_free(&volume);
 }

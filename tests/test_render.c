@@ -28,6 +28,7 @@
 #include "vs_lights.h"
 #include "vs_lightgrid.h"
 #include "vs_envmap.h"
+#include "vs_shadow.h"
 #include "vs_render.h"
 
 #define PI 3.14159265358979323846

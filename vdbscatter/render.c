@@ -22,6 +22,7 @@
 #include "vs_lights.h"
 #include "vs_lightgrid.h"
 #include "vs_envmap.h"
+#include "vs_shadow.h"
 #include "vs_march.h"
 #include "vs_phase.h"
 #include "vs_render.h"
@@ -92,6 +93,8 @@ vdbs_status vdbs_render_table(const vdbs_volume *volume, const vdbs_ms_grids *ms
     }
     vdbs_table_put(t + 4 * VS_RENDER_OFF_VIEW, options->interleave > 1 ? options->interleave : 1,
                    options->no_single ? 0.0 : 1.0, 0.0, 0.0);
+    vdbs_table_put(t + 4 * VS_RENDER_OFF_WORLD_ORIGIN, frame->origin[0], frame->origin[1],
+                   frame->origin[2], 0.0);
     double origin[3];
     vdbs_volume_index_point(volume, frame->origin, origin);
     vdbs_table_put(t + 4 * VS_RENDER_OFF_ORIGIN, origin[0], origin[1], origin[2], frame->width);
@@ -150,6 +153,8 @@ typedef struct march_job {
     const vs_vec4 *render_data;
     const vs_uint *lgrid_data;
     const float *env_data;
+    const float *shadow_data;
+    const vs_vec4 *backdrop_data;
     pnanovdb_buf_t buf;
     int width;
     float *rgb;
@@ -160,9 +165,10 @@ static void march_items(void *user, uint64_t begin, uint64_t end)
     const march_job *job = user;
     vs_render_accessors accs = vs_render_accessors_init(job->render_data, job->buf);
     for (uint64_t n = begin; n < end; ++n) {
-        pnanovdb_vec3_t L = vs_render_pixel(
-            job->medium_data, job->light_data, job->render_data, job->lgrid_data, job->env_data,
-            job->buf, &accs, (int)(n % (uint64_t)job->width), (int)(n / (uint64_t)job->width));
+        pnanovdb_vec3_t L =
+            vs_render_pixel(job->medium_data, job->light_data, job->render_data, job->lgrid_data,
+                            job->env_data, job->shadow_data, job->backdrop_data, job->buf, &accs,
+                            (int)(n % (uint64_t)job->width), (int)(n / (uint64_t)job->width));
         job->rgb[3 * n] = L.x;
         job->rgb[3 * n + 1] = L.y;
         job->rgb[3 * n + 2] = L.z;
@@ -185,8 +191,19 @@ struct vdbs_march_session {
     float medium[4 * VDBS_MEDIUM_TABLE_ENTRIES];
     float no_env[VS_ENV_OFF_TEXELS];
     uint32_t no_grids[4];
-    uint64_t id_grids, id_lights, id_light_grids, id_env;
+    float no_shadows[VS_SHADOW_OFF_ENTRIES]; /* count 0 */
+    const float *shadows;                    /* the caller's (vs_shadow.h) or no_shadows */
+    size_t shadow_floats;
+    uint64_t id_grids, id_lights, id_light_grids, id_env, id_shadows;
 };
+
+void vdbs_march_session_set_shadows(vdbs_march_session *s, const float *table, size_t floats)
+{
+    vdbs_runner_release(s->runner, s->id_shadows);
+    s->shadows = table && floats >= VS_SHADOW_OFF_ENTRIES ? table : s->no_shadows;
+    s->shadow_floats = table && floats >= VS_SHADOW_OFF_ENTRIES ? floats : VS_SHADOW_OFF_ENTRIES;
+    s->id_shadows = vdbs_runner_resident_id(s->runner);
+}
 
 static void session_drop_lights(vdbs_march_session *s)
 {
@@ -206,6 +223,7 @@ void vdbs_march_session_destroy(vdbs_march_session *session)
         return;
     session_drop_lights(session);
     vdbs_runner_release(session->runner, session->id_grids);
+    vdbs_runner_release(session->runner, session->id_shadows);
     if (session->grids_owned)
         free(session->grids);
     free(session);
@@ -234,6 +252,7 @@ vdbs_status vdbs_march_session_create(vdbs_runner *runner, const vdbs_volume *vo
                             "--backend cpu",
                             s->grids_size);
     s->id_grids = vdbs_runner_resident_id(runner);
+    vdbs_march_session_set_shadows(s, NULL, 0);
     if (st == VDBS_OK)
         st = vdbs_march_session_set_scene(s, scene, err);
     if (st != VDBS_OK) {
@@ -347,6 +366,8 @@ vdbs_status vdbs_march_session_draw(vdbs_march_session *s, const vdbs_camera_fra
         return st;
     if (!s->options.s1_march)
         table[4 * VS_RENDER_OFF_MARCH + 2] = 1.0f;
+    table[4 * VS_RENDER_OFF_WORLD_ORIGIN + 3] = options->backdrop ? 1.0f : 0.0f;
+    const float no_backdrop[4] = {VS_T_INFINITE, 0.0f, 0.0f, 0.0f};
     const uint32_t *lgrid_words = s->options.s1_march ? s->no_grids : s->light_grids.words;
     size_t lgrid_bytes = s->options.s1_march
                              ? sizeof s->no_grids
@@ -360,6 +381,8 @@ vdbs_status vdbs_march_session_draw(vdbs_march_session *s, const vdbs_camera_fra
                      (const vs_vec4 *)table,
                      lgrid_words,
                      env,
+                     s->shadows,
+                     (const vs_vec4 *)(options->backdrop ? options->backdrop : no_backdrop),
                      pnanovdb_make_buf(s->grids, s->grids_size / 4),
                      frame->width,
                      image->rgb};
@@ -377,6 +400,12 @@ vdbs_status vdbs_march_session_draw(vdbs_march_session *s, const vdbs_camera_fra
     desc.inputs[3] = (vdbs_kernel_input){.data = table, .size = entries * 4 * sizeof(float)};
     desc.inputs[4] = (vdbs_kernel_input){lgrid_words, lgrid_bytes, s->id_light_grids};
     desc.inputs[5] = (vdbs_kernel_input){env, env_bytes, s->id_env};
+    desc.inputs[6] =
+        (vdbs_kernel_input){s->shadows, sizeof(float) * s->shadow_floats, s->id_shadows};
+    desc.inputs[7] = options->backdrop
+                         ? (vdbs_kernel_input){.data = options->backdrop,
+                                               .size = 4 * sizeof(float) * (size_t)desc.items}
+                         : (vdbs_kernel_input){.data = no_backdrop, .size = sizeof no_backdrop};
     desc.state_words = VS_RENDER_STATE_WORDS;
     desc.output_words = 3;
     desc.output = image->rgb;

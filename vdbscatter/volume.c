@@ -253,3 +253,16 @@ void vdbs_volume_voxel_point(const vdbs_volume *volume, size_t n, double world[3
     const double index[3] = {c[0], c[1], c[2]};
     vdbs_volume_world_point(volume, index, world);
 }
+
+void vdbs_volume_support_bounds(const vdbs_volume *volume, double lo[3], double hi[3])
+{
+    double corners[8][3];
+    vdbs_volume_support_corners(volume, corners);
+    for (int a = 0; a < 3; ++a) {
+        lo[a] = hi[a] = corners[0][a];
+        for (int c = 1; c < 8; ++c) {
+            lo[a] = corners[c][a] < lo[a] ? corners[c][a] : lo[a];
+            hi[a] = corners[c][a] > hi[a] ? corners[c][a] : hi[a];
+        }
+    }
+}

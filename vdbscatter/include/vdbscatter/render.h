@@ -46,6 +46,10 @@ typedef struct vdbs_march_options {
     int interleave;
     int no_single;   /* 1: no S1 (multiple scattering only) */
     int no_multiple; /* 1: no Sms (single scattering only) */
+    /* The viewer's solid occluders seen from the camera: per pixel 4 floats (world distance
+     * along the ray to the first surface, or VDBS_NO_SURFACE; the surface's radiance rgb).
+     * The ray stops there and sees the surface instead of the background. NULL: none. */
+    const float *backdrop;
     /* Filled by vdbs_render_march when not NULL. */
     struct vdbs_render_stats *stats;
 } vdbs_march_options;
@@ -83,6 +87,8 @@ vdbs_status vdbs_render_march(vdbs_runner *runner, const vdbs_volume *volume,
                               vdbs_image *image, vdbs_error *err);
 
 #define VDBS_MAX_INTERLEAVE 4
+/* A backdrop distance that means "no surface on this pixel" (shaders' VS_T_INFINITE). */
+#define VDBS_NO_SURFACE 1.0e30f
 
 /* A render that keeps everything but the camera between pictures (the viewer): the grids,
  * the light table and the light grids are built once, and on the GPU they stay resident.
@@ -94,6 +100,11 @@ vdbs_status vdbs_march_session_create(vdbs_runner *runner, const vdbs_volume *vo
                                       const vdbs_ms_grids *ms, const vdbs_scene *scene,
                                       const vdbs_march_options *options, vdbs_march_session **out,
                                       vdbs_error *err);
+/* The occluders' shadow maps (shaders/vs_shadow.h layout; entry k for the light table's
+ * direct light k, i.e. the scene's suns and point lights in order), which darken S1 toward
+ * each direct light. The table is the caller's and must stay unchanged until the next call
+ * (on the GPU it is uploaded once). NULL: no occluders. */
+void vdbs_march_session_set_shadows(vdbs_march_session *session, const float *table, size_t floats);
 /* New lights or medium (a moved sun): the light table and light grids are rebuilt. */
 vdbs_status vdbs_march_session_set_scene(vdbs_march_session *session, const vdbs_scene *scene,
                                          vdbs_error *err);

@@ -55,6 +55,8 @@ void vdbs_volume_support_box(const vdbs_volume *volume, float lo[3], float hi[3]
 /* The support box's eight corners in world space (corner c takes hi on axis a where bit a of c
  * is set). */
 void vdbs_volume_support_corners(const vdbs_volume *volume, double corners[8][3]);
+/* The world axis-aligned bounds of the support box. */
+void vdbs_volume_support_bounds(const vdbs_volume *volume, double lo[3], double hi[3]);
 /* The largest side of the world axis-aligned bounds of the support box: the extent the
  * solvers' grids divide into cells. */
 double vdbs_volume_support_extent(const vdbs_volume *volume);
