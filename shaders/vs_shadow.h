@@ -63,18 +63,19 @@ VS_FUNC float vs_shadow_pcf(VS_DATA_PARAM(float, shadow_data) int texels, int re
     float fy = (y * 0.5f + 0.5f) * VS_FLOAT(res) - 0.5f;
     float x0 = vs_floor(fx), y0 = vs_floor(fy);
     float tx = fx - x0, ty = fy - y0;
-    float lit = 0.0f;
+    /* Both weights, so that fully lit and fully shadowed points are exactly 1 and 0. */
+    float shadowed = 0.0f, lit = 0.0f;
     for (int k = 0; k < 4; ++k) {
         int i = VS_INT(x0) + (k & 1);
         int j = VS_INT(y0) + (k >> 1);
         float weight = ((k & 1) != 0 ? tx : 1.0f - tx) * ((k >> 1) != 0 ? ty : 1.0f - ty);
-        float texel_lit = 1.0f;
         if (i >= 0 && j >= 0 && i < res && j < res &&
             depth > shadow_data[texels + j * res + i] + bias)
-            texel_lit = 0.0f;
-        lit += weight * texel_lit;
+            shadowed += weight;
+        else
+            lit += weight;
     }
-    return lit;
+    return shadowed == 0.0f ? 1.0f : lit / (lit + shadowed);
 }
 
 /* Visibility of world point p from direct light `light` (1: no occluder in between). */

@@ -12,6 +12,7 @@
 #include "vdbscatter/bake.h"
 #include "vdbscatter/camera.h"
 #include "vdbscatter/render.h"
+#include "vdbscatter/shadow.h"
 #include "vdbscatter/samples.h"
 #include "vdbscatter/scene.h"
 #include "vdbscatter/single.h"
@@ -465,6 +466,103 @@ static void test_baked_single_bake_equals_single(void **state)
     vdbs_volume_free(&source);
 }
 
+/* The viewer's session: a shadow map that hides the sun everywhere equals a sun of zero
+ * irradiance, one without occluders changes nothing, and a backdrop at distance 0 shows
+ * the surface's colour alone. */
+static void test_session_occluders(void **state)
+{
+    (void)state;
+    vdbs_error err;
+    vdbs_volume volume;
+    test_sample_volume("cloud", 16, 1, &volume);
+    vdbs_scene scene;
+    vdbs_scene_init(&scene);
+    scene.density_scale = 6.0;
+    scene.light_count = 2;
+    scene.lights[0].type = VDBS_LIGHT_SUN;
+    scene.lights[0].direction[1] = -1.0;
+    scene.lights[0].color[0] = scene.lights[0].color[1] = scene.lights[0].color[2] = 5.0;
+    scene.lights[1].type = VDBS_LIGHT_ENV;
+    scene.lights[1].color[0] = 0.2;
+    scene.lights[1].color[1] = 0.3;
+    scene.lights[1].color[2] = 0.7;
+    assert_int_equal(vdbs_scene_validate(&scene, &err), VDBS_OK);
+    vdbs_camera camera;
+    vdbs_camera_frame frame;
+    vdbs_camera_frame_volume(&volume, 16, 12, &camera);
+    assert_int_equal(vdbs_camera_frame_init(&camera, &frame, &err), VDBS_OK);
+    vdbs_march_options options = {0};
+    options.sky_directions = 16;
+    options.step_voxels = 0.5f;
+    vdbs_runner *runner = test_runner(VDBS_BACKEND_CPU);
+    vdbs_image plain, dark, shot;
+    image_init(&plain, 16, 12);
+    image_init(&dark, 16, 12);
+    image_init(&shot, 16, 12);
+    vdbs_march_session *session = NULL;
+    assert_int_equal(
+        vdbs_march_session_create(runner, &volume, NULL, &scene, &options, &session, &err),
+        VDBS_OK);
+    assert_int_equal(vdbs_march_session_draw(session, &frame, &options, &plain, &err), VDBS_OK);
+
+    double lo[3], hi[3];
+    vdbs_volume_support_bounds(&volume, lo, hi);
+    vdbs_shadow_sun_frame f;
+    assert_int_equal(vdbs_shadow_sun_frame_fit(scene.lights[0].direction, lo, hi, &f, &err),
+                     VDBS_OK);
+    enum { MAP = 8 };
+    float depths[MAP * MAP];
+    vdbs_shadow_table open_sky, roof;
+    for (int n = 0; n < MAP * MAP; ++n)
+        depths[n] = VDBS_NO_OCCLUDER;
+    assert_int_equal(vdbs_shadow_table_init(&open_sky, 1, &err), VDBS_OK);
+    assert_int_equal(vdbs_shadow_table_set_sun(&open_sky, 0, &f, MAP, depths, 0.0, &err), VDBS_OK);
+    vdbs_march_session_set_shadows(session, open_sky.data, open_sky.floats);
+    assert_int_equal(vdbs_march_session_draw(session, &frame, &options, &shot, &err), VDBS_OK);
+    for (int i = 0; i < 3 * 16 * 12; ++i)
+        assert_true(shot.rgb[i] == plain.rgb[i]);
+
+    /* A roof over the whole map, before the volume. */
+    for (int n = 0; n < MAP * MAP; ++n)
+        depths[n] = 0.0f;
+    assert_int_equal(vdbs_shadow_table_init(&roof, 1, &err), VDBS_OK);
+    assert_int_equal(vdbs_shadow_table_set_sun(&roof, 0, &f, MAP, depths, 0.0, &err), VDBS_OK);
+    vdbs_march_session_set_shadows(session, roof.data, roof.floats);
+    assert_int_equal(vdbs_march_session_draw(session, &frame, &options, &shot, &err), VDBS_OK);
+    vdbs_scene sunless = scene;
+    sunless.lights[0].color[0] = sunless.lights[0].color[1] = sunless.lights[0].color[2] = 0.0;
+    assert_int_equal(
+        vdbs_render_march(runner, &volume, NULL, &sunless, &frame, &options, &dark, &err), VDBS_OK);
+    double darker = 0.0;
+    for (int i = 0; i < 3 * 16 * 12; ++i) {
+        assert_true(fabsf(shot.rgb[i] - dark.rgb[i]) <= 1e-6f * (fabsf(dark.rgb[i]) + 1e-6f));
+        darker += plain.rgb[i] - shot.rgb[i];
+    }
+    assert_true(darker > 0.0); /* the sun did light the cloud */
+
+    /* A surface at the camera on every pixel. */
+    float *backdrop = malloc(sizeof *backdrop * 4 * 16 * 12);
+    for (int n = 0; n < 16 * 12; ++n) {
+        backdrop[4 * n] = 0.0f;
+        backdrop[4 * n + 1] = 0.125f;
+        backdrop[4 * n + 2] = 0.25f;
+        backdrop[4 * n + 3] = 0.5f;
+    }
+    options.backdrop = backdrop;
+    assert_int_equal(vdbs_march_session_draw(session, &frame, &options, &shot, &err), VDBS_OK);
+    for (int n = 0; n < 16 * 12; ++n)
+        for (int c = 0; c < 3; ++c)
+            assert_true(shot.rgb[3 * n + c] == backdrop[4 * n + 1 + c]);
+    free(backdrop);
+    vdbs_march_session_destroy(session);
+    vdbs_shadow_table_free(&open_sky);
+    vdbs_shadow_table_free(&roof);
+    free(plain.rgb);
+    free(dark.rgb);
+    free(shot.rgb);
+    vdbs_volume_free(&volume);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -474,6 +572,7 @@ int main(void)
         cmocka_unit_test(test_empty_medium_shows_env),
         cmocka_unit_test(test_slab_closed_form),
         cmocka_unit_test(test_baked_single_bake_equals_single),
+        cmocka_unit_test(test_session_occluders),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
