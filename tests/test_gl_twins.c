@@ -19,6 +19,7 @@
 #include "vdbscatter/camera.h"
 #include "vdbscatter/envmap.h"
 #include "vdbscatter/fld.h"
+#include "vdbscatter/fog.h"
 #include "vdbscatter/lightgrid.h"
 #include "vdbscatter/lights.h"
 #include "vdbscatter/pop.h"
@@ -454,6 +455,25 @@ static void test_render_baked_synthetic(void **state)
     s.options.backdrop = backdrop;
     s.options.interleave = 2;
     render_twin("render baked, shadow map, backdrop, interleaved", &s);
+    /* The fog pass over it: closed-form spans between the maps' shadows. */
+    vdbs_fog_desc fd = {0};
+    fd.sigma_t = 0.8;
+    fd.albedo = 1.0;
+    fd.g = 0.5;
+    fd.n_lambda = fd.n_gamma = 64;
+    vdbs_fog fog;
+    assert_int_equal(vdbs_fog_build(&fd, &fog, &err), VDBS_OK);
+    vdbs_march_fog march_fog = {0};
+    march_fog.fog = &fog;
+    for (int a = 0; a < 3; ++a) {
+        march_fog.box_lo[a] = lo[a] - 0.1;
+        march_fog.box_hi[a] = hi[a] + 0.1;
+        march_fog.albedo[a] = 0.9 - 0.1 * a;
+    }
+    march_fog.steps = 24;
+    s.options.fog = &march_fog;
+    render_twin("render baked, fog pass with shafts, backdrop, interleaved", &s);
+    vdbs_fog_free(&fog);
     free(backdrop);
     vdbs_shadow_table_free(&shadows);
     vdbs_ms_grids_free(&ms);

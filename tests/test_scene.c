@@ -356,6 +356,7 @@ static void test_parse_errors(void **state)
         {"{\"fog\": {\"sigma_t\": 0.1, \"density\": 1}}", "scene: fog: unknown key \"density\""},
         {"{\"fog\": {\"sigma_t\": \"thick\"}}", "scene: fog.sigma_t: expected a number"},
         {"{\"fog\": {\"sigma_t\": -0.1}}", "scene: fog.sigma_t: must be finite and >= 0"},
+        {"{\"fog\": {\"sigma_t\": 0.1, \"g\": 1}}", "scene: fog.g: must be in [-0.999, 0.999]"},
         {"{\"fog\": {\"sigma_t\": 0.1, \"albedo\": 1.01}}", "scene: fog.albedo:"},
         {"{\"fog\": {\"sigma_t\": 0.1, \"box\": [0,0,0]}}", "scene: fog.box: expected an object"},
         {"{\"fog\": {\"sigma_t\": 0.1, \"box\": {\"min\": [0,0,0]}}}",

@@ -6,6 +6,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "vdbscatter/fog.h"
 #include "vdbscatter/lights.h"
 #include "vdbscatter/medium.h"
 #include "vdbscatter/reference.h"
@@ -27,6 +28,8 @@
 #include "vs_phase.h"
 #include "vs_render.h"
 #include "vs_gather.h"
+#include "vs_fog.h"
+#include "vs_fogpass.h"
 
 /* Pixels per GPU dispatch chunk: short enough for a display driver's watchdog on real
  * GPUs, large enough to keep llvmpipe's threads busy. */
@@ -346,6 +349,92 @@ vdbs_status vdbs_render_gather(vdbs_runner *runner, vdbs_image *image, int block
     return st;
 }
 
+/* The fog pass (vs_fogpass.h) over image->rgb. */
+typedef struct fog_job {
+    const vs_vec4 *pass;
+    const vs_vec4 *lights;
+    const float *fog;
+    const float *shadows;
+    const vs_vec4 *backdrop;
+    const float *in;
+    float *out;
+    int width;
+} fog_job;
+
+static void fog_items(void *user, uint64_t begin, uint64_t end)
+{
+    const fog_job *job = user;
+    for (uint64_t n = begin; n < end; ++n) {
+        pnanovdb_vec3_t behind = vs_vec3(job->in[3 * n], job->in[3 * n + 1], job->in[3 * n + 2]);
+        pnanovdb_vec3_t L = vs_fogpass_pixel(job->pass, job->lights, job->fog, job->shadows,
+                                             job->backdrop, (int)(n % (uint64_t)job->width),
+                                             (int)(n / (uint64_t)job->width), behind);
+        job->out[3 * n] = L.x;
+        job->out[3 * n + 1] = L.y;
+        job->out[3 * n + 2] = L.z;
+    }
+}
+
+static vdbs_status fog_pass(vdbs_march_session *s, const vdbs_camera_frame *frame,
+                            const vdbs_march_options *options, vdbs_image *image, vdbs_error *err)
+{
+    const vdbs_march_fog *f = options->fog;
+    const int block = options->interleave > 1 ? options->interleave : 1;
+    float pass[4 * VS_FOGPASS_SIZE];
+    vdbs_table_put(pass + 4 * VS_FOGPASS_OFF_ORIGIN, frame->origin[0], frame->origin[1],
+                   frame->origin[2], frame->width);
+    vdbs_table_put(pass + 4 * VS_FOGPASS_OFF_FORWARD, frame->forward[0], frame->forward[1],
+                   frame->forward[2], frame->height);
+    vdbs_table_put(pass + 4 * VS_FOGPASS_OFF_RIGHT, frame->right[0] * frame->tan_half_x,
+                   frame->right[1] * frame->tan_half_x, frame->right[2] * frame->tan_half_x, 0.0);
+    vdbs_table_put(pass + 4 * VS_FOGPASS_OFF_UP, frame->up[0] * frame->tan_half_y,
+                   frame->up[1] * frame->tan_half_y, frame->up[2] * frame->tan_half_y, 0.0);
+    vdbs_table_put(pass + 4 * VS_FOGPASS_OFF_BOX_LO, f->box_lo[0], f->box_lo[1], f->box_lo[2],
+                   f->steps > 0 ? f->steps : 64);
+    vdbs_table_put(pass + 4 * VS_FOGPASS_OFF_BOX_HI, f->box_hi[0], f->box_hi[1], f->box_hi[2],
+                   block);
+    vdbs_table_put(pass + 4 * VS_FOGPASS_OFF_ALBEDO, f->albedo[0], f->albedo[1], f->albedo[2],
+                   options->backdrop ? 1.0 : 0.0);
+    size_t pixels = (size_t)frame->width * (size_t)frame->height;
+    float *out = malloc(sizeof *out * 3 * (pixels ? pixels : 1));
+    if (!out)
+        return vdbs_error_set(err, VDBS_ERR_NOMEM, "out of memory for the fog pass");
+    const float no_backdrop[4] = {VS_T_INFINITE, 0.0f, 0.0f, 0.0f};
+    const float *backdrop = options->backdrop ? options->backdrop : no_backdrop;
+    fog_job job = {(const vs_vec4 *)pass,
+                   (const vs_vec4 *)s->lights.packed,
+                   f->fog->table,
+                   s->shadows,
+                   (const vs_vec4 *)backdrop,
+                   image->rgb,
+                   out,
+                   frame->width};
+    vdbs_kernel_desc desc = {0};
+    desc.items = pixels;
+    desc.user = &job;
+    desc.cpu_items = fog_items;
+    desc.cpu_chunk = 64;
+    desc.shader = "fog_composite.comp";
+    desc.inputs[1] = (vdbs_kernel_input){.data = pass, .size = sizeof pass};
+    desc.inputs[2] = (vdbs_kernel_input){
+        s->lights.packed, s->lights.packed_entries * 4 * sizeof(float), s->id_lights};
+    desc.inputs[3] =
+        (vdbs_kernel_input){.data = f->fog->table, .size = sizeof(float) * f->fog->table_floats};
+    desc.inputs[4] =
+        (vdbs_kernel_input){s->shadows, sizeof(float) * s->shadow_floats, s->id_shadows};
+    desc.inputs[5] = (vdbs_kernel_input){.data = backdrop,
+                                         .size = options->backdrop ? 4 * sizeof(float) * pixels
+                                                                   : sizeof no_backdrop};
+    desc.inputs[6] = (vdbs_kernel_input){.data = image->rgb, .size = sizeof(float) * 3 * pixels};
+    desc.output_words = 3;
+    desc.output = out;
+    vdbs_status st = vdbs_kernel_run(s->runner, &desc, NULL, err);
+    if (st == VDBS_OK)
+        memcpy(image->rgb, out, sizeof *out * 3 * pixels);
+    free(out);
+    return st;
+}
+
 vdbs_status vdbs_march_session_draw(vdbs_march_session *s, const vdbs_camera_frame *frame,
                                     const vdbs_march_options *options, vdbs_image *image,
                                     vdbs_error *err)
@@ -415,6 +504,8 @@ vdbs_status vdbs_march_session_draw(vdbs_march_session *s, const vdbs_camera_fra
     desc.progress = options->progress;
     double t_march = omp_get_wtime();
     st = vdbs_kernel_run(s->runner, &desc, NULL, err);
+    if (st == VDBS_OK && options->fog && options->fog->fog)
+        st = fog_pass(s, frame, options, image, err);
     if (st == VDBS_OK)
         st = vdbs_render_gather(s->runner, image, block, err);
     if (options->stats)

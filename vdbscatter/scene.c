@@ -843,19 +843,21 @@ static vdbs_status parse_occluders(const parse_ctx *ctx, const cJSON *arr, vdbs_
 
 static vdbs_status parse_fog(const parse_ctx *ctx, const cJSON *obj, vdbs_scene *s)
 {
-    static const char *const keys[] = {"sigma_t", "albedo", "box", NULL};
+    static const char *const keys[] = {"sigma_t", "albedo", "g", "box", NULL};
     static const char *const box_keys[] = {"min", "max", NULL};
     vdbs_scene_fog *f = &s->fog;
     vdbs_status st;
     if ((st = expect_object(ctx, obj, "fog")) != VDBS_OK ||
-        (st = check_keys(ctx, obj, "fog", keys, " (fog takes sigma_t, albedo, box)")) != VDBS_OK)
+        (st = check_keys(ctx, obj, "fog", keys, " (fog takes sigma_t, albedo, g, box)")) != VDBS_OK)
         return st;
     if (!cJSON_GetObjectItemCaseSensitive(obj, "sigma_t"))
         return fail(ctx, "fog", "missing \"sigma_t\" (extinction per world unit)");
     memset(f, 0, sizeof *f);
     f->albedo[0] = f->albedo[1] = f->albedo[2] = 1.0;
     if ((st = get_number(ctx, obj, "fog", "sigma_t", &f->sigma_t)) != VDBS_OK ||
-        (st = get_vec3(ctx, obj, "fog", "albedo", true, f->albedo)) != VDBS_OK)
+        (st = get_vec3(ctx, obj, "fog", "albedo", true, f->albedo)) != VDBS_OK ||
+        (cJSON_GetObjectItemCaseSensitive(obj, "g") &&
+         (st = get_number(ctx, obj, "fog", "g", &f->g)) != VDBS_OK))
         return st;
     const cJSON *box = cJSON_GetObjectItemCaseSensitive(obj, "box");
     if (box) {
@@ -1160,7 +1162,8 @@ static bool add_occluder(cJSON *arr, const vdbs_scene *s, const vdbs_occluder *o
 static bool add_fog(cJSON *root, const vdbs_scene_fog *f)
 {
     cJSON *j = cJSON_AddObjectToObject(root, "fog");
-    bool ok = j && add_number(j, "sigma_t", f->sigma_t) && add_vec3(j, "albedo", f->albedo);
+    bool ok = j && add_number(j, "sigma_t", f->sigma_t) && add_vec3(j, "albedo", f->albedo) &&
+              add_number(j, "g", f->g);
     if (ok && f->has_box) {
         cJSON *box = cJSON_AddObjectToObject(j, "box");
         ok = box && add_vec3(box, "min", f->box_min) && add_vec3(box, "max", f->box_max);
@@ -1418,6 +1421,8 @@ static vdbs_status check_occluders_and_fog(const parse_ctx *ctx, const vdbs_scen
         return fail(ctx, "fog.sigma_t", "must be finite and >= 0, got %g", f->sigma_t);
     if ((st = check_unit_range(ctx, "fog.albedo", f->albedo)) != VDBS_OK)
         return st;
+    if (!(isfinite(f->g) && fabs(f->g) <= 0.999))
+        return fail(ctx, "fog.g", "must be in [-0.999, 0.999], got %g", f->g);
     if (f->has_box)
         return check_box(ctx, "fog.box.min", "fog.box.max", f->box_min, f->box_max);
     return VDBS_OK;

@@ -27,6 +27,16 @@
 extern "C" {
 #endif
 
+struct vdbs_fog;
+
+/* The viewer's homogeneous fog over a picture (shaders/vs_fogpass.h). */
+typedef struct vdbs_march_fog {
+    const struct vdbs_fog *fog; /* tables (fog.h) of the fog's sigma_t and g, albedo 1 */
+    double box_lo[3], box_hi[3];
+    double albedo[3];
+    int steps; /* shadow-map tests along a ray; 0: 64 */
+} vdbs_march_fog;
+
 typedef struct vdbs_march_options {
     int sky_directions;      /* quadrature directions for the sky's S1 (>= 1) */
     float step_voxels;       /* camera-ray segment length in voxels (> 0; quality knob) */
@@ -50,6 +60,9 @@ typedef struct vdbs_march_options {
      * along the ray to the first surface, or VDBS_NO_SURFACE; the surface's radiance rgb).
      * The ray stops there and sees the surface instead of the background. NULL: none. */
     const float *backdrop;
+    /* A homogeneous fog composited over the picture, its light shafts carved by the
+     * session's shadow maps. NULL: none. */
+    const vdbs_march_fog *fog;
     /* Filled by vdbs_render_march when not NULL. */
     struct vdbs_render_stats *stats;
 } vdbs_march_options;

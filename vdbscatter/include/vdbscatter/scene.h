@@ -77,6 +77,7 @@ typedef struct vdbs_scene_fog {
     int present;
     double sigma_t;   /* extinction per world unit, >= 0 */
     double albedo[3]; /* single-scattering albedo in [0,1]; default 1 (scatters, absorbs nothing) */
+    double g;         /* Henyey-Greenstein anisotropy in [-0.999, 0.999]; default 0 */
     int has_box;      /* 0: the volume's bounds, resolved by the viewer */
     double box_min[3];
     double box_max[3];
