@@ -200,6 +200,12 @@ struct vdbs_march_session {
     uint64_t id_grids, id_lights, id_light_grids, id_env, id_shadows;
 };
 
+const float *vdbs_march_session_light_table(const vdbs_march_session *s, size_t *floats)
+{
+    *floats = s->lights.packed_entries * 4;
+    return s->lights.packed;
+}
+
 void vdbs_march_session_set_shadows(vdbs_march_session *s, const float *table, size_t floats)
 {
     vdbs_runner_release(s->runner, s->id_shadows);

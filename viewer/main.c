@@ -18,18 +18,23 @@
 #include <unistd.h>
 
 #include "display.h"
+#include "occluders.h"
 #include "options.h"
 #include "orbit.h"
 #include "vdbscatter/bake.h"
 #include "vdbscatter/camera.h"
+#include "vdbscatter/fog.h"
 #include "vdbscatter/kernel.h"
 #include "vdbscatter/litvdb.h"
+#include "vdbscatter/mesh.h"
 #include "vdbscatter/render.h"
 #include "vdbscatter/vdbio.h"
 
 #define PROGRAM "vdbscatter-view"
 #define DEFAULT_INTERLEAVE 2
 #define MOVING_SECONDS 0.25 /* input this recent: draw with coarser steps */
+#define SHADOW_MAP_RES 1024 /* a sun's map; a point light's cube faces are half as wide */
+#define FOG_STEPS 64        /* shadow-map tests along a view ray through the fog */
 
 static const char help[] =
     "usage: vdbscatter-view LIT.vdb [options]\n"
@@ -165,7 +170,28 @@ typedef struct viewer {
     double drag_x, drag_y;
     rebake bake;
     char message[VDBS_ERROR_MAX + 32]; /* last error of an interactive action, shown in the title */
+    /* Solid occluders and the homogeneous fog of the scene file. */
+    view_occluders occluders;
+    vdbs_shadow_table shadows;
+    double scene_lo[3], scene_hi[3]; /* what the sun maps cover */
+    float *backdrop;
+    vdbs_fog fog;
+    int with_fog;
+    vdbs_march_fog march_fog;
 } viewer;
+
+/* The occluders' shadow maps for the current lights, handed to the session. */
+static vdbs_status update_shadows(viewer *v, vdbs_error *err)
+{
+    if (v->occluders.count == 0)
+        return VDBS_OK;
+    vdbs_shadow_table_free(&v->shadows);
+    vdbs_status st = view_occluders_shadow_maps(&v->occluders, v->in.scene, v->scene_lo,
+                                                v->scene_hi, SHADOW_MAP_RES, &v->shadows, err);
+    if (st == VDBS_OK)
+        vdbs_march_session_set_shadows(v->session, v->shadows.data, v->shadows.floats);
+    return st;
+}
 
 static void volume_centre(const vdbs_volume *volume, double centre[3])
 {
@@ -193,6 +219,22 @@ static vdbs_status draw_frame(viewer *v, int moving, vdbs_error *err)
     vdbs_status st = vdbs_camera_frame_init(&camera, &frame, err);
     vdbs_march_options o = frame_options(v, moving);
     double t0 = now();
+    if (st == VDBS_OK && v->occluders.count > 0) {
+        size_t light_floats = 0;
+        const float *lights = vdbs_march_session_light_table(v->session, &light_floats);
+        view_surface_fog surface_fog = {0};
+        if (v->with_fog) {
+            surface_fog.fog = &v->fog;
+            memcpy(surface_fog.lo, v->march_fog.box_lo, sizeof surface_fog.lo);
+            memcpy(surface_fog.hi, v->march_fog.box_hi, sizeof surface_fog.hi);
+            memcpy(surface_fog.albedo, v->march_fog.albedo, sizeof surface_fog.albedo);
+        }
+        st = view_occluders_backdrop(&v->occluders, &frame, lights, light_floats, &v->shadows,
+                                     &surface_fog, v->backdrop, err);
+        o.backdrop = v->backdrop;
+    }
+    if (v->with_fog)
+        o.fog = &v->march_fog;
     if (st == VDBS_OK)
         st = vdbs_march_session_draw(v->session, &frame, &o, &v->image, err);
     v->frame_ms = 1e3 * (now() - t0);
@@ -229,7 +271,8 @@ static void light_moved(viewer *v, double yaw, double pitch)
     if (!view_light_turn(v->in.scene, 0, v->centre, yaw, pitch))
         return;
     vdbs_error err;
-    if (vdbs_march_session_set_scene(v->session, v->in.scene, &err) != VDBS_OK)
+    if (vdbs_march_session_set_scene(v->session, v->in.scene, &err) != VDBS_OK ||
+        update_shadows(v, &err) != VDBS_OK)
         snprintf(v->message, sizeof v->message, "%s", err.message);
     v->ms_stale = v->in.mode == VDBS_RENDER_BAKED;
     touch(v);
@@ -469,6 +512,54 @@ static vdbs_status parse_view_args(const cli_args *args, view_args *a, vdbs_erro
     return VDBS_OK;
 }
 
+/* The scene file's occluders (their meshes and shadow maps) and fog (its tables), over the
+ * box of the volume, the fog and the finite occluders. */
+static vdbs_status open_occluders_and_fog(viewer *v, vdbs_error *err)
+{
+    const vdbs_scene *scene = v->in.scene;
+    vdbs_volume_support_bounds(&v->in.volume, v->scene_lo, v->scene_hi);
+    double volume_lo[3], volume_hi[3];
+    memcpy(volume_lo, v->scene_lo, sizeof volume_lo);
+    memcpy(volume_hi, v->scene_hi, sizeof volume_hi);
+    vdbs_status st = view_occluders_init(&v->occluders, scene, v->centre,
+                                         vdbs_volume_support_extent(&v->in.volume), err);
+    if (st != VDBS_OK)
+        return st;
+    for (int a = 0; a < 3; ++a) {
+        if (v->occluders.finite) {
+            v->scene_lo[a] = fmin(v->scene_lo[a], v->occluders.finite_lo[a]);
+            v->scene_hi[a] = fmax(v->scene_hi[a], v->occluders.finite_hi[a]);
+        }
+        if (scene->fog.present && scene->fog.has_box) {
+            v->scene_lo[a] = fmin(v->scene_lo[a], scene->fog.box_min[a]);
+            v->scene_hi[a] = fmax(v->scene_hi[a], scene->fog.box_max[a]);
+        }
+    }
+    if (scene->fog.present && scene->fog.sigma_t > 0.0) {
+        vdbs_fog_desc fd = {0};
+        fd.sigma_t = scene->fog.sigma_t;
+        fd.albedo = 1.0; /* the colour's albedo applies per channel (vdbs_march_fog) */
+        fd.g = scene->fog.g;
+        if ((st = vdbs_fog_build(&fd, &v->fog, err)) != VDBS_OK)
+            return st;
+        v->with_fog = 1;
+        v->march_fog.fog = &v->fog;
+        v->march_fog.steps = FOG_STEPS;
+        for (int a = 0; a < 3; ++a) {
+            v->march_fog.box_lo[a] = scene->fog.has_box ? scene->fog.box_min[a] : volume_lo[a];
+            v->march_fog.box_hi[a] = scene->fog.has_box ? scene->fog.box_max[a] : volume_hi[a];
+            v->march_fog.albedo[a] = scene->fog.albedo[a];
+        }
+    }
+    if (v->occluders.count > 0) {
+        v->backdrop =
+            malloc(sizeof *v->backdrop * 4 * (size_t)v->size.width * (size_t)v->size.height);
+        if (!v->backdrop)
+            return vdbs_error_set(err, VDBS_ERR_NOMEM, "out of memory for the occluders");
+    }
+    return update_shadows(v, err);
+}
+
 /* Everything up to the first frame; on failure the caller frees what was made. */
 static vdbs_status viewer_open(viewer *v, const view_args *a, GLFWwindow **window, vdbs_error *err)
 {
@@ -511,9 +602,11 @@ static vdbs_status viewer_open(viewer *v, const view_args *a, GLFWwindow **windo
         return st;
     if ((st = vdbs_image_alloc(&v->image, v->size.width, v->size.height, 0, err)) != VDBS_OK)
         return st;
-    return vdbs_march_session_create(v->runner, &v->in.volume,
-                                     v->in.mode == VDBS_RENDER_BAKED ? &v->in.ms : NULL,
-                                     v->in.scene, &v->march, &v->session, err);
+    if ((st = vdbs_march_session_create(v->runner, &v->in.volume,
+                                        v->in.mode == VDBS_RENDER_BAKED ? &v->in.ms : NULL,
+                                        v->in.scene, &v->march, &v->session, err)) != VDBS_OK)
+        return st;
+    return open_occluders_and_fog(v, err);
 }
 
 static void viewer_close(viewer *v, GLFWwindow *window)
@@ -525,7 +618,11 @@ static void viewer_close(viewer *v, GLFWwindow *window)
     }
     vdbs_march_session_destroy(v->session);
     vdbs_image_free(&v->image);
+    vdbs_shadow_table_free(&v->shadows);
+    vdbs_fog_free(&v->fog);
+    free(v->backdrop);
     if (window) {
+        view_occluders_free(&v->occluders);
         view_display_free(&v->display);
         vdbs_runner_destroy(v->runner);
         glfwDestroyWindow(window);
@@ -617,6 +714,11 @@ int main(int argc, char **argv)
     if (!scene)
         return fail(VDBS_ERR_NOMEM, "out of memory");
     if ((st = cli_build_scene(&args, scene, 1, &err)) != VDBS_OK) {
+        free(scene);
+        return fail(st, err.message);
+    }
+    /* A scene naming a missing or malformed OBJ fails here, before any window. */
+    if ((st = vdbs_occluders_check(scene, &err)) != VDBS_OK) {
         free(scene);
         return fail(st, err.message);
     }

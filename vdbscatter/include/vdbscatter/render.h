@@ -118,6 +118,9 @@ vdbs_status vdbs_march_session_create(vdbs_runner *runner, const vdbs_volume *vo
  * each direct light. The table is the caller's and must stay unchanged until the next call
  * (on the GPU it is uploaded once). NULL: no occluders. */
 void vdbs_march_session_set_shadows(vdbs_march_session *session, const float *table, size_t floats);
+/* The session's light table (shaders/vs_lights.h layout), for the viewer's surface shading;
+ * valid until the next vdbs_march_session_set_scene. */
+const float *vdbs_march_session_light_table(const vdbs_march_session *session, size_t *floats);
 /* New lights or medium (a moved sun): the light table and light grids are rebuilt. */
 vdbs_status vdbs_march_session_set_scene(vdbs_march_session *session, const vdbs_scene *scene,
                                          vdbs_error *err);

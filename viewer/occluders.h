@@ -1,0 +1,56 @@
+/* The viewer's solid occluders on the GPU: their triangles (mesh.h) drawn into the shadow
+ * maps of the lights (a sun's orthographic depth map, a point light's distance cube;
+ * shadow.h assembles what the kernels read) and, from the camera, into the backdrop of
+ * the render kernel: per pixel the distance to the first surface and its shaded radiance
+ * (shaders/occluder_surface.frag). */
+#ifndef VDBSCATTER_VIEWER_OCCLUDERS_H
+#define VDBSCATTER_VIEWER_OCCLUDERS_H
+
+#include "vdbscatter/camera.h"
+#include "vdbscatter/fog.h"
+#include "vdbscatter/scene.h"
+#include "vdbscatter/shadow.h"
+#include "vdbscatter/status.h"
+
+typedef struct view_occluders {
+    int count; /* occluders; 0: nothing to draw, no maps */
+    unsigned vertex_array, vertex_buffer;
+    int *first, *vertices; /* per occluder: its range in the buffer */
+    float (*albedo)[3];
+    double finite_lo[3], finite_hi[3]; /* bounds of every occluder but planes */
+    int finite;                        /* 1 when those bounds hold something */
+    unsigned sun_program, cube_program, surface_program;
+    unsigned framebuffer, colour, depth; /* the render target, resized on demand */
+    int target_width, target_height;
+    float *pixels; /* read-back scratch */
+    unsigned ssbo_lights, ssbo_shadows, ssbo_fog, ssbo_dummy;
+} view_occluders;
+
+/* Needs a current GL 4.5 context. focus: where the planes' quads are centred; extent: the
+ * volume's size (planes are drawn a few of it wide). */
+vdbs_status view_occluders_init(view_occluders *o, const vdbs_scene *scene, const double focus[3],
+                                double extent, vdbs_error *err);
+void view_occluders_free(view_occluders *o);
+
+/* Shadow maps of every sun and point light of `scene` (entry k for the k-th of them) over
+ * the box [lo, hi] (the volume, fog and occluders), res texels across. */
+vdbs_status view_occluders_shadow_maps(view_occluders *o, const vdbs_scene *scene,
+                                       const double lo[3], const double hi[3], int res,
+                                       vdbs_shadow_table *table, vdbs_error *err);
+
+/* The fog the surfaces see (NULL: none). */
+typedef struct view_surface_fog {
+    const vdbs_fog *fog;
+    double lo[3], hi[3];
+    double albedo[3];
+} view_surface_fog;
+
+/* The backdrop of the picture of `frame`: 4 floats per pixel (distance, radiance rgb), row
+ * 0 on top, VDBS_NO_SURFACE where no occluder is seen. lights: the light table
+ * (vdbs_march_session_light_table). */
+vdbs_status view_occluders_backdrop(view_occluders *o, const vdbs_camera_frame *frame,
+                                    const float *lights, size_t light_floats,
+                                    const vdbs_shadow_table *shadows, const view_surface_fog *fog,
+                                    float *backdrop, vdbs_error *err);
+
+#endif
