@@ -5,11 +5,16 @@ relative RMSE without interleaved sampling, 5% with it), the compute shader in t
 context matches the C path, a density VDB opens with single scattering only, and bad files
 and flags get one line, exit 2 and no image."""
 import json
+import math
 import os
 import shutil
 import subprocess
+import sys
 import tempfile
 import unittest
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from test_render_cli import read_png  # noqa: E402  (the small PNG reader of the render tests)
 
 EXE = os.environ["VDBSCATTER"]
 VIEW = os.environ["VDBSCATTER_VIEW"]
@@ -115,6 +120,81 @@ class Screenshot(Base):
         run("render", sample("cloud.vdb"), "--scene", sample("cloud.json"), "--mode", "single", "-o", ref,
             "--size", "48x36", "-q", check=0)
         self.assertLessEqual(relrmse(out, ref), 1e-6)
+
+
+def write_scene(path, **extra):
+    """A scene over the cloud sample with a vertical sun and no sky, plus `extra` keys."""
+    scene = {"volume": {"file": sample("cloud.vdb"), "density_scale": 0.0},
+             "lights": [{"type": "sun", "direction": [0, -1, 0], "irradiance": 4.0}]}
+    scene.update(extra)
+    with open(path, "w") as f:
+        json.dump(scene, f)
+    return path
+
+
+class Occluders(Base):
+    def test_box_shadow_column_in_fog(self):
+        """A box under a vertical sun in fog, seen from below inside its shadow column: the
+        rays that stay in the shadow up to the box see no single scattering at all (black:
+        no sky, the box's underside unlit), the rays that leave the column do."""
+        scene = write_scene(self.path("column.json"),
+                            occluders=[{"type": "box", "min": [-0.5, 1.5, -0.5], "max": [0.5, 1.8, 0.5]}],
+                            fog={"sigma_t": 0.6, "g": 0.3, "box": {"min": [-3, -2, -3], "max": [3, 2, 3]}})
+        out = self.path("column.png")
+        size, fov = 81, 60.0
+        view(sample("cloud.vdb"), "--scene", scene, "--screenshot", out, "--backend", "cpu", "--camera",
+             "0,-1.5,0:0,1,0:%g" % fov, "--size", "%dx%d" % (size, size), "--no-interleave", "--exposure", "4",
+             "-q", check=0)
+        width, height, rgb = read_png(out)
+        self.assertEqual((width, height), (size, size))
+        tan_half = math.tan(math.radians(fov / 2))
+        inside, outside, dark_outside = 0, 0, 0
+        for py in range(size):
+            for px in range(size):
+                # The ray's slope off the vertical; it reaches y = 1.5 (the box) 3 units up.
+                sx = (2 * (px + 0.5) / size - 1) * tan_half
+                sy = (1 - 2 * (py + 0.5) / size) * tan_half
+                reach = 3.0 * max(abs(sx), abs(sy))  # the camera's right and up are world axes
+                value = max(rgb[3 * (py * size + px):3 * (py * size + px) + 3])
+                if reach < 0.45:  # stays inside the column (half width 0.5) all the way
+                    inside += 1
+                    self.assertEqual(value, 0, (px, py))
+                elif reach > 0.8:  # leaves it early: lit fog on most of its length
+                    outside += 1
+                    dark_outside += value == 0
+        print(f"\nshadow column: {inside} rays inside are black, {outside - dark_outside} of {outside} "
+              f"outside are lit")
+        self.assertGreater(inside, 20)
+        self.assertEqual(dark_outside, 0)
+
+    def test_sample_scene(self):
+        lit = self.path("occluder_lit.vdb")
+        run("bake", "--scene", sample("cloud_occluder.json"), "--method", "pop", "--quality", "low", "-o", lit,
+            "-q", check=0)
+        out = self.path("occluder.png")
+        view(lit, "--scene", sample("cloud_occluder.json"), "--screenshot", out, "--backend", "cpu", "--size",
+             "64x48", "-q", check=0)
+        self.assertEqual(read_png(out)[:2], (64, 48))
+
+    def refuse_scene(self, name, needle, **extra):
+        scene = write_scene(self.path(name), **extra)
+        out = self.path(name + ".png")
+        p = view(sample("cloud.vdb"), "--scene", scene, "--screenshot", out, display=False)
+        self.assertEqual(p.returncode, 2, p.stderr)
+        lines = p.stderr.strip().splitlines()
+        self.assertEqual(len(lines), 1, p.stderr)
+        self.assertIn(needle, lines[0])
+        self.assertFalse(os.path.exists(out))
+
+    def test_bad_occluders(self):
+        bad = self.path("bad.obj")
+        with open(bad, "w") as f:
+            f.write("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 9\n")
+        self.refuse_scene("malformed.json", "bad.obj:4", occluders=[{"type": "obj", "file": bad}])
+        self.refuse_scene("missing.json", "nothere.obj",
+                          occluders=[{"type": "obj", "file": self.path("nothere.obj")}])
+        self.refuse_scene("unknown.json", "colour",
+                          occluders=[{"type": "sphere", "center": [0, 0, 0], "radius": 1, "colour": 1}])
 
 
 class BadInput(Base):
