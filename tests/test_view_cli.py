@@ -238,6 +238,8 @@ class BadInput(Base):
         self.refuse(lit, "--warp", needle="--warp")
         self.refuse(lit, "--g", "nan", needle="--g")
         self.refuse(lit, "--backend", "tpu", needle="--backend")
+        self.refuse(lit, "--fog", "-1", needle="--fog")
+        self.refuse(lit, "--fog", "0.2:1.5", needle="--fog")
         p = view(lit, "--screenshot", self.path("x.jpg"), display=False)
         self.assertEqual(p.returncode, 2)
         self.assertIn(".jpg", p.stderr)

@@ -17,7 +17,7 @@
 extern "C" {
 #endif
 
-/* Table shape defaults (see FOG_NOTES.md for how they were chosen). The Gamma table's
+/* Table shape defaults (see docs/fog.md for how they were chosen). The Gamma table's
  * lambda = sigma_t h runs over [0, lambda_max]; beyond it the last row is used, and a ray
  * passing that far from the light carries less than exp(-lambda_max) of the light's
  * in-scattering per unit h. */
