@@ -58,8 +58,9 @@ def main():
     rows = []
     for label, vdb, extra in cases:
         ref = os.path.join(tmp, "ref.exr")
-        rep = json.loads(run([exe, "render", vdb, "-o", ref, "--mode", "baked", "--backend", "cpu", "--size", SIZE,
-                              "--json", "-q"]))
+        # The same scene as the viewer's (render ignores the occluders and the fog).
+        rep = json.loads(run([exe, "render", vdb, *extra, "-o", ref, "--mode", "baked", "--backend", "cpu",
+                              "--size", SIZE, "--json", "-q"]))
         render_ms = 1e3 * rep["seconds"]["render"]
         march_ms = 1e3 * rep["seconds"]["march"]
         rows.append((label, "render --mode baked (C): whole render", render_ms, render_ms, None, None))

@@ -405,18 +405,14 @@ static void test_render_baked_synthetic(void **state)
     lit_scene(&scene, 8.0, 0.85);
     render_scenario s = {&volume, &ms, &scene, march_options(16, 1.0f, 0, 0), NULL};
     render_twin("render baked, synthetic ms grids", &s);
-    /* The viewer's knobs: interleaved phases and the gather pass, and each term alone. */
-    s.options.interleave = 3;
-    render_twin("render baked, interleaved 3 x 3 with the gather", &s);
-    s.options.interleave = 0;
+    /* The viewer's knobs: multiple scattering alone here; single scattering alone with the
+     * shadow maps below, the interleaved phases and the gather with the backdrop. */
     s.options.no_single = 1;
     render_twin("render baked, multiple scattering only", &s);
     s.options.no_single = 0;
     s.options.no_multiple = 1;
-    render_twin("render baked, single scattering only", &s);
     /* Occluders: a sun map darkening half of the volume, and solid surfaces in front of a
      * band of pixels (a backdrop that ends those rays). */
-    s.options.no_multiple = 0;
     vdbs_error err;
     vdbs_shadow_sun_frame f;
     double lo[3], hi[3];
@@ -438,7 +434,8 @@ static void test_render_baked_synthetic(void **state)
         VDBS_OK);
     free(cube);
     s.shadows = &shadows;
-    render_twin("render baked, a sun's shadow map and a point light's cube", &s);
+    render_twin("render single only, a sun's shadow map and a point light's cube", &s);
+    s.options.no_multiple = 0;
     float *backdrop = malloc(sizeof *backdrop * 4 * SIZE * SIZE);
     vdbs_camera camera;
     vdbs_camera_frame_volume(&volume, SIZE, SIZE, &camera);
