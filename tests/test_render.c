@@ -265,6 +265,28 @@ static void image_init(vdbs_image *image, int width, int height)
     assert_non_null(image->rgb);
 }
 
+/* A sun straight down (5 W/m^2) and a constant sky (0.2, 0.3, 0.7) over `volume`, and the
+ * frame of a 16 x 12 view of it. */
+static void sun_and_sky(const vdbs_volume *volume, double density_scale, vdbs_scene *scene,
+                        vdbs_camera_frame *frame)
+{
+    vdbs_error err;
+    vdbs_scene_init(scene);
+    scene->density_scale = density_scale;
+    scene->light_count = 2;
+    scene->lights[0].type = VDBS_LIGHT_SUN;
+    scene->lights[0].direction[1] = -1.0;
+    scene->lights[0].color[0] = scene->lights[0].color[1] = scene->lights[0].color[2] = 5.0;
+    scene->lights[1].type = VDBS_LIGHT_ENV;
+    scene->lights[1].color[0] = 0.2;
+    scene->lights[1].color[1] = 0.3;
+    scene->lights[1].color[2] = 0.7;
+    assert_int_equal(vdbs_scene_validate(scene, &err), VDBS_OK);
+    vdbs_camera camera;
+    vdbs_camera_frame_volume(volume, 16, 12, &camera);
+    assert_int_equal(vdbs_camera_frame_init(&camera, frame, &err), VDBS_OK);
+}
+
 static void test_empty_medium_shows_env(void **state)
 {
     (void)state;
@@ -274,21 +296,8 @@ static void test_empty_medium_shows_env(void **state)
     vdbs_volume volume;
     assert_int_equal(vdbs_volume_from_density(density, &volume, &err), VDBS_OK);
     vdbs_scene scene;
-    vdbs_scene_init(&scene);
-    scene.density_scale = 0.0;
-    scene.light_count = 2;
-    scene.lights[0].type = VDBS_LIGHT_SUN;
-    scene.lights[0].direction[1] = -1.0;
-    scene.lights[0].color[0] = scene.lights[0].color[1] = scene.lights[0].color[2] = 5.0;
-    scene.lights[1].type = VDBS_LIGHT_ENV;
-    scene.lights[1].color[0] = 0.2;
-    scene.lights[1].color[1] = 0.3;
-    scene.lights[1].color[2] = 0.7;
-    assert_int_equal(vdbs_scene_validate(&scene, &err), VDBS_OK);
-    vdbs_camera camera;
     vdbs_camera_frame frame;
-    vdbs_camera_frame_volume(&volume, 16, 12, &camera);
-    assert_int_equal(vdbs_camera_frame_init(&camera, &frame, &err), VDBS_OK);
+    sun_and_sky(&volume, 0.0, &scene, &frame);
     vdbs_image image;
     image_init(&image, 16, 12);
     vdbs_march_options options = {0};
@@ -477,21 +486,8 @@ static void test_session_occluders(void **state)
     vdbs_volume volume;
     test_sample_volume("cloud", 16, 1, &volume);
     vdbs_scene scene;
-    vdbs_scene_init(&scene);
-    scene.density_scale = 6.0;
-    scene.light_count = 2;
-    scene.lights[0].type = VDBS_LIGHT_SUN;
-    scene.lights[0].direction[1] = -1.0;
-    scene.lights[0].color[0] = scene.lights[0].color[1] = scene.lights[0].color[2] = 5.0;
-    scene.lights[1].type = VDBS_LIGHT_ENV;
-    scene.lights[1].color[0] = 0.2;
-    scene.lights[1].color[1] = 0.3;
-    scene.lights[1].color[2] = 0.7;
-    assert_int_equal(vdbs_scene_validate(&scene, &err), VDBS_OK);
-    vdbs_camera camera;
     vdbs_camera_frame frame;
-    vdbs_camera_frame_volume(&volume, 16, 12, &camera);
-    assert_int_equal(vdbs_camera_frame_init(&camera, &frame, &err), VDBS_OK);
+    sun_and_sky(&volume, 6.0, &scene, &frame);
     vdbs_march_options options = {0};
     options.sky_directions = 16;
     options.step_voxels = 0.5f;

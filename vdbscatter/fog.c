@@ -109,17 +109,11 @@ static vdbs_status resolve_range(double *v, double def, const char *what, vdbs_e
     return VDBS_OK;
 }
 
-/* vs_fog_e2 in double (the same approximations). */
+/* The table's normaliser: the lookup's own vs_fog_e2, so that building and reading divide and
+ * multiply by the same numbers. */
 static double e2_d(double k)
 {
-    if (k > 1.0)
-        return (0.995924 + 1.430913 / k) / (k + 3.330657 + 1.681534 / k);
-    if (!(k > 1.0e-30))
-        return 1.0;
-    double poly = -0.57721566 +
-                  k * (0.99999193 +
-                       k * (-0.24991055 + k * (0.05519968 + k * (-0.00976004 + k * 0.00107857))));
-    return 1.0 - k * exp(k) * (poly - log(k));
+    return (double)vs_fog_e2((float)k);
 }
 
 /* Gamma table: R = Gt / N on nodes (lambda_i, gamma_j), N = 2 / (1 + c) E(lambda (1 + c))

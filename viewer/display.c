@@ -3,6 +3,7 @@
 #include <epoxy/gl.h>
 
 #include <math.h>
+#include <stdio.h>
 #include <string.h>
 
 /* One triangle that covers the screen, no vertex buffer. */
@@ -31,39 +32,55 @@ static const char fragment_source[] =
     "    colour = vec4(srgb(c.r), srgb(c.g), srgb(c.b), 1.0);\n"
     "}\n";
 
-static vdbs_status compile(GLenum kind, const char *source, GLuint *shader, vdbs_error *err)
+static vdbs_status compile(GLenum kind, const char *text, GLuint *shader, vdbs_error *err)
 {
     *shader = glCreateShader(kind);
-    glShaderSource(*shader, 1, &source, NULL);
+    glShaderSource(*shader, 1, &text, NULL);
     glCompileShader(*shader);
     GLint ok = 0;
     glGetShaderiv(*shader, GL_COMPILE_STATUS, &ok);
     if (ok)
         return VDBS_OK;
-    char log[512] = "";
+    /* The driver's errors only (warnings are many in PNanoVDB.h), on one line. */
+    static char log[65536];
+    log[0] = '\0';
     glGetShaderInfoLog(*shader, sizeof log, NULL, log);
-    return vdbs_error_set(err, VDBS_ERR_GPU, "display shader: %s", log);
+    char errors[VDBS_ERROR_MAX] = "";
+    size_t used = 0;
+    for (char *line = strtok(log, "\n"); line; line = strtok(NULL, "\n"))
+        if (strstr(line, "error") && used + 2 < sizeof errors)
+            used += (size_t)snprintf(errors + used, sizeof errors - used, "%s%s", used ? "; " : "",
+                                     line);
+    return vdbs_error_set(err, VDBS_ERR_GPU, "viewer shader: %s", errors[0] ? errors : log);
+}
+
+vdbs_status view_gl_program(const char *vertex, const char *fragment, unsigned *program,
+                            vdbs_error *err)
+{
+    GLuint vs = 0, fs = 0;
+    *program = 0;
+    vdbs_status st = compile(GL_VERTEX_SHADER, vertex, &vs, err);
+    if (st == VDBS_OK)
+        st = compile(GL_FRAGMENT_SHADER, fragment, &fs, err);
+    if (st == VDBS_OK) {
+        *program = glCreateProgram();
+        glAttachShader(*program, vs);
+        glAttachShader(*program, fs);
+        glLinkProgram(*program);
+        GLint ok = 0;
+        glGetProgramiv(*program, GL_LINK_STATUS, &ok);
+        if (!ok)
+            st = vdbs_error_set(err, VDBS_ERR_GPU, "viewer shaders: link failed");
+    }
+    glDeleteShader(vs);
+    glDeleteShader(fs);
+    return st;
 }
 
 vdbs_status view_display_init(view_display *d, vdbs_error *err)
 {
     memset(d, 0, sizeof *d);
-    GLuint vs = 0, fs = 0;
-    vdbs_status st = compile(GL_VERTEX_SHADER, vertex_source, &vs, err);
-    if (st == VDBS_OK)
-        st = compile(GL_FRAGMENT_SHADER, fragment_source, &fs, err);
-    if (st == VDBS_OK) {
-        d->program = glCreateProgram();
-        glAttachShader(d->program, vs);
-        glAttachShader(d->program, fs);
-        glLinkProgram(d->program);
-        GLint ok = 0;
-        glGetProgramiv(d->program, GL_LINK_STATUS, &ok);
-        if (!ok)
-            st = vdbs_error_set(err, VDBS_ERR_GPU, "display shader: link failed");
-    }
-    glDeleteShader(vs);
-    glDeleteShader(fs);
+    vdbs_status st = view_gl_program(vertex_source, fragment_source, &d->program, err);
     glGenVertexArrays(1, &d->vertex_array);
     glGenTextures(1, &d->texture);
     if (st != VDBS_OK)

@@ -11,6 +11,11 @@ typedef struct view_display {
     int width, height; /* the texture's */
 } view_display;
 
+/* Compiles and links a vertex and a fragment shader; the driver's errors (not its
+ * warnings) on one line in err. Needs a current GL context. */
+vdbs_status view_gl_program(const char *vertex, const char *fragment, unsigned *program,
+                            vdbs_error *err);
+
 /* Needs a current GL 4.3 core context. */
 vdbs_status view_display_init(view_display *display, vdbs_error *err);
 void view_display_free(view_display *display);

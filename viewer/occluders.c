@@ -1,5 +1,7 @@
 #include "occluders.h"
 
+#include "display.h"
+
 #include <epoxy/gl.h>
 
 #include <math.h>
@@ -71,50 +73,6 @@ static const char surface_vertex[] =
     "    world_position = position;\n"
     "    world_normal = normal;\n"
     "}\n";
-
-static vdbs_status compile(GLenum kind, const char *text, GLuint *shader, vdbs_error *err)
-{
-    *shader = glCreateShader(kind);
-    glShaderSource(*shader, 1, &text, NULL);
-    glCompileShader(*shader);
-    GLint ok = 0;
-    glGetShaderiv(*shader, GL_COMPILE_STATUS, &ok);
-    if (ok)
-        return VDBS_OK;
-    /* The driver's errors only (warnings are many in PNanoVDB.h), on one line. */
-    static char log[65536];
-    log[0] = '\0';
-    glGetShaderInfoLog(*shader, sizeof log, NULL, log);
-    char errors[VDBS_ERROR_MAX] = "";
-    size_t used = 0;
-    for (char *line = strtok(log, "\n"); line; line = strtok(NULL, "\n"))
-        if (strstr(line, "error") && used + 2 < sizeof errors)
-            used += (size_t)snprintf(errors + used, sizeof errors - used, "%s%s", used ? "; " : "",
-                                     line);
-    return vdbs_error_set(err, VDBS_ERR_GPU, "occluder shader: %s", errors[0] ? errors : log);
-}
-
-static vdbs_status link(const char *vertex, const char *fragment, unsigned *program,
-                        vdbs_error *err)
-{
-    GLuint vs = 0, fs = 0;
-    vdbs_status st = compile(GL_VERTEX_SHADER, vertex, &vs, err);
-    if (st == VDBS_OK)
-        st = compile(GL_FRAGMENT_SHADER, fragment, &fs, err);
-    if (st == VDBS_OK) {
-        *program = glCreateProgram();
-        glAttachShader(*program, vs);
-        glAttachShader(*program, fs);
-        glLinkProgram(*program);
-        GLint ok = 0;
-        glGetProgramiv(*program, GL_LINK_STATUS, &ok);
-        if (!ok)
-            st = vdbs_error_set(err, VDBS_ERR_GPU, "occluder shaders: link failed");
-    }
-    glDeleteShader(vs);
-    glDeleteShader(fs);
-    return st;
-}
 
 void view_occluders_free(view_occluders *o)
 {
@@ -220,11 +178,11 @@ vdbs_status view_occluders_init(view_occluders *o, const vdbs_scene *scene, cons
     if (st == VDBS_OK && !surface)
         st = vdbs_error_set(err, VDBS_ERR_INTERNAL, "occluder_surface.frag not embedded");
     if (st == VDBS_OK)
-        st = link(sun_vertex, sun_fragment, &o->sun_program, err);
+        st = view_gl_program(sun_vertex, sun_fragment, &o->sun_program, err);
     if (st == VDBS_OK)
-        st = link(cube_vertex, cube_fragment, &o->cube_program, err);
+        st = view_gl_program(cube_vertex, cube_fragment, &o->cube_program, err);
     if (st == VDBS_OK)
-        st = link(surface_vertex, surface->text, &o->surface_program, err);
+        st = view_gl_program(surface_vertex, surface->text, &o->surface_program, err);
     if (st == VDBS_OK) {
         glGenFramebuffers(1, &o->framebuffer);
         GLuint b[4];
