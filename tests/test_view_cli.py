@@ -112,6 +112,27 @@ class Screenshot(Base):
         print(f"\nviewer compute shader (window context) against the C path: relative RMSE {error:.2e}")
         self.assertLessEqual(error, 1e-4)
 
+    def test_rebake_for_a_moved_sun(self):
+        """--rebake (the key b at start): the multiple scattering re-baked in the background for
+        a new sun gives the picture of a lit VDB baked for that sun; without it the picture
+        keeps the old sun's multiple scattering."""
+        sun = ["--sun", "-0.6,-1,0.3:3,2.9,2.7", "--env", "0.2,0.3,0.5"]
+        fresh = self.path("fresh_lit.vdb")
+        run("bake", "--scene", sample("cloud.json"), "--method", "pop", "--quality", "low", *sun, "-o", fresh,
+            "-q", check=0)
+        ref = self.path("fresh.exr")
+        run("render", fresh, "-o", ref, "--size", "64x48", "-q", check=0)
+        shots = {}
+        for name, extra in (("rebaked", ["--rebake"]), ("stale", [])):
+            shots[name] = self.path(name + ".exr")
+            view(self.lit, *sun, *extra, "--screenshot", shots[name], "--size", "64x48", "--backend", "cpu",
+                 "--no-interleave", "-q", check=0)
+        rebaked, stale = relrmse(shots["rebaked"], ref), relrmse(shots["stale"], ref)
+        print(f"\nre-bake for a moved sun: relative RMSE {rebaked:.2e} against a bake for it, {stale:.2e} "
+              f"without the re-bake")
+        self.assertLessEqual(rebaked, 1e-4)
+        self.assertGreater(stale, 100 * max(rebaked, 1e-6))
+
     def test_density_vdb_shows_single_scattering(self):
         out, ref = self.path("density.exr"), self.path("density_render.exr")
         p = view(sample("cloud.vdb"), "--scene", sample("cloud.json"), "--screenshot", out, "--backend", "cpu",

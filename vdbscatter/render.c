@@ -579,7 +579,7 @@ static void apply_overrides(unsigned set, const vdbs_scene *given, vdbs_scene *s
  * resolved from it and the caller's. On success *lit is open (the caller closes it). */
 static vdbs_status resolve_scene(const vdbs_render_desc *d, const char *input, vdbio_lit **lit,
                                  vdbs_render_mode *mode, int *is_lit, vdbs_scene *scene,
-                                 vdbs_error *err)
+                                 char baked_method[32], vdbs_error *err)
 {
     vdbs_status st = vdbio_lit_open(input, lit, err);
     if (st != VDBS_OK)
@@ -605,6 +605,8 @@ static vdbs_status resolve_scene(const vdbs_render_desc *d, const char *input, v
                               "no radiance grid and vdbscatter_scene metadata)",
                               input);
     }
+    if (*is_lit)
+        snprintf(baked_method, 32, "%s", baked->method);
     /* A scene file replaces the baked scene; flags alone go on top of it. */
     if (*is_lit && !(d->scene_set & VDBS_SCENE_FROM_FILE)) {
         *scene = *baked;
@@ -702,7 +704,8 @@ vdbs_status vdbs_render_open(const vdbs_render_desc *d, vdbs_render_input *in, v
     if (!in->scene)
         return vdbs_error_set(err, VDBS_ERR_NOMEM, "out of memory for a scene");
     vdbio_lit *lit = NULL;
-    vdbs_status st = resolve_scene(d, input, &lit, &in->mode, &in->is_lit, in->scene, err);
+    vdbs_status st =
+        resolve_scene(d, input, &lit, &in->mode, &in->is_lit, in->scene, in->baked_method, err);
     if (st == VDBS_OK) {
         for (int i = 0; i < in->scene->light_count; ++i)
             if (in->scene->lights[i].type == VDBS_LIGHT_SUN &&

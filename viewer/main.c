@@ -58,6 +58,8 @@ static const char help[] =
     "  --fog SIGMA_T[:ALBEDO]   a homogeneous fog (albedo one number or R,G,B; default 1) in\n"
     "                           the scene's fog box, else the volume's bounds; replaces the\n"
     "                           scene's fog sigma_t and albedo (0 turns it off)\n"
+    "  --rebake                 re-bake the multiple scattering for the given lights before\n"
+    "                           showing it (as the key b does), e.g. after --sun\n"
     "  --interleave M           interleaved sampling over M x M pixels, 2..4 (default 2)\n"
     "  --no-interleave          one full set of march steps in every pixel\n"
     "  --backend auto|cpu|gpu   the march on the C path or as a compute shader in the\n"
@@ -102,6 +104,7 @@ static const cli_option options[] = {
     {"--screenshot", CLI_VALUE},
     {"--json", CLI_FLAG},
     {"--fog", CLI_VALUE},
+    {"--rebake", CLI_FLAG},
     {"--warmup-frames", CLI_VALUE},
     {"-q", CLI_FLAG},
     {NULL, CLI_FLAG},
@@ -293,6 +296,8 @@ static void start_rebake(viewer *v)
     if (!job->scene)
         return;
     *job->scene = *v->in.scene;
+    /* The method the VDB was baked with (a scene file may name another, or "single"). */
+    snprintf(job->scene->method, sizeof job->scene->method, "%s", v->in.baked_method);
     snprintf(job->scene->grid, sizeof job->scene->grid, "density");
     job->scene->grid_index = 0;
     snprintf(job->input, sizeof job->input, "%s", v->input);
@@ -308,27 +313,28 @@ static void start_rebake(viewer *v)
 }
 
 /* Takes a finished re-bake's multiple scattering into the session. */
-static void finish_rebake(viewer *v)
+/* Takes a finished re-bake's multiple scattering into the session; with `wait`, waits for it.
+ * Returns what went wrong (also shown in the title). */
+static vdbs_status finish_rebake(viewer *v, int wait, vdbs_error *err)
 {
     rebake *job = &v->bake;
-    if (!job->running || !__atomic_load_n(&job->done, __ATOMIC_ACQUIRE))
-        return;
+    if (!job->running || (!wait && !__atomic_load_n(&job->done, __ATOMIC_ACQUIRE)))
+        return VDBS_OK;
     pthread_join(job->thread, NULL);
     job->running = 0;
     free(job->scene);
-    vdbs_error err;
     vdbs_status st = job->status;
     vdbs_ms_grids ms;
     memset(&ms, 0, sizeof ms);
     if (st == VDBS_OK) {
         vdbio_lit *lit = NULL;
-        st = vdbio_lit_open(job->output, &lit, &err);
+        st = vdbio_lit_open(job->output, &lit, err);
         if (st == VDBS_OK) {
-            st = vdbs_ms_grids_load(lit, v->in.volume.index_to_world, &ms, &err);
+            st = vdbs_ms_grids_load(lit, v->in.volume.index_to_world, &ms, err);
             vdbio_lit_close(lit);
         }
     } else {
-        err = job->err;
+        *err = job->err;
     }
     remove(job->output);
     if (st == VDBS_OK) {
@@ -338,14 +344,17 @@ static void finish_rebake(viewer *v)
         vdbs_ms_grids_free(&v->in.ms);
         v->in.ms = ms;
         st = vdbs_march_session_create(v->runner, &v->in.volume, &v->in.ms, v->in.scene, &v->march,
-                                       &v->session, &err);
+                                       &v->session, err);
+        if (st == VDBS_OK && v->occluders.count > 0)
+            vdbs_march_session_set_shadows(v->session, v->shadows.data, v->shadows.floats);
         v->ms_stale = 0;
     } else {
         vdbs_ms_grids_free(&ms);
     }
     if (st != VDBS_OK)
-        snprintf(v->message, sizeof v->message, "re-bake failed: %s", err.message);
+        snprintf(v->message, sizeof v->message, "re-bake failed: %s", err->message);
     touch(v);
+    return st;
 }
 
 static void on_key(GLFWwindow *window, int key, int scancode, int action, int mods)
@@ -477,6 +486,7 @@ typedef struct view_args {
     double exposure;
     int quiet;
     int json;
+    int rebake;
 } view_args;
 
 static vdbs_status parse_view_args(const cli_args *args, view_args *a, vdbs_error *err)
@@ -517,6 +527,7 @@ static vdbs_status parse_view_args(const cli_args *args, view_args *a, vdbs_erro
         return vdbs_error_set(err, VDBS_ERR_INPUT, "--warmup-frames needs --screenshot");
     a->quiet = cli_flag(args, "-q");
     a->json = cli_flag(args, "--json");
+    a->rebake = cli_flag(args, "--rebake");
     if (a->json && !a->screenshot)
         return vdbs_error_set(err, VDBS_ERR_INPUT, "--json needs --screenshot");
     return VDBS_OK;
@@ -674,6 +685,9 @@ static vdbs_status run_screenshot(viewer *v, GLFWwindow *window, const view_args
                                   vdbs_error *err)
 {
     vdbs_status st = VDBS_OK;
+    /* The picture of the re-baked lighting: wait for it. */
+    if (a->rebake && (st = finish_rebake(v, 1, err)) != VDBS_OK)
+        return st;
     double first_ms = 0.0, rest_ms = 0.0;
     for (long f = 0; f < a->warmup && st == VDBS_OK; ++f) {
         st = draw_frame(v, 0, err);
@@ -720,7 +734,8 @@ static vdbs_status run_interactive(viewer *v, GLFWwindow *window, vdbs_error *er
     v->dirty = 1;
     int refined = 0;
     while (!glfwWindowShouldClose(window)) {
-        finish_rebake(v);
+        vdbs_error rebake_err;
+        finish_rebake(v, 0, &rebake_err); /* a failure shows in the title */
         int moving = now() - v->last_input < MOVING_SECONDS || v->dragging;
         /* Still after moving: one more frame at the full step. */
         if (!moving && !refined)
@@ -800,6 +815,11 @@ int main(int argc, char **argv)
     }
     GLFWwindow *window = NULL;
     st = viewer_open(v, &a, &window, &err);
+    /* Light flags on a lit VDB: its multiple scattering belongs to the baked lights. */
+    if (st == VDBS_OK)
+        v->ms_stale = v->in.mode == VDBS_RENDER_BAKED && (a.desc.scene_set & VDBS_SCENE_SET_LIGHTS);
+    if (st == VDBS_OK && a.rebake)
+        start_rebake(v);
     if (st == VDBS_OK)
         st = a.screenshot ? run_screenshot(v, window, &a, &err) : run_interactive(v, window, &err);
     viewer_close(v, window);
