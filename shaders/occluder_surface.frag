@@ -3,14 +3,15 @@
  * and point lights of the light table (vs_lights.h) through the occluders' shadow maps
  * (vs_shadow.h), by the constant sky, and by the homogeneous fog's indirect single
  * scattering of point lights (vs_fog.h, Biri Sec. III.C), the direct light dimmed by the
- * fog along its path. Writes (distance from the camera, radiance): the render kernel's
- * backdrop. The volume does not shadow the surfaces (README). */
+ * volume (its light grids, vs_lightgrid.h: the cloud's shadow on the floor) and by the fog
+ * along its path. Writes (distance from the camera, radiance): the render kernel's backdrop. */
 #define PNANOVDB_GLSL
 layout(std430, binding = 0) readonly buffer NanoBuffer { uint pnanovdb_buf_data[]; };
 layout(std430, binding = 1) readonly buffer MediumBuffer { vec4 medium_data[]; };
 layout(std430, binding = 2) readonly buffer LightBuffer { vec4 light_data[]; };
 layout(std430, binding = 3) readonly buffer ShadowBuffer { float shadow_data[]; };
 layout(std430, binding = 4) readonly buffer FogBuffer { float fog_data[]; };
+layout(std430, binding = 5) readonly buffer LightGridBuffer { uint lgrid_data[]; };
 
 #include "PNanoVDB.h"
 #include "vs_common.h"
@@ -18,6 +19,7 @@ layout(std430, binding = 4) readonly buffer FogBuffer { float fog_data[]; };
 #include "vs_medium.h"
 #include "vs_march.h"
 #include "vs_lights.h"
+#include "vs_lightgrid.h"
 #include "vs_shadow.h"
 #include "vs_fog.h"
 
@@ -31,6 +33,8 @@ uniform int with_fog;
 uniform vec3 fog_lo;
 uniform vec3 fog_hi;
 uniform vec3 fog_albedo;
+uniform int with_light_grids;
+uniform vec4 to_index[3]; /* the volume's world-to-index map, rows */
 
 /* Distance from p to the fog box's boundary along u, 0 outside the box. A surface on a
  * face of the box (a floor under the fog) counts as inside, whatever the rounding. */
@@ -52,6 +56,8 @@ void main()
     if (dot(n, camera - p) < 0.0)
         n = -n;
     float sigma_t = with_fog != 0 ? vs_fog_sigma_t() : 0.0;
+    vec4 pw = vec4(p, 1.0);
+    vec3 p_index = vec3(dot(to_index[0], pw), dot(to_index[1], pw), dot(to_index[2], pw));
     vec3 L = albedo * vs_lights_background();
     int lights = vs_lights_direct_count();
     for (int k = 0; k < lights; ++k) {
@@ -77,8 +83,10 @@ void main()
             }
         }
         float cosine = max(dot(n, to_light), 0.0);
+        /* Beyond the grid the lookup clamps to its edge: below the cloud, the whole column. */
+        float volume_t = with_light_grids != 0 ? exp(-vs_lgrid_depth(k, p_index)) : 1.0;
         if (cosine > 0.0)
-            L += albedo * (1.0 / VS_PI) * colour * (irradiance_scale * cosine * fog_t *
+            L += albedo * (1.0 / VS_PI) * colour * (irradiance_scale * cosine * fog_t * volume_t *
                                                vs_shadow_visibility(k, p));
     }
     result = vec4(length(p - camera), L);

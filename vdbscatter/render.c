@@ -200,10 +200,14 @@ struct vdbs_march_session {
     uint64_t id_grids, id_lights, id_light_grids, id_env, id_shadows;
 };
 
-const float *vdbs_march_session_light_table(const vdbs_march_session *s, size_t *floats)
+void vdbs_march_session_tables(const vdbs_march_session *s, vdbs_march_tables *out)
 {
-    *floats = s->lights.packed_entries * 4;
-    return s->lights.packed;
+    out->lights = s->lights.packed;
+    out->light_floats = s->lights.packed_entries * 4;
+    out->medium = s->medium;
+    out->medium_floats = sizeof s->medium / sizeof s->medium[0];
+    out->light_grids = s->options.s1_march ? NULL : s->light_grids.words;
+    out->light_grid_words = s->options.s1_march ? 0 : s->light_grids.word_count;
 }
 
 void vdbs_march_session_set_shadows(vdbs_march_session *s, const float *table, size_t floats)

@@ -189,6 +189,16 @@ typedef struct viewer {
     vdbs_march_fog march_fog;
 } viewer;
 
+/* The session's new lighting to the shadow-map consumers: the render kernel (through the
+ * session) and the occluders' surfaces. */
+static void occluder_lighting(viewer *v)
+{
+    vdbs_march_session_set_shadows(v->session, v->shadows.data, v->shadows.floats);
+    vdbs_march_tables tables;
+    vdbs_march_session_tables(v->session, &tables);
+    view_occluders_set_lighting(&v->occluders, &tables, v->in.volume.world_to_index, &v->shadows);
+}
+
 /* The occluders' shadow maps for the current lights, handed to the session. */
 static vdbs_status update_shadows(viewer *v, vdbs_error *err)
 {
@@ -198,7 +208,7 @@ static vdbs_status update_shadows(viewer *v, vdbs_error *err)
     vdbs_status st = view_occluders_shadow_maps(&v->occluders, v->in.scene, v->scene_lo,
                                                 v->scene_hi, SHADOW_MAP_RES, &v->shadows, err);
     if (st == VDBS_OK)
-        vdbs_march_session_set_shadows(v->session, v->shadows.data, v->shadows.floats);
+        occluder_lighting(v);
     return st;
 }
 
@@ -229,8 +239,6 @@ static vdbs_status draw_frame(viewer *v, int moving, vdbs_error *err)
     vdbs_march_options o = frame_options(v, moving);
     double t0 = now();
     if (st == VDBS_OK && v->occluders.count > 0) {
-        size_t light_floats = 0;
-        const float *lights = vdbs_march_session_light_table(v->session, &light_floats);
         view_surface_fog surface_fog = {0};
         if (v->with_fog) {
             surface_fog.fog = &v->fog;
@@ -238,8 +246,7 @@ static vdbs_status draw_frame(viewer *v, int moving, vdbs_error *err)
             memcpy(surface_fog.hi, v->march_fog.box_hi, sizeof surface_fog.hi);
             memcpy(surface_fog.albedo, v->march_fog.albedo, sizeof surface_fog.albedo);
         }
-        st = view_occluders_backdrop(&v->occluders, &frame, lights, light_floats, &v->shadows,
-                                     &surface_fog, v->backdrop, err);
+        st = view_occluders_backdrop(&v->occluders, &frame, &surface_fog, v->backdrop, err);
         o.backdrop = v->backdrop;
     }
     if (v->with_fog)
@@ -346,7 +353,7 @@ static vdbs_status finish_rebake(viewer *v, int wait, vdbs_error *err)
         st = vdbs_march_session_create(v->runner, &v->in.volume, &v->in.ms, v->in.scene, &v->march,
                                        &v->session, err);
         if (st == VDBS_OK && v->occluders.count > 0)
-            vdbs_march_session_set_shadows(v->session, v->shadows.data, v->shadows.floats);
+            occluder_lighting(v);
         v->ms_stale = 0;
     } else {
         vdbs_ms_grids_free(&ms);

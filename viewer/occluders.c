@@ -90,8 +90,9 @@ void view_occluders_free(view_occluders *o)
         glDeleteTextures(1, &o->colour);
     if (o->depth)
         glDeleteRenderbuffers(1, &o->depth);
-    unsigned buffers[4] = {o->ssbo_lights, o->ssbo_shadows, o->ssbo_fog, o->ssbo_dummy};
-    for (int i = 0; i < 4; ++i)
+    unsigned buffers[6] = {o->ssbo_lights, o->ssbo_shadows, o->ssbo_fog,
+                           o->ssbo_dummy,  o->ssbo_medium,  o->ssbo_light_grids};
+    for (int i = 0; i < 6; ++i)
         if (buffers[i])
             glDeleteBuffers(1, &buffers[i]);
     free(o->first);
@@ -185,12 +186,14 @@ vdbs_status view_occluders_init(view_occluders *o, const vdbs_scene *scene, cons
         st = view_gl_program(surface_vertex, surface->text, &o->surface_program, err);
     if (st == VDBS_OK) {
         glGenFramebuffers(1, &o->framebuffer);
-        GLuint b[4];
-        glGenBuffers(4, b);
+        GLuint b[6];
+        glGenBuffers(6, b);
         o->ssbo_lights = b[0];
         o->ssbo_shadows = b[1];
         o->ssbo_fog = b[2];
         o->ssbo_dummy = b[3];
+        o->ssbo_medium = b[4];
+        o->ssbo_light_grids = b[5];
         const float zero[4] = {0, 0, 0, 0};
         glBindBuffer(GL_SHADER_STORAGE_BUFFER, o->ssbo_dummy);
         glBufferData(GL_SHADER_STORAGE_BUFFER, sizeof zero, zero, GL_STATIC_DRAW);
@@ -339,18 +342,31 @@ vdbs_status view_occluders_shadow_maps(view_occluders *o, const vdbs_scene *scen
     return st;
 }
 
-static void ssbo(unsigned buffer, unsigned binding, const void *data, size_t bytes)
+static void upload(unsigned buffer, const void *data, size_t bytes)
 {
     glBindBuffer(GL_SHADER_STORAGE_BUFFER, buffer);
     glBufferData(GL_SHADER_STORAGE_BUFFER, (GLsizeiptr)bytes, data, GL_DYNAMIC_DRAW);
-    glBindBufferBase(GL_SHADER_STORAGE_BUFFER, binding, buffer);
     glBindBuffer(GL_SHADER_STORAGE_BUFFER, 0);
 }
 
+void view_occluders_set_lighting(view_occluders *o, const vdbs_march_tables *tables,
+                                 const double world_to_index[3][4],
+                                 const vdbs_shadow_table *shadows)
+{
+    if (o->count == 0)
+        return;
+    upload(o->ssbo_lights, tables->lights, sizeof *tables->lights * tables->light_floats);
+    upload(o->ssbo_medium, tables->medium, sizeof *tables->medium * tables->medium_floats);
+    o->with_light_grids = tables->light_grids != NULL;
+    if (tables->light_grids)
+        upload(o->ssbo_light_grids, tables->light_grids,
+               sizeof *tables->light_grids * tables->light_grid_words);
+    upload(o->ssbo_shadows, shadows->data, sizeof *shadows->data * shadows->floats);
+    memcpy(o->world_to_index, world_to_index, sizeof o->world_to_index);
+}
+
 vdbs_status view_occluders_backdrop(view_occluders *o, const vdbs_camera_frame *frame,
-                                    const float *lights, size_t light_floats,
-                                    const vdbs_shadow_table *shadows, const view_surface_fog *fog,
-                                    float *backdrop, vdbs_error *err)
+                                    const view_surface_fog *fog, float *backdrop, vdbs_error *err)
 {
     const float clear[4] = {VDBS_NO_SURFACE, 0, 0, 0};
     vdbs_status st = target_begin(o, frame->width, frame->height, 1, clear, err);
@@ -370,12 +386,21 @@ vdbs_status view_occluders_backdrop(view_occluders *o, const vdbs_camera_frame *
     glUniform1f(glGetUniformLocation(p, "near"), 1e-3f);
     glUniform1f(glGetUniformLocation(p, "far"), 1e5f);
     glUniform1i(glGetUniformLocation(p, "with_fog"), fog && fog->fog ? 1 : 0);
-    ssbo(o->ssbo_lights, 2, lights, sizeof *lights * light_floats);
-    ssbo(o->ssbo_shadows, 3, shadows->data, sizeof *shadows->data * shadows->floats);
+    glUniform1i(glGetUniformLocation(p, "with_light_grids"), o->with_light_grids);
+    float rows[12];
+    for (int r = 0; r < 3; ++r)
+        for (int c = 0; c < 4; ++c)
+            rows[4 * r + c] = (float)o->world_to_index[r][c];
+    glUniform4fv(glGetUniformLocation(p, "to_index"), 3, rows);
     glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 0, o->ssbo_dummy);
-    glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 1, o->ssbo_dummy);
+    glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 1, o->ssbo_medium);
+    glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 2, o->ssbo_lights);
+    glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 3, o->ssbo_shadows);
+    glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 5,
+                     o->with_light_grids ? o->ssbo_light_grids : o->ssbo_dummy);
     if (fog && fog->fog) {
-        ssbo(o->ssbo_fog, 4, fog->fog->table, sizeof *fog->fog->table * fog->fog->table_floats);
+        upload(o->ssbo_fog, fog->fog->table, sizeof *fog->fog->table * fog->fog->table_floats);
+        glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 4, o->ssbo_fog);
         uniform3(p, "fog_lo", fog->lo);
         uniform3(p, "fog_hi", fog->hi);
         uniform3(p, "fog_albedo", fog->albedo);

@@ -8,6 +8,7 @@
 
 #include "vdbscatter/camera.h"
 #include "vdbscatter/fog.h"
+#include "vdbscatter/render.h"
 #include "vdbscatter/scene.h"
 #include "vdbscatter/shadow.h"
 #include "vdbscatter/status.h"
@@ -23,7 +24,9 @@ typedef struct view_occluders {
     unsigned framebuffer, colour, depth; /* the render target, resized on demand */
     int target_width, target_height;
     float *pixels; /* read-back scratch */
-    unsigned ssbo_lights, ssbo_shadows, ssbo_fog, ssbo_dummy;
+    unsigned ssbo_lights, ssbo_shadows, ssbo_fog, ssbo_dummy, ssbo_medium, ssbo_light_grids;
+    int with_light_grids;
+    double world_to_index[3][4];
 } view_occluders;
 
 /* Needs a current GL 4.5 context. focus: where the planes' quads are centred; extent: the
@@ -45,12 +48,16 @@ typedef struct view_surface_fog {
     double albedo[3];
 } view_surface_fog;
 
+/* What the surfaces are lit through, uploaded once per light position: the session's light
+ * table, medium and light grids (the volume's shadow on the surfaces) and the occluders'
+ * shadow maps. world_to_index: the volume's. */
+void view_occluders_set_lighting(view_occluders *o, const vdbs_march_tables *tables,
+                                 const double world_to_index[3][4],
+                                 const vdbs_shadow_table *shadows);
+
 /* The backdrop of the picture of `frame`: 4 floats per pixel (distance, radiance rgb), row
- * 0 on top, VDBS_NO_SURFACE where no occluder is seen. lights: the light table
- * (vdbs_march_session_light_table). */
+ * 0 on top, VDBS_NO_SURFACE where no occluder is seen. */
 vdbs_status view_occluders_backdrop(view_occluders *o, const vdbs_camera_frame *frame,
-                                    const float *lights, size_t light_floats,
-                                    const vdbs_shadow_table *shadows, const view_surface_fog *fog,
-                                    float *backdrop, vdbs_error *err);
+                                    const view_surface_fog *fog, float *backdrop, vdbs_error *err);
 
 #endif

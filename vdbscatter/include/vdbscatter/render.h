@@ -118,9 +118,18 @@ vdbs_status vdbs_march_session_create(vdbs_runner *runner, const vdbs_volume *vo
  * each direct light. The table is the caller's and must stay unchanged until the next call
  * (on the GPU it is uploaded once). NULL: no occluders. */
 void vdbs_march_session_set_shadows(vdbs_march_session *session, const float *table, size_t floats);
-/* The session's light table (shaders/vs_lights.h layout), for the viewer's surface shading;
- * valid until the next vdbs_march_session_set_scene. */
-const float *vdbs_march_session_light_table(const vdbs_march_session *session, size_t *floats);
+/* The session's tables in the kernels' layouts, for the viewer's surface shading (lit
+ * through the volume's light grids); valid until the next vdbs_march_session_set_scene. */
+typedef struct vdbs_march_tables {
+    const float *lights; /* shaders/vs_lights.h */
+    size_t light_floats;
+    const float *medium; /* shaders/vs_medium.h */
+    size_t medium_floats;
+    const uint32_t *light_grids; /* shaders/vs_lightgrid.h, one grid per direct light first;
+                                    NULL with s1_march */
+    size_t light_grid_words;
+} vdbs_march_tables;
+void vdbs_march_session_tables(const vdbs_march_session *session, vdbs_march_tables *out);
 /* New lights or medium (a moved sun): the light table and light grids are rebuilt. */
 vdbs_status vdbs_march_session_set_scene(vdbs_march_session *session, const vdbs_scene *scene,
                                          vdbs_error *err);
