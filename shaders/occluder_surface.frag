@@ -43,9 +43,7 @@ float fog_path(vec3 p, vec3 u)
     vec3 q = clamp(p, fog_lo, fog_hi);
     if (distance(p, q) > 1e-4 * distance(fog_lo, fog_hi))
         return 0.0;
-    return max(0.0, min(vs_axis_exit(q.x, u.x, fog_lo.x, fog_hi.x),
-                        min(vs_axis_exit(q.y, u.y, fog_lo.y, fog_hi.y),
-                            vs_axis_exit(q.z, u.z, fog_lo.z, fog_hi.z))));
+    return max(0.0, vs_box_exit(q, u, fog_lo, fog_hi));
 }
 
 void main()

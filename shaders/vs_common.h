@@ -124,6 +124,20 @@ VS_FUNC float vs_vec3_dot(pnanovdb_vec3_t a, pnanovdb_vec3_t b)
     return a.x * b.x + a.y * b.y + a.z * b.z;
 }
 
+/* The unit world direction of a pinhole camera's ray through the centre of pixel (px, py),
+ * row 0 on top (camera.h), from the table rows (forward, image height),
+ * (right * tan(half fov x), 0) and (up * tan(half fov y), 0) of an image `width` wide. */
+VS_FUNC pnanovdb_vec3_t vs_pinhole_direction(vs_vec4 forward, vs_vec4 right, vs_vec4 up,
+                                             float width, int px, int py)
+{
+    VS_PRECISE float sx = 2.0f * (VS_FLOAT(px) + 0.5f) / width - 1.0f;
+    VS_PRECISE float sy = 1.0f - 2.0f * (VS_FLOAT(py) + 0.5f) / forward.w;
+    pnanovdb_vec3_t d = vs_vec3_madd(vs_vec3_madd(vs_vec3(forward.x, forward.y, forward.z),
+                                                  vs_vec3(right.x, right.y, right.z), sx),
+                                     vs_vec3(up.x, up.y, up.z), sy);
+    return vs_vec3_scale(d, 1.0f / vs_sqrt(vs_vec3_dot(d, d)));
+}
+
 VS_FUNC pnanovdb_vec3_t vs_vec3_from_vec4(vs_vec4 v)
 {
     return vs_vec3(v.x, v.y, v.z);

@@ -10,8 +10,8 @@
  * and the gather pass (vs_gather.h) averages the M x M block, as in vs_render.h.
  * Approximations, written down in the README: the fog is composited in front of the
  * picture (the volume's extinction does not dim the fog, nor the fog the volume's lights),
- * and the volume does not shadow the fog. Include after vs_common.h, vs_phase.h, vs_lights.h,
- * vs_shadow.h and vs_fog.h. */
+ * and the volume does not shadow the fog. Include after vs_common.h, vs_march.h, vs_phase.h,
+ * vs_lights.h, vs_shadow.h and vs_fog.h. */
 #ifndef VS_FOGPASS_H
 #define VS_FOGPASS_H
 
@@ -25,19 +25,6 @@
 #define VS_FOGPASS_OFF_ALBEDO                                                                      \
     6 /* fog albedo rgb (the fog table's albedo is 1), 1 with a backdrop */
 #define VS_FOGPASS_SIZE 7
-
-/* The view ray's span inside the box: (enter, exit), enter >= exit when it misses. */
-VS_FUNC pnanovdb_vec3_t vs_fogpass_box_span(pnanovdb_vec3_t o, pnanovdb_vec3_t d,
-                                            pnanovdb_vec3_t lo, pnanovdb_vec3_t hi)
-{
-    float enter = vs_max(0.0f, vs_max(vs_axis_enter(o.x, d.x, lo.x, hi.x),
-                                      vs_max(vs_axis_enter(o.y, d.y, lo.y, hi.y),
-                                             vs_axis_enter(o.z, d.z, lo.z, hi.z))));
-    float exit =
-        vs_min(vs_axis_exit(o.x, d.x, lo.x, hi.x),
-               vs_min(vs_axis_exit(o.y, d.y, lo.y, hi.y), vs_axis_exit(o.z, d.z, lo.z, hi.z)));
-    return vs_vec3(enter, exit, 0.0f);
-}
 
 /* One light's in-scattering over [s0, s1] (colour and albedo applied by the caller). */
 VS_FUNC float vs_fogpass_span(VS_DATA_PARAM(vs_vec4, light_data)
@@ -60,20 +47,14 @@ VS_FUNC pnanovdb_vec3_t vs_fogpass_pixel(VS_DATA_PARAM(vs_vec4, pass_data) VS_DA
                                          int py, pnanovdb_vec3_t behind)
 {
     float width = pass_data[VS_FOGPASS_OFF_ORIGIN].w;
-    float height = pass_data[VS_FOGPASS_OFF_FORWARD].w;
-    float sx = 2.0f * (VS_FLOAT(px) + 0.5f) / width - 1.0f;
-    float sy = 1.0f - 2.0f * (VS_FLOAT(py) + 0.5f) / height;
-    pnanovdb_vec3_t ray =
-        vs_vec3_madd(vs_vec3_madd(vs_vec3_from_vec4(pass_data[VS_FOGPASS_OFF_FORWARD]),
-                                  vs_vec3_from_vec4(pass_data[VS_FOGPASS_OFF_RIGHT]), sx),
-                     vs_vec3_from_vec4(pass_data[VS_FOGPASS_OFF_UP]), sy);
-    pnanovdb_vec3_t d = vs_vec3_scale(ray, 1.0f / vs_sqrt(vs_vec3_dot(ray, ray)));
+    pnanovdb_vec3_t d =
+        vs_pinhole_direction(pass_data[VS_FOGPASS_OFF_FORWARD], pass_data[VS_FOGPASS_OFF_RIGHT],
+                             pass_data[VS_FOGPASS_OFF_UP], width, px, py);
     pnanovdb_vec3_t o = vs_vec3_from_vec4(pass_data[VS_FOGPASS_OFF_ORIGIN]);
     pnanovdb_vec3_t lo = vs_vec3_from_vec4(pass_data[VS_FOGPASS_OFF_BOX_LO]);
     pnanovdb_vec3_t hi = vs_vec3_from_vec4(pass_data[VS_FOGPASS_OFF_BOX_HI]);
-    pnanovdb_vec3_t span = vs_fogpass_box_span(o, d, lo, hi);
-    float s_enter = span.x;
-    float s_end = span.y;
+    float s_enter = vs_box_enter(o, d, lo, hi);
+    float s_end = vs_box_exit(o, d, lo, hi);
     if (pass_data[VS_FOGPASS_OFF_ALBEDO].w != 0.0f)
         s_end = vs_min(s_end, backdrop_data[py * VS_INT(width) + px].x);
     if (!(s_end > s_enter))

@@ -198,6 +198,23 @@ VS_FUNC float vs_axis_enter(float o, float d, float lo, float hi)
     return (o >= lo && o <= hi) ? -VS_T_INFINITE : VS_T_INFINITE;
 }
 
+/* Where the ray o + t d (t >= 0) enters the box [lo, hi], and where it leaves it (an exit
+ * before the entry: it misses). */
+VS_FUNC float vs_box_enter(pnanovdb_vec3_t o, pnanovdb_vec3_t d, pnanovdb_vec3_t lo,
+                           pnanovdb_vec3_t hi)
+{
+    return vs_max(0.0f, vs_max(vs_axis_enter(o.x, d.x, lo.x, hi.x),
+                               vs_max(vs_axis_enter(o.y, d.y, lo.y, hi.y),
+                                      vs_axis_enter(o.z, d.z, lo.z, hi.z))));
+}
+
+VS_FUNC float vs_box_exit(pnanovdb_vec3_t o, pnanovdb_vec3_t d, pnanovdb_vec3_t lo,
+                          pnanovdb_vec3_t hi)
+{
+    return vs_min(vs_axis_exit(o.x, d.x, lo.x, hi.x),
+                  vs_min(vs_axis_exit(o.y, d.y, lo.y, hi.y), vs_axis_exit(o.z, d.z, lo.z, hi.z)));
+}
+
 /* A march in progress along x(t) = origin + t dir, so that a caller can read the optical
  * depth at several t along one ray (a light grid's column) without marching again:
  * vs_march_begin, then vs_march_advance to increasing t, reading tau in between. */
@@ -232,12 +249,8 @@ VS_FUNC vs_march_state vs_march_begin(pnanovdb_vec3_t origin, pnanovdb_vec3_t di
     vs_march_state m;
     m.origin = origin;
     m.dir = dir;
-    m.t = vs_max(0.0f, vs_max(vs_axis_enter(origin.x, dir.x, box_lo.x, box_hi.x),
-                              vs_max(vs_axis_enter(origin.y, dir.y, box_lo.y, box_hi.y),
-                                     vs_axis_enter(origin.z, dir.z, box_lo.z, box_hi.z))));
-    m.t1 = vs_min(tmax, vs_min(vs_axis_exit(origin.x, dir.x, box_lo.x, box_hi.x),
-                               vs_min(vs_axis_exit(origin.y, dir.y, box_lo.y, box_hi.y),
-                                      vs_axis_exit(origin.z, dir.z, box_lo.z, box_hi.z))));
+    m.t = vs_box_enter(origin, dir, box_lo, box_hi);
+    m.t1 = vs_min(tmax, vs_box_exit(origin, dir, box_lo, box_hi));
     vs_accum_init(PNANOVDB_REF(m.tau));
     m.density_scale = density_scale;
     m.done = !(m.t < m.t1) || density_scale <= 0.0f ? 1 : 0;

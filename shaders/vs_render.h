@@ -1,6 +1,6 @@
 /* Deterministic ray-marched rendering (`render --mode single|baked`, later the viewer),
- * shared by C and GLSL. Include after vs_common.h, vs_march.h, vs_phase.h, vs_medium.h, vs_shadow.h,
- * vs_lights.h, vs_lightgrid.h and vs_envmap.h.
+ * shared by C and GLSL. Include after vs_common.h, vs_march.h, vs_phase.h, vs_medium.h,
+ * vs_shadow.h, vs_lights.h, vs_lightgrid.h and vs_envmap.h.
  *
  * Along a camera ray, L = integral T(0,t) sigma_s(x) S(x, wo) dt + T_total L_background,
  * with S = S1 (+ Sms in baked mode). The ray is cut into segments of step_voxels voxels
@@ -263,12 +263,8 @@ VS_FUNC vs_render_ray_info vs_render_ray_begin(VS_DATA_PARAM(vs_vec4, medium_dat
     ray.origin = origin;
     ray.dir = dir;
     ray.wo = wo;
-    ray.t0 = vs_max(0.0f, vs_max(vs_axis_enter(origin.x, dir.x, box_lo.x, box_hi.x),
-                                 vs_max(vs_axis_enter(origin.y, dir.y, box_lo.y, box_hi.y),
-                                        vs_axis_enter(origin.z, dir.z, box_lo.z, box_hi.z))));
-    float t1 = vs_min(t_surface, vs_min(vs_axis_exit(origin.x, dir.x, box_lo.x, box_hi.x),
-                                        vs_min(vs_axis_exit(origin.y, dir.y, box_lo.y, box_hi.y),
-                                               vs_axis_exit(origin.z, dir.z, box_lo.z, box_hi.z))));
+    ray.t0 = vs_box_enter(origin, dir, box_lo, box_hi);
+    float t1 = vs_min(t_surface, vs_box_exit(origin, dir, box_lo, box_hi));
     ray.span = t1 - ray.t0;
     ray.n = 0;
     ray.inv_n = 1.0f;
@@ -301,14 +297,9 @@ VS_FUNC vs_render_ray_info vs_render_camera_ray(VS_DATA_PARAM(vs_vec4, medium_da
                                                 int py)
 {
     float width = render_data[VS_RENDER_OFF_ORIGIN].w;
-    float height = render_data[VS_RENDER_OFF_FORWARD].w;
-    VS_PRECISE float sx = 2.0f * (VS_FLOAT(px) + 0.5f) / width - 1.0f;
-    VS_PRECISE float sy = 1.0f - 2.0f * (VS_FLOAT(py) + 0.5f) / height;
-    pnanovdb_vec3_t d =
-        vs_vec3_madd(vs_vec3_madd(vs_vec3_from_vec4(render_data[VS_RENDER_OFF_FORWARD]),
-                                  vs_vec3_from_vec4(render_data[VS_RENDER_OFF_RIGHT]), sx),
-                     vs_vec3_from_vec4(render_data[VS_RENDER_OFF_UP]), sy);
-    pnanovdb_vec3_t world = vs_vec3_scale(d, 1.0f / vs_sqrt(vs_vec3_dot(d, d)));
+    pnanovdb_vec3_t world =
+        vs_pinhole_direction(render_data[VS_RENDER_OFF_FORWARD], render_data[VS_RENDER_OFF_RIGHT],
+                             render_data[VS_RENDER_OFF_UP], width, px, py);
     pnanovdb_vec3_t dir = vs_medium_to_index(VS_DATA_ARG(medium_data) world);
     float t_surface = VS_T_INFINITE;
     pnanovdb_vec3_t surface_colour = vs_vec3(0.0f, 0.0f, 0.0f);

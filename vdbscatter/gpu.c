@@ -172,6 +172,12 @@ static void copy_gl_string(char *dst, size_t size, GLenum name)
 
 /* Initialises `dpy`, makes a 4.3+ core context current and fills gpu on success;
  * otherwise writes what went wrong to `why` and leaves the display as it was. */
+/* Buffers use direct state access: core in 4.5, an extension before. */
+static int has_direct_state_access(void)
+{
+    return epoxy_gl_version() >= 45 || epoxy_has_gl_extension("GL_ARB_direct_state_access");
+}
+
 /* What the current context is and can do. */
 static void read_info(vdbs_gpu_info *info)
 {
@@ -249,8 +255,7 @@ static int try_display(vdbs_gpu *gpu, EGLDisplay dpy, char *why, size_t why_size
                  egl_error_name(eglGetError()));
         goto fail;
     }
-    /* Buffers use direct state access: core in 4.5, an extension before. */
-    if (epoxy_gl_version() < 45 && !epoxy_has_gl_extension("GL_ARB_direct_state_access")) {
+    if (!has_direct_state_access()) {
         const GLubyte *version = glGetString(GL_VERSION);
         snprintf(why, why_size, "OpenGL %s has no GL_ARB_direct_state_access",
                  version ? (const char *)version : "(unknown)");
@@ -339,8 +344,7 @@ vdbs_status vdbs_gpu_create(vdbs_gpu **out, vdbs_error *err)
 vdbs_status vdbs_gpu_adopt_current(vdbs_gpu **out, vdbs_error *err)
 {
     *out = NULL;
-    if (epoxy_gl_version() < 43 ||
-        (epoxy_gl_version() < 45 && !epoxy_has_gl_extension("GL_ARB_direct_state_access")))
+    if (epoxy_gl_version() < 43 || !has_direct_state_access())
         return vdbs_error_set(err, VDBS_ERR_GPU,
                               "the current OpenGL context (version %d.%d) lacks compute shaders "
                               "or direct state access (4.3 and 4.5 needed)",

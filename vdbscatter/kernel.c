@@ -247,15 +247,15 @@ static vdbs_status runner_program_get(vdbs_runner *runner, const char *shader,
         if (!runner->programs[i].shader && slot < 0)
             slot = i;
     }
+    if (slot < 0)
+        return vdbs_error_set(err, VDBS_ERR_INTERNAL, "more than %d kernels in one runner",
+                              RUNNER_MAX_PROGRAMS);
     const vdbs_shader_source *source = vdbs_shader_find(shader);
     if (!source)
         return vdbs_error_set(err, VDBS_ERR_INTERNAL, "shader %s not embedded", shader);
     vdbs_status st = vdbs_gpu_program_create(runner->gpu, source, NULL, program, err);
-    if (st == VDBS_OK && slot >= 0)
+    if (st == VDBS_OK)
         runner->programs[slot] = (runner_program){source->name, *program};
-    else if (st == VDBS_OK) /* more kernels than slots: a fresh build each time */
-        return vdbs_error_set(err, VDBS_ERR_INTERNAL, "more than %d kernels in one runner",
-                              RUNNER_MAX_PROGRAMS);
     return st;
 }
 

@@ -59,6 +59,17 @@ static void ms_offsets(const vdbs_volume *volume, const vdbs_ms_grids *ms, uint6
     }
 }
 
+/* A pinhole camera's rows of a kernel table (vs_pinhole_direction): (forward, height),
+ * (right * tan(half fov x), 0), (up * tan(half fov y), 0). */
+static void put_pinhole(float *forward, float *right, float *up, const vdbs_camera_frame *frame)
+{
+    vdbs_table_put(forward, frame->forward[0], frame->forward[1], frame->forward[2], frame->height);
+    vdbs_table_put(right, frame->right[0] * frame->tan_half_x, frame->right[1] * frame->tan_half_x,
+                   frame->right[2] * frame->tan_half_x, 0.0);
+    vdbs_table_put(up, frame->up[0] * frame->tan_half_y, frame->up[1] * frame->tan_half_y,
+                   frame->up[2] * frame->tan_half_y, 0.0);
+}
+
 vdbs_status vdbs_render_table(const vdbs_volume *volume, const vdbs_ms_grids *ms,
                               const vdbs_camera_frame *frame, const vdbs_march_options *options,
                               float **data, size_t *entries, vdbs_error *err)
@@ -101,12 +112,8 @@ vdbs_status vdbs_render_table(const vdbs_volume *volume, const vdbs_ms_grids *ms
     double origin[3];
     vdbs_volume_index_point(volume, frame->origin, origin);
     vdbs_table_put(t + 4 * VS_RENDER_OFF_ORIGIN, origin[0], origin[1], origin[2], frame->width);
-    vdbs_table_put(t + 4 * VS_RENDER_OFF_FORWARD, frame->forward[0], frame->forward[1],
-                   frame->forward[2], frame->height);
-    vdbs_table_put(t + 4 * VS_RENDER_OFF_RIGHT, frame->right[0] * frame->tan_half_x,
-                   frame->right[1] * frame->tan_half_x, frame->right[2] * frame->tan_half_x, 0.0);
-    vdbs_table_put(t + 4 * VS_RENDER_OFF_UP, frame->up[0] * frame->tan_half_y,
-                   frame->up[1] * frame->tan_half_y, frame->up[2] * frame->tan_half_y, 0.0);
+    put_pinhole(t + 4 * VS_RENDER_OFF_FORWARD, t + 4 * VS_RENDER_OFF_RIGHT,
+                t + 4 * VS_RENDER_OFF_UP, frame);
     *data = t;
     *entries = VS_RENDER_SIZE;
     return VDBS_OK;
@@ -195,6 +202,7 @@ struct vdbs_march_session {
     float no_env[VS_ENV_OFF_TEXELS];
     uint32_t no_grids[4];
     float no_shadows[VS_SHADOW_OFF_ENTRIES]; /* count 0 */
+    float no_backdrop[4];                    /* one far "surface", for a frame without one */
     const float *shadows;                    /* the caller's (vs_shadow.h) or no_shadows */
     size_t shadow_floats;
     uint64_t id_grids, id_lights, id_light_grids, id_env, id_shadows;
@@ -253,6 +261,7 @@ vdbs_status vdbs_march_session_create(vdbs_runner *runner, const vdbs_volume *vo
         return vdbs_error_set(err, VDBS_ERR_NOMEM, "out of memory for a render session");
     s->runner = runner;
     s->volume = volume;
+    s->no_backdrop[0] = VS_T_INFINITE;
     s->ms = vdbs_ms_grids_present(ms) ? ms : NULL;
     s->options = *options;
     vdbs_status st =
@@ -386,19 +395,15 @@ static void fog_items(void *user, uint64_t begin, uint64_t end)
 }
 
 static vdbs_status fog_pass(vdbs_march_session *s, const vdbs_camera_frame *frame,
-                            const vdbs_march_options *options, vdbs_image *image, vdbs_error *err)
+                            const vdbs_march_options *options, int block, vdbs_image *image,
+                            vdbs_error *err)
 {
     const vdbs_march_fog *f = options->fog;
-    const int block = options->interleave > 1 ? options->interleave : 1;
     float pass[4 * VS_FOGPASS_SIZE];
     vdbs_table_put(pass + 4 * VS_FOGPASS_OFF_ORIGIN, frame->origin[0], frame->origin[1],
                    frame->origin[2], frame->width);
-    vdbs_table_put(pass + 4 * VS_FOGPASS_OFF_FORWARD, frame->forward[0], frame->forward[1],
-                   frame->forward[2], frame->height);
-    vdbs_table_put(pass + 4 * VS_FOGPASS_OFF_RIGHT, frame->right[0] * frame->tan_half_x,
-                   frame->right[1] * frame->tan_half_x, frame->right[2] * frame->tan_half_x, 0.0);
-    vdbs_table_put(pass + 4 * VS_FOGPASS_OFF_UP, frame->up[0] * frame->tan_half_y,
-                   frame->up[1] * frame->tan_half_y, frame->up[2] * frame->tan_half_y, 0.0);
+    put_pinhole(pass + 4 * VS_FOGPASS_OFF_FORWARD, pass + 4 * VS_FOGPASS_OFF_RIGHT,
+                pass + 4 * VS_FOGPASS_OFF_UP, frame);
     vdbs_table_put(pass + 4 * VS_FOGPASS_OFF_BOX_LO, f->box_lo[0], f->box_lo[1], f->box_lo[2],
                    f->steps > 0 ? f->steps : 64);
     vdbs_table_put(pass + 4 * VS_FOGPASS_OFF_BOX_HI, f->box_hi[0], f->box_hi[1], f->box_hi[2],
@@ -409,8 +414,7 @@ static vdbs_status fog_pass(vdbs_march_session *s, const vdbs_camera_frame *fram
     float *out = malloc(sizeof *out * 3 * (pixels ? pixels : 1));
     if (!out)
         return vdbs_error_set(err, VDBS_ERR_NOMEM, "out of memory for the fog pass");
-    const float no_backdrop[4] = {VS_T_INFINITE, 0.0f, 0.0f, 0.0f};
-    const float *backdrop = options->backdrop ? options->backdrop : no_backdrop;
+    const float *backdrop = options->backdrop ? options->backdrop : s->no_backdrop;
     fog_job job = {(const vs_vec4 *)pass,
                    (const vs_vec4 *)s->lights.packed,
                    f->fog->table,
@@ -434,7 +438,7 @@ static vdbs_status fog_pass(vdbs_march_session *s, const vdbs_camera_frame *fram
         (vdbs_kernel_input){s->shadows, sizeof(float) * s->shadow_floats, s->id_shadows};
     desc.inputs[5] = (vdbs_kernel_input){.data = backdrop,
                                          .size = options->backdrop ? 4 * sizeof(float) * pixels
-                                                                   : sizeof no_backdrop};
+                                                                   : sizeof s->no_backdrop};
     desc.inputs[6] = (vdbs_kernel_input){.data = image->rgb, .size = sizeof(float) * 3 * pixels};
     desc.output_words = 3;
     desc.output = out;
@@ -456,17 +460,15 @@ vdbs_status vdbs_march_session_draw(vdbs_march_session *s, const vdbs_camera_fra
     if (block > VDBS_MAX_INTERLEAVE)
         return vdbs_error_set(err, VDBS_ERR_INPUT, "interleave block %d beyond %d", block,
                               VDBS_MAX_INTERLEAVE);
-    const vdbs_march_options *frame_options = options;
     float *table = NULL;
     size_t entries = 0;
     const vdbs_ms_grids *ms = options->no_multiple ? NULL : s->ms;
-    if ((st = vdbs_render_table(s->volume, ms, frame, frame_options, &table, &entries, err)) !=
-        VDBS_OK)
+    if ((st = vdbs_render_table(s->volume, ms, frame, options, &table, &entries, err)) != VDBS_OK)
         return st;
     if (!s->options.s1_march)
         table[4 * VS_RENDER_OFF_MARCH + 2] = 1.0f;
     table[4 * VS_RENDER_OFF_WORLD_ORIGIN + 3] = options->backdrop ? 1.0f : 0.0f;
-    const float no_backdrop[4] = {VS_T_INFINITE, 0.0f, 0.0f, 0.0f};
+    const float *backdrop = options->backdrop ? options->backdrop : s->no_backdrop;
     const uint32_t *lgrid_words = s->options.s1_march ? s->no_grids : s->light_grids.words;
     size_t lgrid_bytes = s->options.s1_march
                              ? sizeof s->no_grids
@@ -481,7 +483,7 @@ vdbs_status vdbs_march_session_draw(vdbs_march_session *s, const vdbs_camera_fra
                      lgrid_words,
                      env,
                      s->shadows,
-                     (const vs_vec4 *)(options->backdrop ? options->backdrop : no_backdrop),
+                     (const vs_vec4 *)backdrop,
                      pnanovdb_make_buf(s->grids, s->grids_size / 4),
                      frame->width,
                      image->rgb};
@@ -501,10 +503,9 @@ vdbs_status vdbs_march_session_draw(vdbs_march_session *s, const vdbs_camera_fra
     desc.inputs[5] = (vdbs_kernel_input){env, env_bytes, s->id_env};
     desc.inputs[6] =
         (vdbs_kernel_input){s->shadows, sizeof(float) * s->shadow_floats, s->id_shadows};
-    desc.inputs[7] = options->backdrop
-                         ? (vdbs_kernel_input){.data = options->backdrop,
-                                               .size = 4 * sizeof(float) * (size_t)desc.items}
-                         : (vdbs_kernel_input){.data = no_backdrop, .size = sizeof no_backdrop};
+    desc.inputs[7] = (vdbs_kernel_input){
+        .data = backdrop,
+        .size = options->backdrop ? 4 * sizeof(float) * (size_t)desc.items : sizeof s->no_backdrop};
     desc.state_words = VS_RENDER_STATE_WORDS;
     desc.output_words = 3;
     desc.output = image->rgb;
@@ -515,7 +516,7 @@ vdbs_status vdbs_march_session_draw(vdbs_march_session *s, const vdbs_camera_fra
     double t_march = omp_get_wtime();
     st = vdbs_kernel_run(s->runner, &desc, NULL, err);
     if (st == VDBS_OK && options->fog && options->fog->fog)
-        st = fog_pass(s, frame, options, image, err);
+        st = fog_pass(s, frame, options, block, image, err);
     if (st == VDBS_OK)
         st = vdbs_render_gather(s->runner, image, block, err);
     if (options->stats)
@@ -529,10 +530,8 @@ vdbs_status vdbs_render_march(vdbs_runner *runner, const vdbs_volume *volume,
                               const vdbs_camera_frame *frame, const vdbs_march_options *options,
                               vdbs_image *image, vdbs_error *err)
 {
-    vdbs_status st = check_image(frame, image, err);
-    if (st != VDBS_OK)
-        return st;
     vdbs_march_session *session = NULL;
+    vdbs_status st;
     if ((st = vdbs_march_session_create(runner, volume, ms, scene, options, &session, err)) !=
         VDBS_OK)
         return st;
@@ -697,19 +696,28 @@ static vdbs_status render_image(const vdbs_render_desc *d, vdbs_render_mode mode
     return st;
 }
 
+/* The VDB a render reads: the desc's, else its scene's volume file. */
+static vdbs_status input_path(const vdbs_render_desc *d, const char **input, vdbs_error *err)
+{
+    *input = d->input ? d->input : d->scene->volume_file;
+    if (!*input || !(*input)[0])
+        return vdbs_error_set(err, VDBS_ERR_INPUT,
+                              "no input VDB (give IN.vdb or volume.file in --scene)");
+    return VDBS_OK;
+}
+
 vdbs_status vdbs_render_open(const vdbs_render_desc *d, vdbs_render_input *in, vdbs_error *err)
 {
     memset(in, 0, sizeof *in);
-    const char *input = d->input ? d->input : d->scene->volume_file;
-    if (!input || !input[0])
-        return vdbs_error_set(err, VDBS_ERR_INPUT,
-                              "no input VDB (give IN.vdb or volume.file in --scene)");
+    const char *input = NULL;
+    vdbs_status st = input_path(d, &input, err);
+    if (st != VDBS_OK)
+        return st;
     in->scene = malloc(sizeof *in->scene);
     if (!in->scene)
         return vdbs_error_set(err, VDBS_ERR_NOMEM, "out of memory for a scene");
     vdbio_lit *lit = NULL;
-    vdbs_status st =
-        resolve_scene(d, input, &lit, &in->mode, &in->is_lit, in->scene, in->baked_method, err);
+    st = resolve_scene(d, input, &lit, &in->mode, &in->is_lit, in->scene, in->baked_method, err);
     if (st == VDBS_OK) {
         for (int i = 0; i < in->scene->light_count; ++i)
             if (in->scene->lights[i].type == VDBS_LIGHT_SUN &&
@@ -758,11 +766,10 @@ vdbs_status vdbs_render(const vdbs_render_desc *d, vdbs_render_report *report, v
 {
     memset(report, 0, sizeof *report);
     double t_start = vdbs_now();
-    const char *input = d->input ? d->input : d->scene->volume_file;
-    if (!input || !input[0])
-        return vdbs_error_set(err, VDBS_ERR_INPUT,
-                              "no input VDB (give IN.vdb or volume.file in --scene)");
-    vdbs_status st = vdbio_check_output(d->output, input, err);
+    const char *input = NULL;
+    vdbs_status st = input_path(d, &input, err);
+    if (st == VDBS_OK)
+        st = vdbio_check_output(d->output, input, err);
     if (st != VDBS_OK)
         return st;
     vdbs_render_input in;

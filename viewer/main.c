@@ -185,8 +185,7 @@ typedef struct viewer {
     double scene_lo[3], scene_hi[3]; /* what the sun maps cover */
     float *backdrop;
     vdbs_fog fog;
-    int with_fog;
-    vdbs_march_fog march_fog;
+    vdbs_march_fog march_fog; /* march_fog.fog is NULL without a fog */
 } viewer;
 
 /* The session's new lighting to the shadow-map consumers: the render kernel (through the
@@ -239,17 +238,10 @@ static vdbs_status draw_frame(viewer *v, int moving, vdbs_error *err)
     vdbs_march_options o = frame_options(v, moving);
     double t0 = now();
     if (st == VDBS_OK && v->occluders.count > 0) {
-        view_surface_fog surface_fog = {0};
-        if (v->with_fog) {
-            surface_fog.fog = &v->fog;
-            memcpy(surface_fog.lo, v->march_fog.box_lo, sizeof surface_fog.lo);
-            memcpy(surface_fog.hi, v->march_fog.box_hi, sizeof surface_fog.hi);
-            memcpy(surface_fog.albedo, v->march_fog.albedo, sizeof surface_fog.albedo);
-        }
-        st = view_occluders_backdrop(&v->occluders, &frame, &surface_fog, v->backdrop, err);
+        st = view_occluders_backdrop(&v->occluders, &frame, v->backdrop, err);
         o.backdrop = v->backdrop;
     }
-    if (v->with_fog)
+    if (v->march_fog.fog)
         o.fog = &v->march_fog;
     if (st == VDBS_OK)
         st = vdbs_march_session_draw(v->session, &frame, &o, &v->image, err);
@@ -570,7 +562,6 @@ static vdbs_status open_occluders_and_fog(viewer *v, vdbs_error *err)
         fd.g = scene->fog.g;
         if ((st = vdbs_fog_build(&fd, &v->fog, err)) != VDBS_OK)
             return st;
-        v->with_fog = 1;
         v->march_fog.fog = &v->fog;
         v->march_fog.steps = FOG_STEPS;
         for (int a = 0; a < 3; ++a) {
@@ -579,6 +570,7 @@ static vdbs_status open_occluders_and_fog(viewer *v, vdbs_error *err)
             v->march_fog.albedo[a] = scene->fog.albedo[a];
         }
     }
+    view_occluders_set_fog(&v->occluders, &v->march_fog);
     if (v->occluders.count > 0) {
         v->backdrop =
             malloc(sizeof *v->backdrop * 4 * (size_t)v->size.width * (size_t)v->size.height);
@@ -720,7 +712,7 @@ static vdbs_status run_screenshot(viewer *v, GLFWwindow *window, const view_args
                "\"interleave\": %d, \"occluders\": %d, \"fog\": %d}\n",
                v->image.width, v->image.height, a->warmup, first_ms, mean_ms,
                vdbs_runner_backend_name(v->runner), vdbs_runner_device(v->runner),
-               v->interleave_on ? v->interleave : 1, v->occluders.count, v->with_fog);
+               v->interleave_on ? v->interleave : 1, v->occluders.count, v->march_fog.fog != NULL);
     } else if (st == VDBS_OK && !a->quiet) {
         fprintf(stderr, PROGRAM ": %dx%d in %.1f ms a frame (first %.1f ms) on %s -> %s\n",
                 v->image.width, v->image.height, mean_ms, first_ms, vdbs_runner_device(v->runner),

@@ -365,9 +365,17 @@ void view_occluders_set_lighting(view_occluders *o, const vdbs_march_tables *tab
     memcpy(o->world_to_index, world_to_index, sizeof o->world_to_index);
 }
 
-vdbs_status view_occluders_backdrop(view_occluders *o, const vdbs_camera_frame *frame,
-                                    const view_surface_fog *fog, float *backdrop, vdbs_error *err)
+void view_occluders_set_fog(view_occluders *o, const vdbs_march_fog *fog)
 {
+    o->fog = fog && fog->fog ? fog : NULL;
+    if (o->count > 0 && o->fog)
+        upload(o->ssbo_fog, fog->fog->table, sizeof *fog->fog->table * fog->fog->table_floats);
+}
+
+vdbs_status view_occluders_backdrop(view_occluders *o, const vdbs_camera_frame *frame,
+                                    float *backdrop, vdbs_error *err)
+{
+    const vdbs_march_fog *fog = o->fog;
     const float clear[4] = {VDBS_NO_SURFACE, 0, 0, 0};
     vdbs_status st = target_begin(o, frame->width, frame->height, 1, clear, err);
     if (st != VDBS_OK)
@@ -385,7 +393,7 @@ vdbs_status view_occluders_backdrop(view_occluders *o, const vdbs_camera_frame *
     uniform3(p, "forward", frame->forward);
     glUniform1f(glGetUniformLocation(p, "near"), 1e-3f);
     glUniform1f(glGetUniformLocation(p, "far"), 1e5f);
-    glUniform1i(glGetUniformLocation(p, "with_fog"), fog && fog->fog ? 1 : 0);
+    glUniform1i(glGetUniformLocation(p, "with_fog"), fog ? 1 : 0);
     glUniform1i(glGetUniformLocation(p, "with_light_grids"), o->with_light_grids);
     float rows[12];
     for (int r = 0; r < 3; ++r)
@@ -398,11 +406,10 @@ vdbs_status view_occluders_backdrop(view_occluders *o, const vdbs_camera_frame *
     glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 3, o->ssbo_shadows);
     glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 5,
                      o->with_light_grids ? o->ssbo_light_grids : o->ssbo_dummy);
-    if (fog && fog->fog) {
-        upload(o->ssbo_fog, fog->fog->table, sizeof *fog->fog->table * fog->fog->table_floats);
+    if (fog) {
         glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 4, o->ssbo_fog);
-        uniform3(p, "fog_lo", fog->lo);
-        uniform3(p, "fog_hi", fog->hi);
+        uniform3(p, "fog_lo", fog->box_lo);
+        uniform3(p, "fog_hi", fog->box_hi);
         uniform3(p, "fog_albedo", fog->albedo);
     } else {
         glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 4, o->ssbo_dummy);

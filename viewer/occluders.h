@@ -27,6 +27,7 @@ typedef struct view_occluders {
     unsigned ssbo_lights, ssbo_shadows, ssbo_fog, ssbo_dummy, ssbo_medium, ssbo_light_grids;
     int with_light_grids;
     double world_to_index[3][4];
+    const vdbs_march_fog *fog; /* the caller's, or NULL */
 } view_occluders;
 
 /* Needs a current GL 4.5 context. focus: where the planes' quads are centred; extent: the
@@ -41,12 +42,9 @@ vdbs_status view_occluders_shadow_maps(view_occluders *o, const vdbs_scene *scen
                                        const double lo[3], const double hi[3], int res,
                                        vdbs_shadow_table *table, vdbs_error *err);
 
-/* The fog the surfaces see (NULL: none). */
-typedef struct view_surface_fog {
-    const vdbs_fog *fog;
-    double lo[3], hi[3];
-    double albedo[3];
-} view_surface_fog;
+/* The fog the surfaces see, kept (it must outlive o) and its table uploaded once; NULL or
+ * a fog without tables: none. */
+void view_occluders_set_fog(view_occluders *o, const vdbs_march_fog *fog);
 
 /* What the surfaces are lit through, uploaded once per light position: the session's light
  * table, medium and light grids (the volume's shadow on the surfaces) and the occluders'
@@ -58,6 +56,6 @@ void view_occluders_set_lighting(view_occluders *o, const vdbs_march_tables *tab
 /* The backdrop of the picture of `frame`: 4 floats per pixel (distance, radiance rgb), row
  * 0 on top, VDBS_NO_SURFACE where no occluder is seen. */
 vdbs_status view_occluders_backdrop(view_occluders *o, const vdbs_camera_frame *frame,
-                                    const view_surface_fog *fog, float *backdrop, vdbs_error *err);
+                                    float *backdrop, vdbs_error *err);
 
 #endif
