@@ -1,4 +1,5 @@
 /* vdbscatter info FILE.vdb: what a VDB holds and how thick it is optically. */
+#include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -7,30 +8,40 @@
 
 #include "commands.h"
 #include "options.h"
+#include "vdbscatter/advice.h"
 #include "vdbscatter/gpu.h"
 #include "vdbscatter/scene.h"
 #include "vdbscatter/vdbio.h"
 #include "vdbscatter/volume.h"
 
 static const char help[] =
-    "usage: vdbscatter info [FILE.vdb] [--density-scale S] [--grid NAME[@INDEX]] [--json] [--gpu]\n"
+    "usage: vdbscatter info [FILE.vdb] [--density-scale S] [--target-depth TAU]\n"
+    "                       [--grid NAME[@INDEX]] [--json] [--gpu]\n"
     "\n"
-    "Lists every grid of FILE (type, class, voxel size, active bounding box, active\n"
-    "voxels and tiles, value range, background) and the optical thickness of the\n"
-    "density grid for the given density scale (default 1): the largest per-voxel depth\n"
-    "and the depth of straight rays through the volume along each index axis.\n"
+    "Lists every grid of FILE (type, class, voxel size, active bounding box in index and\n"
+    "world space, active voxels and tiles, value range, background) and the optical\n"
+    "thickness of the density grid for the given density scale (default 1): the largest\n"
+    "per-voxel depth and the depth of straight rays through the volume along each index\n"
+    "axis, with their mean.\n"
     "\n"
     "options:\n"
     "  --density-scale S   sigma_t = density * S\n"
+    "  --target-depth TAU  also print the density scale that gives a mean optical depth\n"
+    "                      TAU through the volume (what --density-scale auto:TAU uses;\n"
+    "                      clouds look like clouds at about 5-20)\n"
     "  --grid NAME[@I]     which grid the optical thickness is computed for\n"
     "  --from-levelset     treat a level set as a fog volume for the thickness\n"
     "  --gpu               report the OpenGL device found through EGL (FILE optional)\n"
     "  --json              print JSON on stdout\n";
 
 static const cli_option options[] = {
-    {"--density-scale", CLI_VALUE}, {"--grid", CLI_VALUE},
-    {"--json", CLI_FLAG},           {"--gpu", CLI_FLAG},
-    {"--from-levelset", CLI_FLAG},  {NULL, CLI_FLAG},
+    {"--density-scale", CLI_VALUE},
+    {"--grid", CLI_VALUE},
+    {"--json", CLI_FLAG},
+    {"--gpu", CLI_FLAG},
+    {"--from-levelset", CLI_FLAG},
+    {"--target-depth", CLI_VALUE},
+    {NULL, CLI_FLAG},
 };
 
 static cJSON *ints3(const int v[3])
@@ -64,6 +75,27 @@ static cJSON *gpu_json(int *ok, char *message, size_t size)
     return j;
 }
 
+/* The world axis-aligned bounds of a grid's active voxels (their faces, half a voxel
+ * beyond the centres of the index box). */
+static void world_box(const vdbio_grid_summary *g, double lo[3], double hi[3])
+{
+    for (int a = 0; a < 3; ++a) {
+        lo[a] = HUGE_VAL;
+        hi[a] = -HUGE_VAL;
+    }
+    for (int c = 0; c < 8; ++c) {
+        double idx[3];
+        for (int a = 0; a < 3; ++a)
+            idx[a] = (c >> a) & 1 ? g->bbox_max[a] + 0.5 : g->bbox_min[a] - 0.5;
+        for (int r = 0; r < 3; ++r) {
+            const double *m = g->transform.m[r];
+            double w = m[0] * idx[0] + m[1] * idx[1] + m[2] * idx[2] + m[3];
+            lo[r] = fmin(lo[r], w);
+            hi[r] = fmax(hi[r], w);
+        }
+    }
+}
+
 int cmd_info(int argc, char **argv)
 {
     cli_args args;
@@ -85,6 +117,11 @@ int cmd_info(int argc, char **argv)
         return cli_fail("info", st, err.message);
     if (scale < 0.0)
         return cli_fail("info", 2, "--density-scale must be >= 0");
+    double target = 0.0;
+    if ((v = cli_value(&args, "--target-depth")) &&
+        ((st = cli_number("--target-depth", v, &target, &err)) != VDBS_OK || !(target > 0.0)))
+        return cli_fail("info", 2,
+                        st != VDBS_OK ? err.message : "--target-depth: expected a depth > 0");
     vdbs_scene scene;
     vdbs_scene_init(&scene);
     if ((v = cli_value(&args, "--grid")) && (st = vdbs_scene_set_grid(&scene, v, &err)) != VDBS_OK)
@@ -123,6 +160,12 @@ int cmd_info(int argc, char **argv)
             cJSON_AddItemToObject(o, "voxel_size", cJSON_CreateDoubleArray(g->voxel_size, 3));
             cJSON_AddItemToObject(o, "bbox_min", ints3(g->bbox_min));
             cJSON_AddItemToObject(o, "bbox_max", ints3(g->bbox_max));
+            if (g->active_voxels > 0 && g->is_affine) {
+                double lo[3], hi[3];
+                world_box(g, lo, hi);
+                cJSON_AddItemToObject(o, "world_min", cJSON_CreateDoubleArray(lo, 3));
+                cJSON_AddItemToObject(o, "world_max", cJSON_CreateDoubleArray(hi, 3));
+            }
             cJSON_AddNumberToObject(o, "active_voxels", (double)g->active_voxels);
             cJSON_AddNumberToObject(o, "active_tiles", (double)g->active_tiles);
             cJSON_AddNumberToObject(o, "background", g->background);
@@ -147,6 +190,13 @@ int cmd_info(int argc, char **argv)
             cJSON_AddNumberToObject(optics, "voxel_max", t.voxel_max);
             cJSON_AddItemToObject(optics, "axis_mean", cJSON_CreateDoubleArray(t.axis_mean, 3));
             cJSON_AddItemToObject(optics, "axis_max", cJSON_CreateDoubleArray(t.axis_max, 3));
+            double mean1 = vdbs_volume_mean_depth(&volume);
+            cJSON_AddNumberToObject(optics, "mean", mean1 * scale);
+            if (target > 0.0) {
+                cJSON_AddNumberToObject(optics, "target_depth", target);
+                if (mean1 > 0.0)
+                    cJSON_AddNumberToObject(optics, "density_scale_for_target", target / mean1);
+            }
             vdbs_volume_free(&volume);
         } else {
             cJSON_AddStringToObject(optics, "unavailable", err.message);
@@ -195,6 +245,16 @@ int cmd_info(int argc, char **argv)
                            cJSON_GetObjectItem(g, "background")->valuedouble);
                 else
                     printf("               empty\n");
+                const cJSON *wlo = cJSON_GetObjectItem(g, "world_min");
+                const cJSON *whi = cJSON_GetObjectItem(g, "world_max");
+                if (wlo && whi)
+                    printf("               world bbox [%.6g,%.6g,%.6g]->[%.6g,%.6g,%.6g]\n",
+                           cJSON_GetArrayItem(wlo, 0)->valuedouble,
+                           cJSON_GetArrayItem(wlo, 1)->valuedouble,
+                           cJSON_GetArrayItem(wlo, 2)->valuedouble,
+                           cJSON_GetArrayItem(whi, 0)->valuedouble,
+                           cJSON_GetArrayItem(whi, 1)->valuedouble,
+                           cJSON_GetArrayItem(whi, 2)->valuedouble);
             }
             const cJSON *o = cJSON_GetObjectItem(root, "optical_thickness");
             const cJSON *na = cJSON_GetObjectItem(o, "unavailable");
@@ -215,6 +275,16 @@ int cmd_info(int argc, char **argv)
                        cJSON_GetArrayItem(max, 0)->valuedouble,
                        cJSON_GetArrayItem(max, 1)->valuedouble,
                        cJSON_GetArrayItem(max, 2)->valuedouble);
+                printf("  mean through the volume %.4g\n",
+                       cJSON_GetObjectItem(o, "mean")->valuedouble);
+                const cJSON *fit = cJSON_GetObjectItem(o, "density_scale_for_target");
+                if (fit)
+                    printf("density scale for a mean optical depth of %g: %.6g "
+                           "(--density-scale auto:%g)\n",
+                           target, fit->valuedouble, target);
+                else if (target > 0.0)
+                    printf("density scale for a mean optical depth of %g: none (no density)\n",
+                           target);
             }
         }
     }

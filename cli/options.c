@@ -5,6 +5,7 @@
 
 #include <cjson/cJSON.h>
 
+#include <ctype.h>
 #include <errno.h>
 #include <math.h>
 #include <stdio.h>
@@ -12,6 +13,7 @@
 #include <string.h>
 
 #include "vdbscatter/render.h"
+#include "vdbscatter/suggest.h"
 
 static const cli_option *find_option(const cli_option *options, const char *name, size_t len)
 {
@@ -19,6 +21,24 @@ static const cli_option *find_option(const cli_option *options, const char *name
         if (strlen(o->name) == len && strncmp(o->name, name, len) == 0)
             return o;
     return NULL;
+}
+
+/* "unknown option '--densty-scale' (did you mean --density-scale?)". */
+static vdbs_status unknown_option(const cli_option *options, const char *arg, size_t len,
+                                  vdbs_error *err)
+{
+    const char *names[CLI_MAX_OPTIONS + 1];
+    int n = 0;
+    for (const cli_option *o = options; o->name && n < CLI_MAX_OPTIONS; ++o)
+        names[n++] = o->name;
+    names[n] = NULL;
+    char word[128];
+    snprintf(word, sizeof word, "%.*s", (int)(len < sizeof word ? len : sizeof word - 1), arg);
+    const char *near = vdbs_suggest(word, names);
+    if (near)
+        return vdbs_error_set(err, VDBS_ERR_INPUT, "unknown option '%s' (did you mean %s?)", word,
+                              near);
+    return vdbs_error_set(err, VDBS_ERR_INPUT, "unknown option '%s' (see --help)", word);
 }
 
 vdbs_status cli_parse(int argc, char **argv, const cli_option *options, cli_args *out,
@@ -41,7 +61,7 @@ vdbs_status cli_parse(int argc, char **argv, const cli_option *options, cli_args
         size_t len = eq ? (size_t)(eq - a) : strlen(a);
         const cli_option *o = find_option(options, a, len);
         if (!o)
-            return vdbs_error_set(err, VDBS_ERR_INPUT, "unknown option '%.*s'", (int)len, a);
+            return unknown_option(options, a, len, err);
         if (out->count == CLI_MAX_ARGS)
             return vdbs_error_set(err, VDBS_ERR_INPUT, "too many options");
         cli_arg *arg = &out->args[out->count++];
@@ -201,8 +221,7 @@ vdbs_status cli_build_scene(const cli_args *args, vdbs_scene *scene, int allow_n
         if (strcmp(name, "--grid") == 0) {
             st = vdbs_scene_set_grid(scene, v, err);
         } else if (strcmp(name, "--density-scale") == 0) {
-            st = cli_number(name, v, &x, err);
-            scene->density_scale = x;
+            st = vdbs_scene_set_density_scale(scene, name, v, err);
         } else if (strcmp(name, "--albedo") == 0) {
             st = cli_triple(name, v, 1, scene->albedo, err);
         } else if (strcmp(name, "--g") == 0) {
@@ -266,12 +285,10 @@ vdbs_status cli_build_scene(const cli_args *args, vdbs_scene *scene, int allow_n
             st = vdbs_scene_set_fld_l1(scene, v, err);
         } else if (strcmp(name, "--fld-p1") == 0) {
             st = vdbs_scene_set_fld_p1(scene, v, err);
-        } else if (strcmp(name, "--method") == 0 || strcmp(name, "--quality") == 0) {
-            char *dst = name[2] == 'm' ? scene->method : scene->quality;
-            if (strlen(v) >= sizeof scene->method)
-                return vdbs_error_set(err, VDBS_ERR_INPUT, "%s: unknown value '%s'", name, v);
-            strcpy(dst, v);
-            st = VDBS_OK;
+        } else if (strcmp(name, "--method") == 0) {
+            st = vdbs_scene_set_method(scene, name, v, err);
+        } else if (strcmp(name, "--quality") == 0) {
+            st = vdbs_scene_set_quality(scene, name, v, err);
         } else if (strcmp(name, "--sun") == 0 || strcmp(name, "--point") == 0 ||
                    strcmp(name, "--env") == 0) {
             if (!lights_replaced) {
@@ -305,9 +322,7 @@ vdbs_status cli_build_scene(const cli_args *args, vdbs_scene *scene, int allow_n
         if (st != VDBS_OK)
             return st;
     }
-    if (scene->light_count == 0 && allow_no_lights)
-        return VDBS_OK;
-    return vdbs_scene_validate(scene, err);
+    return vdbs_scene_validate_opt(scene, allow_no_lights, err);
 }
 
 vdbs_status cli_scene_occluders(const char *command, const cli_args *args, const vdbs_scene *scene,
@@ -465,4 +480,15 @@ unsigned cli_scene_flags(const cli_args *args)
     if (cli_value(args, "--scene"))
         set |= VDBS_SCENE_FROM_FILE;
     return set;
+}
+
+int cli_has_extension(const char *path, const char *ext)
+{
+    size_t n = strlen(path), e = strlen(ext);
+    if (n <= e)
+        return 0;
+    for (size_t i = 0; i < e; ++i)
+        if (tolower((unsigned char)path[n - e + i]) != tolower((unsigned char)ext[i]))
+            return 0;
+    return path[n - e - 1] != '/';
 }

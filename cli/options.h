@@ -28,6 +28,7 @@ typedef struct cli_arg {
 } cli_arg;
 
 #define CLI_MAX_ARGS 256
+#define CLI_MAX_OPTIONS 128 /* entries of one command's option table */
 
 typedef struct cli_args {
     cli_arg args[CLI_MAX_ARGS];
@@ -66,6 +67,9 @@ vdbs_status cli_camera(const char *text, vdbs_camera *camera, vdbs_error *err);
  * lights. Validates the result (at least one light unless allow_no_lights). */
 vdbs_status cli_build_scene(const cli_args *args, vdbs_scene *scene, int allow_no_lights,
                             vdbs_error *err);
+
+/* 1 when path ends in ext (case-insensitive) after a non-empty file name. */
+int cli_has_extension(const char *path, const char *ext);
 
 /* --size WxH, integers in [1, 16384]. */
 vdbs_status cli_size(const char *text, int *width, int *height, vdbs_error *err);

@@ -423,6 +423,7 @@ static void test_baked_single_bake_equals_single(void **state)
     scene.lights[1].color[1] = 0.3;
     scene.lights[1].color[2] = 0.5;
     strcpy(scene.quality, "low");
+    strcpy(scene.method, "single");
     assert_int_equal(vdbs_scene_validate(&scene, &err), VDBS_OK);
 
     const char *input = VDBS_TEST_SAMPLES_DIR "/cloud.vdb";

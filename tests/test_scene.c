@@ -8,6 +8,7 @@
 #include <string.h>
 
 #include "vdbscatter/scene.h"
+#include "vdbscatter/suggest.h"
 #include "vdbscatter/solver.h"
 
 /* The DESIGN.md sketch, extended with every light type and every optional key. */
@@ -103,8 +104,10 @@ static void test_defaults_and_scalars(void **state)
     assert_true(s->density_scale == 1.0);
     assert_vec3(s->albedo, 0.5, 0.5, 0.5);
     assert_true(s->g == 0.0);
-    assert_string_equal(s->method, "single");
-    assert_string_equal(s->quality, "medium");
+    /* The measured best error for the time on general volumes. */
+    assert_string_equal(s->method, "svd");
+    assert_string_equal(s->quality, "low");
+    assert_true(s->density_target_depth == 0.0);
     assert_string_equal(s->volume_file, "");
     assert_string_equal(s->grid, "");
     assert_int_equal(s->light_count, 0);
@@ -620,7 +623,7 @@ static void test_round_trip(void **state)
     s->camera.fov_deg = 35.000000000000007;
     s->camera.width = 1;
     s->camera.height = 16384;
-    snprintf(s->method, sizeof s->method, "%s", "inet");
+    snprintf(s->method, sizeof s->method, "%s", "fld");
     snprintf(s->quality, sizeof s->quality, "%s", "ultra");
     round_trip(s);
 
@@ -717,6 +720,61 @@ static void test_grid_spec(void **state)
                      VDBS_OK);
     assert_string_equal(s->grid, "density");
     assert_int_equal(s->grid_index, 2);
+    free(s);
+}
+
+/* Typos get the nearest valid word; far-off words get none; lists name every valid key. */
+static void test_suggestions(void **state)
+{
+    (void)state;
+    static const char *const flags[] = {"--density-scale", "--albedo", "--g", "--sun", NULL};
+    assert_string_equal(vdbs_suggest("--densty-scale", flags), "--density-scale");
+    assert_string_equal(vdbs_suggest("--albdeo", flags), "--albedo");
+    assert_string_equal(vdbs_suggest("--dens", flags), "--density-scale");
+    assert_null(vdbs_suggest("--camera", flags));
+    assert_null(vdbs_suggest("", flags));
+
+    vdbs_scene *s = new_scene();
+    vdbs_error err = {{0}};
+    assert_int_equal(vdbs_scene_parse("{\"volume\": {\"densty_scale\": 3}}", NULL, s, &err),
+                     VDBS_ERR_INPUT);
+    assert_non_null(strstr(err.message, "did you mean \"density_scale\"?"));
+    assert_non_null(strstr(err.message, "file, grid, density_scale, albedo, g"));
+    assert_int_equal(vdbs_scene_parse("{\"solver\": {\"method\": \"fdl\"}}", NULL, s, &err),
+                     VDBS_ERR_INPUT);
+    assert_non_null(strstr(err.message, "solver.method"));
+    assert_non_null(strstr(err.message, "did you mean \"fld\"?"));
+    assert_null(strstr(err.message, "inet"));
+    /* A flag's error names the flag, not a key path. */
+    assert_int_equal(vdbs_scene_set_quality(s, "--quality", "hihg", &err), VDBS_ERR_INPUT);
+    assert_string_equal(err.message, "--quality: unknown quality \"hihg\" (did you mean "
+                                     "\"high\"?) (expected one of: low, medium, high, ultra)");
+    assert_string_equal(s->quality, "low");
+    free(s);
+}
+
+/* "auto:TAU" in a scene file and through the setter; refused forms leave the scene as it was. */
+static void test_density_auto(void **state)
+{
+    (void)state;
+    vdbs_scene *s = new_scene();
+    vdbs_error err = {{0}};
+    assert_int_equal(
+        vdbs_scene_parse("{\"volume\": {\"density_scale\": \"auto:12.5\"}}", NULL, s, &err),
+        VDBS_OK);
+    assert_true(s->density_target_depth == 12.5);
+    char *json = vdbs_scene_to_json(s);
+    assert_non_null(strstr(json, "\"density_scale\":\"auto:12.5\""));
+    free(json);
+    assert_int_equal(vdbs_scene_set_density_scale(s, "--density-scale", "7", &err), VDBS_OK);
+    assert_true(s->density_scale == 7.0 && s->density_target_depth == 0.0);
+    const char *bad[] = {"auto:", "auto:0", "auto:-1", "auto:x", "-1", "nan", "auto:inf", ""};
+    for (size_t i = 0; i < sizeof bad / sizeof bad[0]; ++i) {
+        assert_int_equal(vdbs_scene_set_density_scale(s, "--density-scale", bad[i], &err),
+                         VDBS_ERR_INPUT);
+        assert_non_null(strstr(err.message, "--density-scale"));
+        assert_true(s->density_scale == 7.0 && s->density_target_depth == 0.0);
+    }
     free(s);
 }
 
@@ -975,6 +1033,7 @@ int main(void)
         cmocka_unit_test(test_parse_errors),      cmocka_unit_test(test_validate_errors),
         cmocka_unit_test(test_round_trip),        cmocka_unit_test(test_grid_spec),
         cmocka_unit_test(test_quality),           cmocka_unit_test(test_env_paths),
+        cmocka_unit_test(test_suggestions),       cmocka_unit_test(test_density_auto),
         cmocka_unit_test(test_occluders_and_fog),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);

@@ -1,5 +1,7 @@
 #include "vdbscatter/bake.h"
 
+#include "vdbscatter/advice.h"
+
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -192,6 +194,26 @@ vdbs_status vdbs_bake(const vdbs_bake_options *o, vdbs_bake_report *report, vdbs
     st = vdbs_volume_load(input, &read, &volume, err);
     if (st != VDBS_OK)
         return st;
+    /* From here on the scene as resolved against the volume (auto density scale). */
+    vdbs_scene *resolved = malloc(sizeof *resolved);
+    if (!resolved) {
+        vdbs_volume_free(&volume);
+        return vdbs_error_set(err, VDBS_ERR_NOMEM, "out of memory for a scene");
+    }
+    *resolved = *o->scene;
+    scene = resolved;
+    if ((st = vdbs_scene_fit_density(resolved, &volume, err)) != VDBS_OK ||
+        (scene->light_count == 0 &&
+         (st = vdbs_error_set(err, VDBS_ERR_INPUT, "%s", VDBS_NO_LIGHT_MESSAGE)) != VDBS_OK)) {
+        free(resolved);
+        vdbs_volume_free(&volume);
+        return st;
+    }
+    report->density_scale = scene->density_scale;
+    vdbs_scene_advise(scene, &volume, solver->writes_ms, o->warn, o->warn_user, &report->advice);
+    vdbs_bake_options resolved_options = *o;
+    resolved_options.scene = scene;
+    o = &resolved_options;
     vdbs_svd_moments warm = {0}, keep = {0};
     vdbio_vec3_grid *grids = NULL;
     char(*names)[16] = NULL;
@@ -200,6 +222,7 @@ vdbs_status vdbs_bake(const vdbs_bake_options *o, vdbs_bake_report *report, vdbs
                                                     scene->g, err)) != VDBS_OK)) {
         vdbs_svd_moments_free(&warm);
         vdbs_volume_free(&volume);
+        free(resolved);
         return st;
     }
     report->seconds_load = vdbs_now() - t_start;
@@ -314,5 +337,6 @@ done:
     free(outputs.radiance_view);
     free(radiance);
     vdbs_volume_free(&volume);
+    free(resolved);
     return st;
 }

@@ -1,5 +1,7 @@
 #include "vdbscatter/render.h"
 
+#include "vdbscatter/advice.h"
+
 #include <math.h>
 #include <omp.h>
 #include <stdio.h>
@@ -558,8 +560,10 @@ static void warn(const vdbs_render_desc *d, const char *message)
 /* The scene of a lit VDB: its baked scene with the caller's explicit settings on top. */
 static void apply_overrides(unsigned set, const vdbs_scene *given, vdbs_scene *scene)
 {
-    if (set & VDBS_SCENE_SET_DENSITY_SCALE)
+    if (set & VDBS_SCENE_SET_DENSITY_SCALE) {
         scene->density_scale = given->density_scale;
+        scene->density_target_depth = given->density_target_depth;
+    }
     if (set & VDBS_SCENE_SET_ALBEDO)
         memcpy(scene->albedo, given->albedo, sizeof scene->albedo);
     if (set & VDBS_SCENE_SET_G)
@@ -620,10 +624,8 @@ static vdbs_status resolve_scene(const vdbs_render_desc *d, const char *input, v
             vdbs_scene_copy_lights(scene, baked);
     }
     free(baked);
-    if (scene->light_count == 0)
-        return vdbs_error_set(err, VDBS_ERR_INPUT,
-                              "no lights: give --sun, --point or --env (or a --scene)");
-    return vdbs_scene_validate(scene, err);
+    /* No light is reported after the density grid is found (vdbs_render_open). */
+    return vdbs_scene_validate_opt(scene, 1, err);
 }
 
 /* Camera: the caller's, else the scene's, else a view of the whole volume. */
@@ -742,6 +744,11 @@ vdbs_status vdbs_render_open(const vdbs_render_desc *d, vdbs_render_input *in, v
         read.warn = d->warn;
         read.warn_user = d->warn_user;
         st = vdbs_volume_load(input, &read, &in->volume, err);
+        if (st == VDBS_OK)
+            st = vdbs_scene_fit_density(in->scene, &in->volume, err);
+        if (st == VDBS_OK && in->scene->light_count == 0)
+            st = vdbs_error_set(err, VDBS_ERR_INPUT,
+                                "no lights: give --sun, --point or --env (or a --scene)");
         if (st == VDBS_OK && in->mode == VDBS_RENDER_BAKED)
             st = vdbs_ms_grids_load(lit, in->volume.index_to_world, &in->ms, err);
     }

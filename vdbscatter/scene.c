@@ -3,6 +3,7 @@
 #include "vdbscatter/scene.h"
 
 #include "vdbscatter/solver.h"
+#include "vdbscatter/suggest.h"
 
 #include <cjson/cJSON.h>
 
@@ -19,7 +20,6 @@
 #define PATH_LEN 160
 #define SCENE_FILE_MAX (64L * 1024 * 1024)
 
-static const char *const method_names[] = {"single", "pop", "fld", "svd", "inet", NULL};
 
 typedef struct parse_ctx {
     const char *prefix; /* "scene" or "scene FILE" */
@@ -101,8 +101,15 @@ static vdbs_status check_keys(const parse_ctx *ctx, const cJSON *obj, const char
                               const char *const *allowed, const char *hint)
 {
     for (const cJSON *c = obj->child; c; c = c->next) {
-        if (!in_list(c->string, allowed))
-            return fail(ctx, path, "unknown key \"%s\"%s", c->string, hint ? hint : "");
+        if (!in_list(c->string, allowed)) {
+            char mean[96], names[320];
+            vdbs_suggest_hint(c->string, allowed, mean, sizeof mean);
+            vdbs_join_names(allowed, names, sizeof names);
+            if (hint)
+                return fail(ctx, path, "unknown key \"%s\"%s%s", c->string, mean, hint);
+            return fail(ctx, path, "unknown key \"%s\"%s (valid keys: %s)", c->string, mean,
+                        names);
+        }
         for (const cJSON *d = obj->child; d != c; d = d->next)
             if (strcmp(d->string, c->string) == 0)
                 return fail(ctx, path, "duplicate key \"%s\"", c->string);
@@ -311,6 +318,68 @@ vdbs_status vdbs_scene_set_grid(vdbs_scene *scene, const char *spec, vdbs_error 
     return VDBS_OK;
 }
 
+/* A name from a fixed list into dst, or an error naming `what` (a flag or a key path) with
+ * the nearest valid name and the whole list. */
+static vdbs_status set_name(const char *what, const char *kind, const char *const *names,
+                            const char *value, char *dst, size_t size, vdbs_error *err)
+{
+    if (value && in_list(value, names) && strlen(value) < size) {
+        snprintf(dst, size, "%s", value);
+        return VDBS_OK;
+    }
+    char mean[96], list[256];
+    vdbs_suggest_hint(value ? value : "", names, mean, sizeof mean);
+    vdbs_join_names(names, list, sizeof list);
+    return vdbs_error_set(err, VDBS_ERR_INPUT, "%s: unknown %s \"%s\"%s (expected one of: %s)",
+                          what, kind, value ? value : "", mean, list);
+}
+
+/* The implemented solvers' names, from the solver table (the one list of methods). */
+static void method_names(const char *names[VDBS_METHOD_COUNT + 1])
+{
+    int count = 0;
+    const vdbs_solver *solvers = vdbs_solver_list(&count);
+    for (int m = 0; m < count && m < VDBS_METHOD_COUNT; ++m)
+        names[m] = solvers[m].name;
+    names[count < VDBS_METHOD_COUNT ? count : VDBS_METHOD_COUNT] = NULL;
+}
+
+static const char *const quality_names[] = {"low", "medium", "high", "ultra", NULL};
+
+vdbs_status vdbs_scene_set_method(vdbs_scene *scene, const char *what, const char *name,
+                                  vdbs_error *err)
+{
+    const char *names[VDBS_METHOD_COUNT + 1];
+    method_names(names);
+    return set_name(what, "method", names, name, scene->method, sizeof scene->method, err);
+}
+
+vdbs_status vdbs_scene_set_quality(vdbs_scene *scene, const char *what, const char *name,
+                                   vdbs_error *err)
+{
+    return set_name(what, "quality", quality_names, name, scene->quality, sizeof scene->quality,
+                    err);
+}
+
+vdbs_status vdbs_scene_set_density_scale(vdbs_scene *scene, const char *what, const char *text,
+                                         vdbs_error *err)
+{
+    int is_auto = text && strncmp(text, "auto:", 5) == 0;
+    const char *num = is_auto ? text + 5 : text;
+    char *end = NULL;
+    errno = 0;
+    double v = num ? strtod(num, &end) : NAN;
+    if (!num || end == num || *end != '\0' || errno == ERANGE || !isfinite(v) ||
+        (is_auto ? !(v > 0.0) : !(v >= 0.0)))
+        return vdbs_error_set(err, VDBS_ERR_INPUT,
+                              "%s: expected a number >= 0 or auto:TAU with TAU > 0 (the mean "
+                              "optical depth through the volume), got '%s'",
+                              what, text ? text : "");
+    scene->density_scale = is_auto ? scene->density_scale : v;
+    scene->density_target_depth = is_auto ? v : 0.0;
+    return VDBS_OK;
+}
+
 /* One of two named choices of a flag: *out = 0 for names[0], 1 for names[1]. */
 static vdbs_status set_choice(const char *flag, const char *const names[2], const char *name,
                               int *out, vdbs_error *err)
@@ -374,8 +443,8 @@ void vdbs_scene_init(vdbs_scene *scene)
     scene->camera.fov_deg = 35.0;
     scene->camera.width = 640;
     scene->camera.height = 480;
-    snprintf(scene->method, sizeof scene->method, "%s", "single");
-    snprintf(scene->quality, sizeof scene->quality, "%s", "medium");
+    snprintf(scene->method, sizeof scene->method, "%s", "svd");
+    snprintf(scene->quality, sizeof scene->quality, "%s", "low");
 }
 
 /* ---- path pools (env maps, OBJ files) ---- */
@@ -495,6 +564,17 @@ void vdbs_scene_clear_lights(vdbs_scene *scene)
     memset(scene->env_paths, 0, sizeof scene->env_paths);
 }
 
+/* volume.density_scale: a number, or the string "auto:TAU". */
+static vdbs_status get_density_scale(const parse_ctx *ctx, const cJSON *vol, vdbs_scene *s)
+{
+    const cJSON *item = cJSON_GetObjectItemCaseSensitive(vol, "density_scale");
+    if (!cJSON_IsString(item))
+        return get_number(ctx, vol, "volume", "density_scale", &s->density_scale);
+    char what[PATH_LEN];
+    fmt_path(what, "%s: volume.density_scale", ctx->prefix);
+    return vdbs_scene_set_density_scale(s, what, item->valuestring, ctx->err);
+}
+
 static vdbs_status parse_volume(const parse_ctx *ctx, const cJSON *vol, vdbs_scene *s)
 {
     static const char *const keys[] = {"file", "grid", "density_scale", "albedo", "g", NULL};
@@ -504,7 +584,7 @@ static vdbs_status parse_volume(const parse_ctx *ctx, const cJSON *vol, vdbs_sce
     if ((st = expect_object(ctx, vol, "volume")) != VDBS_OK ||
         (st = check_keys(ctx, vol, "volume", keys, NULL)) != VDBS_OK ||
         (st = get_path(ctx, vol, "volume", "file", s->volume_file, &found)) != VDBS_OK ||
-        (st = get_number(ctx, vol, "volume", "density_scale", &s->density_scale)) != VDBS_OK ||
+        (st = get_density_scale(ctx, vol, s)) != VDBS_OK ||
         (st = get_vec3(ctx, vol, "volume", "albedo", true, s->albedo)) != VDBS_OK ||
         (st = get_number(ctx, vol, "volume", "g", &s->g)) != VDBS_OK ||
         (st = get_string(ctx, vol, "volume", "grid", grid, sizeof grid, &found)) != VDBS_OK)
@@ -651,19 +731,20 @@ static vdbs_status parse_solver(const parse_ctx *ctx, const cJSON *sol, vdbs_sce
     vdbs_status st;
     bool found = false;
     if ((st = expect_object(ctx, sol, "solver")) != VDBS_OK ||
-        (st = check_keys(ctx, sol, "solver", keys, NULL)) != VDBS_OK ||
-        (st = get_string(ctx, sol, "solver", "method", s->method, sizeof s->method, &found)) !=
-            VDBS_OK)
+        (st = check_keys(ctx, sol, "solver", keys, NULL)) != VDBS_OK)
         return st;
-    if (found && !in_list(s->method, method_names))
-        return fail(ctx, "solver.method",
-                    "unknown method \"%s\" (expected single, pop, fld, svd or inet)", s->method);
-    if ((st = get_string(ctx, sol, "solver", "quality", s->quality, sizeof s->quality, &found)) !=
-        VDBS_OK)
+    char name[sizeof s->method];
+    char what[PATH_LEN];
+    if ((st = get_string(ctx, sol, "solver", "method", name, sizeof name, &found)) != VDBS_OK)
         return st;
-    if (found && !vdbs_quality_find(s->quality))
-        return fail(ctx, "solver.quality",
-                    "unknown quality \"%s\" (expected low, medium, high or ultra)", s->quality);
+    fmt_path(what, "%s: solver.method", ctx->prefix);
+    if (found && (st = vdbs_scene_set_method(s, what, name, ctx->err)) != VDBS_OK)
+        return st;
+    if ((st = get_string(ctx, sol, "solver", "quality", name, sizeof name, &found)) != VDBS_OK)
+        return st;
+    fmt_path(what, "%s: solver.quality", ctx->prefix);
+    if (found && (st = vdbs_scene_set_quality(s, what, name, ctx->err)) != VDBS_OK)
+        return st;
     if ((st = get_int_in(ctx, sol, "solver", "sky_directions", 1, VDBS_MAX_SKY_DIRECTIONS,
                          &s->sky_directions)) != VDBS_OK ||
         (st = get_int_in(ctx, sol, "solver", "pop_res", 2, VDBS_MAX_POP_RESOLUTION,
@@ -1191,8 +1272,15 @@ char *vdbs_scene_to_json(const vdbs_scene *s)
             snprintf(spec, sizeof spec, "%s", s->grid);
         ok = add_string(vol, "grid", spec);
     }
-    ok = ok && add_number(vol, "density_scale", s->density_scale) &&
-         add_vec3(vol, "albedo", s->albedo) && add_number(vol, "g", s->g);
+    if (ok && s->density_target_depth > 0.0) {
+        char spec[64], num[48];
+        format_double(s->density_target_depth, num, sizeof num);
+        snprintf(spec, sizeof spec, "auto:%s", num);
+        ok = add_string(vol, "density_scale", spec);
+    } else {
+        ok = ok && add_number(vol, "density_scale", s->density_scale);
+    }
+    ok = ok && add_vec3(vol, "albedo", s->albedo) && add_number(vol, "g", s->g);
 
     ok = ok && (lights = cJSON_AddArrayToObject(root, "lights")) != NULL;
     for (int i = 0; ok && i < s->light_count && i < VDBS_MAX_LIGHTS; ++i)
@@ -1463,6 +1551,11 @@ static vdbs_status validate_camera(const parse_ctx *ctx, const vdbs_camera *c)
 
 vdbs_status vdbs_scene_validate(vdbs_scene *s, vdbs_error *err)
 {
+    return vdbs_scene_validate_opt(s, 0, err);
+}
+
+vdbs_status vdbs_scene_validate_opt(vdbs_scene *s, int lights_optional, vdbs_error *err)
+{
     parse_ctx ctx = {"scene", NULL, err};
     vdbs_status st;
 
@@ -1477,22 +1570,22 @@ vdbs_status vdbs_scene_validate(vdbs_scene *s, vdbs_error *err)
         return fail(&ctx, "volume.g", "must be in [-0.999, 0.999], got %g", s->g);
     if (s->grid_index < 0)
         return fail(&ctx, "volume.grid", "negative grid index %d", s->grid_index);
+    char method[sizeof s->method], quality[sizeof s->quality];
+    memcpy(method, s->method, sizeof method);
+    memcpy(quality, s->quality, sizeof quality);
+    if ((st = vdbs_scene_set_method(s, "scene: solver.method", method, err)) != VDBS_OK ||
+        (st = vdbs_scene_set_quality(s, "scene: solver.quality", quality, err)) != VDBS_OK)
+        return st;
     if (s->light_count < 0 || s->light_count > VDBS_MAX_LIGHTS)
         return fail(&ctx, "lights", "%d lights, at most %d are supported", s->light_count,
                     VDBS_MAX_LIGHTS);
-    if (s->light_count == 0)
-        return fail(&ctx, "lights", "no light at all (add a sun, point or env light)");
+    if (s->light_count == 0 && !lights_optional)
+        return fail(&ctx, "lights", "%s", VDBS_NO_LIGHT_MESSAGE);
     for (int i = 0; i < s->light_count; ++i)
         if ((st = validate_light(&ctx, s, i, &s->lights[i])) != VDBS_OK)
             return st;
     if (s->camera.present && (st = validate_camera(&ctx, &s->camera)) != VDBS_OK)
         return st;
-    if (!in_list(s->method, method_names))
-        return fail(&ctx, "solver.method",
-                    "unknown method \"%s\" (expected single, pop, fld, svd or inet)", s->method);
-    if (!vdbs_quality_find(s->quality))
-        return fail(&ctx, "solver.quality",
-                    "unknown quality \"%s\" (expected low, medium, high or ultra)", s->quality);
     if (!(s->svd_residual >= 0.0 && s->svd_residual < 1.0))
         return fail(&ctx, "solver.svd_residual", "must be in [0, 1) (0: the quality's), got %g",
                     s->svd_residual);

@@ -2,6 +2,7 @@
 #ifndef VDBSCATTER_BAKE_H
 #define VDBSCATTER_BAKE_H
 
+#include "vdbscatter/advice.h"
 #include "vdbscatter/kernel.h"
 #include "vdbscatter/lightgrid.h"
 #include "vdbscatter/fld.h"
@@ -18,7 +19,7 @@ extern "C" {
 typedef struct vdbs_bake_options {
     const char *input;       /* density VDB; scene->volume_file when NULL */
     const char *output;      /* lit VDB */
-    const vdbs_scene *scene; /* validated */
+    const vdbs_scene *scene; /* validated (lights may be none: an input error) */
     vdbs_backend backend;
     int s1_march;      /* single scattering by the exact march per voxel and light instead of
                           light grids (lightgrid.h; the default) */
@@ -54,6 +55,8 @@ typedef struct vdbs_bake_report {
     double seconds_write;
     double seconds_total;
     float radiance_max[3]; /* per channel, over output voxels */
+    double density_scale;  /* as used: auto:TAU resolved against the volume */
+    vdbs_advice advice;    /* mean optical depth, estimated multiple/single ratio */
 } vdbs_bake_report;
 
 vdbs_status vdbs_bake(const vdbs_bake_options *options, vdbs_bake_report *report, vdbs_error *err);

@@ -112,6 +112,9 @@ typedef struct vdbs_scene {
     char grid[256];                  /* "" = default choice */
     int grid_index;                  /* from "NAME@INDEX" */
     double density_scale;
+    /* > 0: --density-scale auto:TAU / "density_scale": "auto:TAU": the bake or render sets
+     * density_scale from the volume so that its mean optical depth is TAU (then this is 0). */
+    double density_target_depth;
     double albedo[3];
     double g;
     vdbs_light lights[VDBS_MAX_LIGHTS];
@@ -120,7 +123,7 @@ typedef struct vdbs_scene {
      * ends the list); copy lights between scenes with vdbs_scene_copy_lights. */
     char env_paths[VDBS_ENV_PATHS_MAX];
     vdbs_camera camera;
-    char method[32];    /* "single", later "pop", "svd", "inet" */
+    char method[32];    /* a solver table name: "svd" (the default), "fld", "pop", "single" */
     char quality[32];   /* "low", "medium", "high", "ultra" */
     int sky_directions; /* sky ordinates K (solver.sky_directions, --sky-directions); 0: the
                            quality's 16 / 64 / 256 / 1024 */
@@ -154,7 +157,8 @@ typedef struct vdbs_scene {
 } vdbs_scene;
 
 /* Defaults follow Blender Cycles' Principled Volume: density 1, albedo 0.5, g 0;
- * method "single", quality "medium", no lights, no camera. */
+ * method "svd", quality "low" (the measured best error for the time on general volumes:
+ * docs/methods/README.md), no lights, no camera. */
 void vdbs_scene_init(vdbs_scene *scene);
 
 /* Parses scene JSON. Relative paths are resolved against base_dir (may be NULL).
@@ -195,10 +199,27 @@ char *vdbs_scene_to_json(const vdbs_scene *scene);
  * light whose env_map is not a path of this scene (a light copied from another scene
  * without its paths) is a VDBS_ERR_INTERNAL error. */
 vdbs_status vdbs_scene_validate(vdbs_scene *scene, vdbs_error *err);
+/* The same, with no light allowed when lights_optional (a command that checks its input
+ * files first and reports a missing light after them, or renders a lit VDB's own). */
+vdbs_status vdbs_scene_validate_opt(vdbs_scene *scene, int lights_optional, vdbs_error *err);
+#define VDBS_NO_LIGHT_MESSAGE "no light at all (add a sun, point or env light)"
+
+/* Parses a density scale: a number >= 0, or "auto:TAU" (TAU > 0, a mean optical depth)
+ * into scene->density_target_depth. Errors name `what`. */
+vdbs_status vdbs_scene_set_density_scale(vdbs_scene *scene, const char *what, const char *text,
+                                         vdbs_error *err);
 
 /* Parses "NAME" or "NAME@INDEX" (split at the last '@'; INDEX decimal digits) into
  * scene->grid / scene->grid_index. A bad spec leaves the scene unchanged. */
 vdbs_status vdbs_scene_set_grid(vdbs_scene *scene, const char *spec, vdbs_error *err);
+
+/* --method / solver.method and --quality / solver.quality: a name the solver table (or the
+ * quality ladder) knows, else VDBS_ERR_INPUT naming `what` (the flag or the key path), the
+ * nearest valid name and the list. A bad name leaves the scene unchanged. */
+vdbs_status vdbs_scene_set_method(vdbs_scene *scene, const char *what, const char *name,
+                                  vdbs_error *err);
+vdbs_status vdbs_scene_set_quality(vdbs_scene *scene, const char *what, const char *name,
+                                   vdbs_error *err);
 
 /* Parses a POP anisotropy decay law, "mean-cosine" or "paper", into scene->pop_decay_paper
  * (VDBS_ERR_INPUT naming --pop-decay otherwise; err may be NULL). */
