@@ -25,7 +25,7 @@ def run(*args):
 
 
 class PopAgainstReference(unittest.TestCase):
-    """The issue's check scene for POP: the cloud sample at density 25, albedo 0.99, g 0.85, one
+    """The POP check scene: the cloud sample at density 25, albedo 0.99, g 0.85, one
     sun straight down. A bake at --quality high (the defaults: 4 cells across, chord tally) rendered in baked
     mode against a converged reference of all orders: image relative RMSE at most 0.6 and below
     the single-scattering bake's (bench/pop.md at 96x72; the reference's own
@@ -58,7 +58,7 @@ class PopAgainstReference(unittest.TestCase):
             if method == "pop":
                 self.assertEqual(report["pop"]["resolution"], 4)
                 self.assertEqual(report["pop"]["tally"], "chord")
-        print(f"POP high on the issue scene: relative RMSE {errors['pop']:.3f}, single "
+        print(f"POP high on the check scene: relative RMSE {errors['pop']:.3f}, single "
               f"{errors['single']:.3f}")
         self.assertLessEqual(errors["pop"], 0.6)
         self.assertLess(errors["pop"], errors["single"])
