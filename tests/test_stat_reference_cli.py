@@ -1,6 +1,6 @@
 #!/usr/bin/python3
 """The Monte-Carlo reference against the deterministic solvers (POP, FLD and the discrete
-ordinates at their issues' bars) and the single-scattering march, through
+ordinates at their acceptance bars) and the single-scattering march, through
 the command line as a user runs them: with --max-bounces 1 the two must agree within the
 reference's own noise (z statistics over all pixels, not per-pixel thresholds), and the
 sky's K-direction quadrature converges as K rises. Seeds are fixed, so runs repeat."""
@@ -65,7 +65,7 @@ class PopAgainstReference(unittest.TestCase):
 
 
 class FldAgainstReference(unittest.TestCase):
-    """Issue 10's bars for flux-limited diffusion at --quality high, rendered in baked mode
+    """The acceptance bars for flux-limited diffusion at --quality high, rendered in baked mode
     against a converged reference of all orders (64x48, 4096 spp, fixed seed: se_b about 0.015
     and 0.005, so the reference's noise cannot decide the outcome): the cloud sample at density
     25, albedo 0.99, g 0.85 under a sun and a constant sky at most 0.30 relative RMSE, the
@@ -108,7 +108,7 @@ class FldAgainstReference(unittest.TestCase):
 
 
 class SvdAgainstReference(unittest.TestCase):
-    """Issue 12's bar for discrete ordinates: the cloud sample's own scene (density 20, albedo
+    """The acceptance bar for discrete ordinates: the cloud sample's own scene (density 20, albedo
     0.99, g 0.85, a sun and a constant sky) baked at --quality high with svd, pop and fld,
     rendered in baked mode against a converged reference of all orders (96x54, 8192 spp, fixed
     seed): svd at most 0.2 relative RMSE and below both others. The reference's noise, se_b
