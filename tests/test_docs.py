@@ -154,16 +154,27 @@ class Pages(unittest.TestCase):
                                   f"document: {line.strip()}")
 
     def test_relative_links_resolve(self):
+        """Every relative link names an existing file, and its #anchor a heading there
+        (GitHub's slugs: lower case, punctuation dropped, spaces to hyphens)."""
         link = re.compile(r"\]\(([^)\s]+)\)")
+
+        def anchors(path):
+            if not path.endswith(".md"):
+                return set()
+            return {re.sub(r"[^\w\- ]", "", line.lstrip("#").strip().lower()).replace(" ", "-")
+                    for line in read(path).splitlines() if line.startswith("#")}
+
         for page in self.pages():
             for target in link.findall(read(page)):
-                if re.match(r"^[a-z]+:", target) or target.startswith("#"):
+                if re.match(r"^[a-z]+:", target):
                     continue
-                path = os.path.normpath(os.path.join(os.path.dirname(page),
-                                                     target.split("#", 1)[0]))
-                self.assertTrue(os.path.exists(path),
-                                f"{os.path.relpath(page, ROOT)} links to missing {target}")
-
+                file, _, anchor = target.partition("#")
+                path = os.path.normpath(os.path.join(os.path.dirname(page), file)) if file \
+                    else page
+                where = os.path.relpath(page, ROOT)
+                self.assertTrue(os.path.exists(path), f"{where} links to missing {target}")
+                if anchor:
+                    self.assertIn(anchor, anchors(path), f"{where}: no heading for {target}")
 
 if __name__ == "__main__":
     unittest.main(verbosity=2)
