@@ -104,7 +104,8 @@ class ReadmeCommands(unittest.TestCase):
                 for out in outputs:
                     if not os.path.isfile(os.path.join(work, out)):
                         failures.append(f"no {out} written: {line}")
-            self.assertFalse(failures, "README commands failed:\n" + "\n".join(failures))
+            if failures:
+                self.fail("README commands failed:\n" + "\n".join(failures))
         finally:
             shutil.rmtree(work, ignore_errors=True)
 
