@@ -1,5 +1,5 @@
 #!/usr/bin/python3
-"""Environment maps (issue 8): bake time against the number of sky directions K for the Disney
+"""Environment maps: bake time against the number of sky directions K for the Disney
 cloud lit by the test sky (light-grid S1, C path), and the Monte-Carlo reference's time to 5%
 image standard error on the cloud sample lit by the test sky, with next-event estimation
 toward the map (MIS with HG sampling) and with HG sampling alone. Side by side in one run.

@@ -1,5 +1,5 @@
 #!/usr/bin/python3
-"""FLD (issue 10): image error against the Monte-Carlo reference on the sphere and cloud samples
+"""FLD: image error against the Monte-Carlo reference on the sphere and cloud samples
 (albedo 0.99, a sun and a constant sky; g = 0, 0.5, 0.85: bench_pop.py's scenes), beside the
 single-scattering bake and POP at its defaults: FLD at its defaults with its grid at the
 voxels / 2x / 4x coarser (--fld-res), and at the voxels without the first-moment source

@@ -1,6 +1,6 @@
 #!/usr/bin/python3
 """The discrete HG phase matrix's factorisation error against the number of terms (the paper's
-Fig. 3; issue 12): `vdbscatter phase-svd --json` for g = 0.3, 0.5, 0.7, 0.9 (and 0.85) on D
+Fig. 3): `vdbscatter phase-svd --json` for g = 0.3, 0.5, 0.7, 0.9 (and 0.85) on D
 directions, with and without delta-M. Writes a Markdown table (the error at a few N, and the
 smallest N under 5%) and a plot of error against N.
 

@@ -1,7 +1,7 @@
 #!/usr/bin/python3
-"""POP (issue 9): image error against the Monte-Carlo reference per --pop-res (and per quality),
+"""POP: image error against the Monte-Carlo reference per --pop-res (and per quality),
 side by side with the single-scattering bake, on the sphere and cloud samples (albedo 0.99, a
-sun and a constant sky) for g = 0, 0.5, 0.85, and on the issue's check scene (the cloud sample,
+sun and a constant sky) for g = 0, 0.5, 0.85, and on the POP check scene (the cloud sample,
 density 25, albedo 0.99, g 0.85, one sun straight down). C path. Writes a Markdown table and a
 PNG plot of error against cells across.
 

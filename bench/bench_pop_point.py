@@ -1,5 +1,5 @@
 #!/usr/bin/python3
-"""POP part 2 (issue 11): point lights and the camera's importance, side by side in one run.
+"""POP part 2: point lights and the camera's importance, side by side in one run.
 
 A. A point light inside the smoke sample (0,-0.5,0, intensity 2; density 10, albedo 0.99,
    g 0.3): per quality, the bake's solve seconds and POP's stages on the C path and on the

@@ -1,5 +1,5 @@
-/* POP's radial grids against the Monte-Carlo probe: the paper's Fig. 10 case (shared/papers/
- * pop.md Sec. 6), a point light of intensity 1 at the centre of a homogeneous sphere of optical
+/* POP's radial grids against the Monte-Carlo probe: the paper's Fig. 10 case (Elek et al. 2014,
+ * Sec. 6), a point light of intensity 1 at the centre of a homogeneous sphere of optical
  * radius 2.5 (sigma_s R), albedo 1, g 0 and 0.8. The bundled `sphere` sample (radius 0.8) with
  * density scale 3.125 is the paper's sphere (radius 2.5, sigma_s 1) scaled by 0.32: every
  * optical length is the paper's, and ms scales by 1 / 0.32^2, so the ratios are the paper's.

@@ -1,5 +1,5 @@
 #!/usr/bin/python3
-"""POP (issue 9) speed, side by side in one run on the C path:
+"""POP speed, side by side in one run on the C path:
 A. the cloud sample scene (samples/cloud.json: a sun and a constant sky) per quality: bake
    time, baked render time and image error against a converged reference, beside the time
    the reference itself needs to reach the same error (spp doubled from 1);

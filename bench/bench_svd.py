@@ -6,7 +6,7 @@
   resolution rise, with iterations, time per iteration, time to convergence and
   cell-direction updates per second (C path);
 - bar: the cloud sample at --quality high, svd against pop and fld on the same scene and
-  reference (the issue's assertion: svd <= 0.2 and below both; the script exits 1 if not);
+  reference (the acceptance bar: svd <= 0.2 and below both; the script exits 1 if not);
 - split: POP's error on the cloud beside its difference from svd (N = D) on the same grid
   resolution and lights: the part of POP's error that is its method's bias and the part that
   is the grid's;

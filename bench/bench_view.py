@@ -1,5 +1,5 @@
 #!/usr/bin/python3
-"""vdbscatter-view frame times (issue 13), side by side in one run: the viewer's frame (mean of
+"""vdbscatter-view frame times, side by side in one run: the viewer's frame (mean of
 the frames after the first, which uploads) at 640x480 without and with interleaved sampling
 (M = 2, 3, 4), against `render --mode baked` of the same picture (its light grids built once
 per call, as the viewer builds them once per light position), with each frame's relative RMSE

@@ -2,7 +2,7 @@
  * shared by C and GLSL. Include after vs_common.h and vs_phase.h. The table is a float array
  * (an SSBO `fog_data` in GLSL) written by vdbscatter/fog.c.
  *
- * Conventions (DESIGN.md): HG of the cosine between propagation directions; a view ray is
+ * Conventions (docs/design.md): HG of the cosine between propagation directions; a view ray is
  * x(s) = o + s d (d unit, s the distance from the camera); light arriving at the camera
  * travels along wo = -d. For a point light S, with t = (S - o).d, h the distance from S to
  * the ray's line and s - t = h tan(alpha) (Biri's change of variable), the light at x(s)

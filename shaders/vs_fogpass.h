@@ -8,7 +8,7 @@
  * difference), a partly lit step (the maps' filtered edge) counts its lit fraction. With
  * interleaved sampling each pixel's steps start at its own phase (k + 0.5) / M^2 of a step,
  * and the gather pass (vs_gather.h) averages the M x M block, as in vs_render.h.
- * Approximations, written down in the README: the fog is composited in front of the
+ * Approximations, written down in docs/viewer.md: the fog is composited in front of the
  * picture (the volume's extinction does not dim the fog, nor the fog the volume's lights),
  * and the volume does not shadow the fog. Include after vs_common.h, vs_march.h, vs_phase.h,
  * vs_lights.h, vs_shadow.h and vs_fog.h. */

@@ -1,4 +1,4 @@
-/* Light grids (DESIGN.md "Light grids"), shared by C and GLSL: the packed layout of a set
+/* Light grids (docs/design.md "Light grids"), shared by C and GLSL: the packed layout of a set
  * of grids, the sweep of one column and the optical-depth lookup. Include after
  * vs_common.h and vs_medium.h (and vs_march.h for the sweep). Written by vdbscatter/lightgrid.c.
  *

@@ -8,7 +8,7 @@
  *   direct[i]   VS_LIGHT_STRIDE entries per sun or point light, i < direct count
  *   ordinate[k] VS_ORDINATE_STRIDE entries per sky ordinate, k < ordinate count
  *
- * Directions follow DESIGN.md: a sun's `world` is its unit direction of travel; an
+ * Directions follow docs/design.md: a sun's `world` is its unit direction of travel; an
  * ordinate's `world` points towards the sky it sees. `index` fields are what marches use:
  * the index-space image of a unit world step towards the light (suns, ordinates) or the
  * light's index-space position (points). Colours are as given (irradiance W/m^2 for a

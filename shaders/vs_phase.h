@@ -1,4 +1,4 @@
-/* Henyey-Greenstein phase function, shared by C and GLSL (DESIGN.md "Physical
+/* Henyey-Greenstein phase function, shared by C and GLSL (docs/design.md "Physical
  * conventions"). Include after vs_common.h.
  *
  * p(mu) = (1-g^2) / (4 pi (1+g^2-2 g mu)^1.5), evaluated in the cancellation-free form
@@ -80,7 +80,7 @@ VS_FUNC pnanovdb_vec3_t vs_hg_sample(float g, float u)
  * coefficients are g^l, so convolving two HG phases multiplies them, giving HG(a g). Its
  * direction average is L / 4pi and its linear term 3 L a g d / 4pi (the first moment of
  * f_hg(., b) is b d), which is how a lobe maps onto the lit VDB's ms and ms_l1
- * (DESIGN.md "The lit VDB"). Returns the anisotropy of the scattered lobe. */
+ * (docs/design.md "The output grids"). Returns the anisotropy of the scattered lobe. */
 VS_FUNC float vs_hg_lobe_scatter(float a, float g)
 {
     return a * g;
@@ -117,7 +117,7 @@ VS_FUNC double vs_hg_eval_d(double g, double one_minus_mu)
 #endif
 
 /* Sms toward wo for one colour channel from ms and its first-moment vector l1 (the
- * reconstruction of DESIGN.md, the render's and the radiance_view grid's):
+ * reconstruction of docs/lit-vdb.md, the render's and the radiance_view grid's):
  * n = l1/|l1|, b = min(|l1| / (3 ms), 0.999), Sms = 4 pi ms f_hg(wo.n, b); 0 where ms <= 0,
  * ms itself (isotropic) where l1 = 0. |l1| is computed on the largest component's scale
  * so that it neither overflows nor underflows. */

@@ -1,4 +1,4 @@
-/* Principal-Ordinates Propagation (Elek et al., shared/papers/pop.md Secs. 4.2-4.3), shared by
+/* Principal-Ordinates Propagation (Elek et al. 2014, Secs. 4.2-4.3), shared by
  * C and GLSL: the parameter layout of one propagation grid and the gather that moves every
  * cell's light one cell in one iteration. Include after vs_common.h. Host side:
  * vdbscatter/pop.c.
@@ -7,7 +7,7 @@
  * direction d (a sun's or sky ordinate's travel; any axis for the isotropic residuum). Cell
  * (i, j, k) is item (k n1 + j) n0 + i. Its state is a lobe per colour channel, L(w) =
  * L f_hg(w . d, a), plus what it has accumulated (the Neumann series sum_m L^m of L and of
- * L a, which map onto ms and ms_l1 exactly: DESIGN.md "The lit VDB"). The medium is one
+ * L a, which map onto ms and ms_l1 exactly: docs/design.md "The output grids"). The medium is one
  * sigma_t per cell (box-filtered, vdbscatter/medium.h) times the scene's RGB albedo.
  *
  * One iteration (Eqs. 2-6): each of the six neighbours src sends the part of its lobe that

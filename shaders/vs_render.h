@@ -10,7 +10,7 @@
  * exact march of the trilinear density (vs_march.h). S1 is exact for suns and point
  * lights (marched transmittance times HG) and a fixed K-direction quadrature for the
  * constant sky; Sms is reconstructed from trilinear samples of the lit VDB's ms and
- * ms_l1x/y/z grids (DESIGN.md "The lit VDB").
+ * ms_l1x/y/z grids (docs/lit-vdb.md).
  *
  * The work of a ray is a sequence of units, each exactly one march (the camera segment, or
  * the transmittance toward one light or sky direction from the segment's midpoint), kept

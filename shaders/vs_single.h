@@ -3,7 +3,7 @@
  *
  * Output: the direction average of S1 at a voxel centre, (1/4pi) times the fluence of the
  * unscattered light: sum over suns E T, over points I T / r^2, over sky ordinates
- * L_k w_k T_k, with T the marched transmittance to the light (DESIGN.md: a collimated beam
+ * L_k w_k T_k, with T the marched transmittance to the light (docs/design.md: a collimated beam
  * of irradiance E attenuated to T has fluence E T, and the HG phase integrates to 1).
  *
  * The work of a voxel is one unit per light: the direct lights in table order, then the

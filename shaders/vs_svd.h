@@ -1,4 +1,4 @@
-/* Discrete ordinates with a factored phase (Gong et al., shared/papers/svd-phase.md; issue 12),
+/* Discrete ordinates with a factored phase (Gong and Ren, docs/methods/svd.md),
  * shared by C and GLSL: the parameter, table and state layouts of one transport sweep and the
  * sweep of one cell. Include after vs_common.h and vs_phase.h. Host side: vdbscatter/svd.c.
  *

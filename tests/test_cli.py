@@ -486,7 +486,7 @@ class RadianceView(Base):
 
     def test_pop_adds_the_reconstructed_ms(self):
         """POP on the cloud (sun + sky, g 0.85): radiance_view minus the single-only bake's is
-        the DESIGN.md reconstruction 4 pi ms HG(wo . n, b) of the ms grids, per channel, to
+        the docs/lit-vdb.md reconstruction 4 pi ms HG(wo . n, b) of the ms grids, per channel, to
         float rounding; with g 0 it equals radiance (isotropic: no moment, HG = 1/4pi)."""
         src = os.path.join(SAMPLES, "cloud.vdb")
         for g in [0.85, 0.0]:

@@ -66,7 +66,7 @@ static void normalize3(double v[3])
 }
 
 /* The ray through pixel (x, y) of a 60-degree (vertical) pinhole camera at eye looking at
- * target, up +Y (DESIGN.md's camera: right = forward x up, row 0 at the top). */
+ * target, up +Y (docs/design.md's camera: right = forward x up, row 0 at the top). */
 static void pinhole_ray(const double eye[3], const double target[3], int x, int y, double d[3])
 {
     double f[3] = {target[0] - eye[0], target[1] - eye[1], target[2] - eye[2]};

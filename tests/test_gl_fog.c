@@ -1,7 +1,7 @@
 /* The homogeneous-fog kernels (shaders/vs_fog.h) in GLSL against their C twin: the same
  * header text on the same float inputs (shaders/test_fog.comp), point spans, sun spans and
  * the surface term on a few hundred random rays, g = 0.6. Agreement 1e-5 relative wherever
- * |v| >= 1e-30 (DESIGN.md), or 1e-5 of the largest point span for the point spans (their
+ * |v| >= 1e-30 (docs/design.md), or 1e-5 of the largest point span for the point spans (their
  * closed form subtracts two transmittance-weighted tails, so a short span keeps the absolute,
  * not the relative, rounding of llvmpipe's exp and atan). */
 #include "testutil.h"

@@ -417,7 +417,7 @@ static void test_agreement_rotated(void **state)
     vdbs_volume_free(&volume);
 }
 
-/* Extremes (DESIGN.md): optical thickness 1e-5 to 1e5 per unit, lights of 1e-6 and 1e6, a
+/* Extremes (docs/design.md): optical thickness 1e-5 to 1e5 per unit, lights of 1e-6 and 1e6, a
  * one-voxel grid, an empty grid and density scale 0: finite, non-negative, linear in the
  * lights, never above the unattenuated light, a point light inside and outside. */
 static void test_extremes(void **state)

@@ -1,4 +1,4 @@
-/* Scene files: parsing of the DESIGN.md shape, path resolution, every error class with
+/* Scene files: parsing of the docs/design.md shape, path resolution, every error class with
  * its key path, validation ranges, and the to_json round trip. */
 #include "testutil.h"
 
@@ -11,7 +11,7 @@
 #include "vdbscatter/suggest.h"
 #include "vdbscatter/solver.h"
 
-/* The DESIGN.md sketch, extended with every light type and every optional key. */
+/* The docs/design.md example, extended with every light type and every optional key. */
 static const char *const sketch =
     "{ \"volume\": {\"file\": \"cloud.vdb\", \"grid\": \"density\", \"density_scale\": 20.0,\n"
     "              \"albedo\": [0.99, 0.99, 0.99], \"g\": 0.85},\n"

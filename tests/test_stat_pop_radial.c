@@ -6,7 +6,7 @@
  *
  * POP is biased here and the test asserts the bias as measured, not agreement: the expected
  * ratios POP / probe are bench/pop_radial.md's (16 M photons, relative se <= 0.7%). The
- * lattice's false scattering (pop.c, README "POP part 2") puts too much light towards the rim.
+ * lattice's false scattering (pop.c, docs/methods/pop.md) puts too much light towards the rim.
  * Criterion: |POP / probe - measured| <= 0.05 + 4 (se_test + se_bench) POP / probe, the 0.05 an
  * allowance for the bench's rounding and for float differences between machines. */
 #include "testutil.h"

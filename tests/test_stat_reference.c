@@ -4,7 +4,7 @@
  * scattering of a point light against quadrature; energy conservation in a closed sphere;
  * noise falling as 1/sqrt(spp); bit-identical images whatever the thread count; rounds
  * under a time limit; HG sampling against its CDF; finite, non-negative results at the
- * numerical extremes of DESIGN.md. */
+ * numerical extremes of docs/design.md. */
 #include "testutil.h"
 
 #include <math.h>

@@ -1,6 +1,6 @@
 #!/usr/bin/python3
 """The Monte-Carlo reference against the deterministic solvers (POP, FLD and the discrete
-ordinates at their issues' bars) and the single-scattering march, through
+ordinates at their acceptance bars) and the single-scattering march, through
 the command line as a user runs them: with --max-bounces 1 the two must agree within the
 reference's own noise (z statistics over all pixels, not per-pixel thresholds), and the
 sky's K-direction quadrature converges as K rises. Seeds are fixed, so runs repeat."""
@@ -25,7 +25,7 @@ def run(*args):
 
 
 class PopAgainstReference(unittest.TestCase):
-    """The issue's check scene for POP: the cloud sample at density 25, albedo 0.99, g 0.85, one
+    """The POP check scene: the cloud sample at density 25, albedo 0.99, g 0.85, one
     sun straight down. A bake at --quality high (the defaults: 4 cells across, chord tally) rendered in baked
     mode against a converged reference of all orders: image relative RMSE at most 0.6 and below
     the single-scattering bake's (bench/pop.md at 96x72; the reference's own
@@ -58,14 +58,14 @@ class PopAgainstReference(unittest.TestCase):
             if method == "pop":
                 self.assertEqual(report["pop"]["resolution"], 4)
                 self.assertEqual(report["pop"]["tally"], "chord")
-        print(f"POP high on the issue scene: relative RMSE {errors['pop']:.3f}, single "
+        print(f"POP high on the check scene: relative RMSE {errors['pop']:.3f}, single "
               f"{errors['single']:.3f}")
         self.assertLessEqual(errors["pop"], 0.6)
         self.assertLess(errors["pop"], errors["single"])
 
 
 class FldAgainstReference(unittest.TestCase):
-    """Issue 10's bars for flux-limited diffusion at --quality high, rendered in baked mode
+    """The acceptance bars for flux-limited diffusion at --quality high, rendered in baked mode
     against a converged reference of all orders (64x48, 4096 spp, fixed seed: se_b about 0.015
     and 0.005, so the reference's noise cannot decide the outcome): the cloud sample at density
     25, albedo 0.99, g 0.85 under a sun and a constant sky at most 0.30 relative RMSE, the
@@ -108,7 +108,7 @@ class FldAgainstReference(unittest.TestCase):
 
 
 class SvdAgainstReference(unittest.TestCase):
-    """Issue 12's bar for discrete ordinates: the cloud sample's own scene (density 20, albedo
+    """The acceptance bar for discrete ordinates: the cloud sample's own scene (density 20, albedo
     0.99, g 0.85, a sun and a constant sky) baked at --quality high with svd, pop and fld,
     rendered in baked mode against a converged reference of all orders (96x54, 8192 spp, fixed
     seed): svd at most 0.2 relative RMSE and below both others. The reference's noise, se_b

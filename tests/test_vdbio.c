@@ -882,7 +882,7 @@ static void test_bad_files(void **state)
         }
     }
     assert_int_equal(n_cases, 7 * 8);
-    /* The half-size cut named in the issue says "truncated". */
+    /* The file cut to half its size must be reported as "truncated". */
     copy_prefix(test_data_path("wdas_cloud_sixteenth.vdb"), cut,
                 file_size(test_data_path("wdas_cloud_sixteenth.vdb")) / 2);
     read_fails(cut, &o, "truncated");

@@ -50,7 +50,7 @@ vdbs_status test_single_scatter(vdbs_runner *runner, const vdbs_volume *volume,
 /* The CPU/GPU twin harness (one test text, two implementations): a scenario writes n
  * floats on the runner it is given. test_twin runs it on the C path and on the GPU and
  * asserts that both are finite and non-negative and agree to 1e-5 relative wherever
- * either |v| >= 1e-30 (DESIGN.md: llvmpipe's exp/pow, FMA and denormals differ from gcc's),
+ * either |v| >= 1e-30 (docs/design.md: llvmpipe's exp/pow, FMA and denormals differ from gcc's),
  * with more than half the values compared. Returns the C output (the caller frees it). */
 typedef vdbs_status (*test_twin_fn)(vdbs_runner *runner, const void *scenario, float *out,
                                     vdbs_error *err);

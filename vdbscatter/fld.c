@@ -609,7 +609,7 @@ done:
 /* The flux at every cell, F = D (3 M - grad phi), shortened where |F| > phi / 3: the
  * longest flux whose P1 radiance (phi + 3 F . w) / 4 pi is nowhere negative. Without the
  * bound the first-moment term made F too long where the light is forward-peaked (g 0.85
- * image error 0.088 -> 0.042 on the sphere, 0.144 -> 0.092 on the cloud, README). */
+ * image error 0.088 -> 0.042 on the sphere, 0.144 -> 0.092 on the cloud, docs/methods/fld.md). */
 static void cell_flux(const fld_system *sys, const double *phi, double *flux)
 {
     const vdbs_fld_grid *g = sys->grid;

@@ -1,5 +1,5 @@
 /* Occluder meshes: a strict Wavefront OBJ reader (every malformed line is an error naming
- * file and line; README "Decisions" says why not assimp) and tessellated primitives. */
+ * file and line; docs/design.md "Decisions" says why not assimp) and tessellated primitives. */
 #include "vdbscatter/mesh.h"
 
 #include <errno.h>

@@ -23,7 +23,7 @@
 #define POP_DEFAULT_EPSILON_A 0.1
 /* The default resolution, cells across the largest extent. POP's image error grows as its
  * cells shrink on every scene measured (bench/pop.md: the sphere and cloud samples, g 0 / 0.5 /
- * 0.85, and the issue's check scene), and no mean-free-path rule follows the optimum (it sits
+ * 0.85, and the POP check scene), and no mean-free-path rule follows the optimum (it sits
  * at 2-4 cells while sigma_tr spans 0.5 to 14 per unit). With the chord tally, 3 cells is
  * best on six of the seven scenes but 0.07 worse than 4 on the check scene; 4 has the lowest
  * worst case and beats the paper's tally at its best default (3) on all seven. */
@@ -544,7 +544,7 @@ done:
 
 /* The isotropic residuum (Sec. 5.4), on a world-aligned grid with the directional grids' cell
  * side (not the merged grid's half: a lattice walk of step h diffuses like a medium with
- * sigma_tr h near 2, so finer cells spread isotropic light faster; on the issue's check
+ * sigma_tr h near 2, so finer cells spread isotropic light faster; on the POP check
  * scene the half-size grid tripled POP's image error). Its accumulation is splatted into the
  * merged grid's ms. */
 static vdbs_status isotropic(pop_run *r, vdbs_error *err)

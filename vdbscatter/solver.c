@@ -49,7 +49,7 @@ static vdbs_status run_s1(const vdbs_solve *s, float *flux, vdbs_s1_light_fn lig
     if (st != VDBS_OK || (!s->radiance_view && !flux && !light_depth))
         return st;
     /* The march has no per-light output: S1 toward the camera, the flux and the lights' depths
-     * come from light grids at their default oversampling (a second S1 pass; README
+     * come from light grids at their default oversampling (a second S1 pass; docs/lit-vdb.md
      * "radiance_view"). */
     vdbs_light_grid_desc grids = {0};
     out.radiance = NULL;

@@ -408,7 +408,7 @@ struct vdbs_svd_run {
  * (vdbs_coarse_splat keeps the total); a direct light keeps it per cell over its discrete
  * normalisation (vs_svd.h), a sky ordinate's emission is projected on the v_k. With delta-M
  * the scaled beam also carries the light scattered only into the forward peak, E (T* - T):
- * it has scattered, so it is Sms's (DESIGN.md), and it goes into ms and ms_l1 at the voxels
+ * it has scattered, so it is Sms's (docs/design.md), and it goes into ms and ms_l1 at the voxels
  * themselves, a collimated beam along the light's travel (vdbs_svd_finish adds ms to
  * radiance). */
 void vdbs_svd_light_depth(void *user, int light, const float *depth)
@@ -683,7 +683,7 @@ vdbs_status vdbs_svd_finish(vdbs_svd_run *r, vdbs_svd_stats *stats, vdbs_error *
         /* ms holds the forward peak's light so far (vdbs_svd_light_depth): into radiance too. */
         for (size_t v = 0; v < 3 * s->volume->coord_count; ++v)
             s->radiance[v] += s->ms[v];
-        /* DESIGN.md's ms and ms_l1 with the medium's g (the full phase's first moment). */
+        /* docs/design.md's ms and ms_l1 with the medium's g (the full phase's first moment). */
         vdbs_coarse_ms_values(r->cells, r->fluence, r->flux, s->scene->g, r->values);
         st = vdbs_coarse_upsample(&r->f, r->values, s->volume, &r->box, s->scene->density_scale,
                                   s->ms, s->ms_l1, s->radiance, err);

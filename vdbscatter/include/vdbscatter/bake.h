@@ -1,4 +1,4 @@
-/* `bake`: density VDB in, lit VDB out (DESIGN.md "The lit VDB"). */
+/* `bake`: density VDB in, lit VDB out (docs/lit-vdb.md). */
 #ifndef VDBSCATTER_BAKE_H
 #define VDBSCATTER_BAKE_H
 

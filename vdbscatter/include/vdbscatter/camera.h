@@ -1,4 +1,4 @@
-/* Pinhole cameras (DESIGN.md "Scene files"): fov_deg is the vertical field of view,
+/* Pinhole cameras (docs/design.md "Physical conventions"): fov_deg is the vertical field of view,
  * up defaults to +Y, right = forward x up, image row 0 is the top, rays go through pixel
  * centres (+0.5), and the observer direction is wo = -ray direction. */
 #ifndef VDBSCATTER_CAMERA_H

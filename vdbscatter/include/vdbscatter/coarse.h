@@ -54,7 +54,7 @@ void vdbs_coarse_sample(const vdbs_coarse_frame *f, const float *values, int wid
 #define VDBS_COARSE_L1 3
 #define VDBS_COARSE_WIDTH 12
 
-/* DESIGN.md's ms and ms_l1 per cell from the scattered light's fluence phi (3 per cell) and
+/* docs/design.md's ms and ms_l1 per cell from the scattered light's fluence phi (3 per cell) and
  * net flux F (9 per cell, x, y, z of R, G, B; NULL: ms_l1 stays 0) into `values`:
  * ms = max(phi, 0) / 4 pi, ms_l1 = (3 g / 4 pi) F. */
 void vdbs_coarse_ms_values(int64_t cells, const double *phi, const double *flux, double g,

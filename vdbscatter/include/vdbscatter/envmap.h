@@ -1,4 +1,4 @@
-/* Lat-long environment maps (DESIGN.md "Lights", env): OpenEXR or Radiance HDR files in
+/* Lat-long environment maps (docs/design.md "Environment maps"): OpenEXR or Radiance HDR files in
  * OpenEXR's Imf::LatLong layout (ImfEnvmap.cpp), +Y up. Pixel (x, y) of a W x H map looks
  * along latitude -pi (y / (H - 1) - 1/2) and longitude -2 pi (x / (W - 1) - 1/2), direction
  * (sin lon cos lat, sin lat, cos lon cos lat): rows 0 and H - 1 sit on the poles, columns 0

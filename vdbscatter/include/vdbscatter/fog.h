@@ -3,7 +3,7 @@
  * along lit spans of view rays, a sun's in a fog box, and the fog's light on Lambertian
  * surfaces), and a brute-force quadrature of Eq. 3 as the oracle.
  *
- * Conventions as in DESIGN.md: sigma_t per world unit, sigma_s = albedo sigma_t, HG phase of
+ * Conventions as in docs/design.md: sigma_t per world unit, sigma_s = albedo sigma_t, HG phase of
  * the cosine between propagation directions; a view ray is o + s d (d unit), its radiance
  * travels along -d toward the camera. */
 #ifndef VDBSCATTER_FOG_H

@@ -1,4 +1,4 @@
-/* The camera's importance (Elek et al., shared/papers/pop.md Sec. 5.2): which sky directions
+/* The camera's importance (Elek et al. 2014, Sec. 5.2): which sky directions
  * the picture of the medium depends on, so that POP's few sky ordinates go where they matter.
  *
  * Importance is light emitted by the camera (duality): a frustum grid (vdbscatter/radial.h,

@@ -1,4 +1,4 @@
-/* Light grids (DESIGN.md "Light grids"): grids aligned with a light's transport, filled by one
+/* Light grids (docs/design.md "Light grids"): grids aligned with a light's transport, filled by one
  * transmittance sweep per column, so that the optical depth towards the light at any point
  * is a lookup instead of a march. Cost per light direction is linear in the cells.
  *

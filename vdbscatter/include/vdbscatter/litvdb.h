@@ -1,4 +1,4 @@
-/* Reading the grids of a lit VDB written by `vdbscatter bake` (DESIGN.md "The lit VDB"),
+/* Reading the grids of a lit VDB written by `vdbscatter bake` (docs/lit-vdb.md),
  * beside the VDB I/O: the multiple-scattering grids as NanoVDB buffers that the render
  * kernel samples. */
 #ifndef VDBSCATTER_LITVDB_H

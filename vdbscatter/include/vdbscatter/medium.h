@@ -1,4 +1,4 @@
-/* The participating medium of a density volume (DESIGN.md "Physical conventions"):
+/* The participating medium of a density volume (docs/design.md "Physical conventions"):
  * sigma_t(x) = density(x) * density_scale per world unit, sigma_s = sigma_t * albedo (RGB),
  * sigma_a = sigma_t - sigma_s, and a Henyey-Greenstein phase of anisotropy g
  * (shaders/vs_phase.h). Also the majorant grid that tracking estimators (the Monte-Carlo

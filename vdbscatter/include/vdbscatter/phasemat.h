@@ -1,8 +1,8 @@
 /* The discrete phase matrix of a discrete-ordinates solver and its factorisation (Gong et al.,
- * shared/papers/svd-phase.md; issue 12, `--method svd`, `vdbscatter phase-svd`).
+ * docs/methods/svd.md; `--method svd`, `vdbscatter phase-svd`).
  *
  * D directions w_i spread evenly over the sphere (the spherical Fibonacci lattice of
- * lights.h, each with the solid angle 4 pi / D). With DESIGN.md's normalised HG,
+ * lights.h, each with the solid angle 4 pi / D). With docs/design.md's normalised HG,
  * integral p(w . w') dw = 1, the matrix
  *   P_ij = s_i p(w_i . w_j) (4 pi / D) s_j
  * is the probability that light travelling along w_j scatters into w_i: symmetric, and the

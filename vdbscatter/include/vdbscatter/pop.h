@@ -1,6 +1,6 @@
-/* Principal-Ordinates Propagation (Elek et al., shared/papers/pop.md Secs. 3-6) for suns,
+/* Principal-Ordinates Propagation (Elek et al. 2014, Secs. 3-6) for suns,
  * the constant sky, lat-long maps and point lights. Multiple scattering only (the
- * exact S1 pass owns unscattered light, DESIGN.md): every sun and POP sky ordinate gets a
+ * exact S1 pass owns unscattered light, docs/design.md): every sun and POP sky ordinate gets a
  * coarse directional grid seeded with the light first scattered in each cell (from the fine S1
  * light grid: per sub-column albedo E (T_in - T_out)), propagated cell by cell (the shared
  * kernel shaders/vs_pop.h) until its anisotropy has decayed below epsilon_a (Eq. 10), then the

@@ -1,5 +1,5 @@
 /* Radial frames: the coarse grids that POP propagates point lights and the camera's importance
- * on (Elek et al., shared/papers/pop.md Secs. 6 and 5.2): texels of an angular map around a
+ * on (Elek et al. 2014, Secs. 6 and 5.2): texels of an angular map around a
  * centre times shells outwards. Cell (i, j, k) is texel (i, j) between the shell radii
  * radius[k] and radius[k + 1]; item (k n1 + j) n0 + i, as in the kernels (shaders/vs_pop.h).
  *

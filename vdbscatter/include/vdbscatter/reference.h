@@ -1,5 +1,5 @@
 /* The Monte-Carlo reference: unbiased path tracing of the density volume itself, all
- * scattering orders (DESIGN.md "Accuracy: the Monte-Carlo reference"). Multi-threaded C;
+ * scattering orders (docs/methods/reference.md). Multi-threaded C;
  * deterministic for a seed whatever the thread count (random streams are keyed by pixel
  * and sample index).
  *
@@ -89,7 +89,7 @@ vdbs_status vdbs_reference_tally_sun(const vdbs_volume *volume, const vdbs_scene
                                      vdbs_error *err);
 
 /* A Monte-Carlo probe of the multiply-scattered source at given points: the direct oracle
- * for every solver's `ms` and `ms_l1` grids (DESIGN.md "The lit VDB"), for tests and
+ * for every solver's `ms` and `ms_l1` grids (docs/lit-vdb.md), for tests and
  * benches. With Lms(x, w) the radiance at x that has scattered at least once (and at most
  * max_bounces times), it estimates per RGB channel
  *   ms    = (1 / 4 pi) integral Lms dw       = phi_ms / 4 pi   (phi_ms: fluence)

@@ -1,5 +1,5 @@
 /* The scene: medium parameters, lights, camera and solver settings, read from a
- * JSON scene file (DESIGN.md "Scene files") and overridden by command-line flags. */
+ * JSON scene file (docs/design.md "Scene files") and overridden by command-line flags. */
 #ifndef VDBSCATTER_SCENE_H
 #define VDBSCATTER_SCENE_H
 
@@ -36,7 +36,7 @@ typedef struct vdbs_light {
     /* Fields a light type does not use are 0, except color = 1 for an env map. */
 } vdbs_light;
 
-/* Solid occluders and a homogeneous fog (DESIGN.md "Scene files"): only vdbscatter-view
+/* Solid occluders and a homogeneous fog (docs/design.md "Scene files"): only vdbscatter-view
  * draws them; bake and render accept them and say that they ignore them. */
 #define VDBS_MAX_OCCLUDERS 32
 /* Bytes of OBJ paths a scene holds, all occluders together (each distinct path once):

@@ -1,4 +1,4 @@
-/* Discrete ordinates with an SVD-factored phase (Gong et al., shared/papers/svd-phase.md;
+/* Discrete ordinates with an SVD-factored phase (Gong and Ren, docs/methods/svd.md;
  * `--method svd`): the multiply-scattered light as the solution of the transport equation on D
  * directions (phasemat.h: balanced phase matrix, delta-M, factorisation) over a world-aligned
  * grid of cubic cells on the support box, by source iteration. Each iteration sweeps every
@@ -13,7 +13,7 @@
  * delta-M (peak fraction f), the solver works on the scaled problem: the beam attenuates with
  * sigma_t* = sigma_t - f sigma_s, scatters with sigma_s* = (1 - f) sigma_s and the truncated
  * phase; ms and ms_l1 are that problem's scattered field plus the light its beam carries
- * after scattering only into the forward peak (README "Discrete ordinates"), while S1 stays
+ * after scattering only into the forward peak (docs/methods/svd.md, "Delta-M"), while S1 stays
  * the exact pass's. */
 #ifndef VDBSCATTER_SVD_H
 #define VDBSCATTER_SVD_H

@@ -1,4 +1,4 @@
-/* The radiance toward the scene's camera (DESIGN.md "The lit VDB": grid radiance_view,
+/* The radiance toward the scene's camera (docs/lit-vdb.md: grid radiance_view,
  * written only when the scene has a camera): S(x, wo) = S1(x, wo) + Sms(x, wo) at every
  * output voxel, wo the unit direction from the voxel centre to the camera. S1 takes the
  * exact phase of every light and sky ordinate (single.h); Sms is reconstructed from the
