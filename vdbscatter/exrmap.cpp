@@ -127,8 +127,10 @@ extern "C" vdbs_status vdbs_exrmap_read(const char *path, vdbs_image *image, vdb
                           " is unusable"};
         const Choice choice = choose_channels(header.channels());
         vdbs_status st = vdbs_image_alloc(image, (int)w64, (int)h64, 0, err);
-        if (st != VDBS_OK)
-            return st;
+        if (st != VDBS_OK) {
+            const std::string why = err ? err->message : "";
+            return vdbs_error_set(err, st, "%s: %s", path, why.c_str());
+        }
         const int w = image->width, h = image->height;
         const size_t texels = (size_t)w * (size_t)h;
         if (choice.chroma) {
