@@ -7,6 +7,7 @@
 
 #include "vdbscatter/image.h"
 
+#include "exrmap.h"
 #include "vdbs_math.h"
 
 #define PNANOVDB_C
@@ -28,8 +29,12 @@ vdbs_status vdbs_envmap_load(const char *path, double scale, vdbs_envmap *map, v
     if (kind != VDBS_IMAGE_EXR && kind != VDBS_IMAGE_HDR)
         return vdbs_error_set(err, VDBS_ERR_INPUT,
                               "%s: not an OpenEXR or Radiance HDR environment map", path);
+    /* EXR maps go through Imf (exrmap.cpp: every channel type, layout and codec); Radiance
+     * HDR through the image reader. */
     vdbs_image image;
-    if ((st = vdbs_image_read(path, &image, err)) != VDBS_OK)
+    st = kind == VDBS_IMAGE_EXR ? vdbs_exrmap_read(path, &image, err)
+                                : vdbs_image_read(path, &image, err);
+    if (st != VDBS_OK)
         return st;
     if (image.width != 2 * image.height || image.height < 2) {
         st = vdbs_error_set(err, VDBS_ERR_INPUT,

@@ -34,9 +34,11 @@ typedef struct vdbs_envmap {
                      +Y pole */
 } vdbs_envmap;
 
-/* Reads `path` (OpenEXR or Radiance HDR) and multiplies it by scale. Errors (VDBS_ERR_INPUT,
- * naming the file): missing or unreadable, another format, a width not twice the height,
- * negative or non-finite texels, a scale that is negative or not finite. */
+/* Reads `path` (OpenEXR or Radiance HDR) and multiplies it by scale. An OpenEXR map is its
+ * data window's R, G, B (or Y as grey) in any channel type, tiling and compression
+ * (docs/envmap.md). Errors (VDBS_ERR_INPUT, one line naming the file): missing, unreadable,
+ * truncated, another format, no usable channels, a width not twice the height, negative or
+ * non-finite texels, a scale that is negative or not finite. */
 vdbs_status vdbs_envmap_load(const char *path, double scale, vdbs_envmap *map, vdbs_error *err);
 void vdbs_envmap_free(vdbs_envmap *map);
 

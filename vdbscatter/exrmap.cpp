@@ -1,0 +1,186 @@
+/* OpenEXR environment maps through the C++ Imf library: a bridge like vdbio.cpp; every
+ * exception is caught here and turned into a vdbs_error.
+ *
+ * Why Imf and not OpenEXRCore (which image.c uses for the renders' own files): Core 3.1.5
+ * cannot decompress DWAA/DWAB, the codec many HDRI tools pick, and its decoder has fast
+ * paths that mis-order or crash on some layouts (four half channels into float outputs).
+ * Imf::InputFile with a FrameBuffer of FLOAT slices converts half and uint, reads level 0
+ * of tiled, mipmapped and ripmapped files and knows every compression, so every map takes
+ * one path. */
+#include "exrmap.h"
+
+#include <ImathBox.h>
+#include <ImfArray.h>
+#include <ImfChannelList.h>
+#include <ImfFrameBuffer.h>
+#include <ImfHeader.h>
+#include <ImfInputFile.h>
+#include <ImfPartType.h>
+#include <ImfRgbaFile.h>
+
+#include <cstdio>
+#include <cstring>
+#include <new>
+#include <set>
+#include <string>
+#include <vector>
+
+namespace
+{
+
+/* A refusal with its message (the file name is added by the caller). */
+struct Refusal {
+    std::string message;
+};
+
+/* Library messages may span lines; an error is one line. */
+std::string one_line(const char *text)
+{
+    std::string s;
+    for (const char *p = text; *p; ++p)
+        s += (*p == '\n' || *p == '\r' || *p == '\t') ? ' ' : *p;
+    while (!s.empty() && s.back() == ' ')
+        s.pop_back();
+    return s;
+}
+
+std::string channel_names(const Imf::ChannelList &channels)
+{
+    std::string names;
+    int count = 0;
+    for (auto it = channels.begin(); it != channels.end(); ++it, ++count) {
+        if (count == 16) {
+            names += ", ...";
+            break;
+        }
+        names += (count ? ", " : "") + std::string(it.name());
+    }
+    return count ? names : std::string("none");
+}
+
+void require_full_resolution(const Imf::ChannelList &channels, const std::string &name)
+{
+    const Imf::Channel *c = channels.findChannel(name);
+    if (c->xSampling != 1 || c->ySampling != 1)
+        throw Refusal{"channel " + name + " is subsampled (" + std::to_string(c->xSampling) + "x" +
+                      std::to_string(c->ySampling) + ")"};
+}
+
+/* Which channels make the map: "R", "G", "B" with a layer prefix ("" or "layer."), or grey
+ * from "Y", or luminance/chroma. */
+struct Choice {
+    std::string prefix;
+    bool grey = false, chroma = false;
+};
+
+Choice choose_channels(const Imf::ChannelList &channels)
+{
+    auto has = [&](const std::string &n) { return channels.findChannel(n) != nullptr; };
+    Choice choice;
+    if (has("R") && has("G") && has("B")) {
+        for (const char *n : {"R", "G", "B"})
+            require_full_resolution(channels, n);
+        return choice;
+    }
+    if (has("Y")) {
+        choice.chroma = has("RY") && has("BY"); /* RgbaInputFile handles the subsampling */
+        choice.grey = !choice.chroma;
+        if (choice.grey)
+            require_full_resolution(channels, "Y");
+        return choice;
+    }
+    std::set<std::string> layers, rgb_layers;
+    channels.layers(layers);
+    for (const std::string &l : layers)
+        if (has(l + ".R") && has(l + ".G") && has(l + ".B"))
+            rgb_layers.insert(l);
+    if (rgb_layers.size() == 1) {
+        choice.prefix = *rgb_layers.begin() + ".";
+        for (const char *n : {"R", "G", "B"})
+            require_full_resolution(channels, choice.prefix + n);
+        return choice;
+    }
+    throw Refusal{std::string(rgb_layers.empty() ? "no R, G, B or Y channels"
+                                                 : "several layers with R, G, B and no plain "
+                                                   "R, G, B") +
+                  " (channels: " + channel_names(channels) + ")"};
+}
+
+} // namespace
+
+extern "C" vdbs_status vdbs_exrmap_read(const char *path, vdbs_image *image, vdbs_error *err)
+{
+    std::memset(image, 0, sizeof *image);
+    try {
+        Imf::InputFile file(path);
+        const Imf::Header &header = file.header();
+        if (header.hasType() && Imf::isDeepData(header.type()))
+            throw Refusal{"deep OpenEXR images are not supported"};
+        /* The map is the data window: OpenEXR's own lat-long functions (ImfEnvmap.h) are
+         * defined on it, and the display window of a map is often a crop or overscan frame
+         * nobody means as the sphere. */
+        const Imath::Box2i dw = header.dataWindow();
+        const long long w64 = (long long)dw.max.x - dw.min.x + 1;
+        const long long h64 = (long long)dw.max.y - dw.min.y + 1;
+        if (w64 <= 0 || h64 <= 0 || w64 > (1 << 24) || h64 > (1 << 24))
+            throw Refusal{"data window " + std::to_string(w64) + "x" + std::to_string(h64) +
+                          " is unusable"};
+        const Choice choice = choose_channels(header.channels());
+        vdbs_status st = vdbs_image_alloc(image, (int)w64, (int)h64, 0, err);
+        if (st != VDBS_OK) {
+            const std::string why = err ? err->message : "";
+            return vdbs_error_set(err, st, "%s: %s", path, why.c_str());
+        }
+        const int w = image->width, h = image->height;
+        const size_t texels = (size_t)w * (size_t)h;
+        if (choice.chroma) {
+            /* Luminance/chroma (Y, RY, BY): RgbaInputFile reconstructs RGB as half. */
+            Imf::RgbaInputFile rgba(path);
+            Imf::Array2D<Imf::Rgba> pixels(h, w);
+            rgba.setFrameBuffer(&pixels[0][0] - (ptrdiff_t)dw.min.x -
+                                    (ptrdiff_t)dw.min.y * (ptrdiff_t)w,
+                                1, (size_t)w);
+            rgba.readPixels(dw.min.y, dw.max.y);
+            for (int y = 0; y < h; ++y)
+                for (int x = 0; x < w; ++x) {
+                    float *t = image->rgb + 3 * ((size_t)y * w + x);
+                    t[0] = pixels[y][x].r;
+                    t[1] = pixels[y][x].g;
+                    t[2] = pixels[y][x].b;
+                }
+            return VDBS_OK;
+        }
+        Imf::FrameBuffer fb;
+        const size_t xs = 3 * sizeof(float), ys = xs * (size_t)w;
+        if (choice.grey) {
+            fb.insert("Y", Imf::Slice::Make(Imf::FLOAT, image->rgb, dw, xs, ys));
+        } else {
+            const char *rgb[3] = {"R", "G", "B"};
+            for (int c = 0; c < 3; ++c)
+                fb.insert(choice.prefix + rgb[c],
+                          Imf::Slice::Make(Imf::FLOAT, image->rgb + c, dw, xs, ys));
+        }
+        file.setFrameBuffer(fb);
+        file.readPixels(dw.min.y, dw.max.y);
+        if (choice.grey)
+            for (size_t i = 0; i < texels; ++i)
+                image->rgb[3 * i + 1] = image->rgb[3 * i + 2] = image->rgb[3 * i];
+        return VDBS_OK;
+    } catch (const Refusal &r) {
+        vdbs_image_free(image);
+        return vdbs_error_set(err, VDBS_ERR_INPUT, "%s: %s", path, r.message.c_str());
+    } catch (const std::bad_alloc &) {
+        vdbs_image_free(image);
+        return vdbs_error_set(err, VDBS_ERR_NOMEM, "%s: out of memory reading the OpenEXR map",
+                              path);
+    } catch (const std::exception &e) {
+        vdbs_image_free(image);
+        return vdbs_error_set(err, VDBS_ERR_INPUT,
+                              "%s: unreadable, corrupt or truncated OpenEXR "
+                              "file: %s",
+                              path, one_line(e.what()).c_str());
+    } catch (...) {
+        vdbs_image_free(image);
+        return vdbs_error_set(err, VDBS_ERR_INPUT, "%s: unreadable OpenEXR file", path);
+    }
+}
