@@ -45,7 +45,7 @@ static const char help[] =
     "  --sky-directions K       sky quadrature directions (default: the quality's)\n"
     "  --quality Q              single/baked: low | medium | high | ultra = 16 / 64 / 256 /\n"
     "                           1024 sky directions and camera-ray steps of 1 / 0.5 / 0.25 /\n"
-    "                           0.125 voxel (default medium, or the scene's)\n"
+    "                           0.125 voxel (default low, or the scene's)\n"
     "\n"
     "camera (default: the scene's camera, else a view of the whole volume from +Z):\n"
     "  --camera PX,PY,PZ:TX,TY,TZ:FOV   position, target and vertical field of view in\n"

@@ -35,6 +35,9 @@ def component_range(grid):
 
 
 def data(name):
+    """A file of the external test data; the calling test is skipped when there is none."""
+    if not DATA:
+        raise unittest.SkipTest(f"needs the external test data ({name})")
     return os.path.join(DATA, name)
 
 

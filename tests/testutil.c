@@ -9,6 +9,10 @@
 
 const char *test_data_path(const char *file)
 {
+    if (!VDBS_TEST_DATA_DIR[0]) {
+        print_message("needs the external test data (%s): skipped\n", file);
+        skip();
+    }
     static char buf[8][4096];
     static int slot;
     char *out = buf[slot++ & 7];

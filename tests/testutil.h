@@ -15,7 +15,8 @@
 #include "vdbscatter/scene.h"
 #include "vdbscatter/single.h"
 
-/* Path inside the shared data folder / the test temp folder (static buffer per call slot). */
+/* Path inside the external test data folder / the test temp folder (static buffer per call
+ * slot). Without the data folder (configured empty), test_data_path skips the calling test. */
 const char *test_data_path(const char *file);
 const char *test_tmp_path(const char *file);
 
