@@ -3,6 +3,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
 #include <cjson/cJSON.h>
@@ -262,7 +263,9 @@ int cmd_bake(int argc, char **argv)
     if (!out)
         return cli_fail("bake", 2, "missing -o OUT.vdb");
     vdbs_scene scene;
-    if (!cli_has_extension(out, ".vdb"))
+    struct stat out_stat;
+    int out_is_dir = stat(out, &out_stat) == 0 && S_ISDIR(out_stat.st_mode);
+    if (!out_is_dir && !cli_has_extension(out, ".vdb")) /* a folder: the write says so */
         return cli_fail("bake", 2,
                         "-o: a lit VDB is written as OpenVDB: give a name ending in .vdb");
     /* Lights are checked after the input file and grid (vdbs_bake), so that a missing file is

@@ -81,8 +81,13 @@ class Base(unittest.TestCase):
         return positive
 
     def bake(self, src, *extra, out="lit.vdb"):
+        """These tests' oracles are single scattering at quality medium (64 sky directions)
+        unless a test names its method or quality: the bake's own defaults (svd at low) are
+        checked in HelpAndFlags.test_defaults and test_stat_defaults_cli."""
+        pinned = [] if "--method" in extra else ["--method", "single"]
+        pinned += [] if "--quality" in extra else ["--quality", "medium"]
         out_path = self.path(out)
-        p = run("bake", src, "-o", out_path, *extra, check=0)
+        p = run("bake", src, "-o", out_path, *pinned, *extra, check=0)
         return out_path, p
 
 
@@ -164,6 +169,90 @@ class HelpAndFlags(Base):
             with self.subTest(args=args):
                 self.assert_bad_input(args, needle)
 
+    def test_first_hour(self):
+        """What a newcomer meets first: defaults, the order and wording of errors, warnings for
+        scenes that are almost certainly a mistake, and the density-scale helpers."""
+        cloud = os.path.join(SAMPLES, "cloud.vdb")
+        out = self.path("out.vdb")
+        # Input, grid and flag errors come before "no light" (none is given here).
+        self.assert_bad_input(["bake", self.path("missing.vdb"), "-o", out], "missing.vdb")
+        self.assert_bad_input(["bake", cloud, "-o", out, "--grid", "dens"], "no grid named")
+        line = self.assert_bad_input(["bake", cloud, "-o", out, "--quality", "hgh"], "--quality")
+        self.assertIn('did you mean "high"?', line)
+        self.assert_bad_input(["bake", cloud, "-o", out], "no light at all")
+        # Typos get the nearest flag, scene key or method.
+        line = self.assert_bad_input(["bake", cloud, "-o", out, "--densty-scale", "3"],
+                                     "--densty-scale")
+        self.assertIn("did you mean --density-scale?", line)
+        line = self.assert_bad_input(["bake", cloud, "-o", out, "--sun", "0,-1,0", "--method",
+                                      "inet"], "--method")
+        self.assertIn("single, pop, fld, svd", line)
+        self.assertNotIn("inet", line.split("expected")[1])
+        sp = self.path("typo.json")
+        with open(sp, "w") as f:
+            json.dump({"volume": {"albdo": 0.9}}, f)
+        line = self.assert_bad_input(["bake", cloud, "--scene", sp, "-o", out], "albdo")
+        self.assertIn('did you mean "albedo"?', line)
+        self.assertIn("file, grid, density_scale, albedo, g", line)
+        # A lit VDB is OpenVDB: another extension is refused, and nothing is written.
+        self.assert_bad_input(["bake", cloud, "-o", self.path("x.nvdb"), "--sun", "0,-1,0"],
+                              ".vdb", output="x.nvdb")
+        help_text = run("bake", "--help", check=0).stdout
+        self.assertNotIn("%%", help_text)
+        self.assertNotIn("inet", help_text)
+
+        # The default bake is svd at low, in the report and the metadata.
+        p = run("bake", "--scene", os.path.join(SAMPLES, "cloud.json"), "-o", out, "--json",
+                check=0)
+        self.assertEqual(p.returncode, 0, p.stderr)
+        report = json.loads(p.stdout)
+        self.assertEqual((report["method"], report["quality"]), ("svd", "low"))
+        meta = vdb.readAllGridMetadata(out)[0]
+        self.assertEqual((meta["vdbscatter_method"], meta["vdbscatter_quality"]), ("svd", "low"))
+        self.assertEqual(p.stderr.count("warning"), 0, p.stderr)
+
+        # auto:TAU is the scale info --target-depth prints, in the report and the metadata.
+        info = json.loads(run("info", cloud, "--target-depth", "10", "--json", check=0).stdout)
+        fitted = info["optical_thickness"]["density_scale_for_target"]
+        p = run("bake", cloud, "-o", out, "--sun", "0,-1,0", "--density-scale", "auto:10",
+                "--json", "-q", check=0)
+        report = json.loads(p.stdout)
+        self.assertAlmostEqual(report["density_scale"], fitted, delta=1e-9 * fitted)
+        self.assertAlmostEqual(report["mean_optical_depth"], 10.0, delta=1e-6)
+        self.assertEqual(report["scene"]["volume"]["density_scale"], report["density_scale"])
+        meta = vdb.readAllGridMetadata(out)[0]
+        self.assertAlmostEqual(float(meta["vdbscatter_density_scale"]), fitted,
+                               delta=1e-9 * fitted)
+        # info's world box: the index box's outer faces through the grid's own transform.
+        g = info["grids"][0]
+        xf = vdb.read(cloud, "density").transform
+        lo = xf.indexToWorld(tuple(v - 0.5 for v in g["bbox_min"]))
+        hi = xf.indexToWorld(tuple(v + 0.5 for v in g["bbox_max"]))
+        for a in range(3):
+            self.assertAlmostEqual(g["world_min"][a], lo[a], places=9)
+            self.assertAlmostEqual(g["world_max"][a], hi[a], places=9)
+
+        # Almost certainly a mistake: one warning line each, exit 0, the output is written.
+        cases = [
+            (["--sun", "0,-1,0:0"], "is zero"),
+            (["--sun", "0,-1,0", "--density-scale", "0"], "density scale 0"),
+            (["--sun", "0,-1,0", "--density-scale", "0.01"], "nearly invisible"),
+            (["--sun", "0,-1,0", "--density-scale", "1e6"], "only its skin"),
+            (["--sun", "0,-1,0", "--density-scale", "20", "--albedo", "0.99", "--method",
+              "single"], "leaves out multiple scattering"),
+        ]
+        for extra, needle in cases:
+            with self.subTest(extra=extra):
+                os.path.exists(out) and os.remove(out)
+                p = run("bake", cloud, "-o", out, "--quality", "low", *extra, check=0)
+                self.assertEqual(p.returncode, 0, p.stderr)
+                self.assertTrue(os.path.exists(out))
+                warnings = [l for l in p.stderr.splitlines() if "warning" in l]
+                self.assertTrue(any(needle in l for l in warnings), p.stderr)
+        p = run("bake", cloud, "-o", out, "--quality", "low", "--sun", "0,-1,0",
+                "--density-scale", "20", "--albedo", "0.3", "--method", "single", check=0)
+        self.assertNotIn("warning", p.stderr)  # smoke-like: single scattering dominates
+
     def test_flag_equals_form(self):
         a, _ = self.bake(data("usd_densityAndHeat.vdb"), "--sun", "0,-1,0:2,2,2", "--density-scale", "3", out="a.vdb")
         b, _ = self.bake(data("usd_densityAndHeat.vdb"), "--sun=0,-1,0:2,2,2", "--density-scale=3", out="b.vdb")
@@ -192,7 +281,8 @@ class HelpAndFlags(Base):
         self.assertEqual([l["type"] for l in report["scene"]["lights"]], ["env"])
         with open(sp, "w") as f:
             f.write('{"volume": {"density_scale": 2.0,}')
-        self.assert_bad_input(["bake", "--scene", sp, "-o", out + "2"], "scene", output="lit.vdb2")
+        self.assert_bad_input(["bake", "--scene", sp, "-o", self.path("lit2.vdb")], "scene",
+                              output="lit2.vdb")
         with open(sp, "w") as f:
             json.dump({"volume": {"densty_scale": 1}}, f)
         self.assert_bad_input(["bake", data("usd_densityAndHeat.vdb"), "--scene", sp, "-o", self.path("x.vdb"), "--sun", "0,-1,0"], "densty_scale", output="x.vdb")
@@ -858,7 +948,7 @@ class Occluders(Base):
         with open(os.path.join(SAMPLES, "cloud.json")) as f:
             scene = json.load(f)
         scene["volume"]["file"] = os.path.join(SAMPLES, "cloud.vdb")
-        scene["solver"]["quality"] = "low"
+        scene["solver"] = {"quality": "low"}
         scene["occluders"] = occluders
         if fog is not None:
             scene["fog"] = fog
