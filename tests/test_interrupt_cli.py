@@ -42,11 +42,12 @@ def catches_sigint(pid):
     return False
 
 
-def interrupt(args, delay, signo=signal.SIGINT):
+def interrupt(args, delay, signo=signal.SIGINT, temp_in=None):
     """Runs `vdbscatter ARGS`, sends signo `delay` seconds after the start (but never before
     the command has installed its handler: before that the default action would kill it,
     which is not what is under test), and returns (exit status, stderr, whether the signal
-    was sent while the process ran)."""
+    was sent while the process ran). With temp_in (a folder), `delay` counts from when the
+    command's temporary file appears there instead: the signal lands in the write stage."""
     start = time.monotonic()
     p = subprocess.Popen([EXE, *map(str, args)], stdout=subprocess.DEVNULL,
                          stderr=subprocess.PIPE, text=True)
@@ -55,6 +56,10 @@ def interrupt(args, delay, signo=signal.SIGINT):
             p.kill()
             raise AssertionError(f"{args}: no SIGINT handler after 60 s")
         time.sleep(0.001)
+    if temp_in is not None:
+        while p.poll() is None and not temp_files(temp_in):
+            time.sleep(0.0005)
+        start = time.monotonic()
     left = start + delay - time.monotonic()
     if left > 0:
         time.sleep(left)
@@ -123,26 +128,25 @@ class InterruptCliTest(unittest.TestCase):
         duration = time.monotonic() - start
         seconds = json.loads(p.stdout)["seconds"]
         self.assertTrue(self.is_new_bake(out))
-        # The write ends just before the process does; its start is that less its length.
-        write_end = duration - max(0.0, duration - seconds["total"]) / 2
-        write_start = max(0.0, write_end - seconds["write"])
-        delays = [1.1 * duration * i / 7 for i in range(8)]
-        delays += [write_start + 0.25 * seconds["write"], write_start + 0.75 * seconds["write"]]
-        delays.sort()
+        # 8 points from the start to 1.1x the bake, and 2 in the write stage: when the
+        # temporary file appears and half the write's length later.
+        points = [(1.1 * duration * i / 7, False) for i in range(8)]
+        points += [(0.0, True), (0.5 * seconds["write"], True)]
         outcomes = []
-        for delay in delays:
+        for delay, in_write in points:
             with open(out, "wb") as f:
                 f.write(self.previous)
-            status, err, sent = interrupt(["bake", self.volume, "-o", out, *BAKE], delay)
-            with self.subTest(delay=delay):
-                outcomes.append((delay, status, sent,
+            status, err, sent = interrupt(["bake", self.volume, "-o", out, *BAKE], delay,
+                                          temp_in=folder if in_write else None)
+            with self.subTest(delay=delay, in_write=in_write):
+                outcomes.append((delay, in_write, status, sent,
                                  self.check_bake_outcome(folder, out, status, err, 130)))
         if VERBOSE:
             print(f"\nbake: {duration:.2f} s (load {seconds['load']:.2f}, solve "
-                  f"{seconds['solve']:.2f}, write {seconds['write']:.3f} from ~{write_start:.2f})",
-                  file=sys.stderr)
-            for delay, status, sent, what in outcomes:
-                print(f"  SIGINT at {delay:6.3f} s: exit {status:3d}, {what}"
+                  f"{seconds['solve']:.2f}, write {seconds['write']:.3f})", file=sys.stderr)
+            for delay, in_write, status, sent, what in outcomes:
+                when = "after the temp file appeared" if in_write else "after the start"
+                print(f"  SIGINT {delay:6.3f} s {when}: exit {status:3d}, {what}"
                       f"{'' if sent else ' (after exit)'}", file=sys.stderr)
 
     def test_bake_sigterm(self):
@@ -172,11 +176,12 @@ class InterruptCliTest(unittest.TestCase):
             with open(fresh_path, "rb") as f:
                 self.assertEqual(f.read(len(magic)), magic)
             previous = b"previous picture"
-            for delay in (0.0, 0.5 * duration, 0.9 * duration, 1.1 * duration):
+            for delay, in_write in ((0.0, False), (0.5 * duration, False), (0.0, True),
+                                    (1.1 * duration, False)):
                 with open(out, "wb") as f:
                     f.write(previous)
-                status, err, _ = interrupt(args, delay)
-                with self.subTest(ext=ext, delay=delay):
+                status, err, _ = interrupt(args, delay, temp_in=folder if in_write else None)
+                with self.subTest(ext=ext, delay=delay, in_write=in_write):
                     self.assertEqual(temp_files(folder), [], "a temporary image survived")
                     with open(out, "rb") as f:
                         now = f.read()
