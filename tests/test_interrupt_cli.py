@@ -167,7 +167,7 @@ class InterruptCliTest(unittest.TestCase):
         for ext, magic in ((".png", b"\x89PNG\r\n\x1a\n"), (".exr", b"\x76\x2f\x31\x01")):
             out = os.path.join(folder, "picture" + ext)
             args = ["render", self.volume, "-o", out, "--backend", "cpu", "--sun", "0,-1,0",
-                    "--size", "480x360", "-q"]
+                    "--size", "320x240", "-q"]
             start = time.monotonic()
             run(*args)
             duration = time.monotonic() - start
