@@ -9,6 +9,7 @@
 #include <cjson/cJSON.h>
 
 #include "commands.h"
+#include "interrupt.h"
 #include "options.h"
 #include "vdbscatter/bake.h"
 #include "vdbscatter/solver.h"
@@ -305,10 +306,12 @@ int cmd_bake(int argc, char **argv)
     o.progress = !quiet && isatty(STDERR_FILENO);
     o.warn = cli_warn;
     o.warn_user = &quiet;
+    o.cancel = cli_interrupt_install();
 
     vdbs_bake_report report;
     if ((st = vdbs_bake(&o, &report, &err)) != VDBS_OK)
-        return cli_fail("bake", st, err.message);
+        return st == VDBS_ERR_CANCELLED ? cli_interrupt_status("bake", CLI_EXIT_FAILURE)
+                                        : cli_fail("bake", st, err.message);
 
     double target_depth = scene.density_target_depth;
     scene.density_scale = report.density_scale; /* as resolved (auto:TAU) */
@@ -341,5 +344,5 @@ int cmd_bake(int argc, char **argv)
                 report.seconds_total, report.seconds_solve, out);
     }
     cJSON_Delete(j);
-    return status;
+    return cli_interrupt_status("bake", status); /* a signal after the new file was in place */
 }

@@ -10,6 +10,7 @@
 #include <cjson/cJSON.h>
 
 #include "commands.h"
+#include "interrupt.h"
 #include "options.h"
 #include "vdbscatter/kernel.h"
 #include "vdbscatter/render.h"
@@ -284,11 +285,13 @@ int cmd_render(int argc, char **argv)
     desc.progress = !quiet && isatty(STDERR_FILENO);
     desc.warn = cli_warn;
     desc.warn_user = &quiet;
+    desc.cancel = cli_interrupt_install();
     vdbs_render_report rep;
     st = vdbs_render(&desc, &rep, &err);
     if (st != VDBS_OK) {
         free(scene);
-        return cli_fail("render", st, err.message);
+        return st == VDBS_ERR_CANCELLED ? cli_interrupt_status("render", CLI_EXIT_FAILURE)
+                                        : cli_fail("render", st, err.message);
     }
 
     if (cli_flag(&args, "--json")) {
@@ -303,5 +306,5 @@ int cmd_render(int argc, char **argv)
                 rep.height, rep.grid, rep.mode, detail, rep.backend, rep.seconds_render, r.output);
     }
     free(scene); /* after print_json: input may be scene->volume_file */
-    return CLI_EXIT_OK;
+    return cli_interrupt_status("render", CLI_EXIT_OK); /* a signal after the rename */
 }

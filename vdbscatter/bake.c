@@ -50,8 +50,9 @@ static vdbs_status solve(const vdbs_bake_options *o, const vdbs_solver *solver,
     }
     snprintf(report->backend, sizeof report->backend, "%s", vdbs_runner_backend_name(runner));
     snprintf(report->renderer, sizeof report->renderer, "%s", vdbs_runner_device(runner));
-    vdbs_progress progress;
+    vdbs_progress progress = {0};
     vdbs_progress_begin(&progress, o->progress, solver->name, volume->coord_count);
+    progress.cancel = o->cancel;
     s->runner = runner;
     s->volume = volume;
     s->scene = o->scene;
@@ -184,6 +185,8 @@ vdbs_status vdbs_bake(const vdbs_bake_options *o, vdbs_bake_report *report, vdbs
                  "sun angular_diameter_deg is treated as 0 (a delta light) by --method "
                  "single");
 
+    if (vdbs_cancelled(o->cancel))
+        return vdbs_error_cancelled(err);
     vdbio_read_options read = {0};
     read.grid_name = scene->grid[0] ? scene->grid : NULL;
     read.grid_index = scene->grid_index;
@@ -224,6 +227,11 @@ vdbs_status vdbs_bake(const vdbs_bake_options *o, vdbs_bake_report *report, vdbs
         vdbs_volume_free(&volume);
         free(resolved);
         return st;
+    }
+    if (vdbs_cancelled(o->cancel)) {
+        vdbs_svd_moments_free(&warm);
+        vdbs_volume_free(&volume);
+        return vdbs_error_cancelled(err);
     }
     report->seconds_load = vdbs_now() - t_start;
     snprintf(report->grid, sizeof report->grid, "%s", volume.info.name);
@@ -318,9 +326,14 @@ vdbs_status vdbs_bake(const vdbs_bake_options *o, vdbs_bake_report *report, vdbs
     request.half = o->half;
     request.warn = o->warn;
     request.warn_user = o->warn_user;
+    request.cancel = o->cancel;
     double t_write = vdbs_now();
     st = vdbio_write(o->output, input, &request, err);
     report->seconds_write = vdbs_now() - t_write;
+    /* A cancel after the rename: the new file is complete and stays, but the caller asked
+     * to stop and hears so. */
+    if (st == VDBS_OK && vdbs_cancelled(o->cancel))
+        st = vdbs_error_cancelled(err);
     free(scale);
     free(g);
 done:

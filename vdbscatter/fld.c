@@ -127,6 +127,7 @@ typedef struct fld_system {
     fld_level level[FLD_MAX_LEVELS];
     int levels;
     int64_t runner_cells; /* levels of fewer cells apply the operator on the host */
+    const vdbs_cancel *cancel;
 } fld_system;
 
 static double sigma_tr(const vdbs_fld_grid *g, int64_t c, int ch)
@@ -550,6 +551,10 @@ static vdbs_status solve_channel(vdbs_runner *runner, fld_system *sys, int ch, c
     double rz = 0.0;
     int since_true = FLD_RESIDUAL_REPLACEMENT;
     for (;;) {
+        if (vdbs_cancelled(sys->cancel)) {
+            st = vdbs_error_cancelled(err);
+            break;
+        }
         if (since_true >= FLD_RESIDUAL_REPLACEMENT) {
             /* (Re)start from the true residual. */
             double r_sum = 0.0;
@@ -669,6 +674,7 @@ vdbs_status vdbs_fld_solve_grid(vdbs_runner *runner, const vdbs_fld_grid *grid,
     memset(&sys, 0, sizeof sys);
     sys.grid = grid;
     sys.runner_cells = d.runner_cells;
+    sys.cancel = d.cancel;
     sys.cells = (int64_t)grid->n[0] * grid->n[1] * grid->n[2];
     const int largest = grid->n[0] > grid->n[1]
                             ? (grid->n[0] > grid->n[2] ? grid->n[0] : grid->n[2])
@@ -785,6 +791,8 @@ vdbs_status vdbs_fld_solve(const vdbs_solve *s, const vdbs_fld_desc *desc, vdbs_
         stats = &local;
     memset(stats, 0, sizeof *stats);
     vdbs_fld_desc d = desc ? *desc : (vdbs_fld_desc){0};
+    if (!d.cancel)
+        d.cancel = vdbs_progress_cancel(s->progress);
     vdbs_fld_preset preset;
     vdbs_fld_quality(s->quality ? s->quality->name : NULL, &preset);
     if (!(d.tolerance > 0.0))

@@ -72,8 +72,10 @@ static char *temp_path_for(const char *path)
     return tmp;
 }
 
-/* Flushes the temporary file to disk and renames it over path; removes it on failure. */
-static vdbs_status commit_temp(const char *tmp, const char *path, vdbs_error *err)
+/* Flushes the temporary file to disk and renames it over path; removes it on failure, and on
+ * a cancel that came while it was written (the old file at path stays). */
+static vdbs_status commit_temp(const char *tmp, const char *path, const vdbs_cancel *cancel,
+                               vdbs_error *err)
 {
     int fd = open(tmp, O_RDONLY);
     if (fd < 0 || fsync(fd) != 0) {
@@ -84,6 +86,10 @@ static vdbs_status commit_temp(const char *tmp, const char *path, vdbs_error *er
         return vdbs_error_set(err, VDBS_ERR_IO, "%s: cannot sync %s: %s", path, tmp, strerror(e));
     }
     close(fd);
+    if (vdbs_cancelled(cancel)) {
+        unlink(tmp);
+        return vdbs_error_cancelled(err);
+    }
     if (rename(tmp, path) != 0) {
         int e = errno;
         unlink(tmp);
@@ -457,6 +463,12 @@ static vdbs_status hdr_read(const char *path, vdbs_image *image, vdbs_error *err
 vdbs_status vdbs_image_write(const char *path, const vdbs_image *image, double exposure_ev,
                              vdbs_error *err)
 {
+    return vdbs_image_write_cancel(path, image, exposure_ev, NULL, err);
+}
+
+vdbs_status vdbs_image_write_cancel(const char *path, const vdbs_image *image, double exposure_ev,
+                                    const vdbs_cancel *cancel, vdbs_error *err)
+{
     const int exr = has_extension(path, ".exr"), png = has_extension(path, ".png");
     const int hdr = has_extension(path, ".hdr");
     if (!exr && !png && !hdr)
@@ -466,6 +478,8 @@ vdbs_status vdbs_image_write(const char *path, const vdbs_image *image, double e
         return vdbs_error_set(err, VDBS_ERR_INTERNAL, "%s: empty image", path);
     if (png && !isfinite(exposure_ev))
         return vdbs_error_set(err, VDBS_ERR_INPUT, "%s: exposure is not finite", path);
+    if (vdbs_cancelled(cancel))
+        return vdbs_error_cancelled(err);
     char *tmp = temp_path_for(path);
     if (!tmp)
         return vdbs_error_set(err, VDBS_ERR_NOMEM, "%s: out of memory", path);
@@ -473,7 +487,7 @@ vdbs_status vdbs_image_write(const char *path, const vdbs_image *image, double e
                      : hdr ? hdr_write(path, tmp, image, err)
                            : png_write(path, tmp, image, exposure_ev, err);
     if (st == VDBS_OK)
-        st = commit_temp(tmp, path, err);
+        st = commit_temp(tmp, path, cancel, err);
     free(tmp);
     return st;
 }

@@ -132,13 +132,21 @@ static uint64_t cpu_chunk(const vdbs_kernel_desc *d)
     return d->cpu_chunk ? d->cpu_chunk : DEFAULT_CPU_CHUNK;
 }
 
-static void cpu_run(const vdbs_kernel_desc *d)
+static int desc_cancelled(const vdbs_kernel_desc *d)
+{
+    return vdbs_cancelled(d->cancel) || vdbs_progress_cancelled(d->progress);
+}
+
+/* Whether it stopped for a cancel (the remaining chunks skipped: an OpenMP loop cannot break). */
+static int cpu_run(const vdbs_kernel_desc *d)
 {
     const uint64_t chunk = cpu_chunk(d);
     const int64_t chunks = (int64_t)((d->items + chunk - 1) / chunk);
     uint64_t done = 0;
 #pragma omp parallel for schedule(dynamic, 1)
     for (int64_t c = 0; c < chunks; ++c) {
+        if (desc_cancelled(d))
+            continue;
         uint64_t begin = (uint64_t)c * chunk;
         uint64_t end = begin + chunk < d->items ? begin + chunk : d->items;
         d->cpu_items(d->user, begin, end);
@@ -148,6 +156,7 @@ static void cpu_run(const vdbs_kernel_desc *d)
         if (d->progress && omp_get_thread_num() == 0)
             vdbs_progress_update(d->progress, now);
     }
+    return desc_cancelled(d);
 }
 
 /* Bytes of the state an iterate step reads or writes. */
@@ -204,6 +213,11 @@ static vdbs_status cpu_iterate(const vdbs_kernel_desc *d, int max_iterations,
         out = t;
         if (step_done(d, it, reduction, result))
             break;
+        if (desc_cancelled(d)) {
+            free(other);
+            free(partials);
+            return vdbs_error_cancelled(err);
+        }
     }
     if (in != d->state)
         memcpy(d->state, in, bytes);
@@ -372,6 +386,10 @@ static vdbs_status gpu_run(vdbs_runner *runner, const vdbs_kernel_desc *d,
     int64_t done = 0;
     int in = 0;
     while (st == VDBS_OK) {
+        if (desc_cancelled(d)) {
+            st = vdbs_error_cancelled(err);
+            break;
+        }
         uint32_t control[VS_PASS_WORDS];
         control_init(control, units, done);
         st = job_dispatch(&job, d, in, control, err);
@@ -433,6 +451,10 @@ static vdbs_status gpu_iterate(vdbs_runner *runner, const vdbs_kernel_desc *d, i
     }
     int in = 0;
     for (int it = 0; it < max_iterations && st == VDBS_OK; ++it) {
+        if (desc_cancelled(d)) {
+            st = vdbs_error_cancelled(err);
+            break;
+        }
         uint32_t control[VS_PASS_WORDS];
         control_init(control, 1, it);
         st = job_dispatch(&job, d, in, control, err);
@@ -488,8 +510,7 @@ vdbs_status vdbs_kernel_run(vdbs_runner *runner, const vdbs_kernel_desc *desc,
         return gpu_run(runner, desc, result, err);
     if (!desc->cpu_items)
         return no_c_path(desc, err);
-    cpu_run(desc);
-    return VDBS_OK;
+    return cpu_run(desc) ? vdbs_error_cancelled(err) : VDBS_OK;
 }
 
 vdbs_status vdbs_kernel_iterate(vdbs_runner *runner, const vdbs_kernel_desc *desc,

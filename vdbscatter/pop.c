@@ -276,6 +276,8 @@ static vdbs_status propagate_counted(pop_run *r, const uint32_t *params, size_t 
                                      const float *sigma, int64_t cells, float *state,
                                      int max_iterations, double tolerance, vdbs_error *err)
 {
+    if (vdbs_progress_cancelled(r->s->progress))
+        return vdbs_error_cancelled(err);
     double t0 = vdbs_now(), left = 0.0;
     int iterations = 0;
     vdbs_status st = vdbs_pop_propagate(r->s->runner, params, words, sigma, cells, state,
@@ -576,7 +578,9 @@ static vdbs_status isotropic(pop_run *r, vdbs_error *err)
     int iterations = 0;
     double left = residual;
     const double tolerance = r->desc.epsilon_l * r->stats->seeded / cell_volume;
-    if (residual > tolerance) {
+    if (vdbs_progress_cancelled(s->progress))
+        st = vdbs_error_cancelled(err);
+    else if (residual > tolerance) {
         int cap = 8 * (f->n[0] + f->n[1] + f->n[2]);
         st = vdbs_pop_propagate(s->runner, params, VS_POP_PARAM_WORDS, sigma, cells, state, cap,
                                 tolerance, &iterations, &left, err);

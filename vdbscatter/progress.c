@@ -44,3 +44,13 @@ void vdbs_progress_end(vdbs_progress *progress)
             20, "");
     fflush(stderr);
 }
+
+const vdbs_cancel *vdbs_progress_cancel(const vdbs_progress *progress)
+{
+    return progress ? progress->cancel : NULL;
+}
+
+int vdbs_progress_cancelled(const vdbs_progress *progress)
+{
+    return vdbs_cancelled(vdbs_progress_cancel(progress));
+}

@@ -485,6 +485,8 @@ vdbs_status vdbs_reference_render(const vdbs_volume *volume, const vdbs_scene *s
             tracker_init(&ctx, &tr);
 #pragma omp for schedule(dynamic, 4)
             for (int64_t p = 0; p < pixels; ++p) {
+                if (vdbs_progress_cancelled(progress))
+                    continue; /* an OpenMP loop cannot break */
                 int px = (int)(p % frame->width), py = (int)(p / frame->width);
                 double dir[3];
                 vdbs_camera_ray(frame, px + 0.5, py + 0.5, dir);
@@ -530,6 +532,11 @@ vdbs_status vdbs_reference_render(const vdbs_volume *volume, const vdbs_scene *s
                             progress, (uint64_t)((double)progress->total * now_done / pixels));
                 }
             }
+        }
+        if (vdbs_progress_cancelled(progress)) {
+            free(acc);
+            ctx_free(&ctx);
+            return vdbs_error_cancelled(err);
         }
         taken += round_spp;
         if (!(options->time_limit > 0.0))

@@ -537,7 +537,10 @@ vdbs_status vdbs_render_march(vdbs_runner *runner, const vdbs_volume *volume,
     if ((st = vdbs_march_session_create(runner, volume, ms, scene, options, &session, err)) !=
         VDBS_OK)
         return st;
-    st = vdbs_march_session_draw(session, frame, options, image, err);
+    /* Between the light grids and the camera rays (which poll it themselves). */
+    st = vdbs_progress_cancelled(options->progress)
+             ? vdbs_error_cancelled(err)
+             : vdbs_march_session_draw(session, frame, options, image, err);
     vdbs_march_session_destroy(session);
     return st;
 }
@@ -654,7 +657,8 @@ static vdbs_status render_image(const vdbs_render_desc *d, vdbs_render_mode mode
                                 vdbs_march_options *march, vdbs_image *image,
                                 vdbs_render_report *report, vdbs_error *err)
 {
-    vdbs_progress progress;
+    vdbs_progress progress = {0};
+    progress.cancel = d->cancel;
     uint64_t pixels = (uint64_t)frame->width * (uint64_t)frame->height;
     vdbs_status st;
     if (mode == VDBS_RENDER_REFERENCE) {
@@ -785,6 +789,10 @@ vdbs_status vdbs_render(const vdbs_render_desc *d, vdbs_render_report *report, v
     report->mode = vdbs_render_mode_name(in.mode);
     report->camera = in.camera;
     double t_loaded = vdbs_now();
+    if (vdbs_cancelled(d->cancel)) {
+        vdbs_render_input_free(&in);
+        return vdbs_error_cancelled(err);
+    }
 
     vdbs_camera_frame frame;
     vdbs_image image;
@@ -799,8 +807,11 @@ vdbs_status vdbs_render(const vdbs_render_desc *d, vdbs_render_report *report, v
                           report, err);
     double t_rendered = vdbs_now();
     if (st == VDBS_OK)
-        st = vdbs_image_write(d->output, &image, d->exposure, err);
+        st = vdbs_image_write_cancel(d->output, &image, d->exposure, d->cancel, err);
     double t_written = vdbs_now();
+    /* A cancel after the rename: the new picture stays, the caller still hears of it. */
+    if (st == VDBS_OK && vdbs_cancelled(d->cancel))
+        st = vdbs_error_cancelled(err);
 
     if (st == VDBS_OK) {
         snprintf(report->grid, sizeof report->grid, "%s", in.volume.info.name);

@@ -150,6 +150,10 @@ vdbs_status vdbs_single_scatter_grids_out(vdbs_runner *runner, const vdbs_volume
     vdbs_status st = VDBS_OK;
     const int total = lights->direct_count + lights->ordinate_count;
     for (int d = 0; d < total && st == VDBS_OK; ++d) {
+        if (vdbs_progress_cancelled(progress)) {
+            st = vdbs_error_cancelled(err);
+            break;
+        }
         vdbs_light_grids set;
         st = vdbs_light_grids_build(runner, volume, scene, lights, d, 1, grids, &set, err);
         if (st != VDBS_OK)

@@ -13,3 +13,8 @@ vdbs_status vdbs_error_set(vdbs_error *err, vdbs_status status, const char *fmt,
     }
     return status;
 }
+
+vdbs_status vdbs_error_cancelled(vdbs_error *err)
+{
+    return vdbs_error_set(err, VDBS_ERR_CANCELLED, "%s", VDBS_CANCELLED_MESSAGE);
+}

@@ -295,7 +295,12 @@ vdbs_status vdbs_svd_solve_grid(vdbs_runner *runner, const vdbs_svd_grid *grid,
     stats->balance = 0.0;
     stats->clamped_fraction = 0.0;
     stats->residual = 1.0;
+    kd.cancel = vdbs_progress_cancel(desc->progress);
     for (int it = 0; it < max_iterations; ++it) {
+        if (vdbs_cancelled(kd.cancel)) {
+            st = vdbs_error_cancelled(err);
+            break;
+        }
         memset(state, 0, sizeof *state * l.state_words);
         st = vdbs_kernel_iterate(runner, &kd, NULL, err);
         if (st != VDBS_OK)

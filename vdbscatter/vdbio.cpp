@@ -824,6 +824,8 @@ void vdb_write(const char *path, const char *input_path, const vdbio_write_reque
         fail(VDBS_ERR_INPUT, format("%s: output path names a directory", path));
     const std::string tmp = dir + "." + base + ".tmp." + std::to_string(getpid());
 
+    if (vdbs_cancelled(req->cancel))
+        fail(VDBS_ERR_CANCELLED, VDBS_CANCELLED_MESSAGE);
     try {
         std::ofstream os(tmp, std::ios::out | std::ios::binary | std::ios::trunc);
         if (!os)
@@ -844,6 +846,10 @@ void vdb_write(const char *path, const char *input_path, const vdbio_write_reque
             fail(VDBS_ERR_IO, format("%s: cannot sync %s: %s", path, tmp.c_str(), strerror(e)));
         }
         close(fd);
+        /* The write itself cannot stop midway; a cancel that came during it ends here, before
+         * the new file replaces the old one (the catch below removes the temporary file). */
+        if (vdbs_cancelled(req->cancel))
+            fail(VDBS_ERR_CANCELLED, VDBS_CANCELLED_MESSAGE);
         if (rename(tmp.c_str(), path) != 0)
             fail(VDBS_ERR_IO,
                  format("%s: cannot rename %s into place: %s", path, tmp.c_str(), strerror(errno)));

@@ -3,6 +3,7 @@
 #define VDBSCATTER_BAKE_H
 
 #include "vdbscatter/advice.h"
+#include "vdbscatter/cancel.h"
 #include "vdbscatter/kernel.h"
 #include "vdbscatter/lightgrid.h"
 #include "vdbscatter/fld.h"
@@ -33,6 +34,10 @@ typedef struct vdbs_bake_options {
     const char *warm_start;
     vdbs_warn_fn warn;
     void *warn_user;
+    /* Polled between stages and in the solvers' loops (cancel.h): once set, the bake stops
+     * with VDBS_ERR_CANCELLED and leaves no temporary file; the output is the old file, or
+     * the complete new one when the flag came after the rename. NULL: never. */
+    const vdbs_cancel *cancel;
 } vdbs_bake_options;
 
 typedef struct vdbs_bake_report {

@@ -45,6 +45,8 @@ typedef struct vdbs_fld_desc {
                              (vdbs_s1_outputs.flux, 9 per output voxel), from which the
                              first-moment source g sigma_s F1 comes; NULL: an isotropic
                              source (--fld-p1 off, or g = 0) */
+    const vdbs_cancel *cancel; /* polled every CG iteration: VDBS_ERR_CANCELLED once set;
+                                  NULL: never (the bake's is its progress's) */
 } vdbs_fld_desc;
 
 /* What a quality chooses. The grid comes from the medium: cells_per_path cells per mean

@@ -3,6 +3,7 @@
 #ifndef VDBSCATTER_IMAGE_H
 #define VDBSCATTER_IMAGE_H
 
+#include "vdbscatter/cancel.h"
 #include "vdbscatter/status.h"
 
 #ifdef __cplusplus
@@ -26,6 +27,11 @@ void vdbs_image_free(vdbs_image *image);
  */
 vdbs_status vdbs_image_write(const char *path, const vdbs_image *image, double exposure_ev,
                              vdbs_error *err);
+/* vdbs_image_write that also polls cancel (cancel.h; NULL: never) before it starts and once
+ * the temporary file is written and synced: when set, the temporary file is removed, the old
+ * file at path stays and the result is VDBS_ERR_CANCELLED. */
+vdbs_status vdbs_image_write_cancel(const char *path, const vdbs_image *image, double exposure_ev,
+                                    const vdbs_cancel *cancel, vdbs_error *err);
 
 /* Reads an EXR (channels R, G, B; se.R, se.G, se.B when present; half or float), a Radiance
  * HDR (RGBE, linear) or a PNG (decoded from sRGB to linear), by content. Errors

@@ -112,6 +112,9 @@ typedef struct vdbs_kernel_desc {
     vdbs_reduce reduce;
 
     vdbs_progress *progress; /* may be NULL: run counts items, iterate counts iterations */
+    /* Polled between chunks, dispatches and steps, as is progress->cancel: once set, the
+     * call returns VDBS_ERR_CANCELLED with the outputs incomplete. NULL: never. */
+    const vdbs_cancel *cancel;
 } vdbs_kernel_desc;
 
 typedef struct vdbs_kernel_result {

@@ -5,6 +5,8 @@
 
 #include <stdint.h>
 
+#include "vdbscatter/cancel.h"
+
 #ifdef __cplusplus
 extern "C" {
 #endif
@@ -15,6 +17,9 @@ typedef struct vdbs_progress {
     uint64_t total;
     double started;
     double last_print;
+    /* The caller's cancel flag, carried to every loop that counts progress (NULL: never);
+     * vdbs_progress_begin leaves it as it is, so zero-initialise the struct first. */
+    const vdbs_cancel *cancel;
 } vdbs_progress;
 
 /* Monotonic wall-clock seconds. */
@@ -24,6 +29,10 @@ void vdbs_progress_begin(vdbs_progress *progress, int enabled, const char *label
 /* Rate-limited to a few updates a second; safe to call often from one thread. */
 void vdbs_progress_update(vdbs_progress *progress, uint64_t done);
 void vdbs_progress_end(vdbs_progress *progress);
+/* progress->cancel, or NULL for a NULL progress. */
+const vdbs_cancel *vdbs_progress_cancel(const vdbs_progress *progress);
+/* Whether progress->cancel is set (0 for a NULL progress). */
+int vdbs_progress_cancelled(const vdbs_progress *progress);
 
 #ifdef __cplusplus
 }

@@ -14,6 +14,7 @@
 #include <stdint.h>
 
 #include "vdbscatter/camera.h"
+#include "vdbscatter/cancel.h"
 #include "vdbscatter/image.h"
 #include "vdbscatter/kernel.h"
 #include "vdbscatter/lightgrid.h"
@@ -190,6 +191,10 @@ typedef struct vdbs_render_desc {
     int progress;      /* show progress on stderr */
     vdbs_warn_fn warn;
     void *warn_user;
+    /* Polled between stages and in the render loops (cancel.h): once set, vdbs_render stops
+     * with VDBS_ERR_CANCELLED and leaves no temporary image; the old picture stays unless
+     * the new one was already renamed into place. NULL: never. */
+    const vdbs_cancel *cancel;
 } vdbs_render_desc;
 
 typedef struct vdbs_render_report {

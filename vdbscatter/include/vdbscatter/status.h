@@ -14,7 +14,8 @@ typedef enum vdbs_status {
     VDBS_ERR_IO = 3,
     VDBS_ERR_GPU = 4,
     VDBS_ERR_NOMEM = 5,
-    VDBS_ERR_INTERNAL = 6
+    VDBS_ERR_INTERNAL = 6,
+    VDBS_ERR_CANCELLED = 7 /* the caller's vdbs_cancel flag was set (cancel.h) */
 } vdbs_status;
 
 #define VDBS_ERROR_MAX 1024
@@ -29,6 +30,12 @@ vdbs_status vdbs_error_set(vdbs_error *err, vdbs_status status, const char *fmt,
     __attribute__((format(printf, 3, 4)))
 #endif
     ;
+
+/* The message of VDBS_ERR_CANCELLED. */
+#define VDBS_CANCELLED_MESSAGE "interrupted"
+
+/* Sets err to VDBS_CANCELLED_MESSAGE and returns VDBS_ERR_CANCELLED. */
+vdbs_status vdbs_error_cancelled(vdbs_error *err);
 
 /* Receives non-fatal warnings (one line each, no trailing newline). */
 typedef void (*vdbs_warn_fn)(void *user, const char *message);

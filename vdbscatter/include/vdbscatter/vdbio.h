@@ -6,6 +6,7 @@
 #include <stddef.h>
 #include <stdint.h>
 
+#include "vdbscatter/cancel.h"
 #include "vdbscatter/status.h"
 
 #ifdef __cplusplus
@@ -134,6 +135,10 @@ typedef struct vdbio_write_request {
     int half; /* store as half floats; values beyond 65504 are clamped with a warning */
     vdbs_warn_fn warn;
     void *warn_user;
+    /* Polled before the temporary file is made and again once it is written and synced,
+     * just before the rename: when set, the temporary file is removed, the old output stays
+     * and the write returns VDBS_ERR_CANCELLED. NULL: never. */
+    const vdbs_cancel *cancel;
 } vdbio_write_request;
 
 /* The output checks vdbio_write makes first, for callers that want to fail before long

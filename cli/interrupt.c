@@ -1,0 +1,38 @@
+#define _POSIX_C_SOURCE 200809L
+#include "interrupt.h"
+
+#include <signal.h>
+#include <stdio.h>
+#include <string.h>
+
+/* The first signal's number; 0 until one comes. */
+static vdbs_cancel interrupt_signal;
+
+static void on_signal(int signo)
+{
+    if (!interrupt_signal)
+        interrupt_signal = signo;
+}
+
+const vdbs_cancel *cli_interrupt_install(void)
+{
+    struct sigaction sa;
+    memset(&sa, 0, sizeof sa);
+    sa.sa_handler = on_signal;
+    sigemptyset(&sa.sa_mask);
+    /* SA_RESETHAND: a second signal of the kind takes the default action (the user can
+     * still kill a stuck process); SA_RESTART: no EINTR in the middle of file I/O. */
+    sa.sa_flags = SA_RESETHAND | SA_RESTART;
+    sigaction(SIGINT, &sa, NULL);
+    sigaction(SIGTERM, &sa, NULL);
+    return &interrupt_signal;
+}
+
+int cli_interrupt_status(const char *command, int status)
+{
+    const int signo = interrupt_signal;
+    if (!signo)
+        return status;
+    fprintf(stderr, "vdbscatter %s: interrupted\n", command);
+    return 128 + signo;
+}
