@@ -231,6 +231,7 @@ vdbs_status vdbs_bake(const vdbs_bake_options *o, vdbs_bake_report *report, vdbs
     if (vdbs_cancelled(o->cancel)) {
         vdbs_svd_moments_free(&warm);
         vdbs_volume_free(&volume);
+        free(resolved);
         return vdbs_error_cancelled(err);
     }
     report->seconds_load = vdbs_now() - t_start;
