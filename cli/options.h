@@ -112,7 +112,8 @@ vdbs_status cli_s1_options(const cli_args *args, int *march, int *oversample, vd
     "  --s1 grid|march          single scattering from light grids (default): one\n"               \
     "                           transmittance sweep per light direction, then a lookup per\n"      \
     "                           point; or by the exact march to every light (the oracle)\n"        \
-    "  --s1-oversample F        light-grid samples per smallest voxel length (default 2)\n"
+    "  --s1-oversample F        light-grid samples per smallest voxel length (default: the\n"      \
+    "                           quality's, 1 at low and medium, 2 at high and ultra)\n"
 
 /* Prints "vdbscatter CMD: message" on stderr and returns the exit status for status
  * (a vdbs_status or an exit status: 2, VDBS_ERR_INPUT, is a usage error). */

@@ -58,7 +58,8 @@ static vdbs_status solve(const vdbs_bake_options *o, const vdbs_solver *solver,
     s->scene = o->scene;
     s->lights = &lights;
     s->quality = quality;
-    vdbs_light_grid_desc grids = {o->s1_oversample, 0};
+    vdbs_light_grid_desc grids = {o->s1_oversample > 0 ? o->s1_oversample : quality->s1_oversample,
+                                  0};
     s->s1_grids = o->s1_march ? NULL : &grids;
     s->progress = &progress;
     vdbs_s1_stats stats;
@@ -242,7 +243,7 @@ vdbs_status vdbs_bake(const vdbs_bake_options *o, vdbs_bake_report *report, vdbs
     snprintf(report->s1, sizeof report->s1, "%s", o->s1_march ? "march" : "grid");
     report->s1_oversample = o->s1_march            ? 0
                             : o->s1_oversample > 0 ? o->s1_oversample
-                                                   : VDBS_LIGHT_GRID_DEFAULT_OVERSAMPLE;
+                                                   : quality->s1_oversample;
 
     size_t n = volume.coord_count ? volume.coord_count : 1;
     vdbs_solve outputs = {0};

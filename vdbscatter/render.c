@@ -46,6 +46,7 @@ int vdbs_render_quality(const char *quality, vdbs_march_options *options)
         return 0;
     options->sky_directions = q->sky_directions;
     options->step_voxels = q->render_step_voxels;
+    options->s1_oversample = q->s1_oversample;
     return 1;
 }
 
@@ -685,12 +686,13 @@ static vdbs_status render_image(const vdbs_render_desc *d, vdbs_render_mode mode
         march->progress = &progress;
         march->gpu_units = d->gpu_units;
         march->s1_march = d->s1_march;
-        march->s1_oversample = d->s1_oversample;
+        if (d->s1_oversample > 0)
+            march->s1_oversample = d->s1_oversample;
         march->stats = &report->march_stats;
         snprintf(report->s1, sizeof report->s1, "%s", d->s1_march ? "march" : "grid");
-        report->s1_oversample = d->s1_march            ? 0
-                                : d->s1_oversample > 0 ? d->s1_oversample
-                                                       : VDBS_LIGHT_GRID_DEFAULT_OVERSAMPLE;
+        report->s1_oversample = d->s1_march                ? 0
+                                : march->s1_oversample > 0 ? march->s1_oversample
+                                                           : VDBS_LIGHT_GRID_DEFAULT_OVERSAMPLE;
         report->spp = 1;
         vdbs_progress_begin(&progress, d->progress, "render", pixels);
         st = vdbs_render_march(runner, volume, mode == VDBS_RENDER_BAKED ? ms : NULL, scene, frame,

@@ -9,10 +9,10 @@
 #include "vdbscatter/svd.h"
 
 static const vdbs_quality qualities[] = {
-    {"low", 16, 1.0f},
-    {"medium", 64, 0.5f},
-    {"high", 256, 0.25f},
-    {"ultra", 1024, 0.125f},
+    {"low", 16, 1.0f, 1},
+    {"medium", 64, 0.5f, 1},
+    {"high", 256, 0.25f, 2},
+    {"ultra", 1024, 0.125f, 2},
 };
 
 const vdbs_quality *vdbs_quality_find(const char *name)

@@ -624,7 +624,8 @@ static vdbs_status viewer_open(viewer *v, const view_args *a, GLFWwindow **windo
     volume_centre(&v->in.volume, v->centre);
     v->march = v->in.march;
     v->march.s1_march = a->desc.s1_march;
-    v->march.s1_oversample = a->desc.s1_oversample;
+    if (a->desc.s1_oversample > 0) /* else the quality's, as render */
+        v->march.s1_oversample = a->desc.s1_oversample;
     v->exposure = a->exposure;
     v->interleave = (int)a->interleave;
     v->interleave_on = !a->no_interleave;

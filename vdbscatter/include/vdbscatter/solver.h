@@ -24,6 +24,9 @@ typedef struct vdbs_quality {
     const char *name;         /* "low", "medium", "high", "ultra" */
     int sky_directions;       /* quadrature directions for the sky's S1: 16 / 64 / 256 / 1024 */
     float render_step_voxels; /* camera-ray step of the render march: 1, 1/2, 1/4, 1/8 voxel */
+    int s1_oversample;        /* S1 light-grid samples per smallest voxel: 1 / 1 / 2 / 2
+                                 (bench/defaults.md: 2 costs up to 5x the bake for no
+                                 measurable gain at low and medium) */
 } vdbs_quality;
 
 /* The preset of a quality name, or NULL if unknown. */
