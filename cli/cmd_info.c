@@ -285,6 +285,11 @@ int cmd_info(int argc, char **argv)
                 else if (target > 0.0)
                     printf("density scale for a mean optical depth of %g: none (no density)\n",
                            target);
+                else if (cJSON_GetObjectItem(o, "mean")->valuedouble > 0.0)
+                    printf("clouds look like clouds at a mean optical depth of about 5-20: "
+                           "--density-scale auto:10 is %.6g here (--target-depth TAU for "
+                           "another depth)\n",
+                           10.0 * scale / cJSON_GetObjectItem(o, "mean")->valuedouble);
             }
         }
     }

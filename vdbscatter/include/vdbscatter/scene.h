@@ -158,7 +158,7 @@ typedef struct vdbs_scene {
 
 /* Defaults follow Blender Cycles' Principled Volume: density 1, albedo 0.5, g 0;
  * method "svd", quality "low" (the measured best error for the time on general volumes:
- * docs/methods/README.md), no lights, no camera. */
+ * bench/defaults.md, docs/design.md "Decisions"), no lights, no camera. */
 void vdbs_scene_init(vdbs_scene *scene);
 
 /* Parses scene JSON. Relative paths are resolved against base_dir (may be NULL).
