@@ -1,8 +1,8 @@
 #!/usr/bin/python3
 """`vdbscatter compare` as a pipeline meets it: key=value and JSON output on images with
 known answers, se statistics, masking, and bad input (exit 2, one line). The images are
-written here by tiny pure-Python PNG and OpenEXR writers (uncompressed scanline EXR, half
-or float), so the reader is also checked against files it did not write itself."""
+written here by tiny pure-Python PNG and OpenEXR writers (scanline EXR, uncompressed or ZIP,
+half or float), so the reader is also checked against files it did not write itself."""
 import json
 import math
 import os
@@ -44,10 +44,23 @@ def write_png(path, width, height, rgb, depth=8):
         f.write(chunk(b"IEND", b""))
 
 
-def write_exr(path, width, height, channels, half=False, origin=(0, 0)):
-    """channels: {name: flat list of width*height values}; uncompressed scanline file."""
+def zip_block(raw):
+    """OpenEXR's ZIP codec on one block: bytes split into even and odd halves, a delta
+    predictor, then zlib; stored raw when that is not smaller."""
+    t = raw[0::2] + raw[1::2]
+    d = bytearray(t)
+    for i in range(1, len(t)):
+        d[i] = (t[i] - t[i - 1] + 128 + 256) & 0xFF
+    packed = zlib.compress(bytes(d))
+    return packed if len(packed) < len(raw) else raw
+
+
+def write_exr(path, width, height, channels, half=False, origin=(0, 0), compression="none"):
+    """channels: {name: flat list of width*height values}; scanline file, uncompressed or
+    ZIP (blocks of 16 lines)."""
     names = sorted(channels)
     ptype, code = (1, "e") if half else (2, "f")
+    lines = {"none": 1, "zip": 16}[compression]
 
     def attr(name, kind, data):
         return name.encode() + b"\0" + kind.encode() + b"\0" + struct.pack("<i", len(data)) + data
@@ -57,7 +70,7 @@ def write_exr(path, width, height, channels, half=False, origin=(0, 0)):
     chlist = b"".join(n.encode() + b"\0" + struct.pack("<iB3xii", ptype, 0, 1, 1) for n in names) + b"\0"
     header = b"\x76\x2f\x31\x01" + struct.pack("<i", 2)
     header += attr("channels", "chlist", chlist)
-    header += attr("compression", "compression", b"\0")
+    header += attr("compression", "compression", b"\3" if compression == "zip" else b"\0")
     header += attr("dataWindow", "box2i", box)
     header += attr("displayWindow", "box2i", box)
     header += attr("lineOrder", "lineOrder", b"\0")
@@ -66,10 +79,13 @@ def write_exr(path, width, height, channels, half=False, origin=(0, 0)):
     header += attr("screenWindowWidth", "float", struct.pack("<f", 1.0))
     header += b"\0"
     chunks = []
-    for y in range(height):
-        data = b"".join(struct.pack("<%d%s" % (width, code), *channels[n][width * y: width * (y + 1)]) for n in names)
+    for y in range(0, height, lines):
+        data = b"".join(struct.pack("<%d%s" % (width, code), *channels[n][width * yy: width * (yy + 1)])
+                        for yy in range(y, min(y + lines, height)) for n in names)
+        if compression == "zip":
+            data = zip_block(data)
         chunks.append(struct.pack("<ii", y0 + y, len(data)) + data)
-    offset = len(header) + 8 * height
+    offset = len(header) + 8 * len(chunks)
     table = b""
     for c in chunks:
         table += struct.pack("<Q", offset)
@@ -224,6 +240,47 @@ class Compare(Base):
         self.assertEqual(m["relrmse"], "0")
         self.assertEqual(m["se_a"], m["se_b"])
 
+    def test_half_rgba_zip_against_float(self):
+        """Half RGBA ZIP, the layout most tools write (OpenEXRCore 3.1.5's decoder crashed on
+        it, exit 139), against a float copy of the same values: they differ by half rounding
+        alone, and not at all against a float copy of the rounded values."""
+        w, h = 40, 37  # three ZIP blocks, the last one of 5 lines
+        n = w * h
+        values = [self.rng.uniform(0.01, 4.0) for _ in range(3 * n)]
+        rgba = rgb_channels(values)
+        rgba["A"] = [1.0] * n
+        half, full = self.path("half.exr"), self.path("float.exr")
+        write_exr(half, w, h, rgba, half=True, compression="zip")
+        write_exr(full, w, h, rgb_channels(values), compression="zip")
+        p = run("compare", half, full, check=0)
+        m = dict(parse(p.stdout))
+        self.assertEqual(m["samples"], str(3 * n))
+        self.assertGreater(float(m["relrmse"]), 0.0)
+        self.assertLess(float(m["relrmse"]), 1e-3)
+        rounded = [struct.unpack("<e", struct.pack("<e", v))[0] for v in values]
+        write_exr(full, w, h, rgb_channels(rounded))
+        self.assertEqual(dict(parse(run("compare", half, full, check=0).stdout))["relrmse"], "0")
+
+    def test_grey_and_render_output(self):
+        """Y alone reads as grey (R = G = B = Y), as for environment maps; an image rendered
+        with --mode reference reads back with its se channels."""
+        write_exr(self.path("grey.exr"), 24, 16, {"Y": [0.5] * (24 * 16)}, half=True, compression="zip")
+        write_exr(self.path("rgb.exr"), 24, 16, rgb_channels([0.5] * (3 * 24 * 16)))
+        m = dict(parse(run("compare", self.path("grey.exr"), self.path("rgb.exr"), check=0).stdout))
+        self.assertEqual(m["relrmse"], "0")
+        samples = os.environ.get("VDBSCATTER_SAMPLES_DIR")
+        if not samples:
+            self.skipTest("VDBSCATTER_SAMPLES_DIR not set")
+        ref = self.path("ref.exr")
+        run("render", os.path.join(samples, "cube.vdb"), "--scene", os.path.join(samples, "cube.json"),
+            "-o", ref, "-q", "--size", "12x10", "--mode", "reference", "--spp", "2", "--max-bounces", "3",
+            "--seed", "7", check=0)
+        j = json.loads(run("compare", ref, ref, "--json", check=0).stdout)
+        self.assertEqual(j["relrmse"], 0)
+        self.assertGreater(j["se_a"], 0)
+        self.assertEqual(j["se_a"], j["se_b"])
+        self.assertGreater(j["z_samples"], 0)
+
     def test_mask_below(self):
         w, h = 10, 6
         ref, test = [], []
@@ -268,8 +325,9 @@ class Compare(Base):
         with open(self.path("notes.exr"), "w") as f:
             f.write("not an image\n")
         self.assert_bad_input(["compare", self.path("notes.exr"), a], "notes.exr")
-        write_exr(self.path("gray.exr"), 24, 16, {"Y": [0.5] * (24 * 16)})
-        self.assertIn("R, G", self.assert_bad_input(["compare", self.path("gray.exr"), a], "gray.exr"))
+        # Y alone reads as grey (test_grey_and_render_output); no R, G, B or Y is refused.
+        write_exr(self.path("depth.exr"), 24, 16, {"Z": [0.5] * (24 * 16)})
+        self.assertIn("R, G", self.assert_bad_input(["compare", self.path("depth.exr"), a], "depth.exr"))
         with open(a, "rb") as f:
             data = f.read()
         with open(self.path("cut.exr"), "wb") as f:

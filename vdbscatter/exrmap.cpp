@@ -1,11 +1,13 @@
-/* OpenEXR environment maps through the C++ Imf library: a bridge like vdbio.cpp; every
- * exception is caught here and turned into a vdbs_error.
+/* OpenEXR reading through the C++ Imf library, for environment maps and for every image
+ * vdbs_image_read meets (compare): a bridge like vdbio.cpp; every exception is caught here
+ * and turned into a vdbs_error.
  *
- * Why Imf and not OpenEXRCore (which image.c uses for the renders' own files): Core 3.1.5
- * cannot decompress DWAA/DWAB, the codec many HDRI tools pick, and its decoder has fast
- * paths that mis-order or crash on some layouts (four half channels into float outputs).
+ * Why Imf and not OpenEXRCore (which image.c still uses to write the renders' own files):
+ * Core 3.1.5 cannot decompress DWAA/DWAB, the codec many HDRI tools pick, and its decoder has
+ * fast paths that mis-order or crash on some layouts (four half channels into float
+ * outputs: a half RGBA ZIP file, the most common layout, segfaulted `compare`).
  * Imf::InputFile with a FrameBuffer of FLOAT slices converts half and uint, reads level 0
- * of tiled, mipmapped and ripmapped files and knows every compression, so every map takes
+ * of tiled, mipmapped and ripmapped files and knows every compression, so every EXR takes
  * one path. */
 #include "exrmap.h"
 
@@ -67,13 +69,14 @@ void require_full_resolution(const Imf::ChannelList &channels, const std::string
 }
 
 /* Which channels make the map: "R", "G", "B" with a layer prefix ("" or "layer."), or grey
- * from "Y", or luminance/chroma. */
+ * from "Y", or luminance/chroma. With se_layer set the layer "se" holds standard errors and
+ * is never taken for the colour. */
 struct Choice {
     std::string prefix;
     bool grey = false, chroma = false;
 };
 
-Choice choose_channels(const Imf::ChannelList &channels)
+Choice choose_channels(const Imf::ChannelList &channels, bool se_layer)
 {
     auto has = [&](const std::string &n) { return channels.findChannel(n) != nullptr; };
     Choice choice;
@@ -92,7 +95,7 @@ Choice choose_channels(const Imf::ChannelList &channels)
     std::set<std::string> layers, rgb_layers;
     channels.layers(layers);
     for (const std::string &l : layers)
-        if (has(l + ".R") && has(l + ".G") && has(l + ".B"))
+        if (!(se_layer && l == "se") && has(l + ".R") && has(l + ".G") && has(l + ".B"))
             rgb_layers.insert(l);
     if (rgb_layers.size() == 1) {
         choice.prefix = *rgb_layers.begin() + ".";
@@ -106,9 +109,25 @@ Choice choose_channels(const Imf::ChannelList &channels)
                   " (channels: " + channel_names(channels) + ")"};
 }
 
-} // namespace
+/* The one place pixels are read: the named channels of the data window dw, converted to
+ * float, in one pass over the file. Channel names[k] lands in the float plane dst[k] with a
+ * stride of `stride` floats per texel, row 0 (dw.min.y) first, no gaps between rows. */
+void read_float_planes(Imf::InputFile &file, const Imath::Box2i &dw,
+                       const std::vector<std::string> &names, const std::vector<float *> &dst,
+                       size_t stride)
+{
+    const size_t xs = stride * sizeof(float);
+    const size_t ys = xs * (size_t)(dw.max.x - dw.min.x + 1);
+    Imf::FrameBuffer fb;
+    for (size_t k = 0; k < names.size(); ++k)
+        fb.insert(names[k], Imf::Slice::Make(Imf::FLOAT, dst[k], dw, xs, ys));
+    file.setFrameBuffer(fb);
+    file.readPixels(dw.min.y, dw.max.y);
+}
 
-extern "C" vdbs_status vdbs_exrmap_read(const char *path, vdbs_image *image, vdbs_error *err)
+/* Both public readers: the colour channels choose_channels picks and, when want_se is set
+ * and all three are present, se.R, se.G, se.B. */
+vdbs_status read_exr(const char *path, vdbs_image *image, bool want_se, vdbs_error *err)
 {
     std::memset(image, 0, sizeof *image);
     try {
@@ -116,23 +135,34 @@ extern "C" vdbs_status vdbs_exrmap_read(const char *path, vdbs_image *image, vdb
         const Imf::Header &header = file.header();
         if (header.hasType() && Imf::isDeepData(header.type()))
             throw Refusal{"deep OpenEXR images are not supported"};
-        /* The map is the data window: OpenEXR's own lat-long functions (ImfEnvmap.h) are
+        /* The image is the data window: OpenEXR's own lat-long functions (ImfEnvmap.h) are
          * defined on it, and the display window of a map is often a crop or overscan frame
-         * nobody means as the sphere. */
+         * nobody means as the sphere. compare, too, matches data windows pixel for pixel
+         * (of the same size, wherever they sit). */
         const Imath::Box2i dw = header.dataWindow();
         const long long w64 = (long long)dw.max.x - dw.min.x + 1;
         const long long h64 = (long long)dw.max.y - dw.min.y + 1;
         if (w64 <= 0 || h64 <= 0 || w64 > (1 << 24) || h64 > (1 << 24))
             throw Refusal{"data window " + std::to_string(w64) + "x" + std::to_string(h64) +
                           " is unusable"};
-        const Choice choice = choose_channels(header.channels());
-        vdbs_status st = vdbs_image_alloc(image, (int)w64, (int)h64, 0, err);
+        const Imf::ChannelList &channels = header.channels();
+        const Choice choice = choose_channels(channels, want_se);
+        const char *const se_names[3] = {"se.R", "se.G", "se.B"};
+        bool with_se = want_se;
+        for (const char *n : se_names)
+            with_se = with_se && channels.findChannel(n) != nullptr;
+        if (with_se)
+            for (const char *n : se_names)
+                require_full_resolution(channels, n);
+        vdbs_status st = vdbs_image_alloc(image, (int)w64, (int)h64, with_se, err);
         if (st != VDBS_OK) {
             const std::string why = err ? err->message : "";
             return vdbs_error_set(err, st, "%s: %s", path, why.c_str());
         }
         const int w = image->width, h = image->height;
         const size_t texels = (size_t)w * (size_t)h;
+        std::vector<std::string> names;
+        std::vector<float *> planes;
         if (choice.chroma) {
             /* Luminance/chroma (Y, RY, BY): RgbaInputFile reconstructs RGB as half. */
             Imf::RgbaInputFile rgba(path);
@@ -148,20 +178,22 @@ extern "C" vdbs_status vdbs_exrmap_read(const char *path, vdbs_image *image, vdb
                     t[1] = pixels[y][x].g;
                     t[2] = pixels[y][x].b;
                 }
-            return VDBS_OK;
-        }
-        Imf::FrameBuffer fb;
-        const size_t xs = 3 * sizeof(float), ys = xs * (size_t)w;
-        if (choice.grey) {
-            fb.insert("Y", Imf::Slice::Make(Imf::FLOAT, image->rgb, dw, xs, ys));
+        } else if (choice.grey) {
+            names.push_back("Y");
+            planes.push_back(image->rgb);
         } else {
             const char *rgb[3] = {"R", "G", "B"};
-            for (int c = 0; c < 3; ++c)
-                fb.insert(choice.prefix + rgb[c],
-                          Imf::Slice::Make(Imf::FLOAT, image->rgb + c, dw, xs, ys));
+            for (int c = 0; c < 3; ++c) {
+                names.push_back(choice.prefix + rgb[c]);
+                planes.push_back(image->rgb + c);
+            }
         }
-        file.setFrameBuffer(fb);
-        file.readPixels(dw.min.y, dw.max.y);
+        for (int c = 0; with_se && c < 3; ++c) {
+            names.push_back(se_names[c]);
+            planes.push_back(image->se + c);
+        }
+        if (!names.empty())
+            read_float_planes(file, dw, names, planes, 3);
         if (choice.grey)
             for (size_t i = 0; i < texels; ++i)
                 image->rgb[3 * i + 1] = image->rgb[3 * i + 2] = image->rgb[3 * i];
@@ -171,7 +203,7 @@ extern "C" vdbs_status vdbs_exrmap_read(const char *path, vdbs_image *image, vdb
         return vdbs_error_set(err, VDBS_ERR_INPUT, "%s: %s", path, r.message.c_str());
     } catch (const std::bad_alloc &) {
         vdbs_image_free(image);
-        return vdbs_error_set(err, VDBS_ERR_NOMEM, "%s: out of memory reading the OpenEXR map",
+        return vdbs_error_set(err, VDBS_ERR_NOMEM, "%s: out of memory reading the OpenEXR file",
                               path);
     } catch (const std::exception &e) {
         vdbs_image_free(image);
@@ -183,4 +215,16 @@ extern "C" vdbs_status vdbs_exrmap_read(const char *path, vdbs_image *image, vdb
         vdbs_image_free(image);
         return vdbs_error_set(err, VDBS_ERR_INPUT, "%s: unreadable OpenEXR file", path);
     }
+}
+
+} // namespace
+
+extern "C" vdbs_status vdbs_exrmap_read(const char *path, vdbs_image *image, vdbs_error *err)
+{
+    return read_exr(path, image, false, err);
+}
+
+extern "C" vdbs_status vdbs_exrimage_read(const char *path, vdbs_image *image, vdbs_error *err)
+{
+    return read_exr(path, image, true, err);
 }

@@ -1,5 +1,6 @@
-/* OpenEXR environment maps read through the C++ Imf library (exrmap.cpp, a small bridge: no
- * exception crosses into C). See docs/envmap.md. */
+/* OpenEXR files read through the C++ Imf library (exrmap.cpp, a small bridge: no exception
+ * crosses into C): environment maps, and every EXR image vdbs_image_read meets. See
+ * docs/envmap.md. */
 #ifndef VDBSCATTER_EXRMAP_H
 #define VDBSCATTER_EXRMAP_H
 
@@ -19,6 +20,12 @@ extern "C" {
  * the file): unreadable, corrupt or truncated file, deep data, no usable channels (the
  * channels found are listed), subsampled colour channels; VDBS_ERR_NOMEM. */
 vdbs_status vdbs_exrmap_read(const char *path, vdbs_image *image, vdbs_error *err);
+
+/* vdbs_exrmap_read plus the per-pixel standard errors of `render --mode reference`: when the
+ * file has all of se.R, se.G and se.B (full resolution, any type), image->se holds them,
+ * else image->se is NULL. The reader of vdbs_image_read for OpenEXR files (compare). Errors:
+ * those of vdbs_exrmap_read, and a subsampled se channel (VDBS_ERR_INPUT). */
+vdbs_status vdbs_exrimage_read(const char *path, vdbs_image *image, vdbs_error *err);
 
 #ifdef __cplusplus
 }

@@ -1,7 +1,10 @@
-/* Images: allocation, OpenEXR (OpenEXRCore C API) and 8-bit sRGB PNG (stb) files, and
- * the error metrics of `vdbscatter compare`. */
+/* Images: allocation, OpenEXR files (written with the OpenEXRCore C API, read through the
+ * C++ Imf bridge exrmap.cpp), Radiance HDR and 8-bit sRGB PNG (stb) files, and the error
+ * metrics of `vdbscatter compare`. */
 #define _POSIX_C_SOURCE 200809L
 #include "vdbscatter/image.h"
+
+#include "exrmap.h"
 
 #include <errno.h>
 #include <fcntl.h>
@@ -123,6 +126,8 @@ static const char *exr_reason(exr_result_t rv)
 }
 
 /* ---- EXR ------------------------------------------------------------------------------- */
+/* Written here with OpenEXRCore (float ZIP scanlines); read back, like every EXR, through
+ * vdbs_exrimage_read (exrmap.cpp). */
 
 static const char *const channel_names[6] = {"R", "G", "B", "se.R", "se.G", "se.B"};
 
@@ -195,176 +200,6 @@ static vdbs_status exr_write(const char *path, const char *tmp, const vdbs_image
                               exr_reason(rv));
     }
     return VDBS_OK;
-}
-
-/* Points the decoder's wanted channels at their float planes (one plane per channel:
- * interleaved outputs hit an OpenEXR 3.1.5 fast path that writes channels out of order). */
-static void exr_bind_planes(exr_decode_pipeline_t *dec, float *const planes[6], int width, int x0,
-                            int y0)
-{
-    for (int i = 0; i < dec->channel_count; ++i) {
-        exr_coding_channel_info_t *ch = &dec->channels[i];
-        ch->decode_to_ptr = NULL;
-        for (int c = 0; c < 6; ++c) {
-            if (planes[c] && strcmp(ch->channel_name, channel_names[c]) == 0) {
-                ch->user_bytes_per_element = 4;
-                ch->user_data_type = EXR_PIXEL_FLOAT;
-                ch->user_pixel_stride = (int32_t)sizeof(float);
-                ch->user_line_stride = width * (int32_t)sizeof(float);
-                ch->decode_to_ptr = (uint8_t *)(planes[c] + (size_t)y0 * width + x0);
-            }
-        }
-    }
-}
-
-static vdbs_status exr_read(const char *path, vdbs_image *image, vdbs_error *err)
-{
-    exr_context_initializer_t init = exr_initializer();
-    init.flags |= EXR_CONTEXT_FLAG_SILENT_HEADER_PARSE;
-    exr_context_t ctx = NULL;
-    exr_decode_pipeline_t dec = EXR_DECODE_PIPELINE_INITIALIZER;
-    int have_dec = 0;
-    float *planes[6] = {NULL};
-    vdbs_status st = VDBS_OK;
-    exr_message[0] = '\0';
-    exr_result_t rv = exr_start_read(&ctx, path, &init);
-    if (rv != EXR_ERR_SUCCESS) {
-        st = vdbs_error_set(err, VDBS_ERR_INPUT, "%s: unreadable OpenEXR file: %s", path,
-                            exr_reason(rv));
-        goto done;
-    }
-    exr_storage_t storage = EXR_STORAGE_LAST_TYPE;
-    const exr_attr_chlist_t *chlist = NULL;
-    exr_attr_box2i_t dw;
-    if (exr_get_storage(ctx, 0, &storage) != EXR_ERR_SUCCESS ||
-        exr_get_channels(ctx, 0, &chlist) != EXR_ERR_SUCCESS ||
-        exr_get_data_window(ctx, 0, &dw) != EXR_ERR_SUCCESS) {
-        st = vdbs_error_set(err, VDBS_ERR_INPUT, "%s: OpenEXR header lacks required attributes",
-                            path);
-        goto done;
-    }
-    if (storage != EXR_STORAGE_SCANLINE && storage != EXR_STORAGE_TILED) {
-        st = vdbs_error_set(err, VDBS_ERR_INPUT, "%s: deep OpenEXR images are not supported", path);
-        goto done;
-    }
-    int present[6] = {0};
-    for (int i = 0; i < chlist->num_channels; ++i) {
-        const exr_attr_chlist_entry_t *e = &chlist->entries[i];
-        for (int c = 0; c < 6; ++c) {
-            if (strcmp(e->name.str, channel_names[c]) != 0)
-                continue;
-            if (e->pixel_type != EXR_PIXEL_HALF && e->pixel_type != EXR_PIXEL_FLOAT) {
-                st = vdbs_error_set(err, VDBS_ERR_INPUT, "%s: channel %s is not half or float",
-                                    path, e->name.str);
-                goto done;
-            }
-            if (e->x_sampling != 1 || e->y_sampling != 1) {
-                st = vdbs_error_set(err, VDBS_ERR_INPUT, "%s: channel %s is subsampled", path,
-                                    e->name.str);
-                goto done;
-            }
-            present[c] = 1;
-        }
-    }
-    if (!present[0] || !present[1] || !present[2]) {
-        st = vdbs_error_set(err, VDBS_ERR_INPUT, "%s: OpenEXR image has no R, G and B channels",
-                            path);
-        goto done;
-    }
-    const int with_se = present[3] && present[4] && present[5];
-    long long w64 = (long long)dw.max.x - dw.min.x + 1, h64 = (long long)dw.max.y - dw.min.y + 1;
-    if (w64 <= 0 || h64 <= 0 || w64 > IMAGE_MAX_SIDE || h64 > IMAGE_MAX_SIDE ||
-        w64 * h64 > IMAGE_MAX_PIXELS) {
-        st = vdbs_error_set(err, VDBS_ERR_INPUT, "%s: OpenEXR data window %lldx%lld is unusable",
-                            path, w64, h64);
-        goto done;
-    }
-    const int w = (int)w64, h = (int)h64;
-    for (int c = 0; c < (with_se ? 6 : 3); ++c) {
-        planes[c] = calloc((size_t)w * h, sizeof(float));
-        if (!planes[c]) {
-            st = vdbs_error_set(err, VDBS_ERR_NOMEM, "%s: out of memory for %dx%d pixels", path, w,
-                                h);
-            goto done;
-        }
-    }
-
-    /* One list of chunks for both layouts: scanline blocks or level-0 tiles. */
-    int chunks_x = 1, chunks_y = 0;
-    uint32_t tile_w = 0, tile_h = 0;
-    int32_t lines = 1;
-    if (storage == EXR_STORAGE_SCANLINE) {
-        rv = exr_get_scanlines_per_chunk(ctx, 0, &lines);
-        if (rv != EXR_ERR_SUCCESS || lines <= 0)
-            goto corrupt;
-        chunks_y = (h + lines - 1) / lines;
-    } else {
-        exr_tile_level_mode_t level;
-        exr_tile_round_mode_t round;
-        rv = exr_get_tile_descriptor(ctx, 0, &tile_w, &tile_h, &level, &round);
-        if (rv != EXR_ERR_SUCCESS || tile_w == 0 || tile_h == 0)
-            goto corrupt;
-        chunks_x = (int)((w + tile_w - 1) / tile_w);
-        chunks_y = (int)((h + tile_h - 1) / tile_h);
-    }
-    for (int cy = 0; cy < chunks_y; ++cy) {
-        for (int cx = 0; cx < chunks_x; ++cx) {
-            exr_chunk_info_t cinfo;
-            int x0 = 0, y0 = 0;
-            if (storage == EXR_STORAGE_SCANLINE) {
-                y0 = cy * lines;
-                rv = exr_read_scanline_chunk_info(ctx, 0, dw.min.y + y0, &cinfo);
-            } else {
-                x0 = cx * (int)tile_w;
-                y0 = cy * (int)tile_h;
-                rv = exr_read_tile_chunk_info(ctx, 0, cx, cy, 0, 0, &cinfo);
-            }
-            if (rv != EXR_ERR_SUCCESS)
-                goto corrupt;
-            /* The chunk table is untrusted: its blocks must lie inside the image. */
-            if (storage == EXR_STORAGE_SCANLINE)
-                y0 = cinfo.start_y - dw.min.y;
-            if (y0 < 0 || cinfo.height <= 0 || cinfo.width <= 0 || y0 + cinfo.height > h ||
-                x0 + cinfo.width > w)
-                goto corrupt;
-            if (!have_dec) {
-                rv = exr_decoding_initialize(ctx, 0, &cinfo, &dec);
-                have_dec = rv == EXR_ERR_SUCCESS;
-            } else {
-                rv = exr_decoding_update(ctx, 0, &cinfo, &dec);
-            }
-            if (rv != EXR_ERR_SUCCESS)
-                goto corrupt;
-            exr_bind_planes(&dec, planes, w, x0, y0);
-            rv = exr_decoding_choose_default_routines(ctx, 0, &dec);
-            if (rv == EXR_ERR_SUCCESS)
-                rv = exr_decoding_run(ctx, 0, &dec);
-            if (rv != EXR_ERR_SUCCESS)
-                goto corrupt;
-        }
-    }
-    st = vdbs_image_alloc(image, w, h, with_se, err);
-    if (st != VDBS_OK)
-        goto done;
-    for (size_t i = 0, n = (size_t)w * h; i < n; ++i) {
-        for (int c = 0; c < 3; ++c) {
-            image->rgb[3 * i + c] = planes[c][i];
-            if (with_se)
-                image->se[3 * i + c] = planes[3 + c][i];
-        }
-    }
-    goto done;
-corrupt:
-    st = vdbs_error_set(err, VDBS_ERR_INPUT, "%s: corrupt or truncated OpenEXR file: %s", path,
-                        exr_reason(rv));
-done:
-    if (have_dec)
-        exr_decoding_destroy(ctx, &dec);
-    if (ctx)
-        exr_finish(&ctx);
-    for (int c = 0; c < 6; ++c)
-        free(planes[c]);
-    return st;
 }
 
 /* ---- PNG ------------------------------------------------------------------------------- */
@@ -522,7 +357,9 @@ vdbs_status vdbs_image_read(const char *path, vdbs_image *image, vdbs_error *err
         return st;
     switch (kind) {
     case VDBS_IMAGE_EXR:
-        return exr_read(path, image, err);
+        /* Imf, like environment maps: OpenEXRCore 3.1.5's decoder crashed on half RGBA ZIP
+         * files and cannot decompress DWAA/DWAB (docs/envmap.md). */
+        return vdbs_exrimage_read(path, image, err);
     case VDBS_IMAGE_PNG:
         return png_read(path, image, err);
     case VDBS_IMAGE_HDR:

@@ -33,9 +33,12 @@ vdbs_status vdbs_image_write(const char *path, const vdbs_image *image, double e
 vdbs_status vdbs_image_write_cancel(const char *path, const vdbs_image *image, double exposure_ev,
                                     const vdbs_cancel *cancel, vdbs_error *err);
 
-/* Reads an EXR (channels R, G, B; se.R, se.G, se.B when present; half or float), a Radiance
- * HDR (RGBE, linear) or a PNG (decoded from sRGB to linear), by content. Errors
- * (VDBS_ERR_INPUT): missing, unreadable or foreign file, missing R/G/B channels. */
+/* Reads an EXR, a Radiance HDR (RGBE, linear) or a PNG (decoded from sRGB to linear), by
+ * content. An EXR goes through the same C++ Imf reader as environment maps (docs/envmap.md):
+ * its data window, any type, layout and compression; channels R, G, B, else Y alone as grey
+ * (or the other layouts the map reader takes); se.R, se.G, se.B when all three are present.
+ * Errors (VDBS_ERR_INPUT, one line naming the file): missing, unreadable, truncated or
+ * foreign file, no R, G, B or Y channels. */
 vdbs_status vdbs_image_read(const char *path, vdbs_image *image, vdbs_error *err);
 
 typedef enum vdbs_image_kind {
