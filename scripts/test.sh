@@ -2,8 +2,16 @@
 # Sets up, builds with warnings as errors and runs the whole test suite, then builds
 # again with AddressSanitizer + UndefinedBehaviorSanitizer and runs it once more
 # (statistical tests skipped there; GL tests without leak checks: Mesa's EGL leaks at exit).
+# --long also runs the tests labelled "long" (minutes each; tests/CMakeLists.txt lists them).
 set -euo pipefail
 cd "$(dirname "$0")/.."
+skip_long=(-LE long)
+for arg in "$@"; do
+  case "$arg" in
+    --long) skip_long=() ;;
+    *) echo "usage: scripts/test.sh [--long]" >&2; exit 2 ;;
+  esac
+done
 bash scripts/setup.sh
 jobs=$(nproc)
 
@@ -20,11 +28,11 @@ report_skipped() {
 
 cmake -S . -B build-ci -DCMAKE_BUILD_TYPE=RelWithDebInfo -DVDBSCATTER_WERROR=ON
 cmake --build build-ci -j "$jobs"
-ctest --test-dir build-ci --output-on-failure -j "$jobs"
+ctest --test-dir build-ci --output-on-failure -j "$jobs" "${skip_long[@]}"
 report_skipped build-ci
 
 cmake -S . -B build-asan -DCMAKE_BUILD_TYPE=Debug -DVDBSCATTER_WERROR=ON -DVDBSCATTER_SANITIZE=ON
 cmake --build build-asan -j "$jobs"
 export UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1
-ASAN_OPTIONS=detect_leaks=1 ctest --test-dir build-asan --output-on-failure -j "$jobs" -L unit -LE "statistical"
-ASAN_OPTIONS=detect_leaks=0 ctest --test-dir build-asan --output-on-failure -j "$jobs" -L "gl|cli" -LE "statistical"
+ASAN_OPTIONS=detect_leaks=1 ctest --test-dir build-asan --output-on-failure -j "$jobs" -L unit -LE "statistical|long"
+ASAN_OPTIONS=detect_leaks=0 ctest --test-dir build-asan --output-on-failure -j "$jobs" -L "gl|cli" -LE "statistical|long"
