@@ -64,7 +64,7 @@ class DefaultBake(unittest.TestCase):
         path = os.path.join(self.dir, "wdas.json")
         with open(path, "w") as fh:
             json.dump(scene, fh)
-        report = self.check(path, 1024, "wdas_cloud_sixteenth.vdb")
+        report = self.check(path, 2048, "wdas_cloud_sixteenth.vdb")
         # auto:10 resolved against the volume: a mean optical depth of 10 through it.
         self.assertAlmostEqual(report["mean_optical_depth"], 10.0, places=6)
 
