@@ -202,20 +202,6 @@ static void test_own_files_and_half_copy(void **state)
     unlink(half);
 }
 
-static void copy_prefix(const char *from, const char *to, double keep)
-{
-    FILE *f = fopen(from, "rb");
-    assert_non_null(f);
-    static char bytes[1 << 17];
-    size_t n = fread(bytes, 1, sizeof bytes, f);
-    fclose(f);
-    assert_true(n > 0 && n < sizeof bytes);
-    f = fopen(to, "wb");
-    assert_non_null(f);
-    fwrite(bytes, 1, (size_t)(n * keep), f);
-    fclose(f);
-}
-
 static void refused(const char *path, const char *needle)
 {
     vdbs_image im;
@@ -238,14 +224,14 @@ static void test_refused(void **state)
     const char *cut = test_tmp_path("test_exrimage_cut.exr");
     test_exr_spec scan = {"R,G,B,A", "half", "zip", NULL, {0, 0, W - 1, H - 1}, {0}};
     const char *full = write_file("test_exrimage_full.exr", &scan, pl);
-    copy_prefix(full, cut, 0.6);
+    test_truncated_copy(full, cut, 0.6);
     refused(cut, "test_exrimage_cut.exr");
-    copy_prefix(full, cut, 0.02); /* inside the header */
+    test_truncated_copy(full, cut, 0.02); /* inside the header */
     refused(cut, "test_exrimage_cut.exr");
     test_exr_spec tiled = {"R,G,B,se.R,se.G,se.B", "float", "none", "one",
                            {0, 0, W - 1, H - 1},   {0}};
     write_file("test_exrimage_full.exr", &tiled, pl);
-    copy_prefix(full, cut, 0.7);
+    test_truncated_copy(full, cut, 0.7);
     refused(cut, "test_exrimage_cut.exr");
 
     test_exr_spec no_rgb = {"Z,A", "half", "zip", NULL, {0, 0, W - 1, H - 1}, {0}};

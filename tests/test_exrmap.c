@@ -268,20 +268,6 @@ static const char *write_bad(const char *name, const char *channels, const char 
     return path;
 }
 
-static void truncate_copy(const char *from, const char *to, double keep)
-{
-    FILE *f = fopen(from, "rb");
-    assert_non_null(f);
-    static char bytes[1 << 16];
-    size_t n = fread(bytes, 1, sizeof bytes, f);
-    fclose(f);
-    assert_true(n > 0 && n < sizeof bytes);
-    f = fopen(to, "wb");
-    assert_non_null(f);
-    fwrite(bytes, 1, (size_t)(n * keep), f);
-    fclose(f);
-}
-
 static void test_refused(void **state)
 {
     (void)state;
@@ -313,13 +299,13 @@ static void test_refused(void **state)
     const char *full = test_tmp_path("exrmap_full.exr");
     write_ok(full, &whole, pl);
     const char *cut = test_tmp_path("exrmap_cut.exr");
-    truncate_copy(full, cut, 0.6);
+    test_truncated_copy(full, cut, 0.6);
     refused(cut, "exrmap_cut.exr");
-    truncate_copy(full, cut, 0.02);
+    test_truncated_copy(full, cut, 0.02);
     refused(cut, "exrmap_cut.exr");
     test_exr_spec tiled = {"R,G,B,A", "half", "zip", "one", {0, 0, W - 1, H - 1}, {0}};
     write_ok(full, &tiled, pl);
-    truncate_copy(full, cut, 0.7);
+    test_truncated_copy(full, cut, 0.7);
     refused(cut, "exrmap_cut.exr");
     free(pl);
 

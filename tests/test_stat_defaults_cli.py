@@ -5,7 +5,7 @@ neither), against the Monte-Carlo reference of the same view: image relative RMS
 the outcome. On the cloud sample (samples/cloud.json) and on a real production cloud (the
 Disney cloud at 1/16 resolution from the external test data, under cloud.json's sun and sky,
 albedo 0.99, g 0.85, --density-scale auto:10). Seeds are fixed, so runs repeat; the
-measured values are printed and kept in docs/methods/README.md."""
+measured values are printed (bench/defaults.md has the same scenes at 160x120)."""
 import json
 import os
 import shutil

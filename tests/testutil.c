@@ -29,6 +29,20 @@ const char *test_tmp_path(const char *file)
     return out;
 }
 
+void test_truncated_copy(const char *from, const char *to, double keep)
+{
+    FILE *f = fopen(from, "rb");
+    assert_non_null(f);
+    static char bytes[1 << 17];
+    size_t n = fread(bytes, 1, sizeof bytes, f);
+    fclose(f);
+    assert_true(n > 0 && n < sizeof bytes);
+    f = fopen(to, "wb");
+    assert_non_null(f);
+    fwrite(bytes, 1, (size_t)(n * keep), f);
+    fclose(f);
+}
+
 double test_rel_diff(double a, double b)
 {
     double m = fmax(fabs(a), fabs(b));

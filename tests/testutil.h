@@ -20,6 +20,9 @@
 const char *test_data_path(const char *file);
 const char *test_tmp_path(const char *file);
 
+/* Writes the first `keep` (0..1) of file `from` (under 128 KiB) to `to`: a truncated file. */
+void test_truncated_copy(const char *from, const char *to, double keep);
+
 /* Relative difference |a-b| / max(|a|,|b|), 0 when both are 0. */
 double test_rel_diff(double a, double b);
 
