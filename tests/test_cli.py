@@ -180,6 +180,13 @@ class HelpAndFlags(Base):
         line = self.assert_bad_input(["bake", cloud, "-o", out, "--quality", "hgh"], "--quality")
         self.assertIn('did you mean "high"?', line)
         self.assert_bad_input(["bake", cloud, "-o", out], "no light at all")
+        # A flag's error names the flag, not the scene key it sets.
+        for flag, value in [("--g", "1"), ("--albedo", "1.5"), ("--sun", "0,-1,0:-1"),
+                            ("--point", "0,0,0:1,-2,1"), ("--density-scale", "-1"),
+                            ("--method", "fdl"), ("--quality", "hgh")]:
+            extra = [] if flag in ("--sun", "--point") else ["--sun", "0,-1,0"]
+            line = self.assert_bad_input(["bake", cloud, "-o", out, *extra, flag, value], flag)
+            self.assertTrue(line.startswith(f"vdbscatter bake: {flag}: "), line)
         # Typos get the nearest flag, scene key or method.
         line = self.assert_bad_input(["bake", cloud, "-o", out, "--densty-scale", "3"],
                                      "--densty-scale")
