@@ -1,4 +1,4 @@
-/* OpenVDB / NanoVDB bridge: the only C++ translation unit of vdbscatter.
+/* OpenVDB / NanoVDB bridge (with exrmap.cpp for OpenEXR, the library's only C++).
  * Every entry point catches every exception and turns it into a vdbs_error. */
 #include "vdbscatter/vdbio.h"
 

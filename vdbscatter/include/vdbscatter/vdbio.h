@@ -1,5 +1,5 @@
-/* OpenVDB file I/O behind a C API. The only C++ in the project is vdbio.cpp,
- * which implements this header over OpenVDB and NanoVDB's OpenToNanoVDB. */
+/* OpenVDB file I/O behind a C API. vdbio.cpp, one of two C++ bridges (exrmap.cpp reads
+ * OpenEXR), implements this header over OpenVDB and NanoVDB's OpenToNanoVDB. */
 #ifndef VDBSCATTER_VDBIO_H
 #define VDBSCATTER_VDBIO_H
 
