@@ -7,7 +7,7 @@ PNG plot of error against cells across.
 
 usage: bench/bench_pop.py BUILD_DIR [--out bench/pop.md] [--plot bench/pop_error.png]
        [--res 4,8,16,32] [--qualities low,...] [--ref-seconds 40] [--size 96x72]
-       [--cases all|issue|sun-sky] [--tallies chord,cell] [--variant LABEL=FLAGS ...]
+       [--cases all|check|sun-sky] [--tallies chord,cell] [--variant LABEL=FLAGS ...]
 Each resolution is baked with every --pop-tally listed (columns "POP r" for the first, the
 default chord, and "POP r cell" for the paper's tally), and with each --variant's extra flags
 (e.g. --variant "paper=--pop-decay paper": columns "POP r paper"). With --qualities, POP at the default resolution is also baked at each quality (columns
@@ -25,7 +25,7 @@ SAMPLES = os.path.join(ROOT, "samples")
 SUN_SKY = ["--sun", "0.3,-1,0.2:3,2.9,2.7", "--env", "0.2,0.3,0.5"]
 CASES = [
     # (label, sample, density scale, g, lights)
-    ("issue: cloud, 25, g 0.85, sun down", "cloud", 25, 0.85, ["--sun", "0,-1,0:3,3,3"]),
+    ("check: cloud, 25, g 0.85, sun down", "cloud", 25, 0.85, ["--sun", "0,-1,0:3,3,3"]),
     ("sphere, 3, g 0", "sphere", 3, 0.0, SUN_SKY),
     ("sphere, 3, g 0.5", "sphere", 3, 0.5, SUN_SKY),
     ("sphere, 3, g 0.85", "sphere", 3, 0.85, SUN_SKY),
@@ -57,7 +57,7 @@ def main():
     exe = os.path.join(args.build, "vdbscatter")
     tmp = tempfile.mkdtemp(prefix="bench-pop-")
     resolutions = [int(x) for x in args.res.split(",")]
-    cases = {"issue": CASES[:1], "sun-sky": CASES[1:]}.get(args.cases, CASES)
+    cases = {"check": CASES[:1], "sun-sky": CASES[1:]}.get(args.cases, CASES)
     qualities = [q for q in args.qualities.split(",") if q]
     tallies = args.tallies.split(",")
     # (label, bake flags) per column group: the tallies, then the variants.

@@ -37,7 +37,7 @@ class PopAgainstReference(unittest.TestCase):
     def tearDown(self):
         shutil.rmtree(self.dir, ignore_errors=True)
 
-    def test_pop_high_on_the_issue_scene(self):
+    def test_pop_high_on_the_check_scene(self):
         vdb = os.path.join(SAMPLES, "cloud.vdb")
         medium = ["--density-scale", "25", "--albedo", "0.99", "--g", "0.85", "--sun",
                   "0,-1,0:3,3,3"]
