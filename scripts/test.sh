@@ -21,9 +21,10 @@ report_skipped() {
   [ -f ../shared/data/README.md ] && return 0
   local log="$1/Testing/Temporary/LastTest.log"
   echo "test.sh: no external test data in ../shared/data; these tests were skipped:"
-  grep -hoE "\[  SKIPPED \] [A-Za-z0-9_]+|^[A-Za-z0-9_]+ \([A-Za-z0-9_.]+\) \.\.\. skipped" \
-    "$log" 2>/dev/null | sed -E "s/^\[  SKIPPED \] /  /; s/ \.\.\. skipped//; s/^([a-z])/  \1/" |
-    sort -u || true
+  awk '/^[0-9]+\/[0-9]+ Test: / { test = $3 }
+       /^\[  SKIPPED \] [A-Za-z_]/ { print "  " test ": " $4 }
+       / \.\.\. skipped / { sub(/^.*\(__main__\./, ""); sub(/\).*$/, ""); print "  " test ": " $0 }' \
+    "$log" 2>/dev/null | sort -u || true
 }
 
 cmake -S . -B build-ci -DCMAKE_BUILD_TYPE=RelWithDebInfo -DVDBSCATTER_WERROR=ON

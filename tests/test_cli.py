@@ -34,6 +34,12 @@ def component_range(grid):
     return lo, hi
 
 
+def sample(name):
+    """A bundled sample: for the tests whose input is incidental (they run without the
+    external data)."""
+    return os.path.join(SAMPLES, name)
+
+
 def data(name):
     """A file of the external test data; the calling test is skipped when there is none."""
     if not DATA:
@@ -101,7 +107,7 @@ class HelpAndFlags(Base):
         self.assertEqual(run("frobnicate").returncode, 2)
 
     def test_unknown_and_malformed_flags(self):
-        src = data("wdas_cloud_sixteenth.vdb")
+        src = sample("cloud.vdb")
         out = self.path("out.vdb")
         base = ["bake", src, "-o", out, "--sun", "0,-1,0"]
         cases = [
@@ -261,8 +267,8 @@ class HelpAndFlags(Base):
         self.assertNotIn("warning", p.stderr)  # smoke-like: single scattering dominates
 
     def test_flag_equals_form(self):
-        a, _ = self.bake(data("usd_densityAndHeat.vdb"), "--sun", "0,-1,0:2,2,2", "--density-scale", "3", out="a.vdb")
-        b, _ = self.bake(data("usd_densityAndHeat.vdb"), "--sun=0,-1,0:2,2,2", "--density-scale=3", out="b.vdb")
+        a, _ = self.bake(sample("cloud.vdb"), "--sun", "0,-1,0:2,2,2", "--density-scale", "3", out="a.vdb")
+        b, _ = self.bake(sample("cloud.vdb"), "--sun=0,-1,0:2,2,2", "--density-scale=3", out="b.vdb")
         ga = vdb.read(a, "radiance")
         gb = vdb.read(b, "radiance")
         self.assertEqual(ga.activeVoxelCount(), gb.activeVoxelCount())
@@ -272,7 +278,7 @@ class HelpAndFlags(Base):
 
     def test_scene_file_and_overrides(self):
         scene = {
-            "volume": {"file": data("usd_densityAndHeat.vdb"), "density_scale": 2.0, "albedo": 0.9},
+            "volume": {"file": sample("cloud.vdb"), "density_scale": 2.0, "albedo": 0.9},
             "lights": [{"type": "sun", "direction": [0, -1, 0], "irradiance": [1, 1, 1]}],
         }
         sp = self.path("scene.json")
@@ -292,7 +298,7 @@ class HelpAndFlags(Base):
                               output="lit2.vdb")
         with open(sp, "w") as f:
             json.dump({"volume": {"densty_scale": 1}}, f)
-        self.assert_bad_input(["bake", data("usd_densityAndHeat.vdb"), "--scene", sp, "-o", self.path("x.vdb"), "--sun", "0,-1,0"], "densty_scale", output="x.vdb")
+        self.assert_bad_input(["bake", sample("cloud.vdb"), "--scene", sp, "-o", self.path("x.vdb"), "--sun", "0,-1,0"], "densty_scale", output="x.vdb")
 
 
 class BadFiles(Base):
@@ -345,7 +351,7 @@ class BadFiles(Base):
 
     def test_output_equal_to_input(self):
         src = self.path("in.vdb")
-        shutil.copy(data("usd_densityAndHeat.vdb"), src)
+        shutil.copy(sample("cloud.vdb"), src)
         before = os.path.getsize(src)
         p = run("bake", src, "-o", src, "--sun", "0,-1,0")
         self.assertEqual(p.returncode, 2)
@@ -353,7 +359,7 @@ class BadFiles(Base):
         self.assertEqual(len(p.stderr.strip().splitlines()), 1)
 
     def test_unwritable_outputs(self):
-        src = data("usd_densityAndHeat.vdb")
+        src = sample("cloud.vdb")
         sub = self.path("sub")
         os.mkdir(sub)
         self.assert_bad_input(["bake", src, "-o", sub, "--sun", "0,-1,0"], "directory", output=None)
