@@ -224,15 +224,12 @@ vdbs_status cli_build_scene(const cli_args *args, vdbs_scene *scene, int allow_n
             st = vdbs_scene_set_density_scale(scene, name, v, err);
         } else if (strcmp(name, "--albedo") == 0) {
             st = cli_triple(name, v, 1, scene->albedo, err);
-            for (int c = 0; c < 3 && st == VDBS_OK; ++c)
-                if (!(scene->albedo[c] >= 0.0 && scene->albedo[c] <= 1.0))
-                    st = vdbs_error_set(err, VDBS_ERR_INPUT,
-                                        "--albedo: each component must be in [0, 1], got '%s'", v);
+            if (st == VDBS_OK)
+                st = vdbs_check_albedo(name, scene->albedo, err);
         } else if (strcmp(name, "--g") == 0) {
             st = cli_number(name, v, &x, err);
-            if (st == VDBS_OK && !(x >= -0.999 && x <= 0.999))
-                st = vdbs_error_set(err, VDBS_ERR_INPUT,
-                                    "--g: must be in [-0.999, 0.999], got '%s'", v);
+            if (st == VDBS_OK)
+                st = vdbs_check_g(name, x, err);
             scene->g = x;
         } else if (strcmp(name, "--sky-directions") == 0) {
             long k = 0;
@@ -322,10 +319,8 @@ vdbs_status cli_build_scene(const cli_args *args, vdbs_scene *scene, int allow_n
                 light->type = VDBS_LIGHT_POINT;
                 st = parse_light(name, v, light->position, light->color, err);
             }
-            const double *rgb = light->color;
-            if (st == VDBS_OK && !(rgb[0] >= 0.0 && rgb[1] >= 0.0 && rgb[2] >= 0.0))
-                st = vdbs_error_set(err, VDBS_ERR_INPUT,
-                                    "%s: the colour must not be negative, got '%s'", name, v);
+            if (st == VDBS_OK)
+                st = vdbs_check_colour(name, light->color, err);
             scene->light_count++;
         } else {
             st = VDBS_OK;

@@ -221,19 +221,14 @@ vdbs_status vdbs_bake(const vdbs_bake_options *o, vdbs_bake_report *report, vdbs
     vdbs_svd_moments warm = {0}, keep = {0};
     vdbio_vec3_grid *grids = NULL;
     char(*names)[16] = NULL;
-    if (o->warm_start && ((st = read_svd_state(o->warm_start, &volume, &warm, err)) != VDBS_OK ||
-                          (st = vdbs_svd_warm_check(&warm, scene->svd_directions, scene->svd_terms,
-                                                    scene->g, err)) != VDBS_OK)) {
+    if ((o->warm_start && ((st = read_svd_state(o->warm_start, &volume, &warm, err)) != VDBS_OK ||
+                           (st = vdbs_svd_warm_check(&warm, scene->svd_directions, scene->svd_terms,
+                                                     scene->g, err)) != VDBS_OK)) ||
+        (vdbs_cancelled(o->cancel) && (st = vdbs_error_cancelled(err)) != VDBS_OK)) {
         vdbs_svd_moments_free(&warm);
         vdbs_volume_free(&volume);
         free(resolved);
         return st;
-    }
-    if (vdbs_cancelled(o->cancel)) {
-        vdbs_svd_moments_free(&warm);
-        vdbs_volume_free(&volume);
-        free(resolved);
-        return vdbs_error_cancelled(err);
     }
     report->seconds_load = vdbs_now() - t_start;
     snprintf(report->grid, sizeof report->grid, "%s", volume.info.name);

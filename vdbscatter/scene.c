@@ -20,7 +20,6 @@
 #define PATH_LEN 160
 #define SCENE_FILE_MAX (64L * 1024 * 1024)
 
-
 typedef struct parse_ctx {
     const char *prefix; /* "scene" or "scene FILE" */
     const char *base_dir;
@@ -107,8 +106,7 @@ static vdbs_status check_keys(const parse_ctx *ctx, const cJSON *obj, const char
             vdbs_join_names(allowed, names, sizeof names);
             if (hint)
                 return fail(ctx, path, "unknown key \"%s\"%s%s", c->string, mean, hint);
-            return fail(ctx, path, "unknown key \"%s\"%s (valid keys: %s)", c->string, mean,
-                        names);
+            return fail(ctx, path, "unknown key \"%s\"%s (valid keys: %s)", c->string, mean, names);
         }
         for (const cJSON *d = obj->child; d != c; d = d->next)
             if (strcmp(d->string, c->string) == 0)
@@ -318,15 +316,13 @@ vdbs_status vdbs_scene_set_grid(vdbs_scene *scene, const char *spec, vdbs_error 
     return VDBS_OK;
 }
 
-/* A name from a fixed list into dst, or an error naming `what` (a flag or a key path) with
+/* OK when value is one of names, else an error naming `what` (a flag or a key path) with
  * the nearest valid name and the whole list. */
-static vdbs_status set_name(const char *what, const char *kind, const char *const *names,
-                            const char *value, char *dst, size_t size, vdbs_error *err)
+static vdbs_status check_name(const char *what, const char *kind, const char *const *names,
+                              const char *value, vdbs_error *err)
 {
-    if (value && in_list(value, names) && strlen(value) < size) {
-        snprintf(dst, size, "%s", value);
+    if (value && in_list(value, names))
         return VDBS_OK;
-    }
     char mean[96], list[256];
     vdbs_suggest_hint(value ? value : "", names, mean, sizeof mean);
     vdbs_join_names(names, list, sizeof list);
@@ -334,31 +330,47 @@ static vdbs_status set_name(const char *what, const char *kind, const char *cons
                           what, kind, value ? value : "", mean, list);
 }
 
-/* The implemented solvers' names, from the solver table (the one list of methods). */
-static void method_names(const char *names[VDBS_METHOD_COUNT + 1])
+/* Methods and qualities are checked against solver.c's tables, the one list of each. */
+#define MAX_NAMES 16
+
+static vdbs_status check_method(const char *what, const char *name, vdbs_error *err)
 {
-    int count = 0;
+    int count = 0, n = 0;
     const vdbs_solver *solvers = vdbs_solver_list(&count);
-    for (int m = 0; m < count && m < VDBS_METHOD_COUNT; ++m)
-        names[m] = solvers[m].name;
-    names[count < VDBS_METHOD_COUNT ? count : VDBS_METHOD_COUNT] = NULL;
+    const char *names[MAX_NAMES + 1];
+    for (; n < count && n < MAX_NAMES; ++n)
+        names[n] = solvers[n].name;
+    names[n] = NULL;
+    return check_name(what, "method", names, name, err);
 }
 
-static const char *const quality_names[] = {"low", "medium", "high", "ultra", NULL};
+static vdbs_status check_quality(const char *what, const char *name, vdbs_error *err)
+{
+    int count = 0, n = 0;
+    const vdbs_quality *qualities = vdbs_quality_list(&count);
+    const char *names[MAX_NAMES + 1];
+    for (; n < count && n < MAX_NAMES; ++n)
+        names[n] = qualities[n].name;
+    names[n] = NULL;
+    return check_name(what, "quality", names, name, err);
+}
 
 vdbs_status vdbs_scene_set_method(vdbs_scene *scene, const char *what, const char *name,
                                   vdbs_error *err)
 {
-    const char *names[VDBS_METHOD_COUNT + 1];
-    method_names(names);
-    return set_name(what, "method", names, name, scene->method, sizeof scene->method, err);
+    vdbs_status st = check_method(what, name, err);
+    if (st == VDBS_OK)
+        snprintf(scene->method, sizeof scene->method, "%s", name);
+    return st;
 }
 
 vdbs_status vdbs_scene_set_quality(vdbs_scene *scene, const char *what, const char *name,
                                    vdbs_error *err)
 {
-    return set_name(what, "quality", quality_names, name, scene->quality, sizeof scene->quality,
-                    err);
+    vdbs_status st = check_quality(what, name, err);
+    if (st == VDBS_OK)
+        snprintf(scene->quality, sizeof scene->quality, "%s", name);
+    return st;
 }
 
 vdbs_status vdbs_scene_set_density_scale(vdbs_scene *scene, const char *what, const char *text,
@@ -1356,11 +1368,37 @@ static void normalise3(double v[3])
         v[i] /= n;
 }
 
-static vdbs_status check_colour(const parse_ctx *ctx, const char *path, const double c[3])
+vdbs_status vdbs_check_colour(const char *what, const double c[3], vdbs_error *err)
 {
     if (!finite3(c) || c[0] < 0.0 || c[1] < 0.0 || c[2] < 0.0)
-        return fail(ctx, path, "must be finite and >= 0, got [%g, %g, %g]", c[0], c[1], c[2]);
+        return vdbs_error_set(err, VDBS_ERR_INPUT, "%s: must be finite and >= 0, got [%g, %g, %g]",
+                              what, c[0], c[1], c[2]);
     return VDBS_OK;
+}
+
+vdbs_status vdbs_check_albedo(const char *what, const double a[3], vdbs_error *err)
+{
+    for (int i = 0; i < 3; ++i)
+        if (!(a[i] >= 0.0 && a[i] <= 1.0))
+            return vdbs_error_set(err, VDBS_ERR_INPUT,
+                                  "%s: each component must be in [0, 1], got [%g, %g, %g]", what,
+                                  a[0], a[1], a[2]);
+    return VDBS_OK;
+}
+
+vdbs_status vdbs_check_g(const char *what, double g, vdbs_error *err)
+{
+    if (!(g >= -0.999 && g <= 0.999))
+        return vdbs_error_set(err, VDBS_ERR_INPUT, "%s: must be in [-0.999, 0.999], got %g", what,
+                              g);
+    return VDBS_OK;
+}
+
+static vdbs_status check_colour(const parse_ctx *ctx, const char *path, const double c[3])
+{
+    char what[PATH_LEN];
+    fmt_path(what, "%s: %s", ctx->prefix, path);
+    return vdbs_check_colour(what, c, ctx->err);
 }
 
 static vdbs_status validate_light(const parse_ctx *ctx, const vdbs_scene *s, int i,
@@ -1562,19 +1600,13 @@ vdbs_status vdbs_scene_validate_opt(vdbs_scene *s, int lights_optional, vdbs_err
     if (!(isfinite(s->density_scale) && s->density_scale >= 0.0))
         return fail(&ctx, "volume.density_scale", "must be finite and >= 0, got %g",
                     s->density_scale);
-    for (int i = 0; i < 3; ++i)
-        if (!(s->albedo[i] >= 0.0 && s->albedo[i] <= 1.0))
-            return fail(&ctx, "volume.albedo", "each component must be in [0, 1], got [%g, %g, %g]",
-                        s->albedo[0], s->albedo[1], s->albedo[2]);
-    if (!(s->g >= -0.999 && s->g <= 0.999))
-        return fail(&ctx, "volume.g", "must be in [-0.999, 0.999], got %g", s->g);
+    if ((st = vdbs_check_albedo("scene: volume.albedo", s->albedo, err)) != VDBS_OK ||
+        (st = vdbs_check_g("scene: volume.g", s->g, err)) != VDBS_OK)
+        return st;
     if (s->grid_index < 0)
         return fail(&ctx, "volume.grid", "negative grid index %d", s->grid_index);
-    char method[sizeof s->method], quality[sizeof s->quality];
-    memcpy(method, s->method, sizeof method);
-    memcpy(quality, s->quality, sizeof quality);
-    if ((st = vdbs_scene_set_method(s, "scene: solver.method", method, err)) != VDBS_OK ||
-        (st = vdbs_scene_set_quality(s, "scene: solver.quality", quality, err)) != VDBS_OK)
+    if ((st = check_method("scene: solver.method", s->method, err)) != VDBS_OK ||
+        (st = check_quality("scene: solver.quality", s->quality, err)) != VDBS_OK)
         return st;
     if (s->light_count < 0 || s->light_count > VDBS_MAX_LIGHTS)
         return fail(&ctx, "lights", "%d lights, at most %d are supported", s->light_count,

@@ -23,6 +23,12 @@ const vdbs_quality *vdbs_quality_find(const char *name)
     return NULL;
 }
 
+const vdbs_quality *vdbs_quality_list(int *count)
+{
+    *count = (int)(sizeof qualities / sizeof qualities[0]);
+    return qualities;
+}
+
 int vdbs_quality_level(const char *name)
 {
     const vdbs_quality *q = vdbs_quality_find(name);

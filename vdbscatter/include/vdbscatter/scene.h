@@ -202,6 +202,12 @@ vdbs_status vdbs_scene_validate(vdbs_scene *scene, vdbs_error *err);
 /* The same, with no light allowed when lights_optional (a command that checks its input
  * files first and reports a missing light after them, or renders a lit VDB's own). */
 vdbs_status vdbs_scene_validate_opt(vdbs_scene *scene, int lights_optional, vdbs_error *err);
+/* The value ranges, shared by vdbs_scene_validate and the command line's flags so that an
+ * error names where the value came from (`what`: "scene: volume.g", "--g"): a colour is
+ * finite and >= 0, an albedo in [0, 1], g in [-0.999, 0.999]. VDBS_ERR_INPUT otherwise. */
+vdbs_status vdbs_check_colour(const char *what, const double c[3], vdbs_error *err);
+vdbs_status vdbs_check_albedo(const char *what, const double a[3], vdbs_error *err);
+vdbs_status vdbs_check_g(const char *what, double g, vdbs_error *err);
 #define VDBS_NO_LIGHT_MESSAGE "no light at all (add a sun, point or env light)"
 
 /* Parses a density scale: a number >= 0, or "auto:TAU" (TAU > 0, a mean optical depth)

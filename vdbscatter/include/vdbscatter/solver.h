@@ -31,6 +31,8 @@ typedef struct vdbs_quality {
 
 /* The preset of a quality name, or NULL if unknown. */
 const vdbs_quality *vdbs_quality_find(const char *name);
+/* The quality ladder, low to ultra. */
+const vdbs_quality *vdbs_quality_list(int *count);
 /* The quality's step, 0 (low) to 3 (ultra): the index into a solver's own presets; medium's
  * (1) for NULL or an unknown name. */
 int vdbs_quality_level(const char *name);
