@@ -190,8 +190,10 @@ int cmd_info(int argc, char **argv)
             cJSON_AddNumberToObject(optics, "voxel_max", t.voxel_max);
             cJSON_AddItemToObject(optics, "axis_mean", cJSON_CreateDoubleArray(t.axis_mean, 3));
             cJSON_AddItemToObject(optics, "axis_max", cJSON_CreateDoubleArray(t.axis_max, 3));
-            double mean1 = vdbs_volume_mean_depth(&volume);
-            cJSON_AddNumberToObject(optics, "mean", mean1 * scale);
+            /* Depth is linear in the scale: the scale-1 mean without a second set of rays. */
+            const double mean = vdbs_thickness_mean(&t);
+            const double mean1 = scale > 0.0 ? mean / scale : vdbs_volume_mean_depth(&volume);
+            cJSON_AddNumberToObject(optics, "mean", mean);
             if (target > 0.0) {
                 cJSON_AddNumberToObject(optics, "target_depth", target);
                 if (mean1 > 0.0)

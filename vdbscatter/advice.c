@@ -8,14 +8,7 @@ double vdbs_volume_mean_depth(const vdbs_volume *volume)
 {
     vdbs_thickness t;
     vdbs_volume_thickness(volume, 1.0, &t);
-    double sum = 0.0;
-    int axes = 0;
-    for (int a = 0; a < 3; ++a)
-        if (t.axis_rays_hit[a] > 0) {
-            sum += t.axis_mean[a];
-            ++axes;
-        }
-    return axes ? sum / axes : 0.0;
+    return vdbs_thickness_mean(&t);
 }
 
 vdbs_status vdbs_scene_fit_density(vdbs_scene *scene, const vdbs_volume *volume, vdbs_error *err)

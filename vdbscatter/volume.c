@@ -174,6 +174,18 @@ void vdbs_volume_thickness(const vdbs_volume *volume, double density_scale, vdbs
     }
 }
 
+double vdbs_thickness_mean(const vdbs_thickness *t)
+{
+    double sum = 0.0;
+    int axes = 0;
+    for (int a = 0; a < 3; ++a)
+        if (t->axis_rays_hit[a] > 0) {
+            sum += t->axis_mean[a];
+            ++axes;
+        }
+    return axes ? sum / axes : 0.0;
+}
+
 void vdbs_volume_support_corners(const vdbs_volume *volume, double corners[8][3])
 {
     float lo[3], hi[3];

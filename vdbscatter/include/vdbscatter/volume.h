@@ -85,6 +85,9 @@ typedef struct vdbs_thickness {
 } vdbs_thickness;
 
 void vdbs_volume_thickness(const vdbs_volume *volume, double density_scale, vdbs_thickness *out);
+/* The mean of the axis means over the axes whose rays met density: the mean optical depth
+ * through the volume (0 without density). */
+double vdbs_thickness_mean(const vdbs_thickness *t);
 
 #ifdef __cplusplus
 }
