@@ -207,6 +207,13 @@ class HelpAndFlags(Base):
         line = self.assert_bad_input(["bake", cloud, "--scene", sp, "-o", out], "albdo")
         self.assertIn('did you mean "albedo"?', line)
         self.assertIn("file, grid, density_scale, albedo, g", line)
+        # Malformed density targets, in bake and in info.
+        for value in ["auto:", "auto:0", "auto:-3", "auto:x", "auto:inf"]:
+            self.assert_bad_input(["bake", cloud, "-o", out, "--sun", "0,-1,0", "--density-scale",
+                                   value], "--density-scale")
+        for value in ["0", "-1", "x", "nan"]:
+            self.assert_bad_input(["info", cloud, "--target-depth", value], "--target-depth",
+                                  output=None)
         # A lit VDB is OpenVDB: another extension is refused, and nothing is written.
         self.assert_bad_input(["bake", cloud, "-o", self.path("x.nvdb"), "--sun", "0,-1,0"],
                               ".vdb", output="x.nvdb")
