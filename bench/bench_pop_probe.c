@@ -42,7 +42,7 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "vdbscatter/kernel.h"
+#include "vdbscatter/runner.h"
 #include "vdbscatter/lights.h"
 #include "vdbscatter/pop.h"
 #include "vdbscatter/progress.h"

@@ -12,7 +12,7 @@
 #include "commands.h"
 #include "interrupt.h"
 #include "options.h"
-#include "vdbscatter/kernel.h"
+#include "vdbscatter/runner.h"
 #include "vdbscatter/render.h"
 #include "vdbscatter/scene.h"
 

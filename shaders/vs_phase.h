@@ -88,9 +88,9 @@ VS_FUNC float vs_hg_lobe_scatter(float a, float g)
 
 #if !defined(PNANOVDB_GLSL)
 /* Double-precision variants for the C-only Monte-Carlo reference (the float ones above are
- * the same formulas). VDBS_PI comes from the library's private vdbs_math.h; the include is
+ * the same formulas). VDBS_PI comes from the library's private base/vdbs_math.h; the include is
  * in angle brackets so that the shader embedder leaves it to the C preprocessor. */
-#include <vdbs_math.h>
+#include <base/vdbs_math.h>
 
 /* vs_hg_sample in double: *mu and *sin_theta for a uniform u in [0, 1). */
 VS_FUNC void vs_hg_sample_d(double g, double u, double *mu, double *sin_theta)

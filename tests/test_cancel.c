@@ -11,7 +11,7 @@
 
 #include "vdbscatter/cancel.h"
 #include "vdbscatter/image.h"
-#include "vdbscatter/kernel.h"
+#include "vdbscatter/runner.h"
 #include "vdbscatter/vdbio.h"
 
 static void count_items(void *user, uint64_t begin, uint64_t end)

@@ -15,7 +15,7 @@
 #define PNANOVDB_C
 #include <nanovdb/PNanoVDB.h>
 
-#include "vdbs_math.h"
+#include "base/vdbs_math.h"
 #include "vs_common.h"
 #include "vs_phase.h"
 

@@ -538,7 +538,7 @@ static void pop_radial_scenario_make(pop_scenario *s, int iterations)
     vdbs_error err;
     const double centre[3] = {0.2, 0.1, -0.3}, albedo[3] = {0.99, 0.9, 0.7};
     assert_int_equal(vdbs_radial_octahedral(centre, 8, 6, 0.0, 1.5, &f, &err), VDBS_OK);
-    vdbs_pop_desc desc = {0};
+    vdbs_pop_transport desc = {0};
     s->params = vdbs_pop_radial_params(&f, 0.85, albedo, &desc, &s->words);
     assert_non_null(s->params);
     s->cells = vdbs_radial_cells(&f);

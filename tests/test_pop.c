@@ -354,7 +354,7 @@ static double radial_balance(int shells, int compensate, int iterations, double 
     const double centre[3] = {0.1, -0.2, 0.3};
     assert_int_equal(vdbs_radial_octahedral(centre, shells, shells, 0.0, 2.0, &f, &err), VDBS_OK);
     const double albedo[3] = {1.0, 1.0, 1.0};
-    vdbs_pop_desc desc = {0};
+    vdbs_pop_transport desc = {0};
     size_t words = 0;
     uint32_t *params = vdbs_pop_radial_params(&f, 0.85, albedo, &desc, &words);
     assert_non_null(params);
@@ -416,7 +416,7 @@ static void test_octahedral_topology(void **state)
     const double centre[3] = {0.0, 0.0, 0.0}, albedo[3] = {1.0, 1.0, 1.0};
     const int n = 16;
     assert_int_equal(vdbs_radial_octahedral(centre, n, 4, 0.0, 1.0, &f, &err), VDBS_OK);
-    vdbs_pop_desc desc = {0};
+    vdbs_pop_transport desc = {0};
     size_t words = 0;
     uint32_t *params = vdbs_pop_radial_params(&f, 0.5, albedo, &desc, &words);
     assert_non_null(params);

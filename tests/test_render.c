@@ -9,6 +9,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "vdbscatter/sphere.h"
 #include "vdbscatter/bake.h"
 #include "vdbscatter/camera.h"
 #include "vdbscatter/fog.h"

@@ -14,6 +14,7 @@
 #include "vs_common.h"
 #include "vs_march.h"
 
+#include "vdbscatter/sphere.h"
 #include "vdbscatter/samples.h"
 #include "vdbscatter/scene.h"
 #include "vdbscatter/single.h"

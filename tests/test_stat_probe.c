@@ -27,6 +27,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "vdbscatter/sphere.h"
 #include "vdbscatter/envmap.h"
 #include "vdbscatter/image.h"
 #include "vdbscatter/reference.h"

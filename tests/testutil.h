@@ -9,7 +9,7 @@
 
 #include <cmocka.h>
 
-#include "vdbscatter/kernel.h"
+#include "vdbscatter/runner.h"
 #include "vdbscatter/lights.h"
 #include "vdbscatter/render.h"
 #include "vdbscatter/scene.h"

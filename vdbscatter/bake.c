@@ -7,13 +7,13 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "vdbscatter/kernel.h"
+#include "vdbscatter/runner.h"
 #include "vdbscatter/lightgrid.h"
 #include "vdbscatter/lights.h"
 #include "vdbscatter/progress.h"
 #include "vdbscatter/solver.h"
 #include "vdbscatter/vdbio.h"
-#include "vdbscatter/view.h"
+#include "vdbscatter/camera_radiance.h"
 #include "vdbscatter/volume.h"
 
 #ifndef VDBSCATTER_VERSION

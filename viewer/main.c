@@ -24,7 +24,7 @@
 #include "vdbscatter/bake.h"
 #include "vdbscatter/camera.h"
 #include "vdbscatter/fog.h"
-#include "vdbscatter/kernel.h"
+#include "vdbscatter/runner.h"
 #include "vdbscatter/litvdb.h"
 #include "vdbscatter/mesh.h"
 #include "vdbscatter/render.h"

@@ -4,7 +4,7 @@
 
 #include "vdbscatter/advice.h"
 #include "vdbscatter/cancel.h"
-#include "vdbscatter/kernel.h"
+#include "vdbscatter/runner.h"
 #include "vdbscatter/lightgrid.h"
 #include "vdbscatter/fld.h"
 #include "vdbscatter/pop.h"

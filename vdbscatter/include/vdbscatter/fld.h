@@ -17,8 +17,8 @@
 
 #include <stdint.h>
 
-#include "vdbscatter/kernel.h"
-#include "vdbscatter/solver.h"
+#include "vdbscatter/runner.h"
+#include "vdbscatter/solve.h"
 #include "vdbscatter/status.h"
 
 #ifdef __cplusplus

@@ -4,22 +4,12 @@
 #define VDBSCATTER_IMAGE_H
 
 #include "vdbscatter/cancel.h"
+#include "vdbscatter/pixels.h"
 #include "vdbscatter/status.h"
 
 #ifdef __cplusplus
 extern "C" {
 #endif
-
-typedef struct vdbs_image {
-    int width;
-    int height;
-    float *rgb; /* 3 * width * height, linear, row-major, row 0 on top */
-    float *se;  /* NULL, or 3 * width * height standard errors of the pixel estimates */
-} vdbs_image;
-
-vdbs_status vdbs_image_alloc(vdbs_image *image, int width, int height, int with_se,
-                             vdbs_error *err);
-void vdbs_image_free(vdbs_image *image);
 
 /* Writes by extension: ".exr" linear float RGB (plus channels se.R, se.G, se.B when se is
  * set), ".png" 8-bit sRGB of rgb * 2^exposure_ev, ".hdr" Radiance RGBE (linear). Written to a

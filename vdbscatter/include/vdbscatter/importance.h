@@ -17,7 +17,7 @@
 #define VDBSCATTER_IMPORTANCE_H
 
 #include "vdbscatter/envmap.h"
-#include "vdbscatter/kernel.h"
+#include "vdbscatter/runner.h"
 #include "vdbscatter/medium.h"
 #include "vdbscatter/scene.h"
 #include "vdbscatter/status.h"

@@ -28,7 +28,7 @@
 #include <stddef.h>
 #include <stdint.h>
 
-#include "vdbscatter/kernel.h"
+#include "vdbscatter/runner.h"
 #include "vdbscatter/lights.h"
 #include "vdbscatter/medium.h"
 #include "vdbscatter/scene.h"

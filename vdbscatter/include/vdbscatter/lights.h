@@ -81,10 +81,6 @@ vdbs_status vdbs_lights_pack(vdbs_light_table *table, vdbs_error *err);
 void vdbs_lights_arrival(const vdbs_light_table *table, int light, const double p[3],
                          double color[3], double travel[3]);
 
-/* K unit directions spread evenly over the sphere (spherical Fibonacci lattice), equal
- * weights 4 pi / K; `dirs` holds 3 K doubles. */
-void vdbs_sphere_directions(int count, double *dirs);
-
 #ifdef __cplusplus
 }
 #endif

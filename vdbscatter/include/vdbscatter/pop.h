@@ -19,17 +19,13 @@
 #ifndef VDBSCATTER_POP_H
 #define VDBSCATTER_POP_H
 
+#include "vdbscatter/pop_engine.h"
 #include "vdbscatter/radial.h"
-#include "vdbscatter/solver.h"
+#include "vdbscatter/solve.h"
 
 #ifdef __cplusplus
 extern "C" {
 #endif
-
-typedef enum vdbs_pop_decay {
-    VDBS_POP_DECAY_MEAN_COSINE = 0, /* a exp(-sigma_s t (1 - g)): exact first moment */
-    VDBS_POP_DECAY_PAPER = 1        /* a g^(sigma_s t) (Eq. 4; g >= 0 only) */
-} vdbs_pop_decay;
 
 /* Zero-initialise; 0 means the default. */
 typedef struct vdbs_pop_desc {
@@ -90,30 +86,6 @@ typedef struct vdbs_pop_stats {
  * memory, GPU errors. */
 vdbs_status vdbs_pop_solve(const vdbs_solve *solve, const vdbs_pop_desc *desc,
                            vdbs_pop_stats *stats, vdbs_error *err);
-
-/* Iterations of one propagation grid through the runner (shaders/pop_propagate.comp, or the
- * C loop over the same gather): params is the grid's param_words words (VS_POP_PARAM_WORDS,
- * and a radial grid's tables after them), sigma its sigma_t per cell, state cells x
- * VS_POP_STATE_WORDS floats in and out. Stops after max_iterations or once the energy in
- * transit (sum of L; of L A on radial grids) is <= tolerance; reports the iterations run and
- * that energy. */
-vdbs_status vdbs_pop_propagate(vdbs_runner *runner, const uint32_t *params, size_t param_words,
-                               const float *sigma, int64_t cells, float *state, int max_iterations,
-                               double tolerance, int *iterations, double *left, vdbs_error *err);
-
-/* Turns seeded light into lobes: the L of every cell and channel (on a radial frame its power,
- * divided here by the cell's mean section A; NULL: a rectilinear grid's L) gets anisotropy a0,
- * and the accumulation starts with the half crossing the light travels on average in the
- * cell where it scattered (times the lobe's mean chord unless tally_cell). */
-void vdbs_pop_start_lobes(float *state, int64_t cells, double a0, int tally_cell,
-                          const vdbs_radial_frame *radial);
-
-/* The parameter words of a radial grid over frame f (shaders/vs_pop.h): the header for a medium
- * of HG g and albedo with desc's decay law and tally, the flux-conserving compensation on, then
- * the shell radii and texel records. *words receives their count; NULL when out of memory.
- * The caller frees it. */
-uint32_t *vdbs_pop_radial_params(const vdbs_radial_frame *f, double g, const double albedo[3],
-                                 const vdbs_pop_desc *desc, size_t *words);
 
 #ifdef __cplusplus
 }

@@ -16,7 +16,7 @@
 #include "vdbscatter/camera.h"
 #include "vdbscatter/cancel.h"
 #include "vdbscatter/image.h"
-#include "vdbscatter/kernel.h"
+#include "vdbscatter/runner.h"
 #include "vdbscatter/lightgrid.h"
 #include "vdbscatter/litvdb.h"
 #include "vdbscatter/progress.h"
@@ -74,7 +74,7 @@ typedef struct vdbs_render_stats {
     double seconds_march;        /* the camera rays (with lookups or light marches) */
 } vdbs_render_stats;
 
-/* The presets of --quality (solver.h): sky directions 16 / 64 / 256 / 1024 and steps of
+/* The presets of --quality (quality.h): sky directions 16 / 64 / 256 / 1024 and steps of
  * 1, 1/2, 1/4, 1/8 voxel for low / medium / high / ultra. Returns 0 for an unknown name. */
 int vdbs_render_quality(const char *quality, vdbs_march_options *options);
 

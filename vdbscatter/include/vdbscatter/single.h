@@ -4,7 +4,7 @@
 #ifndef VDBSCATTER_SINGLE_H
 #define VDBSCATTER_SINGLE_H
 
-#include "vdbscatter/kernel.h"
+#include "vdbscatter/runner.h"
 #include "vdbscatter/lightgrid.h"
 #include "vdbscatter/lights.h"
 #include "vdbscatter/progress.h"

@@ -20,10 +20,10 @@
 
 #include <stdint.h>
 
-#include "vdbscatter/kernel.h"
+#include "vdbscatter/runner.h"
 #include "vdbscatter/phasemat.h"
 #include "vdbscatter/progress.h"
-#include "vdbscatter/solver.h"
+#include "vdbscatter/solve.h"
 #include "vdbscatter/status.h"
 
 #ifdef __cplusplus

@@ -8,39 +8,6 @@
 #include "vdbscatter/single.h"
 #include "vdbscatter/svd.h"
 
-static const vdbs_quality qualities[] = {
-    {"low", 16, 1.0f, 1},
-    {"medium", 64, 0.5f, 1},
-    {"high", 256, 0.25f, 2},
-    {"ultra", 1024, 0.125f, 2},
-};
-
-const vdbs_quality *vdbs_quality_find(const char *name)
-{
-    for (size_t q = 0; name && q < sizeof qualities / sizeof qualities[0]; ++q)
-        if (strcmp(name, qualities[q].name) == 0)
-            return &qualities[q];
-    return NULL;
-}
-
-const vdbs_quality *vdbs_quality_list(int *count)
-{
-    *count = (int)(sizeof qualities / sizeof qualities[0]);
-    return qualities;
-}
-
-int vdbs_quality_level(const char *name)
-{
-    const vdbs_quality *q = vdbs_quality_find(name);
-    return q ? (int)(q - qualities) : 1;
-}
-
-int vdbs_quality_sky_directions(const char *name)
-{
-    const vdbs_quality *q = vdbs_quality_find(name);
-    return q ? q->sky_directions : 0;
-}
-
 /* S1 into radiance (and toward the camera), with flux the unscattered light's net flux and
  * with light_depth every light's optical depth (vdbs_s1_outputs). */
 static vdbs_status run_s1(const vdbs_solve *s, float *flux, vdbs_s1_light_fn light_depth,

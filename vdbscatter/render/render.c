@@ -12,10 +12,10 @@
 #include "vdbscatter/lights.h"
 #include "vdbscatter/medium.h"
 #include "vdbscatter/reference.h"
-#include "vdbscatter/solver.h"
+#include "vdbscatter/quality.h"
 #include "vdbscatter/vdbio.h"
 
-#include "vdbs_math.h"
+#include "base/vdbs_math.h"
 
 #define PNANOVDB_C
 #include <nanovdb/PNanoVDB.h>

@@ -1,4 +1,4 @@
-#include "vdbscatter/view.h"
+#include "vdbscatter/camera_radiance.h"
 
 #include <math.h>
 #include <stdint.h>

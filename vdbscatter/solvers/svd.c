@@ -5,7 +5,7 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "vdbs_math.h"
+#include "base/vdbs_math.h"
 #include "vdbscatter/coarse.h"
 #include "vdbscatter/lightgrid.h"
 #include "vdbscatter/medium.h"

@@ -1,5 +1,7 @@
 #include "vdbscatter/lights.h"
 
+#include "vdbscatter/sphere.h"
+
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -8,7 +10,7 @@
 #define PNANOVDB_C
 #include <nanovdb/PNanoVDB.h>
 
-#include "vdbs_math.h"
+#include "base/vdbs_math.h"
 #include "vs_common.h"
 #include "vs_medium.h"
 #include "vs_lights.h"
@@ -17,19 +19,6 @@
 _Static_assert(VS_LIGHT_SUN == (int)VDBS_LIGHT_SUN, "sun type");
 _Static_assert(VS_LIGHT_POINT == (int)VDBS_LIGHT_POINT, "point type");
 _Static_assert(VS_LIGHT_ENV == (int)VDBS_LIGHT_ENV, "env type");
-
-void vdbs_sphere_directions(int count, double *dirs)
-{
-    const double golden_angle = VDBS_PI * (3.0 - sqrt(5.0));
-    for (int k = 0; k < count; ++k) {
-        double z = 1.0 - (2.0 * k + 1.0) / count;
-        double r = sqrt(fmax(0.0, 1.0 - z * z));
-        double phi = golden_angle * k;
-        dirs[3 * k] = r * cos(phi);
-        dirs[3 * k + 1] = z;
-        dirs[3 * k + 2] = r * sin(phi);
-    }
-}
 
 void vdbs_lights_free(vdbs_light_table *table)
 {

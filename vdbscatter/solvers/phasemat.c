@@ -5,8 +5,8 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "vdbscatter/lights.h"
-#include "vdbs_math.h"
+#include "vdbscatter/sphere.h"
+#include "base/vdbs_math.h"
 
 /* Sinkhorn sweeps at most, and the row-sum error that stops them. */
 #define PHASEMAT_BALANCE_SWEEPS 10000

@@ -6,9 +6,9 @@
 
 #include "vdbscatter/camera.h"
 #include "vdbscatter/coarse.h"
-#include "vdbscatter/pop.h"
+#include "vdbscatter/pop_engine.h"
 #include "vdbscatter/radial.h"
-#include "vdbs_math.h"
+#include "base/vdbs_math.h"
 
 #define PNANOVDB_C
 #include <nanovdb/PNanoVDB.h>
@@ -121,9 +121,9 @@ vdbs_status vdbs_importance_map(vdbs_runner *runner, const vdbs_volume *volume,
     const double albedo3[3] = {scene->albedo[0], scene->albedo[1], scene->albedo[2]};
     const double albedo = (albedo3[0] + albedo3[1] + albedo3[2]) / 3.0;
     const double grey[3] = {albedo, albedo, albedo};
-    vdbs_pop_desc desc = {0};
+    const vdbs_pop_transport transport = {0};
     size_t words = 0;
-    uint32_t *params = vdbs_pop_radial_params(&f, scene->g, grey, &desc, &words);
+    uint32_t *params = vdbs_pop_radial_params(&f, scene->g, grey, &transport, &words);
     float *state = calloc((size_t)cells * VS_POP_STATE_WORDS, sizeof *state);
     float *sigma = malloc(sizeof *sigma * (size_t)cells);
     float *medium_sigma = malloc(sizeof *medium_sigma * (size_t)medium_cells);

@@ -1,4 +1,4 @@
-#include "vdbscatter/kernel.h"
+#include "vdbscatter/runner.h"
 
 #include <inttypes.h>
 #include <omp.h>

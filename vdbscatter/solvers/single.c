@@ -7,9 +7,9 @@
 #include <string.h>
 
 #include "vdbscatter/medium.h"
-#include "vdbscatter/view.h"
+#include "vdbscatter/camera_radiance.h"
 
-#include "vdbs_math.h"
+#include "base/vdbs_math.h"
 
 #define PNANOVDB_C
 #include <nanovdb/PNanoVDB.h>

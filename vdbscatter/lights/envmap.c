@@ -7,8 +7,8 @@
 
 #include "vdbscatter/image.h"
 
-#include "exrmap.h"
-#include "vdbs_math.h"
+#include "io/exrmap.h"
+#include "base/vdbs_math.h"
 
 #define PNANOVDB_C
 #include <nanovdb/PNanoVDB.h>

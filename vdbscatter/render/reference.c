@@ -12,7 +12,7 @@
 #include <nanovdb/PNanoVDB.h>
 
 #include "vdbscatter/medium.h"
-#include "vdbs_math.h"
+#include "base/vdbs_math.h"
 #include "vs_common.h"
 #include "vs_march.h"
 #include "vs_phase.h"

@@ -4,7 +4,7 @@
 #ifndef VDBSCATTER_EXRMAP_H
 #define VDBSCATTER_EXRMAP_H
 
-#include "vdbscatter/image.h"
+#include "vdbscatter/pixels.h"
 #include "vdbscatter/status.h"
 
 #ifdef __cplusplus

@@ -6,7 +6,7 @@
 
 #include "vdbscatter/coarse.h"
 #include "vdbscatter/medium.h"
-#include "vdbs_math.h"
+#include "base/vdbs_math.h"
 
 #define PNANOVDB_C
 #include <nanovdb/PNanoVDB.h>

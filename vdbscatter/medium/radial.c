@@ -4,7 +4,7 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "vdbs_math.h"
+#include "base/vdbs_math.h"
 #include "vdbscatter/volume.h"
 
 /* Sub-texels per axis that integrate a texel's solid angle. */

@@ -4,7 +4,7 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "vdbs_math.h"
+#include "base/vdbs_math.h"
 
 #define PNANOVDB_C
 #include <nanovdb/PNanoVDB.h>

@@ -9,7 +9,7 @@
  * Imf::InputFile with a FrameBuffer of FLOAT slices converts half and uint, reads level 0
  * of tiled, mipmapped and ripmapped files and knows every compression, so every EXR takes
  * one path. */
-#include "exrmap.h"
+#include "io/exrmap.h"
 
 #include <ImathBox.h>
 #include <ImfArray.h>
