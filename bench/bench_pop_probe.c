@@ -49,6 +49,7 @@
 #include "vdbscatter/reference.h"
 #include "vdbscatter/samples.h"
 #include "vdbscatter/scene.h"
+#include "vdbscatter/scene_file.h"
 #include "vdbscatter/solver.h"
 #include "vdbscatter/volume.h"
 
@@ -87,6 +88,14 @@ static void die(const char *what, const vdbs_error *err)
 {
     fprintf(stderr, "bench_pop_probe: %s: %s\n", what, err ? err->message : "failed");
     exit(1);
+}
+
+/* A solver option by its scene key (solver.h). */
+static void set_option(vdbs_scene *scene, const char *key, double value)
+{
+    vdbs_error err;
+    if (vdbs_solver_set(scene, key, value, &err) != VDBS_OK)
+        die(key, &err);
 }
 
 static void *xcalloc(size_t n, size_t size)
@@ -525,10 +534,10 @@ static void run_scene(const scene_def *def, const options *o, vdbs_runner *runne
                 if (!quality)
                     die("--qualities: unknown quality", NULL);
             } else {
-                scene.pop_resolution = o->res[ri];
-                scene.fld_resolution = o->res[ri];
+                set_option(&scene, "pop_res", o->res[ri]);
+                set_option(&scene, "fld_res", o->res[ri]);
             }
-            scene.pop_tally_cell = o->tally_cell;
+            set_option(&scene, "pop_tally", o->tally_cell);
             const vdbs_solver *solver = vdbs_solver_find(o->method);
             vdbs_lights_desc ld = {0};
             ld.sky_ordinates =
@@ -543,8 +552,11 @@ static void run_scene(const scene_def *def, const options *o, vdbs_runner *runne
             vdbs_light_grid_desc grids = {0, 0};
             vdbs_s1_stats s1_stats;
             memset(&s1_stats, 0, sizeof s1_stats);
-            vdbs_pop_stats pop_stats;
-            memset(&pop_stats, 0, sizeof pop_stats);
+            union {
+                vdbs_pop_stats pop;
+                unsigned char bytes[VDBS_SOLVER_STATS_MAX];
+            } stats;
+            memset(&stats, 0, sizeof stats);
             vdbs_solve solve;
             memset(&solve, 0, sizeof solve);
             solve.runner = runner;
@@ -554,13 +566,12 @@ static void run_scene(const scene_def *def, const options *o, vdbs_runner *runne
             solve.quality = quality;
             solve.s1_grids = &grids;
             solve.s1_stats = &s1_stats;
-            solve.pop_stats = &pop_stats;
             solve.radiance = radiance;
             solve.ms = ms;
             for (int a = 0; a < 3; ++a)
                 solve.ms_l1[a] = l1[a];
             t0 = vdbs_now();
-            if (solver->run(&solve, &err) != VDBS_OK)
+            if (solver->run(&solve, stats.bytes, &err) != VDBS_OK)
                 die(o->method, &err);
             double pop_seconds = vdbs_now() - t0;
             vdbs_lights_free(&lights);

@@ -19,6 +19,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "vdbscatter/solver.h"
 #include "vdbscatter/bake.h"
 #include "vdbscatter/reference.h"
 #include "vdbscatter/samples.h"
@@ -159,7 +160,8 @@ int main(int argc, char **argv)
         double probe_seconds = vdbs_now() - t0;
         double pop_seconds[MAX_LIST];
         for (int q = 0; q < radial_count; ++q) {
-            scene.pop_radial = (int)radial[q];
+            if (vdbs_solver_set(&scene, "pop_radial", radial[q], &err) != VDBS_OK)
+                die("pop_radial", &err);
             memset(radiance, 0, 3 * n * sizeof(float));
             memset(ms, 0, 3 * n * sizeof(float));
             for (int a = 0; a < 3; ++a)

@@ -1,6 +1,8 @@
 #define _POSIX_C_SOURCE 200809L
 #include "options.h"
 
+#include "solver_flags.h"
+
 #include "vdbscatter/mesh.h"
 
 #include <cjson/cJSON.h>
@@ -14,6 +16,7 @@
 
 #include "vdbscatter/render.h"
 #include "vdbscatter/suggest.h"
+#include "vdbscatter/scene_file.h"
 
 static const cli_option *find_option(const cli_option *options, const char *name, size_t len)
 {
@@ -235,60 +238,6 @@ vdbs_status cli_build_scene(const cli_args *args, vdbs_scene *scene, int allow_n
             long k = 0;
             st = cli_integer(name, v, 1, VDBS_MAX_SKY_DIRECTIONS, &k, err);
             scene->sky_directions = (int)k;
-        } else if (strcmp(name, "--pop-res") == 0 || strcmp(name, "--pop-ordinates") == 0) {
-            long k = 0;
-            int res = name[6] == 'r';
-            st = cli_integer(name, v, res ? 2 : 1,
-                             res ? VDBS_MAX_POP_RESOLUTION : VDBS_MAX_SKY_DIRECTIONS, &k, err);
-            *(res ? &scene->pop_resolution : &scene->pop_ordinates) = (int)k;
-        } else if (strcmp(name, "--pop-radial") == 0) {
-            long k = 0;
-            st = cli_integer(name, v, 2, VDBS_MAX_POP_RADIAL, &k, err);
-            if (st == VDBS_OK && k % 2 != 0)
-                st = vdbs_error_set(err, VDBS_ERR_INPUT,
-                                    "--pop-radial: expected an even count (the octahedral map), "
-                                    "got %ld",
-                                    k);
-            scene->pop_radial = (int)k;
-        } else if (strcmp(name, "--pop-importance") == 0) {
-            scene->pop_importance = 1;
-        } else if (strcmp(name, "--pop-iterations") == 0) {
-            long k = 0;
-            st = cli_integer(name, v, 1, VDBS_MAX_POP_ITERATIONS, &k, err);
-            scene->pop_iterations = (int)k;
-        } else if (strcmp(name, "--pop-decay") == 0) {
-            st = vdbs_scene_set_pop_decay(scene, v, err);
-        } else if (strcmp(name, "--pop-tally") == 0) {
-            st = vdbs_scene_set_pop_tally(scene, v, err);
-        } else if (strcmp(name, "--fld-res") == 0) {
-            long k = 0;
-            st = cli_integer(name, v, 2, VDBS_MAX_FLD_RESOLUTION, &k, err);
-            scene->fld_resolution = (int)k;
-        } else if (strcmp(name, "--svd-directions") == 0 || strcmp(name, "--svd-terms") == 0) {
-            long k = 0;
-            int dirs = name[6] == 'd';
-            st = cli_integer(name, v, dirs ? 2 : 1, VDBS_MAX_SVD_DIRECTIONS, &k, err);
-            *(dirs ? &scene->svd_directions : &scene->svd_terms) = (int)k;
-        } else if (strcmp(name, "--svd-res") == 0) {
-            long k = 0;
-            st = cli_integer(name, v, 2, VDBS_MAX_SVD_RESOLUTION, &k, err);
-            scene->svd_resolution = (int)k;
-        } else if (strcmp(name, "--svd-iterations") == 0) {
-            long k = 0;
-            st = cli_integer(name, v, 1, VDBS_MAX_SVD_ITERATIONS, &k, err);
-            scene->svd_iterations = (int)k;
-        } else if (strcmp(name, "--residual") == 0) {
-            st = cli_number(name, v, &x, err);
-            if (st == VDBS_OK && !(x > 0.0 && x < 1.0))
-                st = vdbs_error_set(err, VDBS_ERR_INPUT,
-                                    "--residual: expected a number in (0, 1), got %s", v);
-            scene->svd_residual = x;
-        } else if (strcmp(name, "--fld-limiter") == 0) {
-            st = vdbs_scene_set_fld_limiter(scene, v, err);
-        } else if (strcmp(name, "--fld-l1") == 0) {
-            st = vdbs_scene_set_fld_l1(scene, v, err);
-        } else if (strcmp(name, "--fld-p1") == 0) {
-            st = vdbs_scene_set_fld_p1(scene, v, err);
         } else if (strcmp(name, "--method") == 0) {
             st = vdbs_scene_set_method(scene, name, v, err);
         } else if (strcmp(name, "--quality") == 0) {
@@ -323,7 +272,8 @@ vdbs_status cli_build_scene(const cli_args *args, vdbs_scene *scene, int allow_n
                 st = vdbs_check_colour(name, light->color, err);
             scene->light_count++;
         } else {
-            st = VDBS_OK;
+            int handled = 0; /* a solver's own flag, or one the command reads itself */
+            st = cli_solver_flag(name, v, scene, &handled, err);
         }
         if (st != VDBS_OK)
             return st;

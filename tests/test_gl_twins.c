@@ -25,6 +25,7 @@
 #include "vdbscatter/pop.h"
 #include "vdbscatter/render.h"
 #include "vdbscatter/scene.h"
+#include "vdbscatter/scene_file.h"
 #include "vdbscatter/shadow.h"
 #include "vdbscatter/svd.h"
 #include "vdbscatter/vdbio.h"

@@ -16,6 +16,7 @@
 
 #include "vdbscatter/lightgrid.h"
 #include "vdbscatter/single.h"
+#include "vdbscatter/scene_file.h"
 
 #define PI 3.14159265358979323846
 

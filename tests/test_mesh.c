@@ -10,6 +10,7 @@
 
 #include "vdbscatter/mesh.h"
 #include "vdbscatter/scene.h"
+#include "vdbscatter/scene_file.h"
 
 static const double pi = 3.14159265358979323846;
 

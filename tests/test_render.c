@@ -17,6 +17,7 @@
 #include "vdbscatter/shadow.h"
 #include "vdbscatter/samples.h"
 #include "vdbscatter/scene.h"
+#include "vdbscatter/scene_file.h"
 #include "vdbscatter/single.h"
 #include "vdbscatter/vdbio.h"
 #include "vdbscatter/volume.h"

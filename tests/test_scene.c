@@ -8,6 +8,7 @@
 #include <string.h>
 
 #include "vdbscatter/scene.h"
+#include "vdbscatter/scene_file.h"
 #include "vdbscatter/suggest.h"
 #include "vdbscatter/solver.h"
 
@@ -480,15 +481,24 @@ static void test_validate_errors(void **state)
     assert_int_equal(vdbs_scene_validate(s, &err), VDBS_ERR_INPUT);
     assert_contains(err.message, "volume.g");
     s->g = 0.0;
-    s->svd_residual = 1.0;
+    /* stored without the setters' checks, as a program may */
+    assert_int_equal(vdbs_scene_solver_store(s, "svd_residual", 1.0, &err), VDBS_OK);
     assert_int_equal(vdbs_scene_validate(s, &err), VDBS_ERR_INPUT);
     assert_contains(err.message, "solver.svd_residual");
-    s->svd_residual = 0.0;
-    s->svd_directions = 16;
-    s->svd_terms = 17;
+    assert_int_equal(vdbs_scene_solver_store(s, "svd_residual", 0.0, &err), VDBS_OK);
+    assert_int_equal(vdbs_scene_solver_store(s, "svd_directions", 16, &err), VDBS_OK);
+    assert_int_equal(vdbs_scene_solver_store(s, "svd_terms", 17, &err), VDBS_OK);
     assert_int_equal(vdbs_scene_validate(s, &err), VDBS_ERR_INPUT);
     assert_contains(err.message, "solver.svd_terms");
-    s->svd_terms = 16;
+    assert_int_equal(vdbs_scene_solver_store(s, "pop_radial", 9, &err), VDBS_OK);
+    assert_int_equal(vdbs_scene_validate(s, &err), VDBS_ERR_INPUT);
+    assert_contains(err.message, "solver.pop_radial: 9 is odd");
+    assert_int_equal(vdbs_scene_solver_store(s, "pop_radial", 0, &err), VDBS_OK);
+    assert_int_equal(vdbs_scene_solver_store(s, "no_such_option", 1, &err), VDBS_OK);
+    assert_int_equal(vdbs_scene_validate(s, &err), VDBS_ERR_INPUT);
+    assert_contains(err.message, "solver.no_such_option: no solver has this option");
+    s->solver_setting_count--;
+    assert_int_equal(vdbs_scene_solver_store(s, "svd_terms", 16, &err), VDBS_OK);
     assert_int_equal(vdbs_scene_validate(s, &err), VDBS_OK);
     snprintf(s->method, sizeof s->method, "%s", "bogus");
     assert_int_equal(vdbs_scene_validate(s, &err), VDBS_ERR_INPUT);
@@ -533,22 +543,11 @@ static void assert_scene_equal(const vdbs_scene *a, const vdbs_scene *b)
     assert_string_equal(a->method, b->method);
     assert_string_equal(a->quality, b->quality);
     assert_int_equal(a->sky_directions, b->sky_directions);
-    assert_int_equal(a->pop_resolution, b->pop_resolution);
-    assert_int_equal(a->pop_ordinates, b->pop_ordinates);
-    assert_int_equal(a->pop_iterations, b->pop_iterations);
-    assert_int_equal(a->pop_decay_paper, b->pop_decay_paper);
-    assert_int_equal(a->pop_tally_cell, b->pop_tally_cell);
-    assert_int_equal(a->pop_radial, b->pop_radial);
-    assert_int_equal(a->pop_importance, b->pop_importance);
-    assert_int_equal(a->fld_resolution, b->fld_resolution);
-    assert_int_equal(a->fld_limiter_off, b->fld_limiter_off);
-    assert_int_equal(a->fld_l1_off, b->fld_l1_off);
-    assert_int_equal(a->fld_p1_off, b->fld_p1_off);
-    assert_int_equal(a->svd_directions, b->svd_directions);
-    assert_int_equal(a->svd_terms, b->svd_terms);
-    assert_int_equal(a->svd_resolution, b->svd_resolution);
-    assert_int_equal(a->svd_iterations, b->svd_iterations);
-    assert_true(a->svd_residual == b->svd_residual);
+    const vdbs_solver *solver;
+    for (int m = 0; (solver = vdbs_solver_at(m)) != NULL; ++m)
+        for (int i = 0; i < solver->option_count; ++i)
+            assert_true(vdbs_scene_solver_value(a, solver->options[i].key) ==
+                        vdbs_scene_solver_value(b, solver->options[i].key));
     assert_int_equal(a->occluder_count, b->occluder_count);
     for (int i = 0; i < a->occluder_count; ++i) {
         const vdbs_occluder *oa = &a->occluders[i], *ob = &b->occluders[i];
@@ -628,22 +627,17 @@ static void test_round_trip(void **state)
     round_trip(s);
 
     /* every POP setting away from its default */
-    s->pop_resolution = 7;
-    s->pop_ordinates = 24;
-    s->pop_iterations = 99;
-    s->pop_decay_paper = 1;
-    s->pop_tally_cell = 1;
-    s->pop_radial = 24;
-    s->pop_importance = 1;
-    s->fld_resolution = 40;
-    s->fld_limiter_off = 1;
-    s->fld_l1_off = 1;
-    s->fld_p1_off = 1;
-    s->svd_directions = 96;
-    s->svd_terms = 40;
-    s->svd_resolution = 20;
-    s->svd_iterations = 300;
-    s->svd_residual = 1.0 / 3.0;
+    static const struct {
+        const char *key;
+        double value;
+    } away[] = {{"pop_res", 7},         {"pop_ordinates", 24},  {"pop_iterations", 99},
+                {"pop_decay", 1},       {"pop_tally", 1},       {"pop_radial", 24},
+                {"pop_importance", 1},  {"fld_res", 40},        {"fld_limiter", 1},
+                {"fld_l1", 1},          {"fld_p1", 1},          {"svd_directions", 96},
+                {"svd_terms", 40},      {"svd_res", 20},        {"svd_iterations", 300},
+                {"svd_residual", 1.0 / 3.0}};
+    for (size_t i = 0; i < sizeof away / sizeof away[0]; ++i)
+        assert_int_equal(vdbs_solver_set(s, away[i].key, away[i].value, &err), VDBS_OK);
     round_trip(s);
 
     /* grid names with an index, and with an '@' of their own */

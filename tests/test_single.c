@@ -17,6 +17,7 @@
 #include "vdbscatter/sphere.h"
 #include "vdbscatter/samples.h"
 #include "vdbscatter/scene.h"
+#include "vdbscatter/scene_file.h"
 #include "vdbscatter/single.h"
 #include "vdbscatter/volume.h"
 

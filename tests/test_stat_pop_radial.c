@@ -16,6 +16,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "vdbscatter/solver.h"
 #include "vdbscatter/bake.h"
 #include "vdbscatter/reference.h"
 #include "vdbscatter/samples.h"
@@ -49,12 +50,12 @@ static void fig10_case(double g, const double expected[POINTS])
     scene.density_scale = 2.5 / 0.8;
     scene.albedo[0] = scene.albedo[1] = scene.albedo[2] = 1.0;
     scene.g = g;
-    scene.pop_radial = 32;
+    vdbs_error err;
+    assert_int_equal(vdbs_solver_set(&scene, "pop_radial", 32, &err), VDBS_OK);
     vdbs_light *light = &scene.lights[scene.light_count++];
     memset(light, 0, sizeof *light);
     light->type = VDBS_LIGHT_POINT;
     light->color[0] = light->color[1] = light->color[2] = 1.0;
-    vdbs_error err;
     double ms[3 * POINTS], se[3 * POINTS];
     vdbs_reference_probe_options po = {0};
     po.photons = (int64_t)1 << 22;

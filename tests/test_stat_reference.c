@@ -21,6 +21,7 @@
 #include "vdbscatter/render.h"
 #include "vdbscatter/samples.h"
 #include "vdbscatter/scene.h"
+#include "vdbscatter/scene_file.h"
 #include "vdbscatter/volume.h"
 
 #define PI 3.14159265358979323846

@@ -1,24 +1,29 @@
 #include "vdbscatter/bake.h"
 
-#include "vdbscatter/advice.h"
-
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
-#include "vdbscatter/runner.h"
+#include "vdbscatter/advice.h"
+#include "vdbscatter/camera_radiance.h"
+#include "vdbscatter/format.h"
 #include "vdbscatter/lightgrid.h"
 #include "vdbscatter/lights.h"
 #include "vdbscatter/progress.h"
+#include "vdbscatter/runner.h"
+#include "vdbscatter/scene_file.h"
 #include "vdbscatter/solver.h"
 #include "vdbscatter/vdbio.h"
-#include "vdbscatter/camera_radiance.h"
 #include "vdbscatter/volume.h"
 
 #ifndef VDBSCATTER_VERSION
 #define VDBSCATTER_VERSION "0"
 #endif
+
+/* The lit VDB's fixed metadata, then the solver state's. */
+#define BAKE_META_FIXED 11
+#define BAKE_META_MAX (BAKE_META_FIXED + 8)
 
 static void warn(const vdbs_bake_options *o, const char *fmt, const char *arg)
 {
@@ -26,6 +31,11 @@ static void warn(const vdbs_bake_options *o, const char *fmt, const char *arg)
     snprintf(line, sizeof line, fmt, arg);
     if (o->warn)
         o->warn(o->warn_user, line);
+}
+
+const void *vdbs_bake_report_stats(const vdbs_bake_report *report)
+{
+    return report->solver_stats.bytes;
 }
 
 /* Runs the scene's solver on the chosen backend; the lights are resolved here, once. */
@@ -65,10 +75,8 @@ static vdbs_status solve(const vdbs_bake_options *o, const vdbs_solver *solver,
     vdbs_s1_stats stats;
     memset(&stats, 0, sizeof stats);
     s->s1_stats = &stats;
-    s->pop_stats = &report->pop;
-    s->fld_stats = &report->fld;
-    s->svd_stats = &report->svd;
-    st = solver->run(s, err);
+    memset(&report->solver_stats, 0, sizeof report->solver_stats);
+    st = solver->run(s, report->solver_stats.bytes, err);
     if (st == VDBS_OK && s->radiance_view && solver->writes_ms) {
         float *wo = vdbs_view_directions(volume, o->scene->camera.position);
         if (wo)
@@ -107,246 +115,254 @@ vdbs_status vdbs_bake_volume(const vdbs_bake_options *o, const vdbs_volume *volu
     return st;
 }
 
-/* The name of moment grid k of --keep-state. */
-static void svd_grid_name(int k, char *name, size_t size)
-{
-    snprintf(name, size, "svd_m%04d", k);
-}
+/* ---- the bake of a file, step by step ---- */
 
-/* --warm-start: the moments a --keep-state bake wrote, at this volume's output voxels. */
-static vdbs_status read_svd_state(const char *path, const vdbs_volume *volume, vdbs_svd_moments *m,
-                                  vdbs_error *err)
+/* What a bake holds between its steps; job_free releases it. */
+typedef struct bake_job {
+    vdbs_bake_options options; /* the caller's, with the scene as resolved */
+    const vdbs_solver *solver;
+    const vdbs_quality *quality;
+    const char *input;
+    int sky;
+    vdbs_volume volume;
+    int has_volume;
+    vdbs_scene *scene; /* the caller's, resolved against the volume (auto density scale) */
+    void *warm, *keep; /* the solver's state: read by --warm-start, written by --keep-state */
+    vdbs_solve out;    /* the output arrays */
+    char *scene_json;
+} bake_job;
+
+static void job_free(bake_job *j)
 {
-    vdbio_lit *lit = NULL;
-    vdbs_status st = vdbio_lit_open(path, &lit, err);
-    if (st != VDBS_OK)
-        return st;
-    const char *dt = vdbio_lit_meta(lit, "vdbscatter_svd_directions");
-    const char *nt = vdbio_lit_meta(lit, "vdbscatter_svd_terms");
-    const char *gt = vdbio_lit_meta(lit, "vdbscatter_g");
-    int directions = dt ? atoi(dt) : 0, terms = nt ? atoi(nt) : 0;
-    char name[32];
-    svd_grid_name(terms > 0 ? terms - 1 : 0, name, sizeof name);
-    if (directions < 2 || terms < 1 || terms > directions || !gt || !vdbio_lit_has_grid(lit, name))
-        st = vdbs_error_set(err, VDBS_ERR_INPUT,
-                            "--warm-start %s: no discrete-ordinates state in it (bake it with "
-                            "--method svd --keep-state)",
-                            path);
-    if (st == VDBS_OK)
-        st = vdbs_svd_moments_alloc(m, directions, terms, strtod(gt, NULL), volume->coord_count,
-                                    err);
-    for (int k = 0; k < terms && st == VDBS_OK; ++k) {
-        svd_grid_name(k, name, sizeof name);
-        for (size_t n = 0; n < volume->coord_count && st == VDBS_OK; ++n)
-            st = vdbio_lit_vec3(lit, name, volume->coords + 3 * n, m->voxels[k] + 3 * n, err);
+    const vdbs_solver_state *state = j->solver ? j->solver->state : NULL;
+    if (state && state->destroy) {
+        state->destroy(j->warm);
+        state->destroy(j->keep);
     }
-    if (st != VDBS_OK)
-        vdbs_svd_moments_free(m);
-    vdbio_lit_close(lit);
-    return st;
+    free(j->scene_json);
+    for (int a = 0; a < 3; ++a)
+        if (j->out.ms_l1[a] != j->out.ms)
+            free(j->out.ms_l1[a]);
+    free(j->out.ms);
+    free(j->out.radiance_view);
+    free(j->out.radiance);
+    if (j->has_volume)
+        vdbs_volume_free(&j->volume);
+    free(j->scene);
 }
 
-static char *format_double(double v)
+/* The request's checks that need no file: input, method, state flags, output, quality. */
+static vdbs_status check_request(bake_job *j, vdbs_error *err)
 {
-    char *s = malloc(32);
-    if (s)
-        snprintf(s, 32, "%.17g", v);
-    return s;
-}
-
-vdbs_status vdbs_bake(const vdbs_bake_options *o, vdbs_bake_report *report, vdbs_error *err)
-{
+    const vdbs_bake_options *o = &j->options;
     const vdbs_scene *scene = o->scene;
-    memset(report, 0, sizeof *report);
-    double t_start = vdbs_now();
-    const char *input = o->input ? o->input : scene->volume_file;
-    if (!input || !input[0])
+    j->input = o->input ? o->input : scene->volume_file;
+    if (!j->input || !j->input[0])
         return vdbs_error_set(err, VDBS_ERR_INPUT, "no input volume given");
-    const vdbs_solver *solver = vdbs_solver_find(scene->method);
-    if (!solver) {
+    j->solver = vdbs_solver_find(scene->method);
+    if (!j->solver) {
         char names[256];
         vdbs_solver_names(names, sizeof names);
         return vdbs_error_set(err, VDBS_ERR_INPUT,
                               "--method %s is not implemented yet (available: %s)", scene->method,
                               names);
     }
-    if ((o->keep_state || o->warm_start) && solver->method != VDBS_METHOD_SVD)
-        return vdbs_error_set(err, VDBS_ERR_INPUT, "%s needs --method svd",
-                              o->keep_state ? "--keep-state" : "--warm-start");
-    vdbs_status st = vdbio_check_output(o->output, input, err);
+    if ((o->keep_state || o->warm_start) && !j->solver->state)
+        return vdbs_error_set(err, VDBS_ERR_INPUT,
+                              "%s needs a method that keeps state (--method %s keeps none)",
+                              o->keep_state ? "--keep-state" : "--warm-start", j->solver->name);
+    vdbs_status st = vdbio_check_output(o->output, j->input, err);
     if (st != VDBS_OK)
         return st;
-    const vdbs_quality *quality = vdbs_quality_find(scene->quality);
-    if (!quality)
+    j->quality = vdbs_quality_find(scene->quality);
+    if (!j->quality)
         return vdbs_error_set(err, VDBS_ERR_INPUT, "unknown quality '%s'", scene->quality);
-    const int sky = scene->sky_directions > 0 ? scene->sky_directions : quality->sky_directions;
+    j->sky = scene->sky_directions > 0 ? scene->sky_directions : j->quality->sky_directions;
     for (int i = 0; i < scene->light_count; ++i)
         if (scene->lights[i].type == VDBS_LIGHT_SUN && scene->lights[i].angular_diameter_deg > 0)
             warn(o, "%s",
                  "sun angular_diameter_deg is treated as 0 (a delta light) by --method "
                  "single");
+    return vdbs_cancelled(o->cancel) ? vdbs_error_cancelled(err) : VDBS_OK;
+}
 
-    if (vdbs_cancelled(o->cancel))
-        return vdbs_error_cancelled(err);
+/* The volume, and the scene resolved against it (auto density scale; a light is needed). */
+static vdbs_status load(bake_job *j, vdbs_bake_report *report, vdbs_error *err)
+{
+    const vdbs_bake_options *o = &j->options;
     vdbio_read_options read = {0};
-    read.grid_name = scene->grid[0] ? scene->grid : NULL;
-    read.grid_index = scene->grid_index;
+    read.grid_name = o->scene->grid[0] ? o->scene->grid : NULL;
+    read.grid_index = o->scene->grid_index;
     read.from_levelset = o->from_levelset;
     read.warn = o->warn;
     read.warn_user = o->warn_user;
-    vdbs_volume volume;
-    st = vdbs_volume_load(input, &read, &volume, err);
+    vdbs_status st = vdbs_volume_load(j->input, &read, &j->volume, err);
     if (st != VDBS_OK)
         return st;
-    /* From here on the scene as resolved against the volume (auto density scale). */
-    vdbs_scene *resolved = malloc(sizeof *resolved);
-    if (!resolved) {
-        vdbs_volume_free(&volume);
+    j->has_volume = 1;
+    if (!(j->scene = malloc(sizeof *j->scene)))
         return vdbs_error_set(err, VDBS_ERR_NOMEM, "out of memory for a scene");
-    }
-    *resolved = *o->scene;
-    scene = resolved;
-    if ((st = vdbs_scene_fit_density(resolved, &volume, err)) != VDBS_OK ||
-        (scene->light_count == 0 &&
-         (st = vdbs_error_set(err, VDBS_ERR_INPUT, "%s", VDBS_NO_LIGHT_MESSAGE)) != VDBS_OK)) {
-        free(resolved);
-        vdbs_volume_free(&volume);
+    *j->scene = *o->scene;
+    j->options.scene = j->scene;
+    if ((st = vdbs_scene_fit_density(j->scene, &j->volume, err)) != VDBS_OK)
         return st;
-    }
-    report->density_scale = scene->density_scale;
-    vdbs_scene_advise(scene, &volume, solver->writes_ms, o->warn, o->warn_user, &report->advice);
-    vdbs_bake_options resolved_options = *o;
-    resolved_options.scene = scene;
-    o = &resolved_options;
-    vdbs_svd_moments warm = {0}, keep = {0};
-    vdbio_vec3_grid *grids = NULL;
-    char(*names)[16] = NULL;
-    if ((o->warm_start && ((st = read_svd_state(o->warm_start, &volume, &warm, err)) != VDBS_OK ||
-                           (st = vdbs_svd_warm_check(&warm, scene->svd_directions, scene->svd_terms,
-                                                     scene->g, err)) != VDBS_OK)) ||
-        (vdbs_cancelled(o->cancel) && (st = vdbs_error_cancelled(err)) != VDBS_OK)) {
-        vdbs_svd_moments_free(&warm);
-        vdbs_volume_free(&volume);
-        free(resolved);
-        return st;
-    }
-    report->seconds_load = vdbs_now() - t_start;
-    snprintf(report->grid, sizeof report->grid, "%s", volume.info.name);
-    report->active_voxels = volume.info.active_voxels;
-    report->output_voxels = volume.coord_count;
-    report->sky_directions = sky;
-    snprintf(report->s1, sizeof report->s1, "%s", o->s1_march ? "march" : "grid");
-    report->s1_oversample = o->s1_march            ? 0
-                            : o->s1_oversample > 0 ? o->s1_oversample
-                                                   : quality->s1_oversample;
+    if (j->scene->light_count == 0)
+        return vdbs_error_set(err, VDBS_ERR_INPUT, "%s", VDBS_NO_LIGHT_MESSAGE);
+    report->density_scale = j->scene->density_scale;
+    vdbs_scene_advise(j->scene, &j->volume, j->solver->writes_ms, o->warn, o->warn_user,
+                      &report->advice);
+    return VDBS_OK;
+}
 
-    size_t n = volume.coord_count ? volume.coord_count : 1;
-    vdbs_solve outputs = {0};
-    float *radiance = outputs.radiance = calloc(3 * n, sizeof(float));
-    outputs.ms = calloc(3 * n, sizeof(float));
-    /* Without multiple scattering the four ms grids are one array of zeros. */
+/* --warm-start's state read, --keep-state's created empty. */
+static vdbs_status open_state(bake_job *j, vdbs_error *err)
+{
+    const vdbs_solver_state *state = j->solver->state;
+    const vdbs_bake_options *o = &j->options;
+    vdbs_status st = VDBS_OK;
+    if (o->warm_start)
+        st = state->read(o->warm_start, &j->volume, j->scene, &j->warm, err);
+    if (st == VDBS_OK && o->keep_state && !(j->keep = state->create()))
+        st = vdbs_error_set(err, VDBS_ERR_NOMEM, "out of memory for the solver's state");
+    if (st == VDBS_OK && vdbs_cancelled(o->cancel))
+        st = vdbs_error_cancelled(err);
+    return st;
+}
+
+/* Zeroed output arrays; without multiple scattering the four ms grids are one. */
+static vdbs_status alloc_outputs(bake_job *j, vdbs_error *err)
+{
+    size_t n = j->volume.coord_count ? j->volume.coord_count : 1;
+    vdbs_solve *out = &j->out;
+    out->radiance = calloc(3 * n, sizeof(float));
+    out->ms = calloc(3 * n, sizeof(float));
     for (int a = 0; a < 3; ++a)
-        outputs.ms_l1[a] = solver->writes_ms ? calloc(3 * n, sizeof(float)) : outputs.ms;
-    if (scene->camera.present)
-        outputs.radiance_view = calloc(3 * n, sizeof(float));
-    char *scene_json = vdbs_scene_to_json(scene);
-    if (!radiance || !outputs.ms || !outputs.ms_l1[0] || !outputs.ms_l1[1] || !outputs.ms_l1[2] ||
-        (scene->camera.present && !outputs.radiance_view) || !scene_json) {
-        st = vdbs_error_set(err, VDBS_ERR_NOMEM, "out of memory for %zu output voxels", n);
-        goto done;
-    }
-    outputs.svd_warm = o->warm_start ? &warm : NULL;
-    outputs.svd_keep = o->keep_state ? &keep : NULL;
-    double t_solve = vdbs_now();
-    st = solve(o, solver, quality, &volume, &outputs, report, err);
-    report->seconds_solve = vdbs_now() - t_solve;
-    if (st != VDBS_OK)
-        goto done;
-    for (size_t v = 0; v < volume.coord_count; ++v)
-        for (int c = 0; c < 3; ++c)
-            report->radiance_max[c] = fmaxf(report->radiance_max[c], radiance[3 * v + c]);
+        out->ms_l1[a] = j->solver->writes_ms ? calloc(3 * n, sizeof(float)) : out->ms;
+    if (j->scene->camera.present)
+        out->radiance_view = calloc(3 * n, sizeof(float));
+    j->scene_json = vdbs_scene_to_json(j->scene);
+    if (!out->radiance || !out->ms || !out->ms_l1[0] || !out->ms_l1[1] || !out->ms_l1[2] ||
+        (j->scene->camera.present && !out->radiance_view) || !j->scene_json)
+        return vdbs_error_set(err, VDBS_ERR_NOMEM, "out of memory for %zu output voxels", n);
+    out->warm = j->warm;
+    out->keep = j->keep;
+    return VDBS_OK;
+}
 
-    char sky_text[16], solve_text[32], svd_d[16], svd_n[16];
-    snprintf(sky_text, sizeof sky_text, "%d", sky);
-    snprintf(solve_text, sizeof solve_text, "%.6f", report->seconds_solve);
-    snprintf(svd_d, sizeof svd_d, "%d", keep.directions);
-    snprintf(svd_n, sizeof svd_n, "%d", keep.terms);
-    char *scale = format_double(scene->density_scale);
-    char *g = format_double(scene->g);
-    char albedo[96];
+/* The lit VDB: density, the output grids, the solver's state grids, and the metadata. */
+static vdbs_status write_lit(bake_job *j, vdbs_bake_report *report, vdbs_error *err)
+{
+    const vdbs_bake_options *o = &j->options;
+    const vdbs_scene *scene = j->scene;
+    char sky[16], seconds[32], scale[32], g[32], albedo[96];
+    snprintf(sky, sizeof sky, "%d", j->sky);
+    snprintf(seconds, sizeof seconds, "%.6f", report->seconds_solve);
+    vdbs_format_double(scene->density_scale, scale, sizeof scale);
+    vdbs_format_double(scene->g, g, sizeof g);
     snprintf(albedo, sizeof albedo, "%.9g,%.9g,%.9g", scene->albedo[0], scene->albedo[1],
              scene->albedo[2]);
-    vdbio_meta meta[] = {
+    vdbio_meta meta[BAKE_META_MAX] = {
         {"vdbscatter_version", VDBSCATTER_VERSION},
         {"vdbscatter_method", scene->method},
         {"vdbscatter_quality", scene->quality},
-        {"vdbscatter_sky_directions", sky_text},
-        {"vdbscatter_density_scale", scale ? scale : ""},
+        {"vdbscatter_sky_directions", sky},
+        {"vdbscatter_density_scale", scale},
         {"vdbscatter_albedo", albedo},
-        {"vdbscatter_g", g ? g : ""},
+        {"vdbscatter_g", g},
         {"vdbscatter_s1", report->s1},
         {"vdbscatter_backend", report->backend},
-        {"vdbscatter_solve_seconds", solve_text},
-        {"vdbscatter_scene", scene_json},
-        /* the last two only with --keep-state */
-        {"vdbscatter_svd_directions", svd_d},
-        {"vdbscatter_svd_terms", svd_n},
+        {"vdbscatter_solve_seconds", seconds},
+        {"vdbscatter_scene", j->scene_json},
     };
+    const vdbs_solver_state *state = j->solver->state;
+    int meta_count = BAKE_META_FIXED;
+    if (j->keep)
+        meta_count += state->meta(j->keep, meta + BAKE_META_FIXED, BAKE_META_MAX - BAKE_META_FIXED);
     const vdbio_vec3_grid fixed[] = {
-        {"radiance", radiance},       {"ms", outputs.ms},
-        {"ms_l1x", outputs.ms_l1[0]}, {"ms_l1y", outputs.ms_l1[1]},
-        {"ms_l1z", outputs.ms_l1[2]}, {"radiance_view", outputs.radiance_view},
+        {"radiance", j->out.radiance}, {"ms", j->out.ms},
+        {"ms_l1x", j->out.ms_l1[0]},   {"ms_l1y", j->out.ms_l1[1]},
+        {"ms_l1z", j->out.ms_l1[2]},   {"radiance_view", j->out.radiance_view},
     };
-    /* radiance_view, the last, only with a camera; then the moments */
-    const int fixed_count = (int)(sizeof fixed / sizeof fixed[0]) - (outputs.radiance_view ? 0 : 1);
-    grids = calloc((size_t)(fixed_count + keep.terms), sizeof *grids);
-    names = calloc((size_t)(keep.terms > 0 ? keep.terms : 1), sizeof *names);
-    if (!grids || !names) {
-        st = vdbs_error_set(err, VDBS_ERR_NOMEM, "out of memory for the grid list");
-        free(scale);
-        free(g);
-        goto done;
-    }
+    /* radiance_view, the last, only with a camera; then the state's grids */
+    const int fixed_count = (int)(sizeof fixed / sizeof fixed[0]) - (j->out.radiance_view ? 0 : 1);
+    const int state_max = j->keep ? 1 << 16 : 0;
+    vdbio_vec3_grid *grids = calloc((size_t)(fixed_count + state_max), sizeof *grids);
+    if (!grids)
+        return vdbs_error_set(err, VDBS_ERR_NOMEM, "out of memory for the grid list");
     memcpy(grids, fixed, sizeof *grids * (size_t)fixed_count);
-    for (int k = 0; k < keep.terms; ++k) {
-        svd_grid_name(k, names[k], sizeof names[k]);
-        grids[fixed_count + k] = (vdbio_vec3_grid){names[k], keep.voxels[k]};
+    const int state_count = j->keep ? state->grids(j->keep, grids + fixed_count, state_max) : 0;
+    if (state_count < 0) {
+        free(grids);
+        return vdbs_error_set(err, VDBS_ERR_NOMEM, "out of memory for the state's grid names");
     }
     vdbio_write_request request = {0};
-    request.density = volume.density;
-    request.coords = volume.coords;
-    request.coord_count = volume.coord_count;
+    request.density = j->volume.density;
+    request.coords = j->volume.coords;
+    request.coord_count = j->volume.coord_count;
     request.vec3_grids = grids;
-    request.vec3_grid_count = fixed_count + keep.terms;
+    request.vec3_grid_count = fixed_count + state_count;
     request.file_meta = meta;
-    request.file_meta_count = (int)(sizeof meta / sizeof meta[0]) - (keep.terms > 0 ? 0 : 2);
+    request.file_meta_count = meta_count;
     request.half = o->half;
     request.warn = o->warn;
     request.warn_user = o->warn_user;
     request.cancel = o->cancel;
     double t_write = vdbs_now();
-    st = vdbio_write(o->output, input, &request, err);
+    vdbs_status st = vdbio_write(o->output, j->input, &request, err);
     report->seconds_write = vdbs_now() - t_write;
+    free(grids);
     /* A cancel after the rename: the new file is complete and stays, but the caller asked
      * to stop and hears so. */
     if (st == VDBS_OK && vdbs_cancelled(o->cancel))
         st = vdbs_error_cancelled(err);
-    free(scale);
-    free(g);
-done:
-    report->seconds_total = vdbs_now() - t_start;
-    free(grids);
-    free(names);
-    vdbs_svd_moments_free(&warm);
-    vdbs_svd_moments_free(&keep);
-    free(scene_json);
-    for (int a = 0; a < 3; ++a)
-        if (outputs.ms_l1[a] != outputs.ms)
-            free(outputs.ms_l1[a]);
-    free(outputs.ms);
-    free(outputs.radiance_view);
-    free(radiance);
-    vdbs_volume_free(&volume);
-    free(resolved);
+    return st;
+}
+
+/* The report's facts about the volume and the S1 pass, known before the solve. */
+static void report_setup(const bake_job *j, vdbs_bake_report *report)
+{
+    const vdbs_bake_options *o = &j->options;
+    snprintf(report->grid, sizeof report->grid, "%s", j->volume.info.name);
+    report->active_voxels = j->volume.info.active_voxels;
+    report->output_voxels = j->volume.coord_count;
+    report->sky_directions = j->sky;
+    snprintf(report->s1, sizeof report->s1, "%s", o->s1_march ? "march" : "grid");
+    report->s1_oversample = o->s1_march            ? 0
+                            : o->s1_oversample > 0 ? o->s1_oversample
+                                                   : j->quality->s1_oversample;
+}
+
+vdbs_status vdbs_bake(const vdbs_bake_options *o, vdbs_bake_report *report, vdbs_error *err)
+{
+    memset(report, 0, sizeof *report);
+    double t_start = vdbs_now();
+    bake_job j;
+    memset(&j, 0, sizeof j);
+    j.options = *o;
+    vdbs_status st = check_request(&j, err);
+    if (st == VDBS_OK)
+        st = load(&j, report, err);
+    if (st == VDBS_OK && j.solver->state)
+        st = open_state(&j, err);
+    if (st == VDBS_OK) {
+        report->seconds_load = vdbs_now() - t_start;
+        report_setup(&j, report);
+        st = alloc_outputs(&j, err);
+    }
+    if (st == VDBS_OK) {
+        double t_solve = vdbs_now();
+        st = solve(&j.options, j.solver, j.quality, &j.volume, &j.out, report, err);
+        report->seconds_solve = vdbs_now() - t_solve;
+    }
+    if (st == VDBS_OK) {
+        for (size_t v = 0; v < j.volume.coord_count; ++v)
+            for (int c = 0; c < 3; ++c)
+                report->radiance_max[c] =
+                    fmaxf(report->radiance_max[c], j.out.radiance[3 * v + c]);
+        st = write_lit(&j, report, err);
+    }
+    if (j.has_volume)
+        report->seconds_total = vdbs_now() - t_start;
+    job_free(&j);
     return st;
 }

@@ -14,6 +14,7 @@
 #include "vdbscatter/reference.h"
 #include "vdbscatter/quality.h"
 #include "vdbscatter/vdbio.h"
+#include "vdbscatter/scene_file.h"
 
 #include "base/vdbs_math.h"
 

@@ -1,137 +1,38 @@
 #include "vdbscatter/solver.h"
 
-#include <stdlib.h>
+#include <math.h>
+#include <stdio.h>
 #include <string.h>
 
-#include "vdbscatter/fld.h"
-#include "vdbscatter/pop.h"
-#include "vdbscatter/single.h"
-#include "vdbscatter/svd.h"
+/* The table: one line per solver; each entry is defined in the solver's own file. */
+extern const vdbs_solver vdbs_solver_single, vdbs_solver_pop, vdbs_solver_fld, vdbs_solver_svd;
+static const vdbs_solver *const table[] = {&vdbs_solver_single, &vdbs_solver_pop,
+                                           &vdbs_solver_fld, &vdbs_solver_svd};
 
-/* S1 into radiance (and toward the camera), with flux the unscattered light's net flux and
- * with light_depth every light's optical depth (vdbs_s1_outputs). */
-static vdbs_status run_s1(const vdbs_solve *s, float *flux, vdbs_s1_light_fn light_depth,
-                          void *light_user, vdbs_error *err)
+#define TABLE_COUNT ((int)(sizeof table / sizeof table[0]))
+#define REGISTERED_MAX 8
+
+/* Solvers from outside the library, after the table's (vdbs_solver_register). */
+static const vdbs_solver *registered[REGISTERED_MAX];
+static int registered_count;
+
+const vdbs_solver *vdbs_solver_at(int index)
 {
-    vdbs_s1_outputs out = {s->radiance, s->radiance_view, flux, light_depth, light_user};
-    if (s->s1_grids)
-        return vdbs_single_scatter_grids_out(s->runner, s->volume, s->scene, s->lights, s->s1_grids,
-                                             &out, s->s1_stats, s->progress, err);
-    vdbs_status st = vdbs_single_scatter(s->runner, s->volume, s->scene, s->lights, s->radiance,
-                                         s->progress, err);
-    if (st != VDBS_OK || (!s->radiance_view && !flux && !light_depth))
-        return st;
-    /* The march has no per-light output: S1 toward the camera, the flux and the lights' depths
-     * come from light grids at their default oversampling (a second S1 pass; docs/lit-vdb.md
-     * "radiance_view"). */
-    vdbs_light_grid_desc grids = {0};
-    out.radiance = NULL;
-    return vdbs_single_scatter_grids_out(s->runner, s->volume, s->scene, s->lights, &grids, &out,
-                                         NULL, NULL, err);
+    if (index < 0)
+        return NULL;
+    if (index < TABLE_COUNT)
+        return table[index];
+    index -= TABLE_COUNT;
+    return index < registered_count ? registered[index] : NULL;
 }
-
-/* Single scattering only; ms and its moments stay 0. */
-static vdbs_status run_single(const vdbs_solve *s, vdbs_error *err)
-{
-    return run_s1(s, NULL, NULL, NULL, err);
-}
-
-/* Exact S1, then POP's multiple scattering from suns and skies. */
-static vdbs_status run_pop(const vdbs_solve *s, vdbs_error *err)
-{
-    vdbs_status st = run_single(s, err);
-    if (st != VDBS_OK)
-        return st;
-    vdbs_pop_desc desc = {0};
-    desc.resolution = s->scene->pop_resolution;
-    desc.ordinates = s->scene->pop_ordinates;
-    desc.max_iterations = s->scene->pop_iterations;
-    desc.decay = s->scene->pop_decay_paper ? VDBS_POP_DECAY_PAPER : VDBS_POP_DECAY_MEAN_COSINE;
-    desc.tally_cell = s->scene->pop_tally_cell;
-    desc.radial = s->scene->pop_radial;
-    desc.importance = s->scene->pop_importance;
-    vdbs_pop_stats stats;
-    st = vdbs_pop_solve(s, &desc, &stats, err);
-    if (s->pop_stats)
-        *s->pop_stats = stats;
-    return st;
-}
-
-/* Exact S1 (with the unscattered light's flux for the first-moment source unless g = 0 or
- * --fld-p1 off), then flux-limited diffusion of the first-scattered light. */
-static vdbs_status run_fld(const vdbs_solve *s, vdbs_error *err)
-{
-    float *flux = NULL;
-    if (s->scene->g != 0.0 && !s->scene->fld_p1_off && s->volume->coord_count > 0) {
-        flux = malloc(sizeof *flux * 9 * s->volume->coord_count);
-        if (!flux)
-            return vdbs_error_set(err, VDBS_ERR_NOMEM,
-                                  "out of memory for the S1 flux of %zu voxels",
-                                  s->volume->coord_count);
-    }
-    vdbs_status st = run_s1(s, flux, NULL, NULL, err);
-    if (st == VDBS_OK) {
-        vdbs_fld_desc desc = {0};
-        desc.resolution = s->scene->fld_resolution;
-        desc.limiter_off = s->scene->fld_limiter_off;
-        desc.write_l1 = !s->scene->fld_l1_off;
-        desc.s1_flux = flux;
-        vdbs_fld_stats stats;
-        st = vdbs_fld_solve(s, &desc, &stats, err);
-        if (s->fld_stats)
-            *s->fld_stats = stats;
-    }
-    free(flux);
-    return st;
-}
-
-/* Exact S1, then discrete ordinates with the factored phase on the first-scattered light,
- * which comes from the S1 pass's own light grids. */
-static vdbs_status run_svd(const vdbs_solve *s, vdbs_error *err)
-{
-    vdbs_svd_desc desc = {0};
-    desc.directions = s->scene->svd_directions;
-    desc.terms = s->scene->svd_terms;
-    desc.resolution = s->scene->svd_resolution;
-    desc.residual = s->scene->svd_residual;
-    desc.max_iterations = s->scene->svd_iterations;
-    desc.warm = s->svd_warm;
-    desc.keep = s->svd_keep;
-    desc.progress = s->progress;
-    vdbs_svd_run *run = NULL;
-    vdbs_status st = vdbs_svd_begin(s, &desc, &run, err);
-    if (st == VDBS_OK)
-        st = run_s1(s, NULL, vdbs_svd_light_depth, run, err);
-    if (st == VDBS_OK)
-        st = vdbs_svd_finish(run, s->svd_stats, err);
-    vdbs_svd_end(run);
-    return st;
-}
-
-static const vdbs_solver solvers[VDBS_METHOD_COUNT] = {
-    {VDBS_METHOD_SINGLE, "single", "exact single scattering only (no multiple scattering)", 0,
-     run_single},
-    {VDBS_METHOD_POP, "pop",
-     "exact single scattering + Principal-Ordinates Propagation (suns, skies, points)", 1, run_pop},
-    {VDBS_METHOD_FLD, "fld",
-     "exact single scattering + flux-limited diffusion of the first-scattered light", 1, run_fld},
-    {VDBS_METHOD_SVD, "svd",
-     "exact single scattering + discrete ordinates with the SVD-factored phase (Gong et al.)", 1,
-     run_svd},
-};
 
 const vdbs_solver *vdbs_solver_find(const char *name)
 {
-    for (int m = 0; name && m < VDBS_METHOD_COUNT; ++m)
-        if (strcmp(name, solvers[m].name) == 0)
-            return &solvers[m];
+    const vdbs_solver *s;
+    for (int m = 0; name && (s = vdbs_solver_at(m)) != NULL; ++m)
+        if (strcmp(name, s->name) == 0)
+            return s;
     return NULL;
-}
-
-const vdbs_solver *vdbs_solver_list(int *count)
-{
-    *count = VDBS_METHOD_COUNT;
-    return solvers;
 }
 
 void vdbs_solver_names(char *buf, size_t size)
@@ -139,9 +40,204 @@ void vdbs_solver_names(char *buf, size_t size)
     if (size == 0)
         return;
     buf[0] = '\0';
-    for (int m = 0; m < VDBS_METHOD_COUNT; ++m) {
+    const vdbs_solver *s;
+    for (int m = 0; (s = vdbs_solver_at(m)) != NULL; ++m) {
         if (m > 0)
             strncat(buf, ", ", size - strlen(buf) - 1);
-        strncat(buf, solvers[m].name, size - strlen(buf) - 1);
+        strncat(buf, s->name, size - strlen(buf) - 1);
+    }
+}
+
+/* Finds the option whose key (by_flag 0) or flag (1) is `name` over every solver. */
+static const vdbs_solver_option *option_find(const char *name, int by_flag,
+                                             const vdbs_solver **solver)
+{
+    const vdbs_solver *s;
+    for (int m = 0; name && (s = vdbs_solver_at(m)) != NULL; ++m)
+        for (int i = 0; i < s->option_count; ++i)
+            if (strcmp(name, by_flag ? s->options[i].flag : s->options[i].key) == 0) {
+                if (solver)
+                    *solver = s;
+                return &s->options[i];
+            }
+    return NULL;
+}
+
+const vdbs_solver_option *vdbs_solver_option_by_key(const char *key, const vdbs_solver **solver)
+{
+    return option_find(key, 0, solver);
+}
+
+const vdbs_solver_option *vdbs_solver_option_by_flag(const char *flag, const vdbs_solver **solver)
+{
+    return option_find(flag, 1, solver);
+}
+
+vdbs_status vdbs_solver_register(const vdbs_solver *solver, vdbs_error *err)
+{
+    if (!solver || !solver->name || !solver->run)
+        return vdbs_error_set(err, VDBS_ERR_INTERNAL, "solver: an entry needs a name and a run");
+    if (vdbs_solver_find(solver->name))
+        return vdbs_error_set(err, VDBS_ERR_INTERNAL, "solver %s: the name is taken",
+                              solver->name);
+    if (solver->stats_size > VDBS_SOLVER_STATS_MAX)
+        return vdbs_error_set(err, VDBS_ERR_INTERNAL, "solver %s: stats of %zu bytes (at most %d)",
+                              solver->name, solver->stats_size, VDBS_SOLVER_STATS_MAX);
+    for (int i = 0; i < solver->option_count; ++i)
+        if (vdbs_solver_option_by_key(solver->options[i].key, NULL) ||
+            vdbs_solver_option_by_flag(solver->options[i].flag, NULL))
+            return vdbs_error_set(err, VDBS_ERR_INTERNAL,
+                                  "solver %s: option %s (%s) is taken by another solver",
+                                  solver->name, solver->options[i].key, solver->options[i].flag);
+    if (registered_count == REGISTERED_MAX)
+        return vdbs_error_set(err, VDBS_ERR_INTERNAL, "solver %s: no room (at most %d)",
+                              solver->name, REGISTERED_MAX);
+    registered[registered_count++] = solver;
+    return VDBS_OK;
+}
+
+/* ---- options ---- */
+
+double vdbs_solver_option_value(const vdbs_scene *scene, const vdbs_solver_option *option,
+                                const vdbs_quality *quality)
+{
+    const double v = vdbs_scene_solver_value(scene, option->key);
+    if (v != 0.0 || option->kind == VDBS_OPTION_CHOICE)
+        return v;
+    int level = 1, count = 0;
+    const vdbs_quality *ladder = vdbs_quality_list(&count);
+    if (quality)
+        level = (int)(quality - ladder);
+    return level >= 0 && level < count ? option->preset[level] : 0.0;
+}
+
+static int choice_count(const vdbs_solver_option *option)
+{
+    int n = 0;
+    while (option->choices && option->choices[n])
+        ++n;
+    return n;
+}
+
+/* "a or b", "a, b or c". */
+static void choice_list(const vdbs_solver_option *option, char *buf, size_t size)
+{
+    const int n = choice_count(option);
+    buf[0] = '\0';
+    for (int i = 0; i < n; ++i) {
+        size_t len = strlen(buf);
+        snprintf(buf + len, size - len, "%s%s", i == 0 ? "" : (i == n - 1 ? " or " : ", "),
+                 option->choices[i]);
+    }
+}
+
+/* The range check of one value; what names it. */
+static vdbs_status check_value(const vdbs_solver_option *o, const char *what, double v,
+                               vdbs_error *err)
+{
+    switch (o->kind) {
+    case VDBS_OPTION_CHOICE:
+        if (v < 0 || v >= choice_count(o) || v != floor(v)) {
+            char list[128];
+            choice_list(o, list, sizeof list);
+            return vdbs_error_set(err, VDBS_ERR_INPUT, "%s: choice %g out of range (%s)", what, v,
+                                  list);
+        }
+        return VDBS_OK;
+    case VDBS_OPTION_NUMBER: /* 0 is the default */
+        if (!(isfinite(v) && (v == 0.0 || (v > o->min && v < o->max))))
+            return vdbs_error_set(err, VDBS_ERR_INPUT, "%s: must be in [%g, %g) (0: the default), got %g",
+                                  what, o->min, o->max, v);
+        return VDBS_OK;
+    case VDBS_OPTION_INT:
+        if (v != 0.0 && !(v >= o->min && v <= o->max && v == floor(v)))
+            return vdbs_error_set(err, VDBS_ERR_INPUT, "%s: must be in %g..%g, got %g", what,
+                                  o->min, o->max, v);
+        if (o->even && fmod(v, 2.0) != 0.0)
+            return vdbs_error_set(err, VDBS_ERR_INPUT, "%s: %g is odd (%s needs an even count)",
+                                  what, v, o->even);
+        return VDBS_OK;
+    }
+    return VDBS_OK;
+}
+
+vdbs_status vdbs_solver_option_set(vdbs_scene *scene, const vdbs_solver_option *option,
+                                   const char *what, double value, vdbs_error *err)
+{
+    vdbs_status st = check_value(option, what, value, err);
+    return st != VDBS_OK ? st : vdbs_scene_solver_store(scene, option->key, value, err);
+}
+
+vdbs_status vdbs_solver_set(vdbs_scene *scene, const char *key, double value, vdbs_error *err)
+{
+    char what[64];
+    snprintf(what, sizeof what, "solver.%s", key);
+    const vdbs_solver_option *o = vdbs_solver_option_by_key(key, NULL);
+    if (!o)
+        return vdbs_error_set(err, VDBS_ERR_INPUT, "%s: no solver has this option", what);
+    return vdbs_solver_option_set(scene, o, what, value, err);
+}
+
+vdbs_status vdbs_solver_option_choose(vdbs_scene *scene, const vdbs_solver_option *option,
+                                      const char *what, const char *name, vdbs_error *err)
+{
+    const int n = choice_count(option);
+    for (int i = 0; i < n; ++i)
+        if (name && strcmp(name, option->choices[i]) == 0)
+            return vdbs_scene_solver_store(scene, option->key, i, err);
+    char list[128];
+    choice_list(option, list, sizeof list);
+    return vdbs_error_set(err, VDBS_ERR_INPUT, "%s: unknown %s \"%s\" (expected %s)", what,
+                          option->noun ? option->noun : "value", name ? name : "", list);
+}
+
+const char *vdbs_solver_option_choice(const vdbs_scene *scene, const vdbs_solver_option *option)
+{
+    const int i = (int)vdbs_scene_solver_value(scene, option->key);
+    return i >= 0 && i < choice_count(option) ? option->choices[i] : "";
+}
+
+vdbs_status vdbs_solver_options_check(const vdbs_scene *scene, const char *prefix,
+                                      vdbs_error *err)
+{
+    for (int i = 0; i < scene->solver_setting_count; ++i) {
+        const vdbs_solver_setting *set = &scene->solver_settings[i];
+        const vdbs_solver_option *o = vdbs_solver_option_by_key(set->key, NULL);
+        char what[160];
+        snprintf(what, sizeof what, "%ssolver.%s", prefix, set->key);
+        if (!o)
+            return vdbs_error_set(err, VDBS_ERR_INPUT, "%s: no solver has this option", what);
+        vdbs_status st = check_value(o, what, set->value, err);
+        if (st != VDBS_OK)
+            return st;
+    }
+    const vdbs_solver *s;
+    for (int m = 0; (s = vdbs_solver_at(m)) != NULL; ++m) {
+        vdbs_status st = s->validate ? s->validate(scene, prefix, err) : VDBS_OK;
+        if (st != VDBS_OK)
+            return st;
+    }
+    return VDBS_OK;
+}
+
+void vdbs_solver_option_help(const vdbs_solver_option *option, char *buf, size_t size)
+{
+    char head[64];
+    snprintf(head, sizeof head, "  %s%s%s", option->flag, option->syntax ? " " : "",
+             option->syntax ? option->syntax : "");
+    size_t len = (size_t)snprintf(buf, size, "%-27s", head);
+    if (strlen(head) >= 27)
+        len = (size_t)snprintf(buf, size, "%s\n%27s", head, "");
+    for (const char *p = option->help; p && *p && len + 30 < size; ++p) {
+        if (*p == '\n')
+            len += (size_t)snprintf(buf + len, size - len, "\n%27s", "");
+        else
+            buf[len++] = *p;
+    }
+    if (len + 2 <= size) {
+        buf[len++] = '\n';
+        buf[len] = '\0';
+    } else if (size > 0) {
+        buf[size - 1] = '\0';
     }
 }

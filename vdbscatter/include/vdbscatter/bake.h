@@ -4,12 +4,10 @@
 
 #include "vdbscatter/advice.h"
 #include "vdbscatter/cancel.h"
-#include "vdbscatter/runner.h"
 #include "vdbscatter/lightgrid.h"
-#include "vdbscatter/fld.h"
-#include "vdbscatter/pop.h"
+#include "vdbscatter/runner.h"
 #include "vdbscatter/scene.h"
-#include "vdbscatter/svd.h"
+#include "vdbscatter/solver.h"
 #include "vdbscatter/status.h"
 #include "vdbscatter/volume.h"
 
@@ -28,8 +26,8 @@ typedef struct vdbs_bake_options {
     int from_levelset;
     int half;
     int progress; /* show progress on stderr */
-    /* --method svd: write the radiance moments (grids svd_m0000 ...) with keep_state, start
-     * from a lit VDB's with warm_start (its D and N unless the scene sets them) */
+    /* For a solver with state (solver.h; svd: the radiance moments, grids svd_m0000 ...):
+     * write it into the lit VDB with keep_state, start from a lit VDB's with warm_start */
     int keep_state;
     const char *warm_start;
     vdbs_warn_fn warn;
@@ -52,9 +50,14 @@ typedef struct vdbs_bake_report {
     /* Light grids (grid only): sizes summed over the lights, and the time of each stage. */
     vdbs_light_grid_stats s1_grids;
     double seconds_s1_lookup;
-    vdbs_pop_stats pop; /* --method pop: grids, iterations, residual, stage times */
-    vdbs_fld_stats fld; /* --method fld: cells, iterations, residual, energy, stage times */
-    vdbs_svd_stats svd; /* --method svd: D, N, iterations, residual, energy, stage times */
+    /* The solver's report block (its vdbs_solver.stats_size bytes: vdbs_pop_stats,
+     * vdbs_fld_stats, vdbs_svd_stats ...), read through vdbs_bake_report_stats. */
+    union {
+        unsigned char bytes[VDBS_SOLVER_STATS_MAX];
+        double align_double;
+        long long align_long;
+        void *align_pointer;
+    } solver_stats;
     double seconds_load;
     double seconds_solve;
     double seconds_write;
@@ -65,6 +68,9 @@ typedef struct vdbs_bake_report {
 } vdbs_bake_report;
 
 vdbs_status vdbs_bake(const vdbs_bake_options *options, vdbs_bake_report *report, vdbs_error *err);
+
+/* The solver's stats in a report (e.g. a const vdbs_svd_stats * for --method svd). */
+const void *vdbs_bake_report_stats(const vdbs_bake_report *report);
 
 /* The solve of a bake without the files: the scene's solver on a volume already in memory,
  * into the caller's arrays of 3 floats per output voxel (zeroed; ms_l1 entries may all point

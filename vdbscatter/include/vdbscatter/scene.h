@@ -3,6 +3,8 @@
 #ifndef VDBSCATTER_SCENE_H
 #define VDBSCATTER_SCENE_H
 
+#include <stdbool.h>
+
 #include "vdbscatter/status.h"
 
 #ifdef __cplusplus
@@ -85,17 +87,13 @@ typedef struct vdbs_scene_fog {
 
 /* The most sky ordinates a scene may ask for. */
 #define VDBS_MAX_SKY_DIRECTIONS 65536
-/* Most POP cells across the largest extent (--pop-res). */
-#define VDBS_MAX_POP_RESOLUTION 512
-/* Most texels (and shells) across a POP radial grid (--pop-radial). */
-#define VDBS_MAX_POP_RADIAL 256
-/* Most iterations of a POP directional grid (--pop-iterations). */
-#define VDBS_MAX_POP_ITERATIONS 100000
-/* Most FLD cells across the largest extent (--fld-res). */
-#define VDBS_MAX_FLD_RESOLUTION 1024
-#define VDBS_MAX_SVD_DIRECTIONS 16384 /* VDBS_PHASEMAT_MAX_DIRECTIONS */
-#define VDBS_MAX_SVD_RESOLUTION 512
-#define VDBS_MAX_SVD_ITERATIONS 100000
+
+/* One solver option of a scene (solver.h): its scene key and value (a choice's index). */
+#define VDBS_MAX_SOLVER_SETTINGS 24
+typedef struct vdbs_solver_setting {
+    char key[24];
+    double value;
+} vdbs_solver_setting;
 
 typedef struct vdbs_camera {
     int present;
@@ -127,28 +125,11 @@ typedef struct vdbs_scene {
     char quality[32];   /* "low", "medium", "high", "ultra" */
     int sky_directions; /* sky ordinates K (solver.sky_directions, --sky-directions); 0: the
                            quality's 16 / 64 / 256 / 1024 */
-    /* POP (solver.pop_res, pop_ordinates, pop_decay; --pop-*): 0 = the quality's. */
-    int pop_resolution;
-    int pop_ordinates;
-    int pop_iterations;  /* cap of each directional grid's iterations; 0: the default */
-    int pop_decay_paper; /* 1: a g^(sigma_s t) ("paper"); 0: the mean-cosine law */
-    int pop_tally_cell;  /* 1: a crossing counts one cell side ("cell", the paper's); 0: the
-                            lobe's mean chord ("chord") */
-    int pop_radial;      /* texels and shells of a point light's radial grid (even); 0: the
-                            quality's */
-    int pop_importance;  /* 1: sky ordinates sampled from the sky times the camera's
-                            importance (--pop-importance; needs a camera) */
-    /* FLD (solver.fld_res, fld_limiter; --fld-*): 0 = the default. */
-    int fld_resolution;  /* cells across the largest extent; 0: the quality's */
-    int fld_limiter_off; /* 1: classic diffusion (no flux limiter) */
-    int fld_l1_off;      /* 1: ms_l1 stays 0 (default: from the diffusive flux) */
-    int fld_p1_off;      /* 1: an isotropic source (default: with its first moment) */
-    /* Discrete ordinates (solver.svd_*, --svd-*, --residual): 0 = the quality's. */
-    int svd_directions;  /* D */
-    int svd_terms;       /* N <= D; 0: the fewest within the quality's factorisation error */
-    int svd_resolution;  /* cells across the largest extent */
-    int svd_iterations;  /* cap of source iterations; 0: the default */
-    double svd_residual; /* relative change of the fluence per iteration that stops it */
+    /* The solvers' own options (solver.h: each entry declares its keys), by scene key;
+     * a key not here is 0, its default. Set them through solver.h, read them with
+     * vdbs_scene_solver_value. */
+    vdbs_solver_setting solver_settings[VDBS_MAX_SOLVER_SETTINGS];
+    int solver_setting_count;
     vdbs_occluder occluders[VDBS_MAX_OCCLUDERS];
     int occluder_count;
     /* The occluders' OBJ paths, NUL-terminated one after the other (as env_paths). */
@@ -161,47 +142,6 @@ typedef struct vdbs_scene {
  * bench/defaults.md, docs/design.md "Decisions"), no lights, no camera. */
 void vdbs_scene_init(vdbs_scene *scene);
 
-/* Parses scene JSON. Relative paths are resolved against base_dir (may be NULL).
- * Unknown keys are errors (a typo must not be silently ignored). Every error names
- * the offending key, e.g. "scene: lights[1].direction: expected 3 finite numbers".
- * The scene starts from vdbs_scene_init; keys not given keep those defaults. On error
- * *scene is left untouched. Ranges are checked by vdbs_scene_validate, not here.
- * Per light type: sun {direction (required), irradiance = 1, angular_diameter_deg = 0},
- * point {position (required), intensity = 1}, env {color | file [, scale = 1]}; a camera
- * needs position and target. Colours and albedo take one number or three.
- * Occluders: obj {file (required), translate = 0, scale = 1 (one number or three),
- * rotate_deg = 0}, sphere {center, radius}, box {min, max}, plane {point, normal}, each
- * with albedo = 0.5; fog {sigma_t (required), albedo = 1, box {min, max} (absent: the
- * volume's bounds)}. Unlike the other keys, occluder and fog ranges are checked here too
- * (as in vdbs_scene_validate). OBJ paths are resolved, not opened: vdbs_occluders_check
- * (mesh.h) reads the files. */
-vdbs_status vdbs_scene_parse(const char *json_text, const char *base_dir, vdbs_scene *scene,
-                             vdbs_error *err);
-
-/* Reads and parses a scene file (base_dir = the file's folder). Errors, including a
- * missing or unreadable file, are VDBS_ERR_INPUT and start with "scene FILE: ". */
-vdbs_status vdbs_scene_load(const char *path, vdbs_scene *scene, vdbs_error *err);
-
-/* Serialises the resolved scene as JSON (malloc'd string; free with free(); NULL when
- * out of memory). vdbs_scene_parse of the result with base_dir NULL gives back the same
- * scene, bit for bit (paths are already resolved; an absent camera is not written), up
- * to where in env_paths each map's path lies. */
-char *vdbs_scene_to_json(const vdbs_scene *scene);
-
-/* Checks ranges: finite values, density_scale >= 0, albedo in [0,1], g in (-1,1)
- * (|g| <= 0.999), non-zero sun directions (normalised in place), non-negative colours,
- * at least one light, camera fov in (0,180) and positive size. Also: width and height
- * at most 16384, target != position, up not parallel to the view direction, sun
- * angular_diameter_deg in [0,180), env scale >= 0, a known method and quality, the
- * occluders' and fog's ranges (albedo in [0,1], scale > 0, radius > 0, box min < max,
- * non-zero plane normal (normalised in place), fog sigma_t >= 0). Errors
- * name the key path ("scene: volume.g: ..."); on error nothing is normalised. An env
- * light whose env_map is not a path of this scene (a light copied from another scene
- * without its paths) is a VDBS_ERR_INTERNAL error. */
-vdbs_status vdbs_scene_validate(vdbs_scene *scene, vdbs_error *err);
-/* The same, with no light allowed when lights_optional (a command that checks its input
- * files first and reports a missing light after them, or renders a lit VDB's own). */
-vdbs_status vdbs_scene_validate_opt(vdbs_scene *scene, int lights_optional, vdbs_error *err);
 /* The value ranges, shared by vdbs_scene_validate and the command line's flags so that an
  * error names where the value came from (`what`: "scene: volume.g", "--g"): a colour is
  * finite and >= 0, an albedo in [0, 1], g in [-0.999, 0.999]. VDBS_ERR_INPUT otherwise. */
@@ -215,31 +155,20 @@ vdbs_status vdbs_check_g(const char *what, double g, vdbs_error *err);
 vdbs_status vdbs_scene_set_density_scale(vdbs_scene *scene, const char *what, const char *text,
                                          vdbs_error *err);
 
+/* Splits "NAME" or "NAME@INDEX" (at the last '@') into name and *index; on failure returns
+ * false and *why says what is wrong. */
+bool vdbs_grid_spec_split(const char *spec, char name[256], int *index, const char **why);
+
 /* Parses "NAME" or "NAME@INDEX" (split at the last '@'; INDEX decimal digits) into
  * scene->grid / scene->grid_index. A bad spec leaves the scene unchanged. */
 vdbs_status vdbs_scene_set_grid(vdbs_scene *scene, const char *spec, vdbs_error *err);
 
-/* --method / solver.method and --quality / solver.quality: a name the solver table (or the
- * quality ladder) knows, else VDBS_ERR_INPUT naming `what` (the flag or the key path), the
- * nearest valid name and the list. A bad name leaves the scene unchanged. */
-vdbs_status vdbs_scene_set_method(vdbs_scene *scene, const char *what, const char *name,
-                                  vdbs_error *err);
-vdbs_status vdbs_scene_set_quality(vdbs_scene *scene, const char *what, const char *name,
-                                   vdbs_error *err);
-
-/* Parses a POP anisotropy decay law, "mean-cosine" or "paper", into scene->pop_decay_paper
- * (VDBS_ERR_INPUT naming --pop-decay otherwise; err may be NULL). */
-vdbs_status vdbs_scene_set_pop_decay(vdbs_scene *scene, const char *name, vdbs_error *err);
-/* --pop-importance on|off / solver.pop_importance. */
-vdbs_status vdbs_scene_set_pop_importance(vdbs_scene *scene, const char *name, vdbs_error *err);
-/* --pop-tally / solver.pop_tally: "chord" or "cell". */
-vdbs_status vdbs_scene_set_pop_tally(vdbs_scene *scene, const char *name, vdbs_error *err);
-/* --fld-limiter / solver.fld_limiter: "on" or "off". */
-vdbs_status vdbs_scene_set_fld_limiter(vdbs_scene *scene, const char *name, vdbs_error *err);
-/* --fld-l1 / solver.fld_l1: "on" or "off". */
-vdbs_status vdbs_scene_set_fld_l1(vdbs_scene *scene, const char *name, vdbs_error *err);
-/* --fld-p1 / solver.fld_p1: "on" or "off". */
-vdbs_status vdbs_scene_set_fld_p1(vdbs_scene *scene, const char *name, vdbs_error *err);
+/* A solver option's value in the scene (solver.h), 0 (the default) when unset. */
+double vdbs_scene_solver_value(const vdbs_scene *scene, const char *key);
+/* Stores a solver option's value under its scene key, replacing one already there; no range
+ * check (solver.h's setters check). Errors (VDBS_ERR_INPUT): a key too long, or no room. */
+vdbs_status vdbs_scene_solver_store(vdbs_scene *scene, const char *key, double value,
+                                    vdbs_error *err);
 
 /* The resolved env-map path of an env light of `scene`: "" for a constant env, and also
  * for an env_map that is not a path of this scene (vdbs_scene_validate reports that). */

@@ -18,11 +18,6 @@
 extern "C" {
 #endif
 
-struct vdbs_pop_stats;
-struct vdbs_fld_stats;
-struct vdbs_svd_stats;
-struct vdbs_svd_moments;
-
 /* What a solver reads and writes; the bake owns every buffer. */
 typedef struct vdbs_solve {
     vdbs_runner *runner;
@@ -33,19 +28,25 @@ typedef struct vdbs_solve {
     const vdbs_light_grid_desc *s1_grids; /* S1 from light grids; NULL: the exact march */
     vdbs_progress *progress;
     vdbs_s1_stats *s1_stats;          /* filled when S1 comes from light grids; may be NULL */
-    struct vdbs_pop_stats *pop_stats; /* filled by POP; may be NULL */
-    struct vdbs_fld_stats *fld_stats; /* filled by FLD; may be NULL */
-    struct vdbs_svd_stats *svd_stats; /* filled by the discrete ordinates; may be NULL */
-    const struct vdbs_svd_moments *svd_warm; /* --warm-start, or NULL */
-    struct vdbs_svd_moments *svd_keep;       /* --keep-state: filled, or NULL */
+    /* The solver's state (solver.h vdbs_solver_state): --warm-start's, or NULL; and
+     * --keep-state's to fill, or NULL. */
+    const void *warm;
+    void *keep;
     /* Outputs, 3 floats per output voxel (coords order), zeroed by the caller. */
     float *radiance;      /* S1 + Sms direction average */
     float *ms;            /* Sms direction average */
     float *ms_l1[3];      /* first moment of Sms, x / y / z components per channel */
-    float *radiance_view; /* S1 toward the scene's camera (view.h), NULL without one; the
+    float *radiance_view; /* S1 toward the scene's camera (camera_radiance.h), NULL without one; the
                              bake adds Sms toward it after the solver */
     /* (ms and ms_l1 alias one array when the solver's writes_ms is 0) */
 } vdbs_solve;
+
+/* The S1 every solver starts from: into radiance (and toward the camera), with `flux` (9
+ * floats per output voxel, or NULL) the unscattered light's net flux and with light_depth
+ * every light's optical depth (vdbs_s1_outputs). From light grids, or by the exact march
+ * (then a second, light-grid pass gives the outputs the march has none of). */
+vdbs_status vdbs_solve_s1(const vdbs_solve *solve, float *flux, vdbs_s1_light_fn light_depth,
+                          void *light_user, vdbs_error *err);
 
 #ifdef __cplusplus
 }

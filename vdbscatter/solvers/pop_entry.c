@@ -1,0 +1,152 @@
+/* The POP solver's entry (solver.h): its options, report block and run. */
+#include <cjson/cJSON.h>
+#include <stdio.h>
+
+#include "vdbscatter/pop.h"
+#include "vdbscatter/solver.h"
+
+static const char *const decay_names[] = {"mean-cosine", "paper", NULL};
+static const char *const tally_names[] = {"chord", "cell", NULL};
+static const char *const off_on[] = {"off", "on", NULL};
+
+/* Most cells across the largest extent, texels of a radial grid, iterations of a grid. */
+#define POP_MAX_RESOLUTION 512
+#define POP_MAX_RADIAL 256
+#define POP_MAX_ITERATIONS 100000
+
+enum { OPT_RES, OPT_ORDINATES, OPT_ITERATIONS, OPT_DECAY, OPT_TALLY, OPT_RADIAL, OPT_IMPORTANCE };
+
+/* The order is the scene file's and the help's. The presets are pop.c's (test_pop checks). */
+static const vdbs_solver_option options[] = {
+    [OPT_RES] = {.key = "pop_res",
+                 .flag = "--pop-res",
+                 .syntax = "N",
+                 .min = 2,
+                 .max = POP_MAX_RESOLUTION,
+                 .help = "POP: cells across the largest extent of the volume\n"
+                         "(default 4: POP's bias grows as its cells shrink)",
+                 .preset = {4, 4, 4, 4}},
+    [OPT_ORDINATES] = {.key = "pop_ordinates",
+                       .flag = "--pop-ordinates",
+                       .syntax = "N",
+                       .min = 1,
+                       .max = VDBS_MAX_SKY_DIRECTIONS,
+                       .help = "POP: propagation grids for the sky (importance-sampled;\n"
+                               "default 8/16/32/64 per quality)",
+                       .preset = {8, 16, 32, 64}},
+    [OPT_ITERATIONS] = {.key = "pop_iterations",
+                        .flag = "--pop-iterations",
+                        .syntax = "N",
+                        .min = 1,
+                        .max = POP_MAX_ITERATIONS,
+                        .help = "POP: cap of each sun's or ordinate's iterations before the\n"
+                                "isotropic residuum (default: Eq. 10, at most max(64, 4 x res))"},
+    [OPT_DECAY] = {.key = "pop_decay",
+                   .flag = "--pop-decay",
+                   .kind = VDBS_OPTION_CHOICE,
+                   .syntax = "LAW",
+                   .choices = decay_names,
+                   .noun = "decay",
+                   .help = "POP anisotropy decay: mean-cosine (default; a exp(-sigma_s t\n"
+                           "(1 - g)), exact first moment) or paper (a g^(sigma_s t))"},
+    [OPT_TALLY] = {.key = "pop_tally",
+                   .flag = "--pop-tally",
+                   .kind = VDBS_OPTION_CHOICE,
+                   .syntax = "T",
+                   .choices = tally_names,
+                   .noun = "tally",
+                   .help = "POP fluence per cell crossing: chord (default; the lobe's\n"
+                           "mean chord, 2/3 of a cell for isotropic light) or cell (the\n"
+                           "paper's one cell side)"},
+    [OPT_RADIAL] = {.key = "pop_radial",
+                    .flag = "--pop-radial",
+                    .syntax = "N",
+                    .min = 2,
+                    .max = POP_MAX_RADIAL,
+                    .even = "the octahedral map",
+                    .help = "POP: a point light's radial grid, N x N octahedral texels\n"
+                            "times N shells (even; default 8/16/32/64 per quality)",
+                    .preset = {8, 16, 32, 64}},
+    [OPT_IMPORTANCE] = {.key = "pop_importance",
+                        .flag = "--pop-importance",
+                        .kind = VDBS_OPTION_CHOICE,
+                        .choices = off_on,
+                        .help = "POP: sample the sky ordinates from the sky times the\n"
+                                "camera's importance (needs --camera; the bake is then\n"
+                                "view-dependent; default off)"},
+};
+
+static int option_int(const vdbs_scene *scene, int i)
+{
+    return (int)vdbs_scene_solver_value(scene, options[i].key);
+}
+
+/* Exact S1, then POP's multiple scattering from suns, skies and points. */
+static vdbs_status run_pop(const vdbs_solve *s, void *stats, vdbs_error *err)
+{
+    vdbs_status st = vdbs_solve_s1(s, NULL, NULL, NULL, err);
+    if (st != VDBS_OK)
+        return st;
+    vdbs_pop_desc desc = {0};
+    desc.resolution = option_int(s->scene, OPT_RES);
+    desc.ordinates = option_int(s->scene, OPT_ORDINATES);
+    desc.max_iterations = option_int(s->scene, OPT_ITERATIONS);
+    desc.decay = option_int(s->scene, OPT_DECAY) ? VDBS_POP_DECAY_PAPER
+                                                 : VDBS_POP_DECAY_MEAN_COSINE;
+    desc.tally_cell = option_int(s->scene, OPT_TALLY);
+    desc.radial = option_int(s->scene, OPT_RADIAL);
+    desc.importance = option_int(s->scene, OPT_IMPORTANCE);
+    return vdbs_pop_solve(s, &desc, stats, err);
+}
+
+static void report_json(const vdbs_scene *scene, const void *stats, cJSON *t, cJSON *pj)
+{
+    const vdbs_pop_stats *p = stats;
+    cJSON_AddNumberToObject(t, "pop_sweep", p->seconds_sweep);
+    cJSON_AddNumberToObject(t, "pop_seed", p->seconds_seed);
+    cJSON_AddNumberToObject(t, "pop_propagate", p->seconds_propagate);
+    cJSON_AddNumberToObject(t, "pop_isotropic", p->seconds_isotropic);
+    cJSON_AddNumberToObject(t, "pop_merge", p->seconds_merge);
+    cJSON_AddNumberToObject(t, "pop_upsample", p->seconds_upsample);
+    cJSON_AddNumberToObject(t, "pop_importance", p->seconds_importance);
+    cJSON_AddNumberToObject(pj, "grids", p->grids);
+    cJSON_AddNumberToObject(pj, "radial_grids", p->radial_grids);
+    cJSON_AddNumberToObject(pj, "radial", p->radial);
+    cJSON_AddStringToObject(pj, "importance", p->importance ? "on" : "off");
+    cJSON_AddNumberToObject(pj, "importance_cells", (double)p->importance_cells);
+    cJSON_AddNumberToObject(pj, "importance_iterations", p->importance_iterations);
+    cJSON_AddNumberToObject(pj, "resolution", p->resolution);
+    cJSON_AddNumberToObject(pj, "cells", (double)p->cells);
+    cJSON_AddNumberToObject(pj, "merged_cells", (double)p->merged_cells);
+    cJSON_AddNumberToObject(pj, "iterations_anisotropic", p->iterations_anisotropic);
+    cJSON_AddNumberToObject(pj, "iterations_isotropic", p->iterations_isotropic);
+    cJSON_AddNumberToObject(pj, "cell_updates", p->cell_updates);
+    cJSON_AddNumberToObject(pj, "cell_side", p->cell_side);
+    cJSON_AddNumberToObject(pj, "seeded", p->seeded);
+    cJSON_AddNumberToObject(pj, "beam_loss", p->beam_loss);
+    cJSON_AddNumberToObject(pj, "residual", p->residual);
+    cJSON_AddNumberToObject(pj, "merge_in", p->merge_in);
+    cJSON_AddNumberToObject(pj, "merge_out", p->merge_out);
+    cJSON_AddStringToObject(pj, "decay", vdbs_solver_option_choice(scene, &options[OPT_DECAY]));
+    cJSON_AddStringToObject(pj, "tally", vdbs_solver_option_choice(scene, &options[OPT_TALLY]));
+}
+
+static void report_text(const void *stats, char *text, size_t size)
+{
+    const vdbs_pop_stats *p = stats;
+    snprintf(text, size, "%d grids + %d radial, %d cells across, residual %.2g", p->grids,
+             p->radial_grids, p->resolution, p->residual);
+}
+
+const vdbs_solver vdbs_solver_pop = {
+    .name = "pop",
+    .summary = "exact single scattering + Principal-Ordinates Propagation (suns, skies, points)",
+    .writes_ms = 1,
+    .options = options,
+    .option_count = (int)(sizeof options / sizeof options[0]),
+    .run = run_pop,
+    .stats_size = sizeof(vdbs_pop_stats),
+    .report_json = report_json,
+    .report_text = report_text,
+    .cost = {0},
+};

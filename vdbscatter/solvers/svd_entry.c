@@ -1,0 +1,253 @@
+/* The discrete-ordinates solver's entry (solver.h): its options, report block, state
+ * (--keep-state writes the radiance moments into the lit VDB, --warm-start reads them back)
+ * and run. */
+#include <cjson/cJSON.h>
+#include <stdio.h>
+#include <stdlib.h>
+
+#include "vdbscatter/solver.h"
+#include "vdbscatter/svd.h"
+
+#define SVD_MAX_DIRECTIONS 16384 /* VDBS_PHASEMAT_MAX_DIRECTIONS */
+#define SVD_MAX_RESOLUTION 512
+#define SVD_MAX_ITERATIONS 100000
+
+enum { OPT_DIRECTIONS, OPT_TERMS, OPT_RES, OPT_ITERATIONS, OPT_RESIDUAL };
+
+/* The presets are svd.c's vdbs_svd_quality (test_svd checks). */
+static const vdbs_solver_option options[] = {
+    [OPT_DIRECTIONS] = {.key = "svd_directions",
+                        .flag = "--svd-directions",
+                        .syntax = "D",
+                        .min = 2,
+                        .max = SVD_MAX_DIRECTIONS,
+                        .help = "SVD: discrete directions (default 32/64/128/512 per quality)",
+                        .preset = {32, 64, 128, 512}},
+    [OPT_TERMS] = {.key = "svd_terms",
+                   .flag = "--svd-terms",
+                   .syntax = "N",
+                   .min = 1,
+                   .max = SVD_MAX_DIRECTIONS,
+                   .help = "SVD: factored phase terms, N = D exact (default: the fewest\n"
+                           "within 10/5/2/1% factorisation error per quality)"},
+    [OPT_RES] = {.key = "svd_res",
+                 .flag = "--svd-res",
+                 .syntax = "N",
+                 .min = 2,
+                 .max = SVD_MAX_RESOLUTION,
+                 .help = "SVD: cells across the largest extent (default 16/24/32/32)",
+                 .preset = {16, 24, 32, 32}},
+    [OPT_ITERATIONS] = {.key = "svd_iterations",
+                        .flag = "--svd-iterations",
+                        .syntax = "N",
+                        .min = 1,
+                        .max = SVD_MAX_ITERATIONS,
+                        .help = "SVD: cap of source iterations (default 2000)",
+                        .preset = {2000, 2000, 2000, 2000}},
+    [OPT_RESIDUAL] = {.key = "svd_residual",
+                      .flag = "--residual",
+                      .kind = VDBS_OPTION_NUMBER,
+                      .syntax = "R",
+                      .min = 0,
+                      .max = 1,
+                      .help = "SVD: stop when the fluence changes by at most R per\n"
+                              "iteration (default 1e-2/3e-3/1e-3/3e-4)",
+                      .preset = {1e-2, 3e-3, 1e-3, 3e-4}},
+};
+
+static double option(const vdbs_scene *scene, int i)
+{
+    return vdbs_scene_solver_value(scene, options[i].key);
+}
+
+/* ---- state: the radiance moments ---- */
+
+/* The moments and the names and metadata the lit VDB stores them under. */
+typedef struct svd_state {
+    vdbs_svd_moments moments; /* first: the solver reads the state as its moments */
+    char (*names)[16];        /* "svd_m0000" ... per term */
+    char directions[16], terms[16];
+} svd_state;
+
+static void grid_name(int k, char *name, size_t size)
+{
+    snprintf(name, size, "svd_m%04d", k);
+}
+
+static void *state_create(void)
+{
+    return calloc(1, sizeof(svd_state));
+}
+
+static void state_destroy(void *state)
+{
+    svd_state *s = state;
+    if (!s)
+        return;
+    vdbs_svd_moments_free(&s->moments);
+    free(s->names);
+    free(s);
+}
+
+static vdbs_status state_read(const char *path, const vdbs_volume *volume,
+                              const vdbs_scene *scene, void **out, vdbs_error *err)
+{
+    svd_state *s = state_create();
+    if (!s)
+        return vdbs_error_set(err, VDBS_ERR_NOMEM, "out of memory for the warm start");
+    vdbs_svd_moments *m = &s->moments;
+    vdbio_lit *lit = NULL;
+    vdbs_status st = vdbio_lit_open(path, &lit, err);
+    const char *dt = st == VDBS_OK ? vdbio_lit_meta(lit, "vdbscatter_svd_directions") : NULL;
+    const char *nt = st == VDBS_OK ? vdbio_lit_meta(lit, "vdbscatter_svd_terms") : NULL;
+    const char *gt = st == VDBS_OK ? vdbio_lit_meta(lit, "vdbscatter_g") : NULL;
+    int directions = dt ? atoi(dt) : 0, terms = nt ? atoi(nt) : 0;
+    char name[32];
+    grid_name(terms > 0 ? terms - 1 : 0, name, sizeof name);
+    if (st == VDBS_OK && (directions < 2 || terms < 1 || terms > directions || !gt ||
+                          !vdbio_lit_has_grid(lit, name)))
+        st = vdbs_error_set(err, VDBS_ERR_INPUT,
+                            "--warm-start %s: no discrete-ordinates state in it (bake it with "
+                            "--method svd --keep-state)",
+                            path);
+    if (st == VDBS_OK)
+        st = vdbs_svd_moments_alloc(m, directions, terms, strtod(gt, NULL), volume->coord_count,
+                                    err);
+    for (int k = 0; k < terms && st == VDBS_OK; ++k) {
+        grid_name(k, name, sizeof name);
+        for (size_t n = 0; n < volume->coord_count && st == VDBS_OK; ++n)
+            st = vdbio_lit_vec3(lit, name, volume->coords + 3 * n, m->voxels[k] + 3 * n, err);
+    }
+    if (lit)
+        vdbio_lit_close(lit);
+    if (st == VDBS_OK)
+        st = vdbs_svd_warm_check(m, (int)option(scene, OPT_DIRECTIONS),
+                                 (int)option(scene, OPT_TERMS), scene->g, err);
+    if (st != VDBS_OK) {
+        state_destroy(s);
+        return st;
+    }
+    *out = s;
+    return VDBS_OK;
+}
+
+static int state_grids(const void *state, vdbio_vec3_grid *grids, int max)
+{
+    svd_state *s = (svd_state *)state; /* the names are made here, once */
+    const int n = s->moments.terms < max ? s->moments.terms : max;
+    if (!s->names && n > 0 && !(s->names = calloc((size_t)n, sizeof *s->names)))
+        return -1;
+    for (int k = 0; k < n; ++k) {
+        grid_name(k, s->names[k], sizeof s->names[k]);
+        grids[k] = (vdbio_vec3_grid){s->names[k], s->moments.voxels[k]};
+    }
+    return n;
+}
+
+static int state_meta(const void *state, vdbio_meta *meta, int max)
+{
+    svd_state *s = (svd_state *)state;
+    if (max < 2 || s->moments.terms == 0)
+        return 0;
+    snprintf(s->directions, sizeof s->directions, "%d", s->moments.directions);
+    snprintf(s->terms, sizeof s->terms, "%d", s->moments.terms);
+    meta[0] = (vdbio_meta){"vdbscatter_svd_directions", s->directions};
+    meta[1] = (vdbio_meta){"vdbscatter_svd_terms", s->terms};
+    return 2;
+}
+
+static const vdbs_solver_state state = {
+    .create = state_create,
+    .read = state_read,
+    .grids = state_grids,
+    .meta = state_meta,
+    .destroy = state_destroy,
+};
+
+/* ---- run and report ---- */
+
+/* Exact S1, then discrete ordinates with the factored phase on the first-scattered light,
+ * which comes from the S1 pass's own light grids. */
+static vdbs_status run_svd(const vdbs_solve *s, void *stats, vdbs_error *err)
+{
+    vdbs_svd_desc desc = {0};
+    desc.directions = (int)option(s->scene, OPT_DIRECTIONS);
+    desc.terms = (int)option(s->scene, OPT_TERMS);
+    desc.resolution = (int)option(s->scene, OPT_RES);
+    desc.residual = option(s->scene, OPT_RESIDUAL);
+    desc.max_iterations = (int)option(s->scene, OPT_ITERATIONS);
+    desc.warm = s->warm ? &((const svd_state *)s->warm)->moments : NULL;
+    desc.keep = s->keep ? &((svd_state *)s->keep)->moments : NULL;
+    desc.progress = s->progress;
+    vdbs_svd_run *run = NULL;
+    vdbs_status st = vdbs_svd_begin(s, &desc, &run, err);
+    if (st == VDBS_OK)
+        st = vdbs_solve_s1(s, NULL, vdbs_svd_light_depth, run, err);
+    if (st == VDBS_OK)
+        st = vdbs_svd_finish(run, stats, err);
+    vdbs_svd_end(run);
+    return st;
+}
+
+static vdbs_status validate(const vdbs_scene *scene, const char *prefix, vdbs_error *err)
+{
+    const int d = (int)option(scene, OPT_DIRECTIONS), n = (int)option(scene, OPT_TERMS);
+    if (d > 0 && n > d)
+        return vdbs_error_set(err, VDBS_ERR_INPUT,
+                              "%ssolver.svd_terms: %d terms for %d directions (at most D)", prefix,
+                              n, d);
+    return VDBS_OK;
+}
+
+static void report_json(const vdbs_scene *scene, const void *stats, cJSON *t, cJSON *sj)
+{
+    (void)scene;
+    const vdbs_svd_stats *v = stats;
+    cJSON_AddNumberToObject(t, "svd_source", v->seconds_source);
+    cJSON_AddNumberToObject(t, "svd_solve", v->seconds_solve);
+    cJSON_AddNumberToObject(t, "svd_upsample", v->seconds_upsample);
+    cJSON_AddNumberToObject(sj, "directions", v->directions);
+    cJSON_AddNumberToObject(sj, "terms", v->terms);
+    cJSON_AddNumberToObject(sj, "factor_rmse", v->factor_rmse);
+    cJSON_AddNumberToObject(sj, "delta_m_f", v->delta_m_f);
+    cJSON_AddNumberToObject(sj, "g_scaled", v->g_scaled);
+    cJSON_AddNumberToObject(sj, "resolution", v->resolution);
+    cJSON_AddNumberToObject(sj, "cells", (double)v->cells);
+    cJSON_AddNumberToObject(sj, "cell_side", v->cell_side);
+    cJSON_AddNumberToObject(sj, "iterations", v->iterations);
+    cJSON_AddNumberToObject(sj, "residual", v->residual);
+    cJSON_AddBoolToObject(sj, "converged", v->converged);
+    cJSON_AddNumberToObject(sj, "steps_per_sweep", v->steps_per_sweep);
+    cJSON_AddNumberToObject(sj, "chunk", v->chunk);
+    cJSON_AddNumberToObject(sj, "cell_direction_updates", (double)v->cell_direction_updates);
+    cJSON_AddNumberToObject(sj, "first_power", v->first_power);
+    cJSON_AddNumberToObject(sj, "emitted", v->emitted);
+    cJSON_AddNumberToObject(sj, "collided", v->collided);
+    cJSON_AddNumberToObject(sj, "leaked", v->leaked);
+    cJSON_AddNumberToObject(sj, "balance", v->balance);
+    cJSON_AddNumberToObject(sj, "clamped", v->clamped);
+    cJSON_AddNumberToObject(sj, "clamped_fraction", v->clamped_fraction);
+}
+
+static void report_text(const void *stats, char *text, size_t size)
+{
+    const vdbs_svd_stats *v = stats;
+    snprintf(text, size, "D %d, N %d, %d iterations, residual %.2g%s", v->directions, v->terms,
+             v->iterations, v->residual, v->converged ? "" : " (not converged)");
+}
+
+const vdbs_solver vdbs_solver_svd = {
+    .name = "svd",
+    .summary = "exact single scattering + discrete ordinates with the SVD-factored phase "
+               "(Gong et al.)",
+    .writes_ms = 1,
+    .options = options,
+    .option_count = (int)(sizeof options / sizeof options[0]),
+    .run = run_svd,
+    .stats_size = sizeof(vdbs_svd_stats),
+    .validate = validate,
+    .report_json = report_json,
+    .report_text = report_text,
+    .state = &state,
+    .cost = {0},
+};
