@@ -1,0 +1,63 @@
+#!/usr/bin/python3
+"""The solvers' cost hints (vdbs_solver.cost in solvers/*_entry.c): solve seconds per million
+output voxels on the C path, per method and quality, on the bundled cloud under
+samples/cloud.json's lights (a sun and a constant sky), median of --runs runs.
+
+usage: bench/bench_cost.py BUILD [--res 48] [--runs 3] [--out bench/cost.md]
+Writes a table and the C initialisers to paste into the entries. A hint, not a promise: the
+cost follows sky directions, cells and iterations, which differ from scene to scene."""
+import argparse
+import os
+import statistics
+import subprocess
+import tempfile
+
+from benchlib import run_json
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+ROOT = os.path.dirname(HERE)
+QUALITIES = ["low", "medium", "high", "ultra"]
+
+
+def main():
+    ap = argparse.ArgumentParser()
+    ap.add_argument("build")
+    ap.add_argument("--res", type=int, default=48)
+    ap.add_argument("--runs", type=int, default=3)
+    ap.add_argument("--out", default=os.path.join(HERE, "cost.md"))
+    args = ap.parse_args()
+    exe = os.path.join(args.build, "vdbscatter")
+    tmp = tempfile.mkdtemp(prefix="bench-cost-")
+    cloud = os.path.join(tmp, "cloud.vdb")
+    subprocess.run([exe, "sample", "cloud", "--res", str(args.res), "-o", cloud], check=True,
+                   capture_output=True)
+    scene = os.path.join(ROOT, "samples", "cloud.json")
+    rows = []
+    for method in ("single", "pop", "fld", "svd"):
+        row = []
+        for q in QUALITIES:
+            secs, voxels = [], 0
+            for _ in range(args.runs):
+                rep = run_json([exe, "bake", cloud, "--scene", scene, "-o",
+                                os.path.join(tmp, "lit.vdb"), "--method", method, "--quality", q,
+                                "--backend", "cpu", "--json", "-q"])
+                secs.append(rep["seconds"]["solve"])
+                voxels = rep["output_voxels"]
+            row.append(statistics.median(secs) / voxels * 1e6)
+            print(f"{method} {q}: {row[-1]:.3g} s per million voxels ({voxels} voxels)", flush=True)
+        rows.append((method, row))
+    with open(args.out, "w") as f:
+        f.write(f"`bench/bench_cost.py BUILD --res {args.res} --runs {args.runs}`: solve seconds "
+                "per million output voxels, C path, cloud sample under samples/cloud.json's "
+                "lights, median of the runs.\n\n| method | " + " | ".join(QUALITIES) +
+                " |\n|---|---|---|---|---|\n")
+        for method, row in rows:
+            f.write(f"| {method} | " + " | ".join(f"{v:.3g}" for v in row) + " |\n")
+        f.write("\nAs the entries' `cost` initialisers:\n\n```c\n")
+        for method, row in rows:
+            f.write(f"/* {method} */ .cost = {{" + ", ".join(f"{v:.3g}" for v in row) + "},\n")
+        f.write("```\n")
+
+
+if __name__ == "__main__":
+    main()
