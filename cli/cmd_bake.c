@@ -59,14 +59,9 @@ static const char help[] =
     "  -q                       no progress, summary or warnings\n";
 
 static const cli_option own_options[] = {
-    CLI_COMMON_OPTIONS,
-    {"--from-levelset", CLI_FLAG},
-    {"--half", CLI_FLAG},
-    {"--report", CLI_VALUE},
-    {"--method", CLI_VALUE},
-    {"--keep-state", CLI_FLAG},
-    {"--warm-start", CLI_VALUE},
-    {"--camera", CLI_VALUE},
+    CLI_COMMON_OPTIONS,          {"--from-levelset", CLI_FLAG}, {"--half", CLI_FLAG},
+    {"--report", CLI_VALUE},     {"--method", CLI_VALUE},       {"--keep-state", CLI_FLAG},
+    {"--warm-start", CLI_VALUE}, {"--camera", CLI_VALUE},
 };
 
 /* bake's options, then every solver's own flags from the solver table. */

@@ -41,8 +41,8 @@ vdbs_status cli_solver_flag(const char *name, const char *value, vdbs_scene *sce
     if ((st = cli_integer(name, value, (long)o->min, (long)o->max, &k, err)) != VDBS_OK)
         return st;
     if (o->even && k % 2 != 0)
-        return vdbs_error_set(err, VDBS_ERR_INPUT, "%s: expected an even count (%s), got %ld",
-                              name, o->even, k);
+        return vdbs_error_set(err, VDBS_ERR_INPUT, "%s: expected an even count (%s), got %ld", name,
+                              o->even, k);
     return vdbs_solver_option_set(scene, o, name, (double)k, err);
 }
 

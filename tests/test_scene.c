@@ -630,12 +630,14 @@ static void test_round_trip(void **state)
     static const struct {
         const char *key;
         double value;
-    } away[] = {{"pop_res", 7},         {"pop_ordinates", 24},  {"pop_iterations", 99},
-                {"pop_decay", 1},       {"pop_tally", 1},       {"pop_radial", 24},
-                {"pop_importance", 1},  {"fld_res", 40},        {"fld_limiter", 1},
-                {"fld_l1", 1},          {"fld_p1", 1},          {"svd_directions", 96},
-                {"svd_terms", 40},      {"svd_res", 20},        {"svd_iterations", 300},
-                {"svd_residual", 1.0 / 3.0}};
+    } away[] = {{"pop_res", 7},          {"pop_ordinates", 24},
+                {"pop_iterations", 99},  {"pop_decay", 1},
+                {"pop_tally", 1},        {"pop_radial", 24},
+                {"pop_importance", 1},   {"fld_res", 40},
+                {"fld_limiter", 1},      {"fld_l1", 1},
+                {"fld_p1", 1},           {"svd_directions", 96},
+                {"svd_terms", 40},       {"svd_res", 20},
+                {"svd_iterations", 300}, {"svd_residual", 1.0 / 3.0}};
     for (size_t i = 0; i < sizeof away / sizeof away[0]; ++i)
         assert_int_equal(vdbs_solver_set(s, away[i].key, away[i].value, &err), VDBS_OK);
     round_trip(s);

@@ -60,7 +60,7 @@ static void test_keys_and_flags_unique(void **state)
         for (int i = 0; i < s->option_count; ++i, ++options) {
             const vdbs_solver_option *o = &s->options[i];
             assert_int_equal(strncmp(o->flag, "--", 2), 0);
-            assert_true(strlen(o->key) < sizeof ((vdbs_solver_setting *)0)->key);
+            assert_true(strlen(o->key) < sizeof((vdbs_solver_setting *)0)->key);
             assert_ptr_equal(vdbs_solver_option_by_key(o->key, &t), o);
             assert_ptr_equal(t, s);
             assert_ptr_equal(vdbs_solver_option_by_flag(o->flag, &t), o);
@@ -96,9 +96,9 @@ static void test_set_and_check(void **state)
     assert_int_equal(vdbs_solver_set(&scene, "svd_residual", 1.0, &err), VDBS_ERR_INPUT);
     assert_int_equal(vdbs_solver_set(&scene, "svd_residual", NAN, &err), VDBS_ERR_INPUT);
     assert_int_equal(vdbs_solver_set(&scene, "no_such", 1, &err), VDBS_ERR_INPUT);
-    assert_int_equal(vdbs_solver_option_choose(&scene, option("pop_decay"), "--pop-decay",
-                                               "linear", &err),
-                     VDBS_ERR_INPUT);
+    assert_int_equal(
+        vdbs_solver_option_choose(&scene, option("pop_decay"), "--pop-decay", "linear", &err),
+        VDBS_ERR_INPUT);
     assert_string_equal(err.message,
                         "--pop-decay: unknown decay \"linear\" (expected mean-cosine or paper)");
     assert_string_equal(vdbs_solver_option_choice(&scene, option("pop_decay")), "mean-cosine");
@@ -109,7 +109,8 @@ static void test_set_and_check(void **state)
     assert_int_equal(vdbs_solver_set(&scene, "svd_directions", 16, &err), VDBS_OK);
     assert_int_equal(vdbs_solver_set(&scene, "svd_terms", 17, &err), VDBS_OK);
     assert_int_equal(vdbs_solver_options_check(&scene, "scene: ", &err), VDBS_ERR_INPUT);
-    assert_string_equal(err.message, "scene: solver.svd_terms: 17 terms for 16 directions (at most D)");
+    assert_string_equal(err.message,
+                        "scene: solver.svd_terms: 17 terms for 16 directions (at most D)");
 }
 
 static vdbs_status run_nothing(const vdbs_solve *solve, void *stats, vdbs_error *err)

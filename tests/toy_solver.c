@@ -33,8 +33,8 @@ typedef struct toy_stats {
 
 static vdbs_status run_toy(const vdbs_solve *s, void *stats, vdbs_error *err)
 {
-    const float factor = (float)vdbs_solver_option_value(s->scene, &options[OPT_FACTOR],
-                                                         s->quality);
+    const float factor =
+        (float)vdbs_solver_option_value(s->scene, &options[OPT_FACTOR], s->quality);
     vdbs_status st = vdbs_solve_s1(s, NULL, NULL, NULL, err);
     for (size_t i = 0; st == VDBS_OK && i < 3 * s->volume->coord_count; ++i) {
         s->radiance[i] *= factor;
@@ -47,8 +47,7 @@ static vdbs_status run_toy(const vdbs_solve *s, void *stats, vdbs_error *err)
     return st;
 }
 
-static void report_json(const vdbs_scene *scene, const void *stats, cJSON *seconds,
-                        cJSON *block)
+static void report_json(const vdbs_scene *scene, const void *stats, cJSON *seconds, cJSON *block)
 {
     (void)scene;
     (void)seconds;

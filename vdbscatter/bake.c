@@ -357,8 +357,7 @@ vdbs_status vdbs_bake(const vdbs_bake_options *o, vdbs_bake_report *report, vdbs
     if (st == VDBS_OK) {
         for (size_t v = 0; v < j.volume.coord_count; ++v)
             for (int c = 0; c < 3; ++c)
-                report->radiance_max[c] =
-                    fmaxf(report->radiance_max[c], j.out.radiance[3 * v + c]);
+                report->radiance_max[c] = fmaxf(report->radiance_max[c], j.out.radiance[3 * v + c]);
         st = write_lit(&j, report, err);
     }
     if (j.has_volume)

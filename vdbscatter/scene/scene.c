@@ -246,7 +246,8 @@ vdbs_status vdbs_scene_solver_store(vdbs_scene *scene, const char *key, double v
 
 vdbs_status vdbs_check_colour(const char *what, const double c[3], vdbs_error *err)
 {
-    if (!(isfinite(c[0]) && isfinite(c[1]) && isfinite(c[2])) || c[0] < 0.0 || c[1] < 0.0 || c[2] < 0.0)
+    if (!(isfinite(c[0]) && isfinite(c[1]) && isfinite(c[2])) || c[0] < 0.0 || c[1] < 0.0 ||
+        c[2] < 0.0)
         return vdbs_error_set(err, VDBS_ERR_INPUT, "%s: must be finite and >= 0, got [%g, %g, %g]",
                               what, c[0], c[1], c[2]);
     return VDBS_OK;
@@ -269,4 +270,3 @@ vdbs_status vdbs_check_g(const char *what, double g, vdbs_error *err)
                               g);
     return VDBS_OK;
 }
-

@@ -343,8 +343,8 @@ static vdbs_status propagate_point(pop_run *r, int l, double mean_sigma_s, vdbs_
         return st;
     const int64_t cells = vdbs_radial_cells(&f);
     size_t words = 0;
-    uint32_t *params = vdbs_pop_radial_params(&f, s->scene->g, s->scene->albedo, &r->transport,
-                                              &words);
+    uint32_t *params =
+        vdbs_pop_radial_params(&f, s->scene->g, s->scene->albedo, &r->transport, &words);
     float *state = calloc((size_t)cells * VS_POP_STATE_WORDS, sizeof *state);
     float *sigma = malloc(sizeof *sigma * (size_t)cells);
     if (!params || !state || !sigma) {
@@ -480,6 +480,131 @@ static vdbs_status isotropic(pop_run *r, vdbs_error *err)
     return st;
 }
 
+/* desc's defaults from the quality, and the checks that need the scene. */
+static vdbs_status resolve_desc(pop_run *r, vdbs_error *err)
+{
+    const vdbs_solve *s = r->s;
+    int ords, radial;
+    double eps_l;
+    vdbs_pop_quality(s->quality ? s->quality->name : NULL, &ords, &eps_l, &radial);
+    if (r->desc.ordinates <= 0)
+        r->desc.ordinates = ords;
+    if (r->desc.radial <= 0)
+        r->desc.radial = radial;
+    r->stats->radial = r->desc.radial;
+    if (r->desc.radial % 2 != 0)
+        return vdbs_error_set(err, VDBS_ERR_INPUT,
+                              "--pop-radial %d: the octahedral map needs an even resolution",
+                              r->desc.radial);
+    if (!(r->desc.epsilon_a > 0.0))
+        r->desc.epsilon_a = POP_DEFAULT_EPSILON_A;
+    if (!(r->desc.epsilon_l > 0.0))
+        r->desc.epsilon_l = eps_l;
+    if (r->desc.decay == VDBS_POP_DECAY_PAPER && s->scene->g < 0.0)
+        return vdbs_error_set(err, VDBS_ERR_INPUT,
+                              "--pop-decay paper needs g >= 0 (g^(sigma_s t) is undefined for "
+                              "g = %g); use --pop-decay mean-cosine",
+                              s->scene->g);
+    if (r->desc.importance && !s->scene->camera.present)
+        return vdbs_error_set(err, VDBS_ERR_INPUT,
+                              "--pop-importance needs a camera (--camera or camera in --scene)");
+    if (r->desc.resolution <= 0)
+        r->desc.resolution = POP_DEFAULT_RESOLUTION;
+    if (r->desc.max_iterations <= 0)
+        r->desc.max_iterations = r->desc.resolution < 16 ? 64 : 4 * r->desc.resolution;
+    r->stats->resolution = r->desc.resolution;
+    return VDBS_OK;
+}
+
+/* The directional grids' cell side, the merged and isotropic grids, the box-filtered medium. */
+static vdbs_status setup_grids(pop_run *r, int points, vdbs_error *err)
+{
+    const vdbs_solve *s = r->s;
+    double corners[8][3];
+    vdbs_volume_support_corners(s->volume, corners);
+    const double extent = vdbs_volume_support_extent(s->volume);
+    const double h = extent / r->desc.resolution;
+    r->stats->cell_side = h;
+    r->h = h;
+    const double world_axes[3][3] = {{1, 0, 0}, {0, 1, 0}, {0, 0, 1}};
+    /* Point lights' radial grids resolve the light's fall-off finer than the directional
+     * grids' cells: the merged grid then has as many cells across as a radial grid has shells. */
+    double merged_side = 0.5 * h;
+    if (points > 0)
+        merged_side = fmin(merged_side, extent / r->desc.radial);
+    vdbs_coarse_fit(corners, world_axes, merged_side, &r->merged);
+    vdbs_coarse_fit(corners, world_axes, h, &r->iso);
+    r->stats->merged_cells = vdbs_coarse_cells(&r->merged);
+    int block = (int)floor(merged_side / s->volume->mean_voxel_size);
+    r->merged_acc =
+        calloc((size_t)r->stats->merged_cells * VDBS_COARSE_WIDTH, sizeof *r->merged_acc);
+    r->iso_residual = calloc((size_t)vdbs_coarse_cells(&r->iso) * 3, sizeof *r->iso_residual);
+    if (!r->merged_acc || !r->iso_residual)
+        return vdbs_error_set(err, VDBS_ERR_NOMEM, "out of memory for the merged POP grid");
+    return vdbs_medium_box_build(s->volume, block < 1 ? 1 : block, &r->box, err);
+}
+
+/* The suns, points and sky ordinates: from the sky, or the sky times the camera's importance
+ * (Sec. 5.2). */
+static vdbs_status build_lights(pop_run *r, vdbs_error *err)
+{
+    const vdbs_solve *s = r->s;
+    vdbs_status st = VDBS_OK;
+    vdbs_envmap importance = {0};
+    vdbs_lights_desc ld = {0};
+    ld.sky_ordinates = r->desc.ordinates;
+    /* A map's small bright sun is one ordinate: drawn by luminance, 5 of 8 ordinates landed on
+     * the bundled sky's 3-degree sun, the same grid five times (bench/pop_point.md). */
+    ld.split_sun = 1;
+    /* Only a map's ordinates are sampled; a constant sky keeps its even directions. */
+    if (r->desc.importance && s->scene->env_paths[0] != '\0') {
+        vdbs_importance_stats is;
+        st = vdbs_importance_map(s->runner, s->volume, s->scene, &r->box, &importance, &is, err);
+        ld.importance = &importance;
+        r->stats->importance = 1;
+        r->stats->importance_cells = is.cells;
+        r->stats->importance_iterations = is.iterations;
+        r->stats->seconds_importance = is.seconds_propagate + is.seconds_project;
+    }
+    if (st == VDBS_OK)
+        st = vdbs_lights_build(s->volume, s->scene, &ld, &r->lights, err);
+    vdbs_envmap_free(&importance);
+    return st;
+}
+
+/* Every light's grid: a radial grid per point, a directional grid per sun and ordinate. */
+static vdbs_status propagate_lights(pop_run *r, int count, double sigma_s, vdbs_error *err)
+{
+    const double g = r->s->scene->g;
+    vdbs_status st = VDBS_OK;
+    for (int l = 0; l < count && st == VDBS_OK; ++l) {
+        double d[3], e[3], a0;
+        if (l < r->lights.direct_count && r->lights.direct[l].type == VDBS_LIGHT_POINT) {
+            st = propagate_point(r, l, sigma_s, err);
+            continue;
+        }
+        if (l < r->lights.direct_count) {
+            const vdbs_direct_light *dl = &r->lights.direct[l];
+            memcpy(d, dl->world, sizeof d);
+            memcpy(e, dl->color, sizeof e);
+            a0 = g; /* a delta beam scattered once: HG(g) about d */
+        } else {
+            /* A sky ordinate stands for a patch of solid angle w: as a cap, its light's mean
+             * cosine about the ordinate is (1 + cos theta) / 2 with 2 pi (1 - cos theta) = w,
+             * and one scattering multiplies it by g (the prefiltered initial anisotropy). */
+            const vdbs_sky_ordinate *o = &r->lights.ordinates[l - r->lights.direct_count];
+            for (int k = 0; k < 3; ++k) {
+                d[k] = -o->world[k];
+                e[k] = o->radiance[k] * o->weight;
+            }
+            double cos_theta = fmax(-1.0, 1.0 - o->weight / (2.0 * VDBS_PI));
+            a0 = g * 0.5 * (1.0 + cos_theta);
+        }
+        st = propagate_grid(r, l, d, e, a0, sigma_s, err);
+    }
+    return st;
+}
+
 vdbs_status vdbs_pop_solve(const vdbs_solve *s, const vdbs_pop_desc *desc, vdbs_pop_stats *stats,
                            vdbs_error *err)
 {
@@ -490,88 +615,20 @@ vdbs_status vdbs_pop_solve(const vdbs_solve *s, const vdbs_pop_desc *desc, vdbs_
     r.stats = stats;
     r.desc = desc ? *desc : (vdbs_pop_desc){0};
     r.transport = (vdbs_pop_transport){r.desc.decay, r.desc.tally_cell};
-    int ords, radial;
-    double eps_l;
-    vdbs_pop_quality(s->quality ? s->quality->name : NULL, &ords, &eps_l, &radial);
-    if (r.desc.ordinates <= 0)
-        r.desc.ordinates = ords;
-    if (r.desc.radial <= 0)
-        r.desc.radial = radial;
-    stats->radial = r.desc.radial;
-    if (r.desc.radial % 2 != 0)
-        return vdbs_error_set(err, VDBS_ERR_INPUT,
-                              "--pop-radial %d: the octahedral map needs an even resolution",
-                              r.desc.radial);
-    if (!(r.desc.epsilon_a > 0.0))
-        r.desc.epsilon_a = POP_DEFAULT_EPSILON_A;
-    if (!(r.desc.epsilon_l > 0.0))
-        r.desc.epsilon_l = eps_l;
-    if (r.desc.decay == VDBS_POP_DECAY_PAPER && s->scene->g < 0.0)
-        return vdbs_error_set(err, VDBS_ERR_INPUT,
-                              "--pop-decay paper needs g >= 0 (g^(sigma_s t) is undefined for "
-                              "g = %g); use --pop-decay mean-cosine",
-                              s->scene->g);
-    if (r.desc.importance && !s->scene->camera.present)
-        return vdbs_error_set(err, VDBS_ERR_INPUT,
-                              "--pop-importance needs a camera (--camera or camera in --scene)");
+    vdbs_status st = resolve_desc(&r, err);
+    if (st != VDBS_OK)
+        return st;
     int points = 0;
     for (int i = 0; i < s->scene->light_count; ++i)
         points += s->scene->lights[i].type == VDBS_LIGHT_POINT;
-
-    vdbs_status st = VDBS_OK;
-    double corners[8][3];
-    vdbs_volume_support_corners(s->volume, corners);
-    const double extent = vdbs_volume_support_extent(s->volume);
     const double sigma_t = s->scene->density_scale * vdbs_medium_mean_density(s->volume);
-    const double g = s->scene->g;
     const double albedo = (s->scene->albedo[0] + s->scene->albedo[1] + s->scene->albedo[2]) / 3.0;
-    if (r.desc.resolution <= 0)
-        r.desc.resolution = POP_DEFAULT_RESOLUTION;
-    if (r.desc.max_iterations <= 0)
-        r.desc.max_iterations = r.desc.resolution < 16 ? 64 : 4 * r.desc.resolution;
-    stats->resolution = r.desc.resolution;
-    const double h = extent / r.desc.resolution;
-    stats->cell_side = h;
-    r.h = h;
-    const double world_axes[3][3] = {{1, 0, 0}, {0, 1, 0}, {0, 0, 1}};
-    /* Point lights' radial grids resolve the light's fall-off finer than the directional
-     * grids' cells: the merged grid then has as many cells across as a radial grid has shells. */
-    double merged_side = 0.5 * h;
-    if (points > 0)
-        merged_side = fmin(merged_side, extent / r.desc.radial);
-    vdbs_coarse_fit(corners, world_axes, merged_side, &r.merged);
-    vdbs_coarse_fit(corners, world_axes, h, &r.iso);
-    stats->merged_cells = vdbs_coarse_cells(&r.merged);
-    int block = (int)floor(merged_side / s->volume->mean_voxel_size);
     vdbs_light_grid_desc fine_desc = {0};
     if (s->s1_grids)
         fine_desc = *s->s1_grids;
-    r.merged_acc = calloc((size_t)stats->merged_cells * VDBS_COARSE_WIDTH, sizeof *r.merged_acc);
-    r.iso_residual = calloc((size_t)vdbs_coarse_cells(&r.iso) * 3, sizeof *r.iso_residual);
-    if (!r.merged_acc || !r.iso_residual)
-        st = vdbs_error_set(err, VDBS_ERR_NOMEM, "out of memory for the merged POP grid");
+    st = setup_grids(&r, points, err);
     if (st == VDBS_OK)
-        st = vdbs_medium_box_build(s->volume, block < 1 ? 1 : block, &r.box, err);
-    /* The sky ordinates: from the sky, or the sky times the camera's importance (Sec. 5.2). */
-    vdbs_envmap importance = {0};
-    vdbs_lights_desc ld = {0};
-    ld.sky_ordinates = r.desc.ordinates;
-    /* A map's small bright sun is one ordinate: drawn by luminance, 5 of 8 ordinates landed on
-     * the bundled sky's 3-degree sun, the same grid five times (bench/pop_point.md). */
-    ld.split_sun = 1;
-    /* Only a map's ordinates are sampled; a constant sky keeps its even directions. */
-    if (st == VDBS_OK && r.desc.importance && s->scene->env_paths[0] != '\0') {
-        vdbs_importance_stats is;
-        st = vdbs_importance_map(s->runner, s->volume, s->scene, &r.box, &importance, &is, err);
-        ld.importance = &importance;
-        stats->importance = 1;
-        stats->importance_cells = is.cells;
-        stats->importance_iterations = is.iterations;
-        stats->seconds_importance = is.seconds_propagate + is.seconds_project;
-    }
-    if (st == VDBS_OK)
-        st = vdbs_lights_build(s->volume, s->scene, &ld, &r.lights, err);
-    vdbs_envmap_free(&importance);
+        st = build_lights(&r, err);
     if (st != VDBS_OK) {
         run_free(&r);
         return st;
@@ -579,36 +636,11 @@ vdbs_status vdbs_pop_solve(const vdbs_solve *s, const vdbs_pop_desc *desc, vdbs_
     const int count = r.lights.direct_count + r.lights.ordinate_count;
     stats->grids = count - points;
     double t_sweep = vdbs_now();
-    if (st == VDBS_OK)
-        st = vdbs_light_grids_build(s->runner, s->volume, s->scene, &r.lights, 0, count, &fine_desc,
-                                    &r.fine, err);
+    st = vdbs_light_grids_build(s->runner, s->volume, s->scene, &r.lights, 0, count, &fine_desc,
+                                &r.fine, err);
     stats->seconds_sweep = vdbs_now() - t_sweep;
-    const double sigma_s = sigma_t * albedo;
-    for (int l = 0; l < count && st == VDBS_OK; ++l) {
-        double d[3], e[3], a0;
-        if (l < r.lights.direct_count && r.lights.direct[l].type == VDBS_LIGHT_POINT) {
-            st = propagate_point(&r, l, sigma_s, err);
-            continue;
-        }
-        if (l < r.lights.direct_count) {
-            const vdbs_direct_light *dl = &r.lights.direct[l];
-            memcpy(d, dl->world, sizeof d);
-            memcpy(e, dl->color, sizeof e);
-            a0 = g; /* a delta beam scattered once: HG(g) about d */
-        } else {
-            /* A sky ordinate stands for a patch of solid angle w: as a cap, its light's mean
-             * cosine about the ordinate is (1 + cos theta) / 2 with 2 pi (1 - cos theta) = w,
-             * and one scattering multiplies it by g (the prefiltered initial anisotropy). */
-            const vdbs_sky_ordinate *o = &r.lights.ordinates[l - r.lights.direct_count];
-            for (int k = 0; k < 3; ++k) {
-                d[k] = -o->world[k];
-                e[k] = o->radiance[k] * o->weight;
-            }
-            double cos_theta = fmax(-1.0, 1.0 - o->weight / (2.0 * VDBS_PI));
-            a0 = g * 0.5 * (1.0 + cos_theta);
-        }
-        st = propagate_grid(&r, l, d, e, a0, sigma_s, err);
-    }
+    if (st == VDBS_OK)
+        st = propagate_lights(&r, count, sigma_t * albedo, err);
     if (st == VDBS_OK)
         st = isotropic(&r, err);
     if (st == VDBS_OK) {

@@ -13,8 +13,7 @@
 #include "vs_pop.h"
 
 void vdbs_pop_grid_params(const int n[3], double h, double g, const double albedo[3],
-                          const vdbs_pop_transport *transport, int keep_a,
-                          uint32_t *params)
+                          const vdbs_pop_transport *transport, int keep_a, uint32_t *params)
 {
     memset(params, 0, sizeof(uint32_t) * VS_POP_PARAM_WORDS);
     for (int a = 0; a < 3; ++a)

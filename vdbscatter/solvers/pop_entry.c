@@ -91,8 +91,8 @@ static vdbs_status run_pop(const vdbs_solve *s, void *stats, vdbs_error *err)
     desc.resolution = option_int(s->scene, OPT_RES);
     desc.ordinates = option_int(s->scene, OPT_ORDINATES);
     desc.max_iterations = option_int(s->scene, OPT_ITERATIONS);
-    desc.decay = option_int(s->scene, OPT_DECAY) ? VDBS_POP_DECAY_PAPER
-                                                 : VDBS_POP_DECAY_MEAN_COSINE;
+    desc.decay =
+        option_int(s->scene, OPT_DECAY) ? VDBS_POP_DECAY_PAPER : VDBS_POP_DECAY_MEAN_COSINE;
     desc.tally_cell = option_int(s->scene, OPT_TALLY);
     desc.radial = option_int(s->scene, OPT_RADIAL);
     desc.importance = option_int(s->scene, OPT_IMPORTANCE);

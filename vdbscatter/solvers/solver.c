@@ -6,8 +6,8 @@
 
 /* The table: one line per solver; each entry is defined in the solver's own file. */
 extern const vdbs_solver vdbs_solver_single, vdbs_solver_pop, vdbs_solver_fld, vdbs_solver_svd;
-static const vdbs_solver *const table[] = {&vdbs_solver_single, &vdbs_solver_pop,
-                                           &vdbs_solver_fld, &vdbs_solver_svd};
+static const vdbs_solver *const table[] = {&vdbs_solver_single, &vdbs_solver_pop, &vdbs_solver_fld,
+                                           &vdbs_solver_svd};
 
 #define TABLE_COUNT ((int)(sizeof table / sizeof table[0]))
 #define REGISTERED_MAX 8
@@ -78,8 +78,7 @@ vdbs_status vdbs_solver_register(const vdbs_solver *solver, vdbs_error *err)
     if (!solver || !solver->name || !solver->run)
         return vdbs_error_set(err, VDBS_ERR_INTERNAL, "solver: an entry needs a name and a run");
     if (vdbs_solver_find(solver->name))
-        return vdbs_error_set(err, VDBS_ERR_INTERNAL, "solver %s: the name is taken",
-                              solver->name);
+        return vdbs_error_set(err, VDBS_ERR_INTERNAL, "solver %s: the name is taken", solver->name);
     if (solver->stats_size > VDBS_SOLVER_STATS_MAX)
         return vdbs_error_set(err, VDBS_ERR_INTERNAL, "solver %s: stats of %zu bytes (at most %d)",
                               solver->name, solver->stats_size, VDBS_SOLVER_STATS_MAX);
@@ -146,8 +145,9 @@ static vdbs_status check_value(const vdbs_solver_option *o, const char *what, do
         return VDBS_OK;
     case VDBS_OPTION_NUMBER: /* 0 is the default */
         if (!(isfinite(v) && (v == 0.0 || (v > o->min && v < o->max))))
-            return vdbs_error_set(err, VDBS_ERR_INPUT, "%s: must be in [%g, %g) (0: the default), got %g",
-                                  what, o->min, o->max, v);
+            return vdbs_error_set(err, VDBS_ERR_INPUT,
+                                  "%s: must be in [%g, %g) (0: the default), got %g", what, o->min,
+                                  o->max, v);
         return VDBS_OK;
     case VDBS_OPTION_INT:
         if (v != 0.0 && !(v >= o->min && v <= o->max && v == floor(v)))
@@ -197,8 +197,7 @@ const char *vdbs_solver_option_choice(const vdbs_scene *scene, const vdbs_solver
     return i >= 0 && i < choice_count(option) ? option->choices[i] : "";
 }
 
-vdbs_status vdbs_solver_options_check(const vdbs_scene *scene, const char *prefix,
-                                      vdbs_error *err)
+vdbs_status vdbs_solver_options_check(const vdbs_scene *scene, const char *prefix, vdbs_error *err)
 {
     for (int i = 0; i < scene->solver_setting_count; ++i) {
         const vdbs_solver_setting *set = &scene->solver_settings[i];

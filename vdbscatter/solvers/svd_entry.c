@@ -89,8 +89,8 @@ static void state_destroy(void *state)
     free(s);
 }
 
-static vdbs_status state_read(const char *path, const vdbs_volume *volume,
-                              const vdbs_scene *scene, void **out, vdbs_error *err)
+static vdbs_status state_read(const char *path, const vdbs_volume *volume, const vdbs_scene *scene,
+                              void **out, vdbs_error *err)
 {
     svd_state *s = state_create();
     if (!s)

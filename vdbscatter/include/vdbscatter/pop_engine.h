@@ -52,9 +52,9 @@ void vdbs_pop_start_lobes(float *state, int64_t cells, double a0, int tally_cell
                           const vdbs_radial_frame *radial);
 
 /* The parameter words of a radial grid over frame f (shaders/vs_pop.h): the header for a medium
- * of HG g and albedo with the transport's decay law and tally, the flux-conserving compensation on, then
- * the shell radii and texel records. *words receives their count; NULL when out of memory.
- * The caller frees it. */
+ * of HG g and albedo with the transport's decay law and tally, the flux-conserving compensation on,
+ * then the shell radii and texel records. *words receives their count; NULL when out of memory. The
+ * caller frees it. */
 uint32_t *vdbs_pop_radial_params(const vdbs_radial_frame *f, double g, const double albedo[3],
                                  const vdbs_pop_transport *transport, size_t *words);
 

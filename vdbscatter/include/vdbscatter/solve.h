@@ -27,7 +27,7 @@ typedef struct vdbs_solve {
     const vdbs_quality *quality;
     const vdbs_light_grid_desc *s1_grids; /* S1 from light grids; NULL: the exact march */
     vdbs_progress *progress;
-    vdbs_s1_stats *s1_stats;          /* filled when S1 comes from light grids; may be NULL */
+    vdbs_s1_stats *s1_stats; /* filled when S1 comes from light grids; may be NULL */
     /* The solver's state (solver.h vdbs_solver_state): --warm-start's, or NULL; and
      * --keep-state's to fill, or NULL. */
     const void *warm;

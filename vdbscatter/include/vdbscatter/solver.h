@@ -35,9 +35,9 @@ typedef struct vdbs_solver_option {
     const char *key;  /* solver.KEY in a scene file: "pop_res"; unique over all solvers */
     const char *flag; /* the command line's: "--pop-res" */
     vdbs_option_kind kind;
-    const char *syntax; /* the value in --help ("N", "LAW", "on|off"); NULL: a flag without
-                           a value that selects choice 1 (--pop-importance) */
-    double min, max;    /* INT, NUMBER */
+    const char *syntax;         /* the value in --help ("N", "LAW", "on|off"); NULL: a flag without
+                                   a value that selects choice 1 (--pop-importance) */
+    double min, max;            /* INT, NUMBER */
     const char *const *choices; /* CHOICE: the names, NULL-terminated */
     const char *noun;           /* CHOICE: what a value is, in errors ("decay"); NULL: "value" */
     const char *even;           /* INT: non-NULL: the count must be even, because of this */
@@ -107,8 +107,7 @@ vdbs_status vdbs_solver_register(const vdbs_solver *solver, vdbs_error *err);
 
 /* The option of a scene key or a flag over every solver, with its solver; NULL if none. */
 const vdbs_solver_option *vdbs_solver_option_by_key(const char *key, const vdbs_solver **solver);
-const vdbs_solver_option *vdbs_solver_option_by_flag(const char *flag,
-                                                     const vdbs_solver **solver);
+const vdbs_solver_option *vdbs_solver_option_by_flag(const char *flag, const vdbs_solver **solver);
 
 /* The value an option has in a scene: as set, else its preset at `quality` (0 where the
  * solver has its own rule). */
@@ -128,8 +127,7 @@ vdbs_status vdbs_solver_option_choose(vdbs_scene *scene, const vdbs_solver_optio
 const char *vdbs_solver_option_choice(const vdbs_scene *scene, const vdbs_solver_option *option);
 /* Checks every solver option a scene sets against its range, and each solver's validate
  * (errors name prefix + "solver.KEY"); VDBS_ERR_INPUT for a key no solver has. */
-vdbs_status vdbs_solver_options_check(const vdbs_scene *scene, const char *prefix,
-                                      vdbs_error *err);
+vdbs_status vdbs_solver_options_check(const vdbs_scene *scene, const char *prefix, vdbs_error *err);
 /* Writes an option's --help lines ("  --pop-res N     POP: ...") into buf. */
 void vdbs_solver_option_help(const vdbs_solver_option *option, char *buf, size_t size);
 
