@@ -102,9 +102,8 @@ static cJSON *report_json(const char *input, const char *output, const vdbs_scen
         cli_json_light_grids(j, &r->s1_grids);
     }
     const vdbs_solver *solver = vdbs_solver_find(scene->method);
-    if (solver && solver->report_json)
-        solver->report_json(scene, vdbs_bake_report_stats(r), t,
-                            cJSON_AddObjectToObject(j, solver->name));
+    if (solver)
+        vdbs_solver_report_json(solver, scene, vdbs_bake_report_stats(r), t, j);
     double rmax[3] = {r->radiance_max[0], r->radiance_max[1], r->radiance_max[2]};
     cJSON_AddItemToObject(j, "radiance_max", cli_json_triple(rmax));
     const char *grids[] = {"density", "radiance", "ms",           "ms_l1x",

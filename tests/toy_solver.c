@@ -4,7 +4,7 @@
  * line (cli/main.c with its main renamed, tests/CMakeLists.txt), so bake's --help, the scene
  * key, the JSON report and the lit VDB's metadata all meet the toy's option as they meet a
  * real solver's (tests/test_toy_solver_cli.py). */
-#include <cjson/cJSON.h>
+#include <stddef.h>
 #include <stdio.h>
 
 #include "vdbscatter/solve.h"
@@ -47,14 +47,10 @@ static vdbs_status run_toy(const vdbs_solve *s, void *stats, vdbs_error *err)
     return st;
 }
 
-static void report_json(const vdbs_scene *scene, const void *stats, cJSON *seconds, cJSON *block)
-{
-    (void)scene;
-    (void)seconds;
-    const toy_stats *t = stats;
-    cJSON_AddNumberToObject(block, "factor", t->factor);
-    cJSON_AddNumberToObject(block, "voxels", t->voxels);
-}
+static const vdbs_report_field report[] = {
+    {"factor", VDBS_REPORT_DOUBLE, offsetof(toy_stats, factor)},
+    {"voxels", VDBS_REPORT_DOUBLE, offsetof(toy_stats, voxels)},
+};
 
 static void report_text(const void *stats, char *text, size_t size)
 {
@@ -69,7 +65,8 @@ static const vdbs_solver toy = {
     .option_count = 1,
     .run = run_toy,
     .stats_size = sizeof(toy_stats),
-    .report_json = report_json,
+    .report = report,
+    .report_count = 2,
     .report_text = report_text,
     .cost = {1, 1, 1, 1},
 };

@@ -1,5 +1,5 @@
 /* The flux-limited diffusion solver's entry (solver.h): its options, report block and run. */
-#include <cjson/cJSON.h>
+#include <stddef.h>
 #include <stdio.h>
 #include <stdlib.h>
 
@@ -27,6 +27,7 @@ static const vdbs_solver_option options[] = {
                      .syntax = "on|off",
                      .choices = on_off,
                      .noun = "limiter",
+                     .report_key = "limiter",
                      .help = "FLD: Levermore-Pomraning flux limiter (default on) or\n"
                              "classic diffusion"},
     [OPT_L1] = {.key = "fld_l1",
@@ -34,12 +35,14 @@ static const vdbs_solver_option options[] = {
                 .kind = VDBS_OPTION_CHOICE,
                 .syntax = "on|off",
                 .choices = on_off,
+                .report_key = "l1",
                 .help = "FLD: write ms_l1 from the diffusive flux (default on)"},
     [OPT_P1] = {.key = "fld_p1",
                 .flag = "--fld-p1",
                 .kind = VDBS_OPTION_CHOICE,
                 .syntax = "on|off",
                 .choices = on_off,
+                .report_key = "p1",
                 .help = "FLD: the first-scattered light's first moment (P1 source;\n"
                         "default on) or an isotropic source"},
 };
@@ -74,29 +77,25 @@ static vdbs_status run_fld(const vdbs_solve *s, void *stats, vdbs_error *err)
     return st;
 }
 
-static void report_json(const vdbs_scene *scene, const void *stats, cJSON *t, cJSON *fj)
-{
-    const vdbs_fld_stats *f = stats;
-    cJSON_AddNumberToObject(t, "fld_source", f->seconds_source);
-    cJSON_AddNumberToObject(t, "fld_solve", f->seconds_solve);
-    cJSON_AddNumberToObject(t, "fld_upsample", f->seconds_upsample);
-    cJSON_AddNumberToObject(fj, "resolution", f->resolution);
-    cJSON_AddNumberToObject(fj, "mean_sigma_tr", f->mean_sigma_tr);
-    cJSON_AddNumberToObject(fj, "cells", (double)f->cells);
-    cJSON_AddNumberToObject(fj, "cell_side", f->cell_side);
-    cJSON_AddNumberToObject(fj, "updates", f->updates);
-    cJSON_AddNumberToObject(fj, "cg_iterations", f->cg_iterations);
-    cJSON_AddNumberToObject(fj, "levels", f->levels);
-    cJSON_AddNumberToObject(fj, "operator_applications", f->operator_applications);
-    cJSON_AddNumberToObject(fj, "cell_updates", (double)f->cell_updates);
-    cJSON_AddNumberToObject(fj, "residual", f->residual);
-    cJSON_AddNumberToObject(fj, "source", f->source);
-    cJSON_AddNumberToObject(fj, "absorbed", f->absorbed);
-    cJSON_AddNumberToObject(fj, "leaked", f->leaked);
-    cJSON_AddStringToObject(fj, "limiter", vdbs_solver_option_choice(scene, &options[OPT_LIMITER]));
-    cJSON_AddStringToObject(fj, "l1", vdbs_solver_option_choice(scene, &options[OPT_L1]));
-    cJSON_AddStringToObject(fj, "p1", vdbs_solver_option_choice(scene, &options[OPT_P1]));
-}
+/* The report block, in the report's order (the stats' fields by offset). */
+static const vdbs_report_field report[] = {
+    {"source", VDBS_REPORT_SECONDS, offsetof(vdbs_fld_stats, seconds_source)},
+    {"solve", VDBS_REPORT_SECONDS, offsetof(vdbs_fld_stats, seconds_solve)},
+    {"upsample", VDBS_REPORT_SECONDS, offsetof(vdbs_fld_stats, seconds_upsample)},
+    {"resolution", VDBS_REPORT_INT, offsetof(vdbs_fld_stats, resolution)},
+    {"mean_sigma_tr", VDBS_REPORT_DOUBLE, offsetof(vdbs_fld_stats, mean_sigma_tr)},
+    {"cells", VDBS_REPORT_INT64, offsetof(vdbs_fld_stats, cells)},
+    {"cell_side", VDBS_REPORT_DOUBLE, offsetof(vdbs_fld_stats, cell_side)},
+    {"updates", VDBS_REPORT_INT, offsetof(vdbs_fld_stats, updates)},
+    {"cg_iterations", VDBS_REPORT_INT, offsetof(vdbs_fld_stats, cg_iterations)},
+    {"levels", VDBS_REPORT_INT, offsetof(vdbs_fld_stats, levels)},
+    {"operator_applications", VDBS_REPORT_INT, offsetof(vdbs_fld_stats, operator_applications)},
+    {"cell_updates", VDBS_REPORT_INT64, offsetof(vdbs_fld_stats, cell_updates)},
+    {"residual", VDBS_REPORT_DOUBLE, offsetof(vdbs_fld_stats, residual)},
+    {"source", VDBS_REPORT_DOUBLE, offsetof(vdbs_fld_stats, source)},
+    {"absorbed", VDBS_REPORT_DOUBLE, offsetof(vdbs_fld_stats, absorbed)},
+    {"leaked", VDBS_REPORT_DOUBLE, offsetof(vdbs_fld_stats, leaked)},
+};
 
 static void report_text(const void *stats, char *text, size_t size)
 {
@@ -113,7 +112,8 @@ const vdbs_solver vdbs_solver_fld = {
     .option_count = (int)(sizeof options / sizeof options[0]),
     .run = run_fld,
     .stats_size = sizeof(vdbs_fld_stats),
-    .report_json = report_json,
+    .report = report,
+    .report_count = (int)(sizeof report / sizeof report[0]),
     .report_text = report_text,
     .cost = {0},
 };

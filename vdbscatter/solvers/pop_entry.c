@@ -1,5 +1,5 @@
 /* The POP solver's entry (solver.h): its options, report block and run. */
-#include <cjson/cJSON.h>
+#include <stddef.h>
 #include <stdio.h>
 
 #include "vdbscatter/pop.h"
@@ -47,6 +47,7 @@ static const vdbs_solver_option options[] = {
                    .syntax = "LAW",
                    .choices = decay_names,
                    .noun = "decay",
+                   .report_key = "decay",
                    .help = "POP anisotropy decay: mean-cosine (default; a exp(-sigma_s t\n"
                            "(1 - g)), exact first moment) or paper (a g^(sigma_s t))"},
     [OPT_TALLY] = {.key = "pop_tally",
@@ -55,6 +56,7 @@ static const vdbs_solver_option options[] = {
                    .syntax = "T",
                    .choices = tally_names,
                    .noun = "tally",
+                   .report_key = "tally",
                    .help = "POP fluence per cell crossing: chord (default; the lobe's\n"
                            "mean chord, 2/3 of a cell for isotropic light) or cell (the\n"
                            "paper's one cell side)"},
@@ -99,37 +101,34 @@ static vdbs_status run_pop(const vdbs_solve *s, void *stats, vdbs_error *err)
     return vdbs_pop_solve(s, &desc, stats, err);
 }
 
-static void report_json(const vdbs_scene *scene, const void *stats, cJSON *t, cJSON *pj)
-{
-    const vdbs_pop_stats *p = stats;
-    cJSON_AddNumberToObject(t, "pop_sweep", p->seconds_sweep);
-    cJSON_AddNumberToObject(t, "pop_seed", p->seconds_seed);
-    cJSON_AddNumberToObject(t, "pop_propagate", p->seconds_propagate);
-    cJSON_AddNumberToObject(t, "pop_isotropic", p->seconds_isotropic);
-    cJSON_AddNumberToObject(t, "pop_merge", p->seconds_merge);
-    cJSON_AddNumberToObject(t, "pop_upsample", p->seconds_upsample);
-    cJSON_AddNumberToObject(t, "pop_importance", p->seconds_importance);
-    cJSON_AddNumberToObject(pj, "grids", p->grids);
-    cJSON_AddNumberToObject(pj, "radial_grids", p->radial_grids);
-    cJSON_AddNumberToObject(pj, "radial", p->radial);
-    cJSON_AddStringToObject(pj, "importance", p->importance ? "on" : "off");
-    cJSON_AddNumberToObject(pj, "importance_cells", (double)p->importance_cells);
-    cJSON_AddNumberToObject(pj, "importance_iterations", p->importance_iterations);
-    cJSON_AddNumberToObject(pj, "resolution", p->resolution);
-    cJSON_AddNumberToObject(pj, "cells", (double)p->cells);
-    cJSON_AddNumberToObject(pj, "merged_cells", (double)p->merged_cells);
-    cJSON_AddNumberToObject(pj, "iterations_anisotropic", p->iterations_anisotropic);
-    cJSON_AddNumberToObject(pj, "iterations_isotropic", p->iterations_isotropic);
-    cJSON_AddNumberToObject(pj, "cell_updates", p->cell_updates);
-    cJSON_AddNumberToObject(pj, "cell_side", p->cell_side);
-    cJSON_AddNumberToObject(pj, "seeded", p->seeded);
-    cJSON_AddNumberToObject(pj, "beam_loss", p->beam_loss);
-    cJSON_AddNumberToObject(pj, "residual", p->residual);
-    cJSON_AddNumberToObject(pj, "merge_in", p->merge_in);
-    cJSON_AddNumberToObject(pj, "merge_out", p->merge_out);
-    cJSON_AddStringToObject(pj, "decay", vdbs_solver_option_choice(scene, &options[OPT_DECAY]));
-    cJSON_AddStringToObject(pj, "tally", vdbs_solver_option_choice(scene, &options[OPT_TALLY]));
-}
+/* The report block, in the report's order (the stats' fields by offset). */
+static const vdbs_report_field report[] = {
+    {"sweep", VDBS_REPORT_SECONDS, offsetof(vdbs_pop_stats, seconds_sweep)},
+    {"seed", VDBS_REPORT_SECONDS, offsetof(vdbs_pop_stats, seconds_seed)},
+    {"propagate", VDBS_REPORT_SECONDS, offsetof(vdbs_pop_stats, seconds_propagate)},
+    {"isotropic", VDBS_REPORT_SECONDS, offsetof(vdbs_pop_stats, seconds_isotropic)},
+    {"merge", VDBS_REPORT_SECONDS, offsetof(vdbs_pop_stats, seconds_merge)},
+    {"upsample", VDBS_REPORT_SECONDS, offsetof(vdbs_pop_stats, seconds_upsample)},
+    {"importance", VDBS_REPORT_SECONDS, offsetof(vdbs_pop_stats, seconds_importance)},
+    {"grids", VDBS_REPORT_INT, offsetof(vdbs_pop_stats, grids)},
+    {"radial_grids", VDBS_REPORT_INT, offsetof(vdbs_pop_stats, radial_grids)},
+    {"radial", VDBS_REPORT_INT, offsetof(vdbs_pop_stats, radial)},
+    {"importance", VDBS_REPORT_ON_OFF, offsetof(vdbs_pop_stats, importance)},
+    {"importance_cells", VDBS_REPORT_INT64, offsetof(vdbs_pop_stats, importance_cells)},
+    {"importance_iterations", VDBS_REPORT_INT, offsetof(vdbs_pop_stats, importance_iterations)},
+    {"resolution", VDBS_REPORT_INT, offsetof(vdbs_pop_stats, resolution)},
+    {"cells", VDBS_REPORT_INT64, offsetof(vdbs_pop_stats, cells)},
+    {"merged_cells", VDBS_REPORT_INT64, offsetof(vdbs_pop_stats, merged_cells)},
+    {"iterations_anisotropic", VDBS_REPORT_INT, offsetof(vdbs_pop_stats, iterations_anisotropic)},
+    {"iterations_isotropic", VDBS_REPORT_INT, offsetof(vdbs_pop_stats, iterations_isotropic)},
+    {"cell_updates", VDBS_REPORT_DOUBLE, offsetof(vdbs_pop_stats, cell_updates)},
+    {"cell_side", VDBS_REPORT_DOUBLE, offsetof(vdbs_pop_stats, cell_side)},
+    {"seeded", VDBS_REPORT_DOUBLE, offsetof(vdbs_pop_stats, seeded)},
+    {"beam_loss", VDBS_REPORT_DOUBLE, offsetof(vdbs_pop_stats, beam_loss)},
+    {"residual", VDBS_REPORT_DOUBLE, offsetof(vdbs_pop_stats, residual)},
+    {"merge_in", VDBS_REPORT_DOUBLE, offsetof(vdbs_pop_stats, merge_in)},
+    {"merge_out", VDBS_REPORT_DOUBLE, offsetof(vdbs_pop_stats, merge_out)},
+};
 
 static void report_text(const void *stats, char *text, size_t size)
 {
@@ -146,7 +145,8 @@ const vdbs_solver vdbs_solver_pop = {
     .option_count = (int)(sizeof options / sizeof options[0]),
     .run = run_pop,
     .stats_size = sizeof(vdbs_pop_stats),
-    .report_json = report_json,
+    .report = report,
+    .report_count = (int)(sizeof report / sizeof report[0]),
     .report_text = report_text,
     .cost = {0},
 };

@@ -1,6 +1,8 @@
 #include "vdbscatter/solver.h"
 
+#include <cjson/cJSON.h>
 #include <math.h>
+#include <stdint.h>
 #include <stdio.h>
 #include <string.h>
 
@@ -238,5 +240,57 @@ void vdbs_solver_option_help(const vdbs_solver_option *option, char *buf, size_t
         buf[len] = '\0';
     } else if (size > 0) {
         buf[size - 1] = '\0';
+    }
+}
+
+/* ---- report ---- */
+
+static double field_number(const vdbs_report_field *f, const void *stats)
+{
+    const unsigned char *at = (const unsigned char *)stats + f->offset;
+    int i;
+    int64_t l;
+    double d;
+    switch (f->kind) {
+    case VDBS_REPORT_INT64:
+        memcpy(&l, at, sizeof l);
+        return (double)l;
+    case VDBS_REPORT_DOUBLE:
+    case VDBS_REPORT_SECONDS:
+        memcpy(&d, at, sizeof d);
+        return d;
+    default:
+        memcpy(&i, at, sizeof i);
+        return i;
+    }
+}
+
+void vdbs_solver_report_json(const vdbs_solver *solver, const vdbs_scene *scene, const void *stats,
+                             cJSON *seconds, cJSON *report)
+{
+    if (solver->report_count == 0)
+        return;
+    cJSON *block = cJSON_AddObjectToObject(report, solver->name);
+    for (int i = 0; i < solver->report_count; ++i) {
+        const vdbs_report_field *f = &solver->report[i];
+        const double v = field_number(f, stats);
+        if (f->kind == VDBS_REPORT_SECONDS) {
+            char key[64];
+            snprintf(key, sizeof key, "%s_%s", solver->name, f->key);
+            cJSON_AddNumberToObject(seconds, key, v);
+        } else if (f->kind == VDBS_REPORT_BOOL) {
+            cJSON_AddBoolToObject(block, f->key, v != 0.0);
+        } else if (f->kind == VDBS_REPORT_ON_OFF) {
+            cJSON_AddStringToObject(block, f->key, v != 0.0 ? "on" : "off");
+        } else {
+            cJSON_AddNumberToObject(block, f->key, v);
+        }
+    }
+    for (int i = 0; i < solver->option_count; ++i) {
+        const vdbs_solver_option *o = &solver->options[i];
+        if (o->report_key && o->kind == VDBS_OPTION_CHOICE)
+            cJSON_AddStringToObject(block, o->report_key, vdbs_solver_option_choice(scene, o));
+        else if (o->report_key)
+            cJSON_AddNumberToObject(block, o->report_key, vdbs_scene_solver_value(scene, o->key));
     }
 }

@@ -1,7 +1,7 @@
 /* The discrete-ordinates solver's entry (solver.h): its options, report block, state
  * (--keep-state writes the radiance moments into the lit VDB, --warm-start reads them back)
  * and run. */
-#include <cjson/cJSON.h>
+#include <stddef.h>
 #include <stdio.h>
 #include <stdlib.h>
 
@@ -199,35 +199,33 @@ static vdbs_status validate(const vdbs_scene *scene, const char *prefix, vdbs_er
     return VDBS_OK;
 }
 
-static void report_json(const vdbs_scene *scene, const void *stats, cJSON *t, cJSON *sj)
-{
-    (void)scene;
-    const vdbs_svd_stats *v = stats;
-    cJSON_AddNumberToObject(t, "svd_source", v->seconds_source);
-    cJSON_AddNumberToObject(t, "svd_solve", v->seconds_solve);
-    cJSON_AddNumberToObject(t, "svd_upsample", v->seconds_upsample);
-    cJSON_AddNumberToObject(sj, "directions", v->directions);
-    cJSON_AddNumberToObject(sj, "terms", v->terms);
-    cJSON_AddNumberToObject(sj, "factor_rmse", v->factor_rmse);
-    cJSON_AddNumberToObject(sj, "delta_m_f", v->delta_m_f);
-    cJSON_AddNumberToObject(sj, "g_scaled", v->g_scaled);
-    cJSON_AddNumberToObject(sj, "resolution", v->resolution);
-    cJSON_AddNumberToObject(sj, "cells", (double)v->cells);
-    cJSON_AddNumberToObject(sj, "cell_side", v->cell_side);
-    cJSON_AddNumberToObject(sj, "iterations", v->iterations);
-    cJSON_AddNumberToObject(sj, "residual", v->residual);
-    cJSON_AddBoolToObject(sj, "converged", v->converged);
-    cJSON_AddNumberToObject(sj, "steps_per_sweep", v->steps_per_sweep);
-    cJSON_AddNumberToObject(sj, "chunk", v->chunk);
-    cJSON_AddNumberToObject(sj, "cell_direction_updates", (double)v->cell_direction_updates);
-    cJSON_AddNumberToObject(sj, "first_power", v->first_power);
-    cJSON_AddNumberToObject(sj, "emitted", v->emitted);
-    cJSON_AddNumberToObject(sj, "collided", v->collided);
-    cJSON_AddNumberToObject(sj, "leaked", v->leaked);
-    cJSON_AddNumberToObject(sj, "balance", v->balance);
-    cJSON_AddNumberToObject(sj, "clamped", v->clamped);
-    cJSON_AddNumberToObject(sj, "clamped_fraction", v->clamped_fraction);
-}
+/* The report block, in the report's order (the stats' fields by offset). */
+static const vdbs_report_field report[] = {
+    {"source", VDBS_REPORT_SECONDS, offsetof(vdbs_svd_stats, seconds_source)},
+    {"solve", VDBS_REPORT_SECONDS, offsetof(vdbs_svd_stats, seconds_solve)},
+    {"upsample", VDBS_REPORT_SECONDS, offsetof(vdbs_svd_stats, seconds_upsample)},
+    {"directions", VDBS_REPORT_INT, offsetof(vdbs_svd_stats, directions)},
+    {"terms", VDBS_REPORT_INT, offsetof(vdbs_svd_stats, terms)},
+    {"factor_rmse", VDBS_REPORT_DOUBLE, offsetof(vdbs_svd_stats, factor_rmse)},
+    {"delta_m_f", VDBS_REPORT_DOUBLE, offsetof(vdbs_svd_stats, delta_m_f)},
+    {"g_scaled", VDBS_REPORT_DOUBLE, offsetof(vdbs_svd_stats, g_scaled)},
+    {"resolution", VDBS_REPORT_INT, offsetof(vdbs_svd_stats, resolution)},
+    {"cells", VDBS_REPORT_INT64, offsetof(vdbs_svd_stats, cells)},
+    {"cell_side", VDBS_REPORT_DOUBLE, offsetof(vdbs_svd_stats, cell_side)},
+    {"iterations", VDBS_REPORT_INT, offsetof(vdbs_svd_stats, iterations)},
+    {"residual", VDBS_REPORT_DOUBLE, offsetof(vdbs_svd_stats, residual)},
+    {"converged", VDBS_REPORT_BOOL, offsetof(vdbs_svd_stats, converged)},
+    {"steps_per_sweep", VDBS_REPORT_INT, offsetof(vdbs_svd_stats, steps_per_sweep)},
+    {"chunk", VDBS_REPORT_INT, offsetof(vdbs_svd_stats, chunk)},
+    {"cell_direction_updates", VDBS_REPORT_INT64, offsetof(vdbs_svd_stats, cell_direction_updates)},
+    {"first_power", VDBS_REPORT_DOUBLE, offsetof(vdbs_svd_stats, first_power)},
+    {"emitted", VDBS_REPORT_DOUBLE, offsetof(vdbs_svd_stats, emitted)},
+    {"collided", VDBS_REPORT_DOUBLE, offsetof(vdbs_svd_stats, collided)},
+    {"leaked", VDBS_REPORT_DOUBLE, offsetof(vdbs_svd_stats, leaked)},
+    {"balance", VDBS_REPORT_DOUBLE, offsetof(vdbs_svd_stats, balance)},
+    {"clamped", VDBS_REPORT_DOUBLE, offsetof(vdbs_svd_stats, clamped)},
+    {"clamped_fraction", VDBS_REPORT_DOUBLE, offsetof(vdbs_svd_stats, clamped_fraction)},
+};
 
 static void report_text(const void *stats, char *text, size_t size)
 {
@@ -246,7 +244,8 @@ const vdbs_solver vdbs_solver_svd = {
     .run = run_svd,
     .stats_size = sizeof(vdbs_svd_stats),
     .validate = validate,
-    .report_json = report_json,
+    .report = report,
+    .report_count = (int)(sizeof report / sizeof report[0]),
     .report_text = report_text,
     .state = &state,
     .cost = {0},

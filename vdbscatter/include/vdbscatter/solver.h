@@ -29,6 +29,23 @@ typedef enum vdbs_option_kind {
     VDBS_OPTION_CHOICE   /* one of `choices`, stored as its index; index 0 is the default */
 } vdbs_option_kind;
 
+/* One number of a solver's report block, read from its stats by offset. */
+typedef enum vdbs_report_kind {
+    VDBS_REPORT_INT = 0, /* int */
+    VDBS_REPORT_INT64,   /* int64_t / long long */
+    VDBS_REPORT_DOUBLE,  /* double */
+    VDBS_REPORT_BOOL,    /* int, written true / false */
+    VDBS_REPORT_ON_OFF,  /* int, written "on" / "off" */
+    VDBS_REPORT_SECONDS  /* double, a stage time: into the report's "seconds" */
+} vdbs_report_kind;
+
+typedef struct vdbs_report_field {
+    const char *key; /* in the solver's block; a stage time's key is prefixed by the solver's
+                        name in "seconds" ("svd_solve") */
+    vdbs_report_kind kind;
+    size_t offset; /* offsetof(the solver's stats, the field) */
+} vdbs_report_field;
+
 /* One option of a solver. Unset, an option is 0 in the scene (vdbs_scene_solver_value), which
  * means its default: preset[quality], or the solver's own rule where preset is all 0. */
 typedef struct vdbs_solver_option {
@@ -42,6 +59,7 @@ typedef struct vdbs_solver_option {
     const char *noun;           /* CHOICE: what a value is, in errors ("decay"); NULL: "value" */
     const char *even;           /* INT: non-NULL: the count must be even, because of this */
     const char *help;           /* --help text after the flag; '\n' starts an indented line */
+    const char *report_key;     /* non-NULL: the report block shows the value under this key */
     double preset[VDBS_QUALITY_COUNT]; /* the default per quality, low to ultra; all 0: the
                                           solver's own rule (the help says which) */
 } vdbs_solver_option;
@@ -78,10 +96,10 @@ typedef struct vdbs_solver {
     /* Checks between options that one option's range cannot say (terms <= directions);
      * errors name `prefix` + "solver.KEY". NULL: none. */
     vdbs_status (*validate)(const vdbs_scene *scene, const char *prefix, vdbs_error *err);
-    /* The report block: stage times into `seconds` (keys prefixed with the solver's name),
-     * the rest into `block` (the report's object named after the solver). NULL: none. */
-    void (*report_json)(const vdbs_scene *scene, const void *stats, struct cJSON *seconds,
-                        struct cJSON *block);
+    /* The report block: these fields of the stats (vdbs_solver_report_json), then the
+     * options that have a report_key. */
+    const vdbs_report_field *report;
+    int report_count;
     /* The same in one line of text for the bake's summary ("D 32, N 5, 41 iterations");
      * NULL: none. */
     void (*report_text)(const void *stats, char *text, size_t size);
@@ -128,6 +146,11 @@ const char *vdbs_solver_option_choice(const vdbs_scene *scene, const vdbs_solver
 /* Checks every solver option a scene sets against its range, and each solver's validate
  * (errors name prefix + "solver.KEY"); VDBS_ERR_INPUT for a key no solver has. */
 vdbs_status vdbs_solver_options_check(const vdbs_scene *scene, const char *prefix, vdbs_error *err);
+/* The solver's report block from its stats: stage times into `seconds`, the rest and the
+ * options with a report_key into `block` (the report's object named after the solver); no
+ * block for a solver without report fields. */
+void vdbs_solver_report_json(const vdbs_solver *solver, const vdbs_scene *scene, const void *stats,
+                             struct cJSON *seconds, struct cJSON *report);
 /* Writes an option's --help lines ("  --pop-res N     POP: ...") into buf. */
 void vdbs_solver_option_help(const vdbs_solver_option *option, char *buf, size_t size);
 
