@@ -7,7 +7,6 @@
 
 #include "vdbscatter/advice.h"
 #include "vdbscatter/camera_radiance.h"
-#include "vdbscatter/format.h"
 #include "vdbscatter/lightgrid.h"
 #include "vdbscatter/lights.h"
 #include "vdbscatter/progress.h"
@@ -257,8 +256,9 @@ static vdbs_status write_lit(bake_job *j, vdbs_bake_report *report, vdbs_error *
     char sky[16], seconds[32], scale[32], g[32], albedo[96];
     snprintf(sky, sizeof sky, "%d", j->sky);
     snprintf(seconds, sizeof seconds, "%.6f", report->seconds_solve);
-    vdbs_format_double(scene->density_scale, scale, sizeof scale);
-    vdbs_format_double(scene->g, g, sizeof g);
+    /* 17 digits: exact, and the text lit VDBs have always carried */
+    snprintf(scale, sizeof scale, "%.17g", scene->density_scale);
+    snprintf(g, sizeof g, "%.17g", scene->g);
     snprintf(albedo, sizeof albedo, "%.9g,%.9g,%.9g", scene->albedo[0], scene->albedo[1],
              scene->albedo[2]);
     vdbio_meta meta[BAKE_META_MAX] = {
