@@ -3,7 +3,6 @@
  * solver.* keys are the solver table's options (solver.h). */
 #include "vdbscatter/scene_file.h"
 
-#include "vdbscatter/format.h"
 #include "vdbscatter/solver.h"
 
 #include "vdbscatter/suggest.h"
@@ -869,10 +868,30 @@ vdbs_status vdbs_scene_load(const char *path, vdbs_scene *scene, vdbs_error *err
  * bit-exact (cJSON's own printer accepts a 1-ulp error). Non-finite values have no JSON
  * form and become null, which the parser rejects: validate first. */
 
+/* The shortest of %.15g, %.16g and %.17g that reads back as v; "null" if not finite. */
+static void format_double(double v, char *buf, size_t size)
+{
+    if (!isfinite(v)) {
+        snprintf(buf, size, "null");
+        return;
+    }
+    for (int prec = 15; prec <= 17; ++prec) {
+        snprintf(buf, size, "%.*g", prec, v);
+        if (strtod(buf, NULL) == v)
+            break;
+    }
+    /* printf follows the C locale's decimal point; JSON always uses '.'. */
+    const char *dp = localeconv()->decimal_point;
+    if (dp && dp[0] && dp[0] != '.' && !dp[1])
+        for (char *p = buf; *p; ++p)
+            if (*p == dp[0])
+                *p = '.';
+}
+
 static bool add_number(cJSON *obj, const char *key, double v)
 {
     char buf[64];
-    vdbs_format_double(v, buf, sizeof buf);
+    format_double(v, buf, sizeof buf);
     cJSON *item = cJSON_CreateRaw(buf);
     return item && cJSON_AddItemToObject(obj, key, item);
 }
@@ -892,7 +911,7 @@ static bool add_vec3(cJSON *obj, const char *key, const double v[3])
         return false;
     for (int i = 0; i < 3; ++i) {
         char buf[64];
-        vdbs_format_double(v[i], buf, sizeof buf);
+        format_double(v[i], buf, sizeof buf);
         cJSON *item = cJSON_CreateRaw(buf);
         if (!item || !cJSON_AddItemToArray(arr, item))
             return false;
@@ -1021,7 +1040,7 @@ char *vdbs_scene_to_json(const vdbs_scene *s)
     }
     if (ok && s->density_target_depth > 0.0) {
         char spec[64], num[48];
-        vdbs_format_double(s->density_target_depth, num, sizeof num);
+        format_double(s->density_target_depth, num, sizeof num);
         snprintf(spec, sizeof spec, "auto:%s", num);
         ok = add_string(vol, "density_scale", spec);
     } else {
