@@ -248,18 +248,14 @@ static void print_methods(void)
 
 int cmd_bake(int argc, char **argv)
 {
+    static const cli_command command = {
+        "bake", options, help, print_methods, 0, 1, "expected one input VDB"};
     cli_args args;
     vdbs_error err;
     vdbs_status st;
-    if (cli_parse(argc, argv, options, &args, &err) != VDBS_OK)
-        return cli_fail("bake", 2, err.message);
-    if (args.help) {
-        fputs(help, stdout);
-        print_methods();
-        return CLI_EXIT_OK;
-    }
-    if (args.positional_count > 1)
-        return cli_fail("bake", 2, "expected one input VDB");
+    int opened = cli_open(&command, argc, argv, &args);
+    if (opened != CLI_CONTINUE)
+        return opened;
     const char *out = cli_output(&args);
     if (!out)
         return cli_fail("bake", 2, "missing -o OUT.vdb");
