@@ -118,20 +118,22 @@ static cJSON *report_json(const char *input, const char *output, const vdbs_scen
     return j;
 }
 
+/* After the help: the methods and their options, from the solver table. */
+static void print_solver_help(void)
+{
+    cli_solver_help(stdout);
+}
+
 int cmd_bake(int argc, char **argv)
 {
+    const cli_command command = {"bake", bake_options(),          help, print_solver_help, 0,
+                                 1,      "expected one input VDB"};
     cli_args args;
     vdbs_error err;
     vdbs_status st;
-    if (cli_parse(argc, argv, bake_options(), &args, &err) != VDBS_OK)
-        return cli_fail("bake", 2, err.message);
-    if (args.help) {
-        fputs(help, stdout);
-        cli_solver_help(stdout); /* the methods and their options, from the solver table */
-        return CLI_EXIT_OK;
-    }
-    if (args.positional_count > 1)
-        return cli_fail("bake", 2, "expected one input VDB");
+    int opened = cli_open(&command, argc, argv, &args);
+    if (opened != CLI_CONTINUE)
+        return opened;
     const char *out = cli_output(&args);
     if (!out)
         return cli_fail("bake", 2, "missing -o OUT.vdb");

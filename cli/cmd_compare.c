@@ -50,19 +50,23 @@ typedef struct metric {
     int integer; /* printed without exponent however large */
 } metric;
 
+static const cli_command command = {
+    .name = "compare",
+    .options = options,
+    .help = help,
+    .min_positional = 2,
+    .max_positional = 2,
+    .positional_error = "expected two images: A and the reference B",
+};
+
 int cmd_compare(int argc, char **argv)
 {
     cli_args args;
     vdbs_error err;
     vdbs_status st;
-    if (cli_parse(argc, argv, options, &args, &err) != VDBS_OK)
-        return cli_fail("compare", 2, err.message);
-    if (args.help) {
-        fputs(help, stdout);
-        return CLI_EXIT_OK;
-    }
-    if (args.positional_count != 2)
-        return cli_fail("compare", 2, "expected two images: A and the reference B");
+    int status = cli_open(&command, argc, argv, &args);
+    if (status != CLI_CONTINUE)
+        return status;
     double mask_below = 0.0;
     const char *v = cli_value(&args, "--mask-below");
     if (v && (st = cli_number("--mask-below", v, &mask_below, &err)) != VDBS_OK)

@@ -96,204 +96,252 @@ static void world_box(const vdbio_grid_summary *g, double lo[3], double hi[3])
     }
 }
 
+/* What the options ask for. */
+typedef struct info_request {
+    int want_gpu, json, from_levelset;
+    double scale;     /* --density-scale, default 1 */
+    double target;    /* --target-depth, 0 without */
+    vdbs_scene scene; /* --grid */
+} info_request;
+
+static vdbs_status parse_request(const cli_args *args, info_request *r, vdbs_error *err)
+{
+    vdbs_status st = VDBS_OK;
+    r->want_gpu = cli_flag(args, "--gpu");
+    r->json = cli_flag(args, "--json");
+    r->from_levelset = cli_flag(args, "--from-levelset");
+    r->scale = 1.0;
+    const char *v = cli_value(args, "--density-scale");
+    if (v && (st = cli_number("--density-scale", v, &r->scale, err)) != VDBS_OK)
+        return st;
+    if (r->scale < 0.0)
+        return vdbs_error_set(err, VDBS_ERR_INPUT, "--density-scale must be >= 0");
+    r->target = 0.0;
+    if ((v = cli_value(args, "--target-depth"))) {
+        if ((st = cli_number("--target-depth", v, &r->target, err)) != VDBS_OK)
+            return st;
+        if (!(r->target > 0.0))
+            return vdbs_error_set(err, VDBS_ERR_INPUT, "--target-depth: expected a depth > 0");
+    }
+    vdbs_scene_init(&r->scene);
+    if ((v = cli_value(args, "--grid")))
+        st = vdbs_scene_set_grid(&r->scene, v, err);
+    return st;
+}
+
+static cJSON *grid_json(const vdbio_grid_summary *g)
+{
+    cJSON *o = cJSON_CreateObject();
+    cJSON_AddStringToObject(o, "name", g->name);
+    cJSON_AddStringToObject(o, "type", g->value_type);
+    cJSON_AddStringToObject(o, "class", g->grid_class);
+    cJSON_AddBoolToObject(o, "affine", g->is_affine);
+    cJSON_AddItemToObject(o, "voxel_size", cJSON_CreateDoubleArray(g->voxel_size, 3));
+    cJSON_AddItemToObject(o, "bbox_min", ints3(g->bbox_min));
+    cJSON_AddItemToObject(o, "bbox_max", ints3(g->bbox_max));
+    if (g->active_voxels > 0 && g->is_affine) {
+        double lo[3], hi[3];
+        world_box(g, lo, hi);
+        cJSON_AddItemToObject(o, "world_min", cJSON_CreateDoubleArray(lo, 3));
+        cJSON_AddItemToObject(o, "world_max", cJSON_CreateDoubleArray(hi, 3));
+    }
+    cJSON_AddNumberToObject(o, "active_voxels", (double)g->active_voxels);
+    cJSON_AddNumberToObject(o, "active_tiles", (double)g->active_tiles);
+    cJSON_AddNumberToObject(o, "background", g->background);
+    cJSON_AddNumberToObject(o, "value_min", g->value_min);
+    cJSON_AddNumberToObject(o, "value_max", g->value_max);
+    return o;
+}
+
+/* Optical thickness of the grid bake would use; a file without one still lists. */
+static cJSON *thickness_json(const char *path, const info_request *r)
+{
+    vdbio_read_options read = {0};
+    read.grid_name = r->scene.grid[0] ? r->scene.grid : NULL;
+    read.grid_index = r->scene.grid_index;
+    read.from_levelset = r->from_levelset;
+    vdbs_volume volume;
+    vdbs_error err;
+    cJSON *optics = cJSON_CreateObject();
+    cJSON_AddNumberToObject(optics, "density_scale", r->scale);
+    if (vdbs_volume_load(path, &read, &volume, &err) != VDBS_OK) {
+        cJSON_AddStringToObject(optics, "unavailable", err.message);
+        return optics;
+    }
+    vdbs_thickness t;
+    vdbs_volume_thickness(&volume, r->scale, &t);
+    cJSON_AddStringToObject(optics, "grid", volume.info.name);
+    cJSON_AddNumberToObject(optics, "voxel_max", t.voxel_max);
+    cJSON_AddItemToObject(optics, "axis_mean", cJSON_CreateDoubleArray(t.axis_mean, 3));
+    cJSON_AddItemToObject(optics, "axis_max", cJSON_CreateDoubleArray(t.axis_max, 3));
+    /* Depth is linear in the scale: the scale-1 mean without a second set of rays. */
+    const double mean = vdbs_thickness_mean(&t);
+    const double mean1 = r->scale > 0.0 ? mean / r->scale : vdbs_volume_mean_depth(&volume);
+    cJSON_AddNumberToObject(optics, "mean", mean);
+    if (r->target > 0.0) {
+        cJSON_AddNumberToObject(optics, "target_depth", r->target);
+        if (mean1 > 0.0)
+            cJSON_AddNumberToObject(optics, "density_scale_for_target", r->target / mean1);
+    }
+    vdbs_volume_free(&volume);
+    return optics;
+}
+
+/* The file's grids and optical thickness into root. */
+static vdbs_status file_json(cJSON *root, const char *path, const info_request *r, vdbs_error *err)
+{
+    vdbio_grid_summary *grids = NULL;
+    int count = 0;
+    vdbs_status st = vdbio_list_grids(path, &grids, &count, err);
+    if (st != VDBS_OK)
+        return st;
+    cJSON_AddStringToObject(root, "file", path);
+    cJSON *list = cJSON_AddArrayToObject(root, "grids");
+    for (int i = 0; i < count; ++i)
+        cJSON_AddItemToArray(list, grid_json(&grids[i]));
+    free(grids);
+    cJSON_AddItemToObject(root, "optical_thickness", thickness_json(path, r));
+    return VDBS_OK;
+}
+
+static void print_gpu(const cJSON *gpu)
+{
+    printf("gpu: %s (%s, EGL platform %s, %s)\n", cJSON_GetObjectItem(gpu, "renderer")->valuestring,
+           cJSON_GetObjectItem(gpu, "version")->valuestring,
+           cJSON_GetObjectItem(gpu, "platform")->valuestring,
+           cJSON_IsTrue(cJSON_GetObjectItem(gpu, "software")) ? "software" : "hardware");
+}
+
+static void print_grid(const cJSON *g)
+{
+    const cJSON *vs = cJSON_GetObjectItem(g, "voxel_size");
+    const cJSON *lo = cJSON_GetObjectItem(g, "bbox_min");
+    const cJSON *hi = cJSON_GetObjectItem(g, "bbox_max");
+    printf("  %-12s %-6s %-10s voxel %.4g x %.4g x %.4g%s\n",
+           cJSON_GetObjectItem(g, "name")->valuestring, cJSON_GetObjectItem(g, "type")->valuestring,
+           cJSON_GetObjectItem(g, "class")->valuestring, cJSON_GetArrayItem(vs, 0)->valuedouble,
+           cJSON_GetArrayItem(vs, 1)->valuedouble, cJSON_GetArrayItem(vs, 2)->valuedouble,
+           cJSON_IsTrue(cJSON_GetObjectItem(g, "affine")) ? "" : " (frustum map)");
+    if (cJSON_GetObjectItem(g, "active_voxels")->valuedouble > 0)
+        printf("               bbox [%d,%d,%d]->[%d,%d,%d]  active %.0f (tiles %.0f)  "
+               "range [%g, %g]  background %g\n",
+               cJSON_GetArrayItem(lo, 0)->valueint, cJSON_GetArrayItem(lo, 1)->valueint,
+               cJSON_GetArrayItem(lo, 2)->valueint, cJSON_GetArrayItem(hi, 0)->valueint,
+               cJSON_GetArrayItem(hi, 1)->valueint, cJSON_GetArrayItem(hi, 2)->valueint,
+               cJSON_GetObjectItem(g, "active_voxels")->valuedouble,
+               cJSON_GetObjectItem(g, "active_tiles")->valuedouble,
+               cJSON_GetObjectItem(g, "value_min")->valuedouble,
+               cJSON_GetObjectItem(g, "value_max")->valuedouble,
+               cJSON_GetObjectItem(g, "background")->valuedouble);
+    else
+        printf("               empty\n");
+    const cJSON *wlo = cJSON_GetObjectItem(g, "world_min");
+    const cJSON *whi = cJSON_GetObjectItem(g, "world_max");
+    if (wlo && whi)
+        printf("               world bbox [%.6g,%.6g,%.6g]->[%.6g,%.6g,%.6g]\n",
+               cJSON_GetArrayItem(wlo, 0)->valuedouble, cJSON_GetArrayItem(wlo, 1)->valuedouble,
+               cJSON_GetArrayItem(wlo, 2)->valuedouble, cJSON_GetArrayItem(whi, 0)->valuedouble,
+               cJSON_GetArrayItem(whi, 1)->valuedouble, cJSON_GetArrayItem(whi, 2)->valuedouble);
+}
+
+static void print_thickness(const cJSON *o, const info_request *r)
+{
+    const cJSON *na = cJSON_GetObjectItem(o, "unavailable");
+    if (na) {
+        printf("optical thickness: unavailable (%s)\n", na->valuestring);
+        return;
+    }
+    const cJSON *mean = cJSON_GetObjectItem(o, "axis_mean");
+    const cJSON *max = cJSON_GetObjectItem(o, "axis_max");
+    printf("optical thickness of '%s' at density scale %g:\n"
+           "  per voxel max %.4g\n"
+           "  through the volume along x/y/z: mean %.4g / %.4g / %.4g, max %.4g / "
+           "%.4g / %.4g\n",
+           cJSON_GetObjectItem(o, "grid")->valuestring, r->scale,
+           cJSON_GetObjectItem(o, "voxel_max")->valuedouble,
+           cJSON_GetArrayItem(mean, 0)->valuedouble, cJSON_GetArrayItem(mean, 1)->valuedouble,
+           cJSON_GetArrayItem(mean, 2)->valuedouble, cJSON_GetArrayItem(max, 0)->valuedouble,
+           cJSON_GetArrayItem(max, 1)->valuedouble, cJSON_GetArrayItem(max, 2)->valuedouble);
+    printf("  mean through the volume %.4g\n", cJSON_GetObjectItem(o, "mean")->valuedouble);
+    const cJSON *fit = cJSON_GetObjectItem(o, "density_scale_for_target");
+    if (fit)
+        printf("density scale for a mean optical depth of %g: %.6g "
+               "(--density-scale auto:%g)\n",
+               r->target, fit->valuedouble, r->target);
+    else if (r->target > 0.0)
+        printf("density scale for a mean optical depth of %g: none (no density)\n", r->target);
+    else if (cJSON_GetObjectItem(o, "mean")->valuedouble > 0.0)
+        printf("clouds look like clouds at a mean optical depth of about 5-20: "
+               "--density-scale auto:10 is %.6g here (--target-depth TAU for "
+               "another depth)\n",
+               10.0 * r->scale / cJSON_GetObjectItem(o, "mean")->valuedouble);
+}
+
+/* The text form of root. */
+static void print_text(const cJSON *root, const info_request *r)
+{
+    const cJSON *gpu = cJSON_GetObjectItem(root, "gpu");
+    if (gpu)
+        print_gpu(gpu);
+    const cJSON *list = cJSON_GetObjectItem(root, "grids");
+    if (!list)
+        return;
+    printf("%s: %d grid%s\n", cJSON_GetObjectItem(root, "file")->valuestring,
+           cJSON_GetArraySize(list), cJSON_GetArraySize(list) == 1 ? "" : "s");
+    const cJSON *g;
+    cJSON_ArrayForEach(g, list)
+    {
+        print_grid(g);
+    }
+    print_thickness(cJSON_GetObjectItem(root, "optical_thickness"), r);
+}
+
+static const cli_command command = {
+    .name = "info",
+    .options = options,
+    .help = help,
+    .max_positional = 1,
+    .positional_error = "expected one FILE.vdb",
+};
+
 int cmd_info(int argc, char **argv)
 {
     cli_args args;
     vdbs_error err;
     vdbs_status st;
-    if (cli_parse(argc, argv, options, &args, &err) != VDBS_OK)
-        return cli_fail("info", 2, err.message);
-    if (args.help) {
-        fputs(help, stdout);
-        return CLI_EXIT_OK;
-    }
-    int want_gpu = cli_flag(&args, "--gpu");
-    int json = cli_flag(&args, "--json");
-    if (args.positional_count > 1 || (args.positional_count == 0 && !want_gpu))
-        return cli_fail("info", 2, "expected one FILE.vdb");
-    double scale = 1.0;
-    const char *v = cli_value(&args, "--density-scale");
-    if (v && (st = cli_number("--density-scale", v, &scale, &err)) != VDBS_OK)
-        return cli_fail("info", st, err.message);
-    if (scale < 0.0)
-        return cli_fail("info", 2, "--density-scale must be >= 0");
-    double target = 0.0;
-    if ((v = cli_value(&args, "--target-depth")) &&
-        ((st = cli_number("--target-depth", v, &target, &err)) != VDBS_OK || !(target > 0.0)))
-        return cli_fail("info", 2,
-                        st != VDBS_OK ? err.message : "--target-depth: expected a depth > 0");
-    vdbs_scene scene;
-    vdbs_scene_init(&scene);
-    if ((v = cli_value(&args, "--grid")) && (st = vdbs_scene_set_grid(&scene, v, &err)) != VDBS_OK)
+    int status = cli_open(&command, argc, argv, &args);
+    if (status != CLI_CONTINUE)
+        return status;
+    if (args.positional_count == 0 && !cli_flag(&args, "--gpu")) /* FILE optional with --gpu */
+        return cli_fail("info", 2, command.positional_error);
+    info_request r;
+    if ((st = parse_request(&args, &r, &err)) != VDBS_OK)
         return cli_fail("info", st, err.message);
 
     cJSON *root = cJSON_CreateObject();
-    int status = CLI_EXIT_OK;
-    if (want_gpu) {
+    status = CLI_EXIT_OK;
+    if (r.want_gpu) {
         int ok;
         char message[VDBS_ERROR_MAX];
         cJSON_AddItemToObject(root, "gpu", gpu_json(&ok, message, sizeof message));
-        if (!ok && !json) {
+        if (!ok && !r.json) {
             cJSON_Delete(root);
             return cli_fail("info", 1, message);
         }
         if (!ok)
             status = CLI_EXIT_FAILURE;
     }
-    if (args.positional_count == 1) {
-        const char *path = args.positional[0];
-        vdbio_grid_summary *grids = NULL;
-        int count = 0;
-        if ((st = vdbio_list_grids(path, &grids, &count, &err)) != VDBS_OK) {
-            cJSON_Delete(root);
-            return cli_fail("info", st, err.message);
-        }
-        cJSON_AddStringToObject(root, "file", path);
-        cJSON *list = cJSON_AddArrayToObject(root, "grids");
-        for (int i = 0; i < count; ++i) {
-            const vdbio_grid_summary *g = &grids[i];
-            cJSON *o = cJSON_CreateObject();
-            cJSON_AddStringToObject(o, "name", g->name);
-            cJSON_AddStringToObject(o, "type", g->value_type);
-            cJSON_AddStringToObject(o, "class", g->grid_class);
-            cJSON_AddBoolToObject(o, "affine", g->is_affine);
-            cJSON_AddItemToObject(o, "voxel_size", cJSON_CreateDoubleArray(g->voxel_size, 3));
-            cJSON_AddItemToObject(o, "bbox_min", ints3(g->bbox_min));
-            cJSON_AddItemToObject(o, "bbox_max", ints3(g->bbox_max));
-            if (g->active_voxels > 0 && g->is_affine) {
-                double lo[3], hi[3];
-                world_box(g, lo, hi);
-                cJSON_AddItemToObject(o, "world_min", cJSON_CreateDoubleArray(lo, 3));
-                cJSON_AddItemToObject(o, "world_max", cJSON_CreateDoubleArray(hi, 3));
-            }
-            cJSON_AddNumberToObject(o, "active_voxels", (double)g->active_voxels);
-            cJSON_AddNumberToObject(o, "active_tiles", (double)g->active_tiles);
-            cJSON_AddNumberToObject(o, "background", g->background);
-            cJSON_AddNumberToObject(o, "value_min", g->value_min);
-            cJSON_AddNumberToObject(o, "value_max", g->value_max);
-            cJSON_AddItemToArray(list, o);
-        }
-        free(grids);
-
-        /* Optical thickness of the grid bake would use; a file without one still lists. */
-        vdbio_read_options read = {0};
-        read.grid_name = scene.grid[0] ? scene.grid : NULL;
-        read.grid_index = scene.grid_index;
-        read.from_levelset = cli_flag(&args, "--from-levelset");
-        vdbs_volume volume;
-        cJSON *optics = cJSON_AddObjectToObject(root, "optical_thickness");
-        cJSON_AddNumberToObject(optics, "density_scale", scale);
-        if (vdbs_volume_load(path, &read, &volume, &err) == VDBS_OK) {
-            vdbs_thickness t;
-            vdbs_volume_thickness(&volume, scale, &t);
-            cJSON_AddStringToObject(optics, "grid", volume.info.name);
-            cJSON_AddNumberToObject(optics, "voxel_max", t.voxel_max);
-            cJSON_AddItemToObject(optics, "axis_mean", cJSON_CreateDoubleArray(t.axis_mean, 3));
-            cJSON_AddItemToObject(optics, "axis_max", cJSON_CreateDoubleArray(t.axis_max, 3));
-            /* Depth is linear in the scale: the scale-1 mean without a second set of rays. */
-            const double mean = vdbs_thickness_mean(&t);
-            const double mean1 = scale > 0.0 ? mean / scale : vdbs_volume_mean_depth(&volume);
-            cJSON_AddNumberToObject(optics, "mean", mean);
-            if (target > 0.0) {
-                cJSON_AddNumberToObject(optics, "target_depth", target);
-                if (mean1 > 0.0)
-                    cJSON_AddNumberToObject(optics, "density_scale_for_target", target / mean1);
-            }
-            vdbs_volume_free(&volume);
-        } else {
-            cJSON_AddStringToObject(optics, "unavailable", err.message);
-        }
+    if (args.positional_count == 1 &&
+        (st = file_json(root, args.positional[0], &r, &err)) != VDBS_OK) {
+        cJSON_Delete(root);
+        return cli_fail("info", st, err.message);
     }
-    if (json) {
+    if (r.json) {
         char *text = cJSON_Print(root);
         puts(text);
         free(text);
     } else {
-        const cJSON *gpu = cJSON_GetObjectItem(root, "gpu");
-        if (gpu)
-            printf("gpu: %s (%s, EGL platform %s, %s)\n",
-                   cJSON_GetObjectItem(gpu, "renderer")->valuestring,
-                   cJSON_GetObjectItem(gpu, "version")->valuestring,
-                   cJSON_GetObjectItem(gpu, "platform")->valuestring,
-                   cJSON_IsTrue(cJSON_GetObjectItem(gpu, "software")) ? "software" : "hardware");
-        const cJSON *list = cJSON_GetObjectItem(root, "grids");
-        if (list) {
-            printf("%s: %d grid%s\n", args.positional[0], cJSON_GetArraySize(list),
-                   cJSON_GetArraySize(list) == 1 ? "" : "s");
-            const cJSON *g;
-            cJSON_ArrayForEach(g, list)
-            {
-                const cJSON *vs = cJSON_GetObjectItem(g, "voxel_size");
-                const cJSON *lo = cJSON_GetObjectItem(g, "bbox_min");
-                const cJSON *hi = cJSON_GetObjectItem(g, "bbox_max");
-                printf("  %-12s %-6s %-10s voxel %.4g x %.4g x %.4g%s\n",
-                       cJSON_GetObjectItem(g, "name")->valuestring,
-                       cJSON_GetObjectItem(g, "type")->valuestring,
-                       cJSON_GetObjectItem(g, "class")->valuestring,
-                       cJSON_GetArrayItem(vs, 0)->valuedouble,
-                       cJSON_GetArrayItem(vs, 1)->valuedouble,
-                       cJSON_GetArrayItem(vs, 2)->valuedouble,
-                       cJSON_IsTrue(cJSON_GetObjectItem(g, "affine")) ? "" : " (frustum map)");
-                if (cJSON_GetObjectItem(g, "active_voxels")->valuedouble > 0)
-                    printf("               bbox [%d,%d,%d]->[%d,%d,%d]  active %.0f (tiles %.0f)  "
-                           "range [%g, %g]  background %g\n",
-                           cJSON_GetArrayItem(lo, 0)->valueint, cJSON_GetArrayItem(lo, 1)->valueint,
-                           cJSON_GetArrayItem(lo, 2)->valueint, cJSON_GetArrayItem(hi, 0)->valueint,
-                           cJSON_GetArrayItem(hi, 1)->valueint, cJSON_GetArrayItem(hi, 2)->valueint,
-                           cJSON_GetObjectItem(g, "active_voxels")->valuedouble,
-                           cJSON_GetObjectItem(g, "active_tiles")->valuedouble,
-                           cJSON_GetObjectItem(g, "value_min")->valuedouble,
-                           cJSON_GetObjectItem(g, "value_max")->valuedouble,
-                           cJSON_GetObjectItem(g, "background")->valuedouble);
-                else
-                    printf("               empty\n");
-                const cJSON *wlo = cJSON_GetObjectItem(g, "world_min");
-                const cJSON *whi = cJSON_GetObjectItem(g, "world_max");
-                if (wlo && whi)
-                    printf("               world bbox [%.6g,%.6g,%.6g]->[%.6g,%.6g,%.6g]\n",
-                           cJSON_GetArrayItem(wlo, 0)->valuedouble,
-                           cJSON_GetArrayItem(wlo, 1)->valuedouble,
-                           cJSON_GetArrayItem(wlo, 2)->valuedouble,
-                           cJSON_GetArrayItem(whi, 0)->valuedouble,
-                           cJSON_GetArrayItem(whi, 1)->valuedouble,
-                           cJSON_GetArrayItem(whi, 2)->valuedouble);
-            }
-            const cJSON *o = cJSON_GetObjectItem(root, "optical_thickness");
-            const cJSON *na = cJSON_GetObjectItem(o, "unavailable");
-            if (na) {
-                printf("optical thickness: unavailable (%s)\n", na->valuestring);
-            } else {
-                const cJSON *mean = cJSON_GetObjectItem(o, "axis_mean");
-                const cJSON *max = cJSON_GetObjectItem(o, "axis_max");
-                printf("optical thickness of '%s' at density scale %g:\n"
-                       "  per voxel max %.4g\n"
-                       "  through the volume along x/y/z: mean %.4g / %.4g / %.4g, max %.4g / "
-                       "%.4g / %.4g\n",
-                       cJSON_GetObjectItem(o, "grid")->valuestring, scale,
-                       cJSON_GetObjectItem(o, "voxel_max")->valuedouble,
-                       cJSON_GetArrayItem(mean, 0)->valuedouble,
-                       cJSON_GetArrayItem(mean, 1)->valuedouble,
-                       cJSON_GetArrayItem(mean, 2)->valuedouble,
-                       cJSON_GetArrayItem(max, 0)->valuedouble,
-                       cJSON_GetArrayItem(max, 1)->valuedouble,
-                       cJSON_GetArrayItem(max, 2)->valuedouble);
-                printf("  mean through the volume %.4g\n",
-                       cJSON_GetObjectItem(o, "mean")->valuedouble);
-                const cJSON *fit = cJSON_GetObjectItem(o, "density_scale_for_target");
-                if (fit)
-                    printf("density scale for a mean optical depth of %g: %.6g "
-                           "(--density-scale auto:%g)\n",
-                           target, fit->valuedouble, target);
-                else if (target > 0.0)
-                    printf("density scale for a mean optical depth of %g: none (no density)\n",
-                           target);
-                else if (cJSON_GetObjectItem(o, "mean")->valuedouble > 0.0)
-                    printf("clouds look like clouds at a mean optical depth of about 5-20: "
-                           "--density-scale auto:10 is %.6g here (--target-depth TAU for "
-                           "another depth)\n",
-                           10.0 * scale / cJSON_GetObjectItem(o, "mean")->valuedouble);
-            }
-        }
+        print_text(root, &r);
     }
     cJSON_Delete(root);
     return status;

@@ -33,18 +33,21 @@ static const cli_option options[] = {
     {NULL, CLI_FLAG},
 };
 
+static const cli_command command = {
+    .name = "phase-svd",
+    .options = options,
+    .help = help,
+    .max_positional = 0,
+    .positional_error = "takes no positional arguments",
+};
+
 int cmd_phase_svd(int argc, char **argv)
 {
     cli_args args;
     vdbs_error err;
-    if (cli_parse(argc, argv, options, &args, &err) != VDBS_OK)
-        return cli_fail("phase-svd", 2, err.message);
-    if (args.help) {
-        fputs(help, stdout);
-        return CLI_EXIT_OK;
-    }
-    if (args.positional_count != 0)
-        return cli_fail("phase-svd", 2, "takes no positional arguments");
+    int status = cli_open(&command, argc, argv, &args);
+    if (status != CLI_CONTINUE)
+        return status;
     const char *gv = cli_value(&args, "--g"), *dv = cli_value(&args, "--directions");
     if (!gv || !dv)
         return cli_fail("phase-svd", 2, "--g and --directions are required");

@@ -227,19 +227,22 @@ static void print_json(const char *input, const render_args *r, const vdbs_rende
     cJSON_Delete(j);
 }
 
+static const cli_command command = {
+    .name = "render",
+    .options = options,
+    .help = help,
+    .max_positional = 1,
+    .positional_error = "expected one input VDB",
+};
+
 int cmd_render(int argc, char **argv)
 {
     cli_args args;
     vdbs_error err;
     vdbs_status st;
-    if (cli_parse(argc, argv, options, &args, &err) != VDBS_OK)
-        return cli_fail("render", 2, err.message);
-    if (args.help) {
-        fputs(help, stdout);
-        return CLI_EXIT_OK;
-    }
-    if (args.positional_count > 1)
-        return cli_fail("render", 2, "expected one input VDB");
+    int status = cli_open(&command, argc, argv, &args);
+    if (status != CLI_CONTINUE)
+        return status;
     render_args r;
     if ((st = parse_args(&args, &r, &err)) != VDBS_OK)
         return cli_fail("render", st, err.message);

@@ -33,19 +33,22 @@ static const cli_option options[] = {
     {"--seed", CLI_VALUE}, {"-q", CLI_FLAG},        {NULL, CLI_FLAG},
 };
 
+static const cli_command command = {
+    .name = "sample",
+    .options = options,
+    .help = help,
+    .min_positional = 1,
+    .max_positional = 1,
+    .positional_error = "expected one sample NAME (cloud, smoke, sphere, slab, cube, sky)",
+};
+
 int cmd_sample(int argc, char **argv)
 {
     cli_args args;
     vdbs_error err;
-    if (cli_parse(argc, argv, options, &args, &err) != VDBS_OK)
-        return cli_fail("sample", 2, err.message);
-    if (args.help) {
-        fputs(help, stdout);
-        return CLI_EXIT_OK;
-    }
-    if (args.positional_count != 1)
-        return cli_fail("sample", 2,
-                        "expected one sample NAME (cloud, smoke, sphere, slab, cube, sky)");
+    int status = cli_open(&command, argc, argv, &args);
+    if (status != CLI_CONTINUE)
+        return status;
     const char *out = cli_output(&args);
     if (!out)
         return cli_fail("sample", 2, "missing -o OUT.vdb");

@@ -15,8 +15,8 @@
 #include <string.h>
 
 #include "vdbscatter/render.h"
-#include "vdbscatter/suggest.h"
 #include "vdbscatter/scene_file.h"
+#include "vdbscatter/suggest.h"
 
 static const cli_option *find_option(const cli_option *options, const char *name, size_t len)
 {
@@ -83,6 +83,23 @@ vdbs_status cli_parse(int argc, char **argv, const cli_option *options, cli_args
         }
     }
     return VDBS_OK;
+}
+
+int cli_open(const cli_command *command, int argc, char **argv, cli_args *args)
+{
+    vdbs_error err;
+    if (cli_parse(argc, argv, command->options, args, &err) != VDBS_OK)
+        return cli_fail(command->name, 2, err.message);
+    if (args->help) {
+        fputs(command->help, stdout);
+        if (command->more_help)
+            command->more_help();
+        return CLI_EXIT_OK;
+    }
+    if (args->positional_count < command->min_positional ||
+        args->positional_count > command->max_positional)
+        return cli_fail(command->name, 2, command->positional_error);
+    return CLI_CONTINUE;
 }
 
 const char *cli_value(const cli_args *args, const char *name)
@@ -208,6 +225,151 @@ static vdbs_status parse_env(vdbs_scene *scene, vdbs_light *light, const char *t
     return vdbs_light_set_env_file(scene, light, path, err);
 }
 
+/* The state of the walk over the flags: light flags replace the scene's lights at the
+ * first of them. */
+typedef struct scene_build {
+    vdbs_scene *scene;
+    int lights_replaced;
+} scene_build;
+
+static vdbs_status set_grid(scene_build *b, const char *name, const char *value, vdbs_error *err)
+{
+    (void)name;
+    return vdbs_scene_set_grid(b->scene, value, err);
+}
+
+static vdbs_status set_density_scale(scene_build *b, const char *name, const char *value,
+                                     vdbs_error *err)
+{
+    return vdbs_scene_set_density_scale(b->scene, name, value, err);
+}
+
+static vdbs_status set_albedo(scene_build *b, const char *name, const char *value, vdbs_error *err)
+{
+    vdbs_status st = cli_triple(name, value, 1, b->scene->albedo, err);
+    return st == VDBS_OK ? vdbs_check_albedo(name, b->scene->albedo, err) : st;
+}
+
+static vdbs_status set_g(scene_build *b, const char *name, const char *value, vdbs_error *err)
+{
+    double x = 0.0;
+    vdbs_status st = cli_number(name, value, &x, err);
+    if (st == VDBS_OK)
+        st = vdbs_check_g(name, x, err);
+    b->scene->g = x;
+    return st;
+}
+
+static vdbs_status set_sky_directions(scene_build *b, const char *name, const char *value,
+                                      vdbs_error *err)
+{
+    long k = 0;
+    vdbs_status st = cli_integer(name, value, 1, VDBS_MAX_SKY_DIRECTIONS, &k, err);
+    b->scene->sky_directions = (int)k;
+    return st;
+}
+
+static vdbs_status set_method(scene_build *b, const char *name, const char *value, vdbs_error *err)
+{
+    return vdbs_scene_set_method(b->scene, name, value, err);
+}
+
+static vdbs_status set_quality(scene_build *b, const char *name, const char *value, vdbs_error *err)
+{
+    return vdbs_scene_set_quality(b->scene, name, value, err);
+}
+
+/* The next light of the scene, zeroed, or NULL past VDBS_MAX_LIGHTS. It counts once
+ * add_light has checked it. */
+static vdbs_light *next_light(scene_build *b, const char *name, vdbs_light_type type,
+                              vdbs_error *err)
+{
+    vdbs_scene *scene = b->scene;
+    if (!b->lights_replaced) {
+        vdbs_scene_clear_lights(scene); /* the scene file's env-map paths too */
+        b->lights_replaced = 1;
+    }
+    if (scene->light_count == VDBS_MAX_LIGHTS) {
+        vdbs_error_set(err, VDBS_ERR_INPUT, "%s: more than %d lights", name, VDBS_MAX_LIGHTS);
+        return NULL;
+    }
+    vdbs_light *light = &scene->lights[scene->light_count];
+    memset(light, 0, sizeof *light);
+    light->env_scale = 1.0;
+    light->type = type;
+    return light;
+}
+
+/* Checks the colour of the light next_light gave once its value parsed (st), and counts it. */
+static vdbs_status add_light(scene_build *b, const char *name, vdbs_status st, vdbs_error *err)
+{
+    vdbs_scene *scene = b->scene;
+    if (st == VDBS_OK)
+        st = vdbs_check_colour(name, scene->lights[scene->light_count].color, err);
+    scene->light_count++;
+    return st;
+}
+
+static vdbs_status set_sun(scene_build *b, const char *name, const char *value, vdbs_error *err)
+{
+    vdbs_light *light = next_light(b, name, VDBS_LIGHT_SUN, err);
+    if (!light)
+        return VDBS_ERR_INPUT;
+    vdbs_status st = parse_light(name, value, light->direction, light->color, err);
+    const double *d = light->direction;
+    if (st == VDBS_OK && d[0] == 0.0 && d[1] == 0.0 && d[2] == 0.0)
+        st = vdbs_error_set(err, VDBS_ERR_INPUT, "--sun: the direction must not be zero, got '%s'",
+                            value);
+    return add_light(b, name, st, err);
+}
+
+static vdbs_status set_point(scene_build *b, const char *name, const char *value, vdbs_error *err)
+{
+    vdbs_light *light = next_light(b, name, VDBS_LIGHT_POINT, err);
+    if (!light)
+        return VDBS_ERR_INPUT;
+    return add_light(b, name, parse_light(name, value, light->position, light->color, err), err);
+}
+
+static vdbs_status set_env(scene_build *b, const char *name, const char *value, vdbs_error *err)
+{
+    vdbs_light *light = next_light(b, name, VDBS_LIGHT_ENV, err);
+    if (!light)
+        return VDBS_ERR_INPUT;
+    return add_light(b, name, parse_env(b->scene, light, value, err), err);
+}
+
+/* The scene flags that every solver shares: how each sets the scene, and which fields of a
+ * lit VDB's baked scene it overrides (VDBS_SCENE_SET_*, cli_scene_flags). */
+typedef struct scene_flag {
+    const char *name;
+    unsigned sets;
+    vdbs_status (*set)(scene_build *b, const char *name, const char *value, vdbs_error *err);
+} scene_flag;
+
+static const scene_flag scene_flags[] = {
+    {"--scene", VDBS_SCENE_FROM_FILE, NULL}, /* loaded before the walk */
+    {"--grid", VDBS_SCENE_SET_GRID, set_grid},
+    {"--density-scale", VDBS_SCENE_SET_DENSITY_SCALE, set_density_scale},
+    {"--albedo", VDBS_SCENE_SET_ALBEDO, set_albedo},
+    {"--g", VDBS_SCENE_SET_G, set_g},
+    {"--sky-directions", VDBS_SCENE_SET_SKY_DIRECTIONS, set_sky_directions},
+    {"--method", 0, set_method}, /* a lit VDB is not baked again */
+    {"--quality", VDBS_SCENE_SET_QUALITY, set_quality},
+    {"--sun", VDBS_SCENE_SET_LIGHTS, set_sun},
+    {"--point", VDBS_SCENE_SET_LIGHTS, set_point},
+    {"--env", VDBS_SCENE_SET_LIGHTS, set_env},
+    {NULL, 0, NULL},
+};
+
+static const scene_flag *find_scene_flag(const char *name)
+{
+    for (const scene_flag *f = scene_flags; f->name; ++f)
+        if (strcmp(f->name, name) == 0)
+            return f;
+    return NULL;
+}
+
 vdbs_status cli_build_scene(const cli_args *args, vdbs_scene *scene, int allow_no_lights,
                             vdbs_error *err)
 {
@@ -216,65 +378,16 @@ vdbs_status cli_build_scene(const cli_args *args, vdbs_scene *scene, int allow_n
     const char *scene_file = cli_value(args, "--scene");
     if (scene_file && (st = vdbs_scene_load(scene_file, scene, err)) != VDBS_OK)
         return st;
-    int lights_replaced = 0;
+    scene_build b = {scene, 0};
+    int handled = 0;
     for (int i = 0; i < args->count; ++i) {
         const char *name = args->args[i].option->name;
-        const char *v = args->args[i].value;
-        double x = 0.0;
-        if (strcmp(name, "--grid") == 0) {
-            st = vdbs_scene_set_grid(scene, v, err);
-        } else if (strcmp(name, "--density-scale") == 0) {
-            st = vdbs_scene_set_density_scale(scene, name, v, err);
-        } else if (strcmp(name, "--albedo") == 0) {
-            st = cli_triple(name, v, 1, scene->albedo, err);
-            if (st == VDBS_OK)
-                st = vdbs_check_albedo(name, scene->albedo, err);
-        } else if (strcmp(name, "--g") == 0) {
-            st = cli_number(name, v, &x, err);
-            if (st == VDBS_OK)
-                st = vdbs_check_g(name, x, err);
-            scene->g = x;
-        } else if (strcmp(name, "--sky-directions") == 0) {
-            long k = 0;
-            st = cli_integer(name, v, 1, VDBS_MAX_SKY_DIRECTIONS, &k, err);
-            scene->sky_directions = (int)k;
-        } else if (strcmp(name, "--method") == 0) {
-            st = vdbs_scene_set_method(scene, name, v, err);
-        } else if (strcmp(name, "--quality") == 0) {
-            st = vdbs_scene_set_quality(scene, name, v, err);
-        } else if (strcmp(name, "--sun") == 0 || strcmp(name, "--point") == 0 ||
-                   strcmp(name, "--env") == 0) {
-            if (!lights_replaced) {
-                vdbs_scene_clear_lights(scene); /* the scene file's env-map paths too */
-                lights_replaced = 1;
-            }
-            if (scene->light_count == VDBS_MAX_LIGHTS)
-                return vdbs_error_set(err, VDBS_ERR_INPUT, "%s: more than %d lights", name,
-                                      VDBS_MAX_LIGHTS);
-            vdbs_light *light = &scene->lights[scene->light_count];
-            memset(light, 0, sizeof *light);
-            light->env_scale = 1.0;
-            if (strcmp(name, "--env") == 0) {
-                light->type = VDBS_LIGHT_ENV;
-                st = parse_env(scene, light, v, err);
-            } else if (strcmp(name, "--sun") == 0) {
-                light->type = VDBS_LIGHT_SUN;
-                st = parse_light(name, v, light->direction, light->color, err);
-                const double *d = light->direction;
-                if (st == VDBS_OK && d[0] == 0.0 && d[1] == 0.0 && d[2] == 0.0)
-                    st = vdbs_error_set(err, VDBS_ERR_INPUT,
-                                        "--sun: the direction must not be zero, got '%s'", v);
-            } else {
-                light->type = VDBS_LIGHT_POINT;
-                st = parse_light(name, v, light->position, light->color, err);
-            }
-            if (st == VDBS_OK)
-                st = vdbs_check_colour(name, light->color, err);
-            scene->light_count++;
-        } else {
-            int handled = 0; /* a solver's own flag, or one the command reads itself */
-            st = cli_solver_flag(name, v, scene, &handled, err);
-        }
+        const char *value = args->args[i].value;
+        const scene_flag *flag = find_scene_flag(name);
+        if (flag)
+            st = flag->set ? flag->set(&b, name, value, err) : VDBS_OK;
+        else /* a solver's own flag (solver_flags.c), or the command's (-o, --backend, ...) */
+            st = cli_solver_flag(name, value, scene, &handled, err);
         if (st != VDBS_OK)
             return st;
     }
@@ -419,22 +532,11 @@ vdbs_status cli_size(const char *text, int *width, int *height, vdbs_error *err)
 unsigned cli_scene_flags(const cli_args *args)
 {
     unsigned set = 0;
-    if (cli_value(args, "--density-scale"))
-        set |= VDBS_SCENE_SET_DENSITY_SCALE;
-    if (cli_value(args, "--albedo"))
-        set |= VDBS_SCENE_SET_ALBEDO;
-    if (cli_value(args, "--g"))
-        set |= VDBS_SCENE_SET_G;
-    if (cli_value(args, "--quality"))
-        set |= VDBS_SCENE_SET_QUALITY;
-    if (cli_value(args, "--sky-directions"))
-        set |= VDBS_SCENE_SET_SKY_DIRECTIONS;
-    if (cli_value(args, "--sun") || cli_value(args, "--point") || cli_value(args, "--env"))
-        set |= VDBS_SCENE_SET_LIGHTS;
-    if (cli_value(args, "--grid"))
-        set |= VDBS_SCENE_SET_GRID;
-    if (cli_value(args, "--scene"))
-        set |= VDBS_SCENE_FROM_FILE;
+    for (int i = 0; i < args->count; ++i) {
+        const scene_flag *flag = find_scene_flag(args->args[i].option->name);
+        if (flag)
+            set |= flag->sets;
+    }
     return set;
 }
 

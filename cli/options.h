@@ -43,6 +43,24 @@ typedef struct cli_args {
 vdbs_status cli_parse(int argc, char **argv, const cli_option *options, cli_args *out,
                       vdbs_error *err);
 
+/* What a command's opening needs to know of it (cli_open). */
+typedef struct cli_command {
+    const char *name; /* "bake": errors read "vdbscatter bake: ..." */
+    const cli_option *options;
+    const char *help;        /* printed on stdout for --help or -h */
+    void (*more_help)(void); /* what --help prints after help, or NULL */
+    int min_positional, max_positional;
+    const char *positional_error; /* the usage error for another count of them */
+} cli_command;
+
+/* cli_open's "go on with the command". */
+#define CLI_CONTINUE (-1)
+
+/* The opening every command shares: parses argv (after the command name) by its options
+ * into args, prints the help for --help and checks the count of positional arguments.
+ * Returns CLI_CONTINUE, or the exit status to return (a usage error printed). */
+int cli_open(const cli_command *command, int argc, char **argv, cli_args *args);
+
 /* Last value given for an option name, or NULL. */
 const char *cli_value(const cli_args *args, const char *name);
 int cli_flag(const cli_args *args, const char *name);

@@ -102,6 +102,102 @@ void view_occluders_free(view_occluders *o)
     memset(o, 0, sizeof *o);
 }
 
+/* Every occluder's triangles, positions and normals interleaved into *data (the caller
+ * frees it, also on failure), with each one's range and albedo in o and the bounds of
+ * those that are not planes. */
+static vdbs_status mesh_occluders(view_occluders *o, const vdbs_scene *scene, const double focus[3],
+                                  double extent, float **data, size_t *floats, vdbs_error *err)
+{
+    for (int a = 0; a < 3; ++a) {
+        o->finite_lo[a] = INFINITY;
+        o->finite_hi[a] = -INFINITY;
+    }
+    vdbs_occluder_mesh_desc md = {0};
+    memcpy(md.plane_focus, focus, sizeof md.plane_focus);
+    /* Planes as quads some scene sizes wide, not "infinite": interpolated depths across a
+     * triangle of 1000 units lose the precision the shadow test needs (acne bands). */
+    md.plane_half_size = PLANE_HALF_EXTENTS * extent;
+    for (int i = 0; i < scene->occluder_count; ++i) {
+        vdbs_mesh mesh = {0};
+        vdbs_status st = vdbs_occluder_mesh(scene, i, &md, &mesh, err);
+        if (st != VDBS_OK)
+            return st;
+        size_t add = (size_t)mesh.triangle_count * 3 * VERTEX_FLOATS;
+        float *grown = realloc(*data, sizeof *grown * (*floats + add));
+        if (!grown) {
+            vdbs_mesh_free(&mesh);
+            return vdbs_error_set(err, VDBS_ERR_NOMEM, "out of memory for occluder meshes");
+        }
+        *data = grown;
+        float *out = grown + *floats;
+        int is_plane = scene->occluders[i].type == VDBS_OCCLUDER_PLANE;
+        for (int v = 0; v < 3 * mesh.triangle_count; ++v)
+            for (int a = 0; a < 3; ++a) {
+                float x = mesh.positions[3 * v + a];
+                out[(size_t)v * VERTEX_FLOATS + (size_t)a] = x;
+                out[(size_t)v * VERTEX_FLOATS + 3 + (size_t)a] = mesh.normals[3 * v + a];
+                if (!is_plane) {
+                    o->finite_lo[a] = fmin(o->finite_lo[a], x);
+                    o->finite_hi[a] = fmax(o->finite_hi[a], x);
+                    o->finite = 1;
+                }
+            }
+        o->first[i] = (int)(*floats / VERTEX_FLOATS);
+        o->vertices[i] = 3 * mesh.triangle_count;
+        for (int c = 0; c < 3; ++c)
+            o->albedo[i][c] = (float)scene->occluders[i].albedo[c];
+        *floats += add;
+        vdbs_mesh_free(&mesh);
+    }
+    return VDBS_OK;
+}
+
+static void upload_vertices(view_occluders *o, const float *data, size_t floats)
+{
+    glGenVertexArrays(1, &o->vertex_array);
+    glGenBuffers(1, &o->vertex_buffer);
+    glBindVertexArray(o->vertex_array);
+    glBindBuffer(GL_ARRAY_BUFFER, o->vertex_buffer);
+    glBufferData(GL_ARRAY_BUFFER, (GLsizeiptr)(sizeof *data * floats), data, GL_STATIC_DRAW);
+    glEnableVertexAttribArray(0);
+    glVertexAttribPointer(0, 3, GL_FLOAT, GL_FALSE, VERTEX_FLOATS * sizeof(float), (void *)0);
+    glEnableVertexAttribArray(1);
+    glVertexAttribPointer(1, 3, GL_FLOAT, GL_FALSE, VERTEX_FLOATS * sizeof(float),
+                          (void *)(3 * sizeof(float)));
+    glBindVertexArray(0);
+    glBindBuffer(GL_ARRAY_BUFFER, 0);
+}
+
+/* The three programs, the render target's framebuffer and the buffers the surfaces are
+ * lit through (view_occluders_set_lighting). */
+static vdbs_status create_programs(view_occluders *o, vdbs_error *err)
+{
+    const vdbs_shader_source *surface = vdbs_shader_find("occluder_surface.frag");
+    if (!surface)
+        return vdbs_error_set(err, VDBS_ERR_INTERNAL, "occluder_surface.frag not embedded");
+    vdbs_status st = view_gl_program(sun_vertex, sun_fragment, &o->sun_program, err);
+    if (st == VDBS_OK)
+        st = view_gl_program(cube_vertex, cube_fragment, &o->cube_program, err);
+    if (st == VDBS_OK)
+        st = view_gl_program(surface_vertex, surface->text, &o->surface_program, err);
+    if (st != VDBS_OK)
+        return st;
+    glGenFramebuffers(1, &o->framebuffer);
+    GLuint b[6];
+    glGenBuffers(6, b);
+    o->ssbo_lights = b[0];
+    o->ssbo_shadows = b[1];
+    o->ssbo_fog = b[2];
+    o->ssbo_dummy = b[3];
+    o->ssbo_medium = b[4];
+    o->ssbo_light_grids = b[5];
+    const float zero[4] = {0, 0, 0, 0};
+    glBindBuffer(GL_SHADER_STORAGE_BUFFER, o->ssbo_dummy);
+    glBufferData(GL_SHADER_STORAGE_BUFFER, sizeof zero, zero, GL_STATIC_DRAW);
+    glBindBuffer(GL_SHADER_STORAGE_BUFFER, 0);
+    return VDBS_OK;
+}
+
 vdbs_status view_occluders_init(view_occluders *o, const vdbs_scene *scene, const double focus[3],
                                 double extent, vdbs_error *err)
 {
@@ -116,89 +212,16 @@ vdbs_status view_occluders_init(view_occluders *o, const vdbs_scene *scene, cons
         view_occluders_free(o);
         return vdbs_error_set(err, VDBS_ERR_NOMEM, "out of memory for occluders");
     }
-    for (int a = 0; a < 3; ++a) {
-        o->finite_lo[a] = INFINITY;
-        o->finite_hi[a] = -INFINITY;
-    }
     float *data = NULL;
     size_t floats = 0;
-    vdbs_status st = VDBS_OK;
-    vdbs_occluder_mesh_desc md = {0};
-    memcpy(md.plane_focus, focus, sizeof md.plane_focus);
-    /* Planes as quads some scene sizes wide, not "infinite": interpolated depths across a
-     * triangle of 1000 units lose the precision the shadow test needs (acne bands). */
-    md.plane_half_size = PLANE_HALF_EXTENTS * extent;
-    for (int i = 0; i < n && st == VDBS_OK; ++i) {
-        vdbs_mesh mesh = {0};
-        if ((st = vdbs_occluder_mesh(scene, i, &md, &mesh, err)) != VDBS_OK)
-            break;
-        size_t add = (size_t)mesh.triangle_count * 3 * VERTEX_FLOATS;
-        float *grown = realloc(data, sizeof *grown * (floats + add));
-        if (!grown) {
-            vdbs_mesh_free(&mesh);
-            st = vdbs_error_set(err, VDBS_ERR_NOMEM, "out of memory for occluder meshes");
-            break;
-        }
-        data = grown;
-        int is_plane = scene->occluders[i].type == VDBS_OCCLUDER_PLANE;
-        for (int v = 0; v < 3 * mesh.triangle_count; ++v)
-            for (int a = 0; a < 3; ++a) {
-                float x = mesh.positions[3 * v + a];
-                data[floats + (size_t)v * VERTEX_FLOATS + (size_t)a] = x;
-                data[floats + (size_t)v * VERTEX_FLOATS + 3 + (size_t)a] = mesh.normals[3 * v + a];
-                if (!is_plane) {
-                    o->finite_lo[a] = fmin(o->finite_lo[a], x);
-                    o->finite_hi[a] = fmax(o->finite_hi[a], x);
-                    o->finite = 1;
-                }
-            }
-        o->first[i] = (int)(floats / VERTEX_FLOATS);
-        o->vertices[i] = 3 * mesh.triangle_count;
-        for (int c = 0; c < 3; ++c)
-            o->albedo[i][c] = (float)scene->occluders[i].albedo[c];
-        floats += add;
-        vdbs_mesh_free(&mesh);
-    }
+    vdbs_status st = mesh_occluders(o, scene, focus, extent, &data, &floats, err);
     if (st == VDBS_OK) {
-        glGenVertexArrays(1, &o->vertex_array);
-        glGenBuffers(1, &o->vertex_buffer);
-        glBindVertexArray(o->vertex_array);
-        glBindBuffer(GL_ARRAY_BUFFER, o->vertex_buffer);
-        glBufferData(GL_ARRAY_BUFFER, (GLsizeiptr)(sizeof *data * floats), data, GL_STATIC_DRAW);
-        glEnableVertexAttribArray(0);
-        glVertexAttribPointer(0, 3, GL_FLOAT, GL_FALSE, VERTEX_FLOATS * sizeof(float), (void *)0);
-        glEnableVertexAttribArray(1);
-        glVertexAttribPointer(1, 3, GL_FLOAT, GL_FALSE, VERTEX_FLOATS * sizeof(float),
-                              (void *)(3 * sizeof(float)));
-        glBindVertexArray(0);
-        glBindBuffer(GL_ARRAY_BUFFER, 0);
+        upload_vertices(o, data, floats);
         o->count = n;
     }
     free(data);
-    const vdbs_shader_source *surface = vdbs_shader_find("occluder_surface.frag");
-    if (st == VDBS_OK && !surface)
-        st = vdbs_error_set(err, VDBS_ERR_INTERNAL, "occluder_surface.frag not embedded");
     if (st == VDBS_OK)
-        st = view_gl_program(sun_vertex, sun_fragment, &o->sun_program, err);
-    if (st == VDBS_OK)
-        st = view_gl_program(cube_vertex, cube_fragment, &o->cube_program, err);
-    if (st == VDBS_OK)
-        st = view_gl_program(surface_vertex, surface->text, &o->surface_program, err);
-    if (st == VDBS_OK) {
-        glGenFramebuffers(1, &o->framebuffer);
-        GLuint b[6];
-        glGenBuffers(6, b);
-        o->ssbo_lights = b[0];
-        o->ssbo_shadows = b[1];
-        o->ssbo_fog = b[2];
-        o->ssbo_dummy = b[3];
-        o->ssbo_medium = b[4];
-        o->ssbo_light_grids = b[5];
-        const float zero[4] = {0, 0, 0, 0};
-        glBindBuffer(GL_SHADER_STORAGE_BUFFER, o->ssbo_dummy);
-        glBufferData(GL_SHADER_STORAGE_BUFFER, sizeof zero, zero, GL_STATIC_DRAW);
-        glBindBuffer(GL_SHADER_STORAGE_BUFFER, 0);
-    }
+        st = create_programs(o, err);
     if (st != VDBS_OK)
         view_occluders_free(o);
     return st;
