@@ -91,6 +91,9 @@ static cJSON *report_json(const char *input, const char *output, const vdbs_scen
     cJSON_AddStringToObject(j, "renderer", r->renderer);
     cJSON_AddNumberToObject(j, "active_voxels", (double)r->active_voxels);
     cJSON_AddNumberToObject(j, "output_voxels", (double)r->output_voxels);
+    cJSON *moved = cJSON_AddObjectToObject(j, "transfer");
+    cJSON_AddNumberToObject(moved, "uploaded_bytes", (double)r->bytes_uploaded);
+    cJSON_AddNumberToObject(moved, "read_back_bytes", (double)r->bytes_read_back);
     cJSON *t = cJSON_AddObjectToObject(j, "seconds");
     cJSON_AddNumberToObject(t, "load", r->seconds_load);
     cJSON_AddNumberToObject(t, "solve", r->seconds_solve);

@@ -86,13 +86,19 @@ VS_FUNC pnanovdb_vec3_t vs_svd_light_travel(VS_DATA_PARAM(float, svd_tables) int
     return r > 0.0f ? vs_vec3_scale(d, 1.0f / r) : vs_vec3(0.0f, 0.0f, 1.0f);
 }
 
-/* Step `step` of a sweep for column `item`: the one cell of the column on the step's plane,
- * for the step's chunk of its octant's directions. */
-VS_FUNC void vs_svd_sweep(VS_DATA_PARAM(vs_uint, svd_params) VS_DATA_PARAM(float, svd_tables)
-                              VS_DATA_PARAM(float, svd_sigma) VS_DATA_PARAM(float, svd_direct)
-                                  VS_DATA_PARAM(float, svd_source)
-                                      VS_OUT_PARAM(float, svd_state) int item,
-                          int step)
+/* Where step `step` of a sweep works for column `item` (i', j'): the one cell of the column on
+ * the step's plane, for the step's chunk of its octant's directions. */
+struct vs_svd_at {
+    int ip, jp, kp; /* the cell counted from the octant's upwind side */
+    int cell;       /* its item in the grid */
+    int column;     /* jp n0 + ip: its slot on the planes in flight */
+    int here, back; /* word offsets of this step's plane and of the previous step's */
+    int first, end; /* the step's directions; first >= end: nothing to do */
+    int chunk_dirs; /* directions per chunk (the planes' stride) */
+};
+PNANOVDB_STRUCT_TYPEDEF(vs_svd_at)
+
+VS_FUNC vs_svd_at vs_svd_locate(VS_DATA_PARAM(vs_uint, svd_params) int item, int step)
 {
     int n0 = VS_INT(svd_params[VS_SVD_OFF_N]);
     int n1 = VS_INT(svd_params[VS_SVD_OFF_N + 1]);
@@ -102,157 +108,237 @@ VS_FUNC void vs_svd_sweep(VS_DATA_PARAM(vs_uint, svd_params) VS_DATA_PARAM(float
     int chunks = VS_INT(svd_params[VS_SVD_OFF_CHUNKS]);
     int chunk = (step / planes) % chunks;
     int octant = step / (planes * chunks);
-    int ip = item % n0;
-    int jp = item / n0;
-    int kp = plane - ip - jp;
-    if (jp >= n1 || kp < 0 || kp >= n2)
-        return;
-    int chunk_dirs = VS_INT(svd_params[VS_SVD_OFF_CHUNK]);
-    int first = VS_INT(svd_params[VS_SVD_OFF_OCTANT + octant]) + chunk * chunk_dirs;
-    int end = VS_INT(svd_params[VS_SVD_OFF_OCTANT + octant + 1]);
-    if (first + chunk_dirs < end)
-        end = first + chunk_dirs;
-    if (first >= end)
-        return;
-    int i = (octant & 1) != 0 ? n0 - 1 - ip : ip;
-    int j = (octant & 2) != 0 ? n1 - 1 - jp : jp;
-    int k = (octant & 4) != 0 ? n2 - 1 - kp : kp;
-    int cell = (k * n1 + j) * n0 + i;
-    int terms = VS_INT(svd_params[VS_SVD_OFF_TERMS]);
-    int lights = VS_INT(svd_params[VS_SVD_OFF_LIGHTS]);
-    float h = vs_svd_param_float(VS_DATA_ARG(svd_params) VS_SVD_OFF_H);
-    float g = vs_svd_param_float(VS_DATA_ARG(svd_params) VS_SVD_OFF_G);
-    float volume = h * h * h;
-    float area = h * h;
-    pnanovdb_vec3_t centre = vs_vec3(
-        vs_svd_param_float(VS_DATA_ARG(svd_params) VS_SVD_OFF_ORIGIN) + (VS_FLOAT(i) + 0.5f) * h,
-        vs_svd_param_float(VS_DATA_ARG(svd_params) VS_SVD_OFF_ORIGIN + 1) +
-            (VS_FLOAT(j) + 0.5f) * h,
-        vs_svd_param_float(VS_DATA_ARG(svd_params) VS_SVD_OFF_ORIGIN + 2) +
-            (VS_FLOAT(k) + 0.5f) * h);
-    float sigma = svd_sigma[cell];
-    float st0 = sigma * vs_svd_param_float(VS_DATA_ARG(svd_params) VS_SVD_OFF_EXTINCT);
-    float st1 = sigma * vs_svd_param_float(VS_DATA_ARG(svd_params) VS_SVD_OFF_EXTINCT + 1);
-    float st2 = sigma * vs_svd_param_float(VS_DATA_ARG(svd_params) VS_SVD_OFF_EXTINCT + 2);
-    int v_at = VS_INT(svd_params[VS_SVD_OFF_TABLE_V]);
-    int light_at = VS_INT(svd_params[VS_SVD_OFF_TABLE_LIGHTS]);
-    int record = VS_INT(svd_params[VS_SVD_OFF_STATE_OUT]) + cell * VS_SVD_OUT_WORDS;
+    vs_svd_at at;
+    at.ip = item % n0;
+    at.jp = item / n0;
+    at.kp = plane - at.ip - at.jp;
+    at.chunk_dirs = VS_INT(svd_params[VS_SVD_OFF_CHUNK]);
+    at.first = VS_INT(svd_params[VS_SVD_OFF_OCTANT + octant]) + chunk * at.chunk_dirs;
+    at.end = VS_INT(svd_params[VS_SVD_OFF_OCTANT + octant + 1]);
+    if (at.first + at.chunk_dirs < at.end)
+        at.end = at.first + at.chunk_dirs;
+    if (at.jp >= n1 || at.kp < 0 || at.kp >= n2)
+        at.end = at.first; /* the column has no cell on this plane */
+    int i = (octant & 1) != 0 ? n0 - 1 - at.ip : at.ip;
+    int j = (octant & 2) != 0 ? n1 - 1 - at.jp : at.jp;
+    int k = (octant & 4) != 0 ? n2 - 1 - at.kp : at.kp;
+    at.cell = (k * n1 + j) * n0 + i;
+    at.column = at.jp * n0 + at.ip;
     int columns = n0 * n1;
     int plane_at = VS_INT(svd_params[VS_SVD_OFF_STATE_PLANES]);
-    int here = plane_at + (plane & 1) * chunk_dirs * columns * 3;
-    int back = plane_at + ((plane + 1) & 1) * chunk_dirs * columns * 3;
-    int column = jp * n0 + ip;
-    /* Per-cell tallies, kept in float: a cell's terms are of one size. */
-    float fl0 = 0.0f, fl1 = 0.0f, fl2 = 0.0f;
-    float fx0 = 0.0f, fx1 = 0.0f, fx2 = 0.0f, fy0 = 0.0f, fy1 = 0.0f, fy2 = 0.0f;
-    float fz0 = 0.0f, fz1 = 0.0f, fz2 = 0.0f;
-    float emitted = 0.0f, collided = 0.0f, leaked = 0.0f, clamped = 0.0f;
-    for (int d = first; d < end; ++d) {
-        int rec = d * VS_SVD_DIR_WORDS;
-        pnanovdb_vec3_t w =
-            vs_vec3(svd_tables[rec + VS_SVD_DIR_W], svd_tables[rec + VS_SVD_DIR_W + 1],
-                    svd_tables[rec + VS_SVD_DIR_W + 2]);
-        float dw = svd_tables[rec + VS_SVD_DIR_WEIGHT];
-        VS_PRECISE float q0 = 0.0f;
-        VS_PRECISE float q1 = 0.0f;
-        VS_PRECISE float q2 = 0.0f;
-        for (int l = 0; l < lights; ++l) {
-            pnanovdb_vec3_t travel = vs_svd_light_travel(
-                VS_DATA_ARG(svd_tables) light_at + l * VS_SVD_LIGHT_WORDS, centre);
-            float p = vs_hg_dirs(g, travel, w);
-            int e = (cell * lights + l) * 3;
-            q0 += svd_direct[e] * p;
-            q1 += svd_direct[e + 1] * p;
-            q2 += svd_direct[e + 2] * p;
-        }
-        int vrow = v_at + d * terms;
-        int src = cell * terms * 3;
-        for (int t = 0; t < terms; ++t) {
-            float v = svd_tables[vrow + t];
-            q0 += v * svd_source[src + 3 * t];
-            q1 += v * svd_source[src + 3 * t + 1];
-            q2 += v * svd_source[src + 3 * t + 2];
-        }
-        /* A truncated factorisation can emit negative light: clamp, and count what it cost. */
-        clamped -= (vs_min(q0, 0.0f) + vs_min(q1, 0.0f) + vs_min(q2, 0.0f)) * dw * volume;
-        q0 = vs_max(q0, 0.0f);
-        q1 = vs_max(q1, 0.0f);
-        q2 = vs_max(q2, 0.0f);
-        float mx = vs_abs(w.x);
-        float my = vs_abs(w.y);
-        float mz = vs_abs(w.z);
-        int slot = (d - first) * columns;
-        /* Upwind inflow: the column before along each axis on the previous plane (0 at the
-         * grid's inflow faces: vacuum). */
-        float ax0 = 0.0f, ax1 = 0.0f, ax2 = 0.0f, ay0 = 0.0f, ay1 = 0.0f, ay2 = 0.0f;
-        float az0 = 0.0f, az1 = 0.0f, az2 = 0.0f;
-        if (ip > 0) {
-            int at = back + (slot + column - 1) * 3;
-            ax0 = svd_state[at];
-            ax1 = svd_state[at + 1];
-            ax2 = svd_state[at + 2];
-        }
-        if (jp > 0) {
-            int at = back + (slot + column - n0) * 3;
-            ay0 = svd_state[at];
-            ay1 = svd_state[at + 1];
-            ay2 = svd_state[at + 2];
-        }
-        if (kp > 0) {
-            int at = back + (slot + column) * 3;
-            az0 = svd_state[at];
-            az1 = svd_state[at + 1];
-            az2 = svd_state[at + 2];
-        }
-        float open = mx + my + mz;
-        float l0 = (q0 * h + mx * ax0 + my * ay0 + mz * az0) / (st0 * h + open);
-        float l1 = (q1 * h + mx * ax1 + my * ay1 + mz * az1) / (st1 * h + open);
-        float l2 = (q2 * h + mx * ax2 + my * ay2 + mz * az2) / (st2 * h + open);
-        int put = here + (slot + column) * 3;
-        svd_state[put] = l0;
-        svd_state[put + 1] = l1;
-        svd_state[put + 2] = l2;
-        for (int t = 0; t < terms; ++t) {
-            float v = svd_tables[vrow + t];
-            int m = (cell * terms + t) * 3;
-            svd_state[m] += v * l0;
-            svd_state[m + 1] += v * l1;
-            svd_state[m + 2] += v * l2;
-        }
-        fl0 += l0 * dw;
-        fl1 += l1 * dw;
-        fl2 += l2 * dw;
-        fx0 += l0 * w.x * dw;
-        fx1 += l1 * w.x * dw;
-        fx2 += l2 * w.x * dw;
-        fy0 += l0 * w.y * dw;
-        fy1 += l1 * w.y * dw;
-        fy2 += l2 * w.y * dw;
-        fz0 += l0 * w.z * dw;
-        fz1 += l1 * w.z * dw;
-        fz2 += l2 * w.z * dw;
-        emitted += (q0 + q1 + q2) * dw * volume;
-        collided += (st0 * l0 + st1 * l1 + st2 * l2) * dw * volume;
-        float faces =
-            (ip == n0 - 1 ? mx : 0.0f) + (jp == n1 - 1 ? my : 0.0f) + (kp == n2 - 1 ? mz : 0.0f);
-        leaked += faces * (l0 + l1 + l2) * dw * area;
+    at.here = plane_at + (plane & 1) * at.chunk_dirs * columns * 3;
+    at.back = plane_at + ((plane + 1) & 1) * at.chunk_dirs * columns * 3;
+    return at;
+}
+
+/* What the cell's directions share: the grid, the medium, the tables' layout. */
+struct vs_svd_cell {
+    int n0, n1, n2;
+    int terms, lights;
+    int v_at, light_at; /* word offsets in svd_tables */
+    int record;         /* word offset of the cell's record in the state */
+    float h, g, volume, area;
+    pnanovdb_vec3_t centre; /* world */
+    pnanovdb_vec3_t st;     /* sigma_t* per channel */
+};
+PNANOVDB_STRUCT_TYPEDEF(vs_svd_cell)
+
+VS_FUNC vs_svd_cell vs_svd_cell_of(VS_DATA_PARAM(vs_uint, svd_params)
+                                       VS_DATA_PARAM(float, svd_sigma) vs_svd_at at)
+{
+    vs_svd_cell c;
+    c.n0 = VS_INT(svd_params[VS_SVD_OFF_N]);
+    c.n1 = VS_INT(svd_params[VS_SVD_OFF_N + 1]);
+    c.n2 = VS_INT(svd_params[VS_SVD_OFF_N + 2]);
+    c.terms = VS_INT(svd_params[VS_SVD_OFF_TERMS]);
+    c.lights = VS_INT(svd_params[VS_SVD_OFF_LIGHTS]);
+    c.v_at = VS_INT(svd_params[VS_SVD_OFF_TABLE_V]);
+    c.light_at = VS_INT(svd_params[VS_SVD_OFF_TABLE_LIGHTS]);
+    c.record = VS_INT(svd_params[VS_SVD_OFF_STATE_OUT]) + at.cell * VS_SVD_OUT_WORDS;
+    c.h = vs_svd_param_float(VS_DATA_ARG(svd_params) VS_SVD_OFF_H);
+    c.g = vs_svd_param_float(VS_DATA_ARG(svd_params) VS_SVD_OFF_G);
+    c.volume = c.h * c.h * c.h;
+    c.area = c.h * c.h;
+    int i = at.cell % c.n0;
+    int j = (at.cell / c.n0) % c.n1;
+    int k = at.cell / (c.n0 * c.n1);
+    c.centre = vs_vec3(vs_svd_param_float(VS_DATA_ARG(svd_params) VS_SVD_OFF_ORIGIN) +
+                           (VS_FLOAT(i) + 0.5f) * c.h,
+                       vs_svd_param_float(VS_DATA_ARG(svd_params) VS_SVD_OFF_ORIGIN + 1) +
+                           (VS_FLOAT(j) + 0.5f) * c.h,
+                       vs_svd_param_float(VS_DATA_ARG(svd_params) VS_SVD_OFF_ORIGIN + 2) +
+                           (VS_FLOAT(k) + 0.5f) * c.h);
+    float sigma = svd_sigma[at.cell];
+    c.st = vs_vec3(sigma * vs_svd_param_float(VS_DATA_ARG(svd_params) VS_SVD_OFF_EXTINCT),
+                   sigma * vs_svd_param_float(VS_DATA_ARG(svd_params) VS_SVD_OFF_EXTINCT + 1),
+                   sigma * vs_svd_param_float(VS_DATA_ARG(svd_params) VS_SVD_OFF_EXTINCT + 2));
+    return c;
+}
+
+/* The emission toward w (direction d) at the cell, per channel, before the clamp: the direct
+ * lights' first scattering and the factored phase's source moments. */
+VS_FUNC pnanovdb_vec3_t vs_svd_emission(VS_DATA_PARAM(float, svd_tables)
+                                            VS_DATA_PARAM(float, svd_direct)
+                                                VS_DATA_PARAM(float, svd_source) vs_svd_cell c,
+                                        int cell, pnanovdb_vec3_t w, int d)
+{
+    VS_PRECISE float q0 = 0.0f;
+    VS_PRECISE float q1 = 0.0f;
+    VS_PRECISE float q2 = 0.0f;
+    for (int l = 0; l < c.lights; ++l) {
+        pnanovdb_vec3_t travel = vs_svd_light_travel(
+            VS_DATA_ARG(svd_tables) c.light_at + l * VS_SVD_LIGHT_WORDS, c.centre);
+        float p = vs_hg_dirs(c.g, travel, w);
+        int e = (cell * c.lights + l) * 3;
+        q0 += svd_direct[e] * p;
+        q1 += svd_direct[e + 1] * p;
+        q2 += svd_direct[e + 2] * p;
     }
-    svd_state[record + VS_SVD_OUT_FLUENCE] += fl0;
-    svd_state[record + VS_SVD_OUT_FLUENCE + 1] += fl1;
-    svd_state[record + VS_SVD_OUT_FLUENCE + 2] += fl2;
-    svd_state[record + VS_SVD_OUT_FLUX] += fx0;
-    svd_state[record + VS_SVD_OUT_FLUX + 1] += fx1;
-    svd_state[record + VS_SVD_OUT_FLUX + 2] += fx2;
-    svd_state[record + VS_SVD_OUT_FLUX + 3] += fy0;
-    svd_state[record + VS_SVD_OUT_FLUX + 4] += fy1;
-    svd_state[record + VS_SVD_OUT_FLUX + 5] += fy2;
-    svd_state[record + VS_SVD_OUT_FLUX + 6] += fz0;
-    svd_state[record + VS_SVD_OUT_FLUX + 7] += fz1;
-    svd_state[record + VS_SVD_OUT_FLUX + 8] += fz2;
-    svd_state[record + VS_SVD_OUT_SOURCE] += emitted;
-    svd_state[record + VS_SVD_OUT_COLLIDE] += collided;
-    svd_state[record + VS_SVD_OUT_LEAK] += leaked;
-    svd_state[record + VS_SVD_OUT_CLAMPED] += clamped;
+    int vrow = c.v_at + d * c.terms;
+    int src = cell * c.terms * 3;
+    for (int t = 0; t < c.terms; ++t) {
+        float v = svd_tables[vrow + t];
+        q0 += v * svd_source[src + 3 * t];
+        q1 += v * svd_source[src + 3 * t + 1];
+        q2 += v * svd_source[src + 3 * t + 2];
+    }
+    return vs_vec3(q0, q1, q2);
+}
+
+VS_FUNC pnanovdb_vec3_t vs_svd_load3(VS_OUT_PARAM(float, svd_state) int at)
+{
+    return vs_vec3(svd_state[at], svd_state[at + 1], svd_state[at + 2]);
+}
+
+/* The cell's radiance toward w from its emission q (clamped) and the upwind inflow: the
+ * column before along each axis on the previous plane, 0 at the grid's inflow faces (vacuum). */
+VS_FUNC pnanovdb_vec3_t vs_svd_upwind(VS_OUT_PARAM(float, svd_state) vs_svd_at at, vs_svd_cell c,
+                                      int slot, pnanovdb_vec3_t q, pnanovdb_vec3_t w)
+{
+    float mx = vs_abs(w.x);
+    float my = vs_abs(w.y);
+    float mz = vs_abs(w.z);
+    pnanovdb_vec3_t ax = vs_vec3(0.0f, 0.0f, 0.0f);
+    pnanovdb_vec3_t ay = ax;
+    pnanovdb_vec3_t az = ax;
+    if (at.ip > 0)
+        ax = vs_svd_load3(VS_DATA_ARG(svd_state) at.back + (slot + at.column - 1) * 3);
+    if (at.jp > 0)
+        ay = vs_svd_load3(VS_DATA_ARG(svd_state) at.back + (slot + at.column - c.n0) * 3);
+    if (at.kp > 0)
+        az = vs_svd_load3(VS_DATA_ARG(svd_state) at.back + (slot + at.column) * 3);
+    float open = mx + my + mz;
+    return vs_vec3((q.x * c.h + mx * ax.x + my * ay.x + mz * az.x) / (c.st.x * c.h + open),
+                   (q.y * c.h + mx * ax.y + my * ay.y + mz * az.y) / (c.st.y * c.h + open),
+                   (q.z * c.h + mx * ax.z + my * ay.z + mz * az.z) / (c.st.z * c.h + open));
+}
+
+/* A cell's tallies over a step's directions, kept in float: a cell's terms are of one size. */
+struct vs_svd_tally {
+    pnanovdb_vec3_t fluence;
+    pnanovdb_vec3_t fx, fy, fz; /* the flux's x, y and z components per channel */
+    float emitted, collided, leaked, clamped;
+};
+PNANOVDB_STRUCT_TYPEDEF(vs_svd_tally)
+
+/* Direction d of the step for the cell: its emission (a truncated factorisation can emit
+ * negative light: clamped, and what that cost counted), its radiance onto this step's plane,
+ * its share of the new moments and of the tallies. */
+VS_FUNC void vs_svd_direction(VS_DATA_PARAM(float, svd_tables) VS_DATA_PARAM(float, svd_direct)
+                                  VS_DATA_PARAM(float, svd_source) VS_OUT_PARAM(float, svd_state)
+                                      vs_svd_at at,
+                              vs_svd_cell c, int d, PNANOVDB_INOUT(vs_svd_tally) t)
+{
+    int rec = d * VS_SVD_DIR_WORDS;
+    pnanovdb_vec3_t w = vs_vec3(svd_tables[rec + VS_SVD_DIR_W], svd_tables[rec + VS_SVD_DIR_W + 1],
+                                svd_tables[rec + VS_SVD_DIR_W + 2]);
+    float dw = svd_tables[rec + VS_SVD_DIR_WEIGHT];
+    pnanovdb_vec3_t q = vs_svd_emission(
+        VS_DATA_ARG(svd_tables) VS_DATA_ARG(svd_direct) VS_DATA_ARG(svd_source) c, at.cell, w, d);
+    PNANOVDB_DEREF(t).clamped -=
+        (vs_min(q.x, 0.0f) + vs_min(q.y, 0.0f) + vs_min(q.z, 0.0f)) * dw * c.volume;
+    q = vs_vec3(vs_max(q.x, 0.0f), vs_max(q.y, 0.0f), vs_max(q.z, 0.0f));
+    int slot = (d - at.first) * c.n0 * c.n1; /* the direction's part of the planes */
+    pnanovdb_vec3_t l = vs_svd_upwind(VS_DATA_ARG(svd_state) at, c, slot, q, w);
+    int put = at.here + (slot + at.column) * 3;
+    svd_state[put] = l.x;
+    svd_state[put + 1] = l.y;
+    svd_state[put + 2] = l.z;
+    int vrow = c.v_at + d * c.terms;
+    for (int k = 0; k < c.terms; ++k) {
+        float v = svd_tables[vrow + k];
+        int m = (at.cell * c.terms + k) * 3;
+        svd_state[m] += v * l.x;
+        svd_state[m + 1] += v * l.y;
+        svd_state[m + 2] += v * l.z;
+    }
+    PNANOVDB_DEREF(t).fluence =
+        vs_vec3(PNANOVDB_DEREF(t).fluence.x + l.x * dw, PNANOVDB_DEREF(t).fluence.y + l.y * dw,
+                PNANOVDB_DEREF(t).fluence.z + l.z * dw);
+    PNANOVDB_DEREF(t).fx =
+        vs_vec3(PNANOVDB_DEREF(t).fx.x + l.x * w.x * dw, PNANOVDB_DEREF(t).fx.y + l.y * w.x * dw,
+                PNANOVDB_DEREF(t).fx.z + l.z * w.x * dw);
+    PNANOVDB_DEREF(t).fy =
+        vs_vec3(PNANOVDB_DEREF(t).fy.x + l.x * w.y * dw, PNANOVDB_DEREF(t).fy.y + l.y * w.y * dw,
+                PNANOVDB_DEREF(t).fy.z + l.z * w.y * dw);
+    PNANOVDB_DEREF(t).fz =
+        vs_vec3(PNANOVDB_DEREF(t).fz.x + l.x * w.z * dw, PNANOVDB_DEREF(t).fz.y + l.y * w.z * dw,
+                PNANOVDB_DEREF(t).fz.z + l.z * w.z * dw);
+    PNANOVDB_DEREF(t).emitted += (q.x + q.y + q.z) * dw * c.volume;
+    PNANOVDB_DEREF(t).collided += (c.st.x * l.x + c.st.y * l.y + c.st.z * l.z) * dw * c.volume;
+    float faces = (at.ip == c.n0 - 1 ? vs_abs(w.x) : 0.0f) +
+                  (at.jp == c.n1 - 1 ? vs_abs(w.y) : 0.0f) +
+                  (at.kp == c.n2 - 1 ? vs_abs(w.z) : 0.0f);
+    PNANOVDB_DEREF(t).leaked += faces * (l.x + l.y + l.z) * dw * c.area;
+}
+
+/* Adds the step's tallies to the cell's record. */
+VS_FUNC void vs_svd_tally_store(VS_OUT_PARAM(float, svd_state) int record, vs_svd_tally t)
+{
+    svd_state[record + VS_SVD_OUT_FLUENCE] += t.fluence.x;
+    svd_state[record + VS_SVD_OUT_FLUENCE + 1] += t.fluence.y;
+    svd_state[record + VS_SVD_OUT_FLUENCE + 2] += t.fluence.z;
+    svd_state[record + VS_SVD_OUT_FLUX] += t.fx.x;
+    svd_state[record + VS_SVD_OUT_FLUX + 1] += t.fx.y;
+    svd_state[record + VS_SVD_OUT_FLUX + 2] += t.fx.z;
+    svd_state[record + VS_SVD_OUT_FLUX + 3] += t.fy.x;
+    svd_state[record + VS_SVD_OUT_FLUX + 4] += t.fy.y;
+    svd_state[record + VS_SVD_OUT_FLUX + 5] += t.fy.z;
+    svd_state[record + VS_SVD_OUT_FLUX + 6] += t.fz.x;
+    svd_state[record + VS_SVD_OUT_FLUX + 7] += t.fz.y;
+    svd_state[record + VS_SVD_OUT_FLUX + 8] += t.fz.z;
+    svd_state[record + VS_SVD_OUT_SOURCE] += t.emitted;
+    svd_state[record + VS_SVD_OUT_COLLIDE] += t.collided;
+    svd_state[record + VS_SVD_OUT_LEAK] += t.leaked;
+    svd_state[record + VS_SVD_OUT_CLAMPED] += t.clamped;
+}
+
+/* Step `step` of a sweep for column `item`: the one cell of the column on the step's plane,
+ * for the step's chunk of its octant's directions. */
+VS_FUNC void vs_svd_sweep(VS_DATA_PARAM(vs_uint, svd_params) VS_DATA_PARAM(float, svd_tables)
+                              VS_DATA_PARAM(float, svd_sigma) VS_DATA_PARAM(float, svd_direct)
+                                  VS_DATA_PARAM(float, svd_source)
+                                      VS_OUT_PARAM(float, svd_state) int item,
+                          int step)
+{
+    vs_svd_at at = vs_svd_locate(VS_DATA_ARG(svd_params) item, step);
+    if (at.first >= at.end)
+        return;
+    vs_svd_cell c = vs_svd_cell_of(VS_DATA_ARG(svd_params) VS_DATA_ARG(svd_sigma) at);
+    vs_svd_tally t;
+    t.fluence = vs_vec3(0.0f, 0.0f, 0.0f);
+    t.fx = t.fluence;
+    t.fy = t.fluence;
+    t.fz = t.fluence;
+    t.emitted = 0.0f;
+    t.collided = 0.0f;
+    t.leaked = 0.0f;
+    t.clamped = 0.0f;
+    for (int d = at.first; d < at.end; ++d)
+        vs_svd_direction(VS_DATA_ARG(svd_tables) VS_DATA_ARG(svd_direct) VS_DATA_ARG(svd_source)
+                             VS_DATA_ARG(svd_state) at,
+                         c, d, PNANOVDB_REF(t));
+    vs_svd_tally_store(VS_DATA_ARG(svd_state) c.record, t);
 }
 
 #endif

@@ -36,9 +36,12 @@ static void solve(const vdbs_fld_grid *grid, const vdbs_fld_desc *desc, double *
     memset(phi, 0, sizeof *phi * 3 * cells);
     memset(stats, 0, sizeof *stats);
     vdbs_error err;
-    if (vdbs_fld_solve_grid(test_runner(VDBS_BACKEND_CPU), grid, desc, phi, flux, stats, &err) !=
-        VDBS_OK)
+    vdbs_runner *runner = test_runner(VDBS_BACKEND_CPU);
+    if (vdbs_fld_solve_grid(runner, grid, desc, phi, flux, stats, &err) != VDBS_OK)
         fail_msg("%s", err.message);
+    /* The C path's kernels read the solver's arrays: nothing is uploaded or read back. */
+    vdbs_runner_transfer moved = vdbs_runner_transfers(runner);
+    assert_true(moved.uploaded == 0 && moved.read_back == 0 && moved.resident_uploaded == 0);
 }
 
 /* source = absorbed + leaked to 1e-6 relative; returns the relative imbalance. */

@@ -8,7 +8,8 @@
  * rho^(k-1) (1 - rho) u*.
  *
  * And a sweep in dependency order (in place, plane after plane, with a sum reduction),
- * whose planes are exact binary fractions (shaders/test_sweep.comp). */
+ * whose planes are exact binary fractions (shaders/test_sweep.comp). And the bytes the runner
+ * counts as moved, exactly, from the buffer sizes of each call. */
 #include "testutil.h"
 
 #include <math.h>
@@ -20,6 +21,7 @@
 #include <nanovdb/PNanoVDB.h>
 
 #include "vs_common.h"
+#include "vs_pass.h"
 #include "vs_stencil.h"
 
 /* Items not a multiple of the work-group size, so that partial groups are exercised. */
@@ -86,11 +88,9 @@ static double jacobi_step(void *user, int step, const void *state_in, void *stat
     return change;
 }
 
-/* Runs up to `iterations` steps from u = 0 on the runner into u. */
-static vdbs_status solve(vdbs_runner *runner, int iterations, double tolerance, uint64_t gpu_chunk,
-                         float *u, vdbs_kernel_result *result, vdbs_error *err)
+/* The Jacobi kernel's description: up to `iterations` steps from u (the caller zeroes it). */
+static vdbs_kernel_desc jacobi_desc(int iterations, double tolerance, uint64_t gpu_chunk, float *u)
 {
-    memset(u, 0, sizeof(float) * ITEMS);
     vdbs_kernel_desc desc = {0};
     desc.items = ITEMS;
     desc.user = &P;
@@ -105,6 +105,15 @@ static vdbs_status solve(vdbs_runner *runner, int iterations, double tolerance, 
     desc.tolerance = tolerance;
     desc.reduce = VDBS_REDUCE_MAX;
     desc.gpu_chunk = gpu_chunk;
+    return desc;
+}
+
+/* Runs up to `iterations` steps from u = 0 on the runner into u. */
+static vdbs_status solve(vdbs_runner *runner, int iterations, double tolerance, uint64_t gpu_chunk,
+                         float *u, vdbs_kernel_result *result, vdbs_error *err)
+{
+    memset(u, 0, sizeof(float) * ITEMS);
+    vdbs_kernel_desc desc = jacobi_desc(iterations, tolerance, gpu_chunk, u);
     return vdbs_kernel_iterate(runner, &desc, result, err);
 }
 
@@ -247,12 +256,87 @@ static void test_sweep_in_place(void **state)
     free(u);
 }
 
+/* What the runner moved while `desc` ran on it from u = 0: the field (compared bitwise with
+ * `want` when given) and the change of its counters. */
+static vdbs_runner_transfer moved_by(vdbs_runner *runner, vdbs_kernel_desc *desc, float *u,
+                                     const float *want, vdbs_kernel_result *result)
+{
+    vdbs_runner_transfer before = vdbs_runner_transfers(runner);
+    memset(u, 0, sizeof(float) * ITEMS);
+    vdbs_error err;
+    if (vdbs_kernel_iterate(runner, desc, result, &err) != VDBS_OK)
+        fail_msg("%s", err.message);
+    if (want && memcmp(u, want, sizeof(float) * ITEMS) != 0)
+        fail_msg("the field changed with how the inputs travelled");
+    vdbs_runner_transfer after = vdbs_runner_transfers(runner);
+    return (vdbs_runner_transfer){after.uploaded - before.uploaded,
+                                  after.read_back - before.read_back,
+                                  after.resident_uploaded - before.resident_uploaded};
+}
+
+static void assert_moved(const char *label, vdbs_runner_transfer t, unsigned long long uploaded,
+                         unsigned long long read_back, unsigned long long resident)
+{
+    print_message("%s: uploaded %llu (want %llu), read back %llu (want %llu), resident %llu "
+                  "(want %llu)\n",
+                  label, t.uploaded, uploaded, t.read_back, read_back, t.resident_uploaded,
+                  resident);
+    assert_true(t.uploaded == uploaded);
+    assert_true(t.read_back == read_back);
+    assert_true(t.resident_uploaded == resident);
+}
+
+/* The transfer counters, exactly, for 60 Jacobi steps: on the GPU the inputs and the initial
+ * state up once, a control block up and back and the group partials back per step, the final
+ * state back; a resident input uploaded by the first call only; no partials without a
+ * reduction and no initial state when it starts zeroed; nothing at all on the C path. */
+static void test_transfer_counts(void **state)
+{
+    (void)state;
+    const int k = 60;
+    const unsigned long long control = sizeof(uint32_t) * VS_PASS_WORDS;
+    const unsigned long long partials =
+        sizeof(float) * ((ITEMS + VS_PASS_LOCAL_SIZE - 1) / VS_PASS_LOCAL_SIZE);
+    const unsigned long long field = sizeof(float) * ITEMS;
+    const unsigned long long inputs = sizeof P.rhs + sizeof P.dims;
+    float *u = malloc(sizeof(float) * ITEMS), *want = malloc(sizeof(float) * ITEMS);
+    assert_non_null(u);
+    assert_non_null(want);
+    vdbs_runner *gpu = test_runner(VDBS_BACKEND_GPU);
+    vdbs_kernel_result result;
+    vdbs_kernel_desc desc = jacobi_desc(k, 0.0, 0, u);
+    assert_moved("per-call inputs", moved_by(gpu, &desc, u, NULL, &result),
+                 inputs + field + k * control, k * (control + partials) + field, 0);
+    memcpy(want, u, sizeof(float) * ITEMS);
+    const double reduction = result.reduction;
+
+    desc.inputs[1].resident = vdbs_runner_resident_id(gpu);
+    assert_moved("resident rhs, first call", moved_by(gpu, &desc, u, want, &result),
+                 inputs + field + k * control, k * (control + partials) + field, sizeof P.rhs);
+    assert_moved("resident rhs, second call", moved_by(gpu, &desc, u, want, &result),
+                 sizeof P.dims + field + k * control, k * (control + partials) + field, 0);
+    assert_true(result.reduction == reduction);
+
+    desc.reduce = VDBS_REDUCE_NONE;
+    desc.state_zeroed = 1;
+    assert_moved("no reduction, zeroed state", moved_by(gpu, &desc, u, want, &result),
+                 sizeof P.dims + k * control, k * control + field, 0);
+    assert_true(result.reduction == 0.0 && result.iterations == k);
+    vdbs_runner_release(gpu, desc.inputs[1].resident);
+
+    vdbs_runner *cpu = test_runner(VDBS_BACKEND_CPU);
+    desc.inputs[1].resident = vdbs_runner_resident_id(cpu);
+    assert_moved("C path", moved_by(cpu, &desc, u, NULL, &result), 0, 0, 0);
+    free(u);
+    free(want);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_closed_form_c),   cmocka_unit_test(test_closed_form_gpu),
         cmocka_unit_test(test_tolerance_stops), cmocka_unit_test(test_twins),
-        cmocka_unit_test(test_sweep_in_place),
+        cmocka_unit_test(test_sweep_in_place),  cmocka_unit_test(test_transfer_counts),
     };
     return cmocka_run_group_tests(tests, setup, teardown);
 }

@@ -8,7 +8,9 @@
  * iteration to 1e-5, and 30 iterations within the bound stated there); FLD's operator (to
  * 1e-5) and a converged FLD solve (within the bound stated there); the discrete ordinates'
  * sweep (one sweep to 1e-5, directions in chunks of 3 and whole octants, and 25 iterations
- * within the bound stated there). */
+ * within the bound stated there). And that FLD and SVD on the GPU upload their solve's
+ * constant inputs once, not per operator application or sweep: the runner's byte counts, exact
+ * from the buffer sizes. */
 #include "testutil.h"
 
 #include <math.h>
@@ -37,6 +39,9 @@
 #include "vs_common.h"
 #include "vs_pop.h"
 #include "vs_fld.h"
+#include "vs_pass.h"
+#include "vs_phase.h"
+#include "vs_svd.h"
 
 #define SIZE 32
 
@@ -746,6 +751,80 @@ static void test_fld(void **state)
     free(fs);
 }
 
+/* The change of the runner's counters over a call. */
+static vdbs_runner_transfer transfer_since(vdbs_runner *runner, vdbs_runner_transfer before)
+{
+    vdbs_runner_transfer now = vdbs_runner_transfers(runner);
+    return (vdbs_runner_transfer){now.uploaded - before.uploaded, now.read_back - before.read_back,
+                                  now.resident_uploaded - before.resident_uploaded};
+}
+
+/* One FLD solve of the scenario on the GPU (and on the C path, which must take the same
+ * operator applications), every level through the runner. Its operator's parameters (3 channels
+ * per level) and coefficients (one set per level and limiter update) are uploaded once each and
+ * kept resident; per application only the vector goes up and A x comes back (one float per cell)
+ * with the pass's control words, and no reduction is read. Returns the resident bytes. */
+static unsigned long long check_fld_uploads(fld_solve_scenario *s, double tolerance,
+                                            int max_updates, int *applications)
+{
+    s->desc.tolerance = tolerance;
+    s->desc.max_updates = max_updates;
+    double *phi = calloc(3 * FLD_SOLVE_CELLS, sizeof *phi);
+    assert_non_null(phi);
+    vdbs_fld_stats stats, cpu_stats;
+    vdbs_error err;
+    if (vdbs_fld_solve_grid(test_runner(VDBS_BACKEND_CPU), &s->grid, &s->desc, phi, NULL,
+                            &cpu_stats, &err) != VDBS_OK)
+        fail_msg("%s", err.message);
+    memset(phi, 0, sizeof *phi * 3 * FLD_SOLVE_CELLS);
+    vdbs_runner *gpu = test_runner(VDBS_BACKEND_GPU);
+    vdbs_runner_transfer before = vdbs_runner_transfers(gpu);
+    if (vdbs_fld_solve_grid(gpu, &s->grid, &s->desc, phi, NULL, &stats, &err) != VDBS_OK)
+        fail_msg("%s", err.message);
+    vdbs_runner_transfer t = transfer_since(gpu, before);
+    free(phi);
+    assert_int_equal(stats.operator_applications, cpu_stats.operator_applications);
+    /* The levels halve the cells along every axis, rounding up. */
+    int n[3] = {FLD_SOLVE_N0, FLD_SOLVE_N1, FLD_SOLVE_N2};
+    unsigned long long coef = 0, params = 0;
+    for (int l = 0; l < stats.levels; ++l) {
+        coef += sizeof(float) * VS_FLD_COEF_WORDS * 3 * (unsigned long long)(n[0] * n[1] * n[2]);
+        params += 3 * sizeof(uint32_t) * VS_FLD_PARAM_WORDS;
+        for (int a = 0; a < 3; ++a)
+            n[a] = (n[a] + 1) / 2;
+    }
+    const unsigned long long control = sizeof(uint32_t) * VS_PASS_WORDS;
+    const unsigned long long resident = (unsigned long long)stats.updates * coef + params;
+    const unsigned long long vectors = sizeof(float) * (unsigned long long)stats.cell_updates;
+    const unsigned long long calls = (unsigned long long)stats.operator_applications;
+    print_message("FLD, tolerance %.0e, %d solves, %d levels, %d applications: uploaded %llu "
+                  "(resident %llu), read back %llu\n",
+                  tolerance, stats.updates, stats.levels, stats.operator_applications, t.uploaded,
+                  t.resident_uploaded, t.read_back);
+    assert_true(t.resident_uploaded == resident);
+    assert_true(t.uploaded == resident + vectors + calls * control);
+    assert_true(t.read_back == vectors + calls * control);
+    *applications = stats.operator_applications;
+    return t.resident_uploaded;
+}
+
+static void test_fld_uploads_once(void **state)
+{
+    (void)state;
+    fld_solve_scenario *s = malloc(sizeof *s);
+    assert_non_null(s);
+    fld_solve_scenario_make(s);
+    int loose = 0, tight = 0;
+    /* The limiter on: a set of coefficients per update. */
+    check_fld_uploads(s, 1e-8, 0, &tight);
+    /* One solve to two tolerances: more applications, the same bytes resident. */
+    unsigned long long a = check_fld_uploads(s, 1e-3, 1, &loose);
+    unsigned long long b = check_fld_uploads(s, 1e-8, 1, &tight);
+    assert_true(tight > loose);
+    assert_true(a == b);
+    free(s);
+}
+
 /* ---- discrete ordinates ---- */
 
 #define SVD_N0 9
@@ -865,6 +944,55 @@ static void test_svd_sweeps(void **state)
     free(s);
 }
 
+/* An SVD solve on the GPU uploads the sweep's constant inputs (parameters, direction and light
+ * tables, medium, direct light) once, however many sweeps it runs: per sweep only the source
+ * moments the host computed from the last one go up, with a control block per step, and the
+ * state (zeroed on the GPU) comes back once, with no reductions. */
+static void test_svd_uploads_once(void **state)
+{
+    (void)state;
+    svd_scenario *s = malloc(sizeof *s);
+    assert_non_null(s);
+    const int sweeps[2] = {1, 4};
+    unsigned long long resident[2];
+    for (int r = 0; r < 2; ++r) {
+        svd_scenario_make(s, sweeps[r], 0);
+        s->desc.residual = 0.0; /* run every sweep */
+        vdbs_runner *gpu = test_runner(VDBS_BACKEND_GPU);
+        vdbs_runner_transfer before = vdbs_runner_transfers(gpu);
+        vdbs_svd_stats stats;
+        memset(&stats, 0, sizeof stats);
+        vdbs_error err;
+        if (vdbs_svd_solve_grid(gpu, &s->grid, &s->desc, NULL, NULL, NULL, &stats, &err) != VDBS_OK)
+            fail_msg("%s", err.message);
+        vdbs_runner_transfer t = transfer_since(gpu, before);
+        assert_int_equal(stats.iterations, sweeps[r]);
+        const unsigned long long D = (unsigned long long)s->pm.d, N = SVD_TERMS, L = 2;
+        const unsigned long long constant =
+            sizeof(uint32_t) * VS_SVD_PARAM_WORDS +
+            sizeof(float) * (D * VS_SVD_DIR_WORDS + D * N + L * VS_SVD_LIGHT_WORDS) +
+            sizeof(float) * SVD_CELLS + sizeof(float) * 3 * SVD_CELLS * L;
+        const unsigned long long source = sizeof(float) * SVD_CELLS * N * 3;
+        const unsigned long long control =
+            sizeof(uint32_t) * VS_PASS_WORDS * (unsigned long long)stats.steps_per_sweep;
+        const unsigned long long state_bytes =
+            sizeof(float) * (SVD_CELLS * (N * 3 + VS_SVD_OUT_WORDS) +
+                             2 * (unsigned long long)stats.chunk * SVD_N0 * SVD_N1 * 3);
+        const unsigned long long n = (unsigned long long)sweeps[r];
+        print_message("SVD, %d sweeps of %d steps: uploaded %llu (resident %llu), read back "
+                      "%llu\n",
+                      sweeps[r], stats.steps_per_sweep, t.uploaded, t.resident_uploaded,
+                      t.read_back);
+        assert_true(t.resident_uploaded == constant);
+        assert_true(t.uploaded == constant + n * (source + control));
+        assert_true(t.read_back == n * (control + state_bytes));
+        resident[r] = t.resident_uploaded;
+        vdbs_phasemat_free(&s->pm);
+    }
+    assert_true(resident[0] == resident[1]);
+    free(s);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -879,7 +1007,9 @@ int main(void)
         cmocka_unit_test(test_render_baked_synthetic),
         cmocka_unit_test(test_pop_propagation),
         cmocka_unit_test(test_fld),
+        cmocka_unit_test(test_fld_uploads_once),
         cmocka_unit_test(test_svd_sweeps),
+        cmocka_unit_test(test_svd_uploads_once),
     };
     /* VDBS_TEST_FILTER=test_svd* runs a part of the file. */
     if (getenv("VDBS_TEST_FILTER"))

@@ -92,9 +92,12 @@ static void solve(const vdbs_svd_grid *grid, const vdbs_svd_desc *desc, double *
 {
     vdbs_error err;
     memset(stats, 0, sizeof *stats);
-    if (vdbs_svd_solve_grid(test_runner(VDBS_BACKEND_CPU), grid, desc, fluence, NULL, moments,
-                            stats, &err) != VDBS_OK)
+    vdbs_runner *runner = test_runner(VDBS_BACKEND_CPU);
+    if (vdbs_svd_solve_grid(runner, grid, desc, fluence, NULL, moments, stats, &err) != VDBS_OK)
         fail_msg("%s", err.message);
+    /* The C path's kernels read the solver's arrays: nothing is uploaded or read back. */
+    vdbs_runner_transfer moved = vdbs_runner_transfers(runner);
+    assert_true(moved.uploaded == 0 && moved.read_back == 0 && moved.resident_uploaded == 0);
 }
 
 /* Every sweep: emitted = collided + leaked to 1e-4 relative (double sums of per-cell float

@@ -76,6 +76,9 @@ static vdbs_status solve(const vdbs_bake_options *o, const vdbs_solver *solver,
     s->s1_stats = &stats;
     memset(&report->solver_stats, 0, sizeof report->solver_stats);
     st = solver->run(s, report->solver_stats.bytes, err);
+    vdbs_runner_transfer moved = vdbs_runner_transfers(runner);
+    report->bytes_uploaded = moved.uploaded;
+    report->bytes_read_back = moved.read_back;
     if (st == VDBS_OK && s->radiance_view && solver->writes_ms) {
         float *wo = vdbs_view_directions(volume, o->scene->camera.position);
         if (wo)

@@ -14,9 +14,10 @@
 #define MAX_UNITS 0x7fffffff
 
 /* Programs are built once per runner (an interactive caller runs the same kernel every
- * frame); resident inputs stay on the GPU under their caller's id until released. */
+ * frame); resident inputs stay on the GPU under their caller's id until released (the table
+ * grows: a multigrid solve keeps a few per level). */
 #define RUNNER_MAX_PROGRAMS 32
-#define RUNNER_MAX_RESIDENT 16
+#define RUNNER_FIRST_RESIDENT 16
 
 typedef struct runner_program {
     const char *shader; /* the embedded source's name: static storage */
@@ -34,8 +35,10 @@ struct vdbs_runner {
     vdbs_gpu *gpu;
     char device[256];
     runner_program programs[RUNNER_MAX_PROGRAMS];
-    runner_resident resident[RUNNER_MAX_RESIDENT];
+    runner_resident *resident;
+    int resident_slots;
     uint64_t next_resident_id;
+    vdbs_runner_transfer transfer;
 };
 
 vdbs_status vdbs_backend_parse(const char *text, vdbs_backend *backend, vdbs_error *err)
@@ -84,10 +87,11 @@ void vdbs_runner_destroy(vdbs_runner *runner)
     if (runner->gpu) {
         for (int i = 0; i < RUNNER_MAX_PROGRAMS; ++i)
             vdbs_gpu_program_destroy(runner->gpu, runner->programs[i].program);
-        for (int i = 0; i < RUNNER_MAX_RESIDENT; ++i)
+        for (int i = 0; i < runner->resident_slots; ++i)
             vdbs_gpu_buffer_destroy(runner->gpu, runner->resident[i].buffer);
         vdbs_gpu_destroy(runner->gpu);
     }
+    free(runner->resident);
     free(runner);
 }
 
@@ -98,7 +102,7 @@ uint64_t vdbs_runner_resident_id(vdbs_runner *runner)
 
 void vdbs_runner_release(vdbs_runner *runner, uint64_t id)
 {
-    for (int i = 0; id && i < RUNNER_MAX_RESIDENT; ++i)
+    for (int i = 0; id && i < runner->resident_slots; ++i)
         if (runner->resident[i].id == id) {
             vdbs_gpu_buffer_destroy(runner->gpu, runner->resident[i].buffer);
             memset(&runner->resident[i], 0, sizeof runner->resident[i]);
@@ -123,6 +127,11 @@ const char *vdbs_runner_device(const vdbs_runner *runner)
 vdbs_gpu *vdbs_runner_gpu(vdbs_runner *runner)
 {
     return runner->gpu;
+}
+
+vdbs_runner_transfer vdbs_runner_transfers(const vdbs_runner *runner)
+{
+    return runner->transfer;
 }
 
 /* ---- C path ---- */
@@ -174,7 +183,7 @@ static int step_done(const vdbs_kernel_desc *d, int it, double reduction,
     result->reduction = reduction;
     if (d->progress)
         vdbs_progress_update(d->progress, (uint64_t)it + 1);
-    return d->tolerance > 0.0 && reduction <= d->tolerance;
+    return d->tolerance > 0.0 && d->reduce != VDBS_REDUCE_NONE && reduction <= d->tolerance;
 }
 
 static double combine(vdbs_reduce reduce, double a, double b)
@@ -206,7 +215,7 @@ static vdbs_status cpu_iterate(const vdbs_kernel_desc *d, int max_iterations,
         }
         /* In chunk order, so that the reduction does not depend on the thread count. */
         double reduction = 0.0;
-        for (int64_t c = 0; c < chunks; ++c)
+        for (int64_t c = 0; c < chunks && d->reduce != VDBS_REDUCE_NONE; ++c)
             reduction = combine(d->reduce, reduction, partials[c]);
         void *t = in;
         in = out;
@@ -228,7 +237,27 @@ static vdbs_status cpu_iterate(const vdbs_kernel_desc *d, int max_iterations,
 
 /* ---- GPU path ---- */
 
+/* A buffer of `size` bytes holding `data` (NULL: zeroed on the GPU, nothing uploaded). */
+static vdbs_status upload(vdbs_runner *runner, size_t size, const void *data,
+                          vdbs_gpu_buffer *buffer, vdbs_error *err)
+{
+    vdbs_status st = vdbs_gpu_buffer_create(runner->gpu, size, data, buffer, err);
+    if (st == VDBS_OK && data)
+        runner->transfer.uploaded += size;
+    return st;
+}
+
+static vdbs_status read_back(vdbs_runner *runner, vdbs_gpu_buffer buffer, size_t size, void *dst,
+                             vdbs_error *err)
+{
+    vdbs_status st = vdbs_gpu_buffer_read(runner->gpu, buffer, 0, size, dst, err);
+    if (st == VDBS_OK)
+        runner->transfer.read_back += size;
+    return st;
+}
+
 typedef struct gpu_job {
+    vdbs_runner *runner;
     vdbs_gpu *gpu;
     vdbs_gpu_program program;                       /* the runner's */
     vdbs_gpu_buffer inputs[VDBS_KERNEL_MAX_INPUTS]; /* 0 for resident ones (the runner's) */
@@ -273,19 +302,30 @@ static vdbs_status runner_program_get(vdbs_runner *runner, const char *shader,
     return st;
 }
 
-/* Binds input i: a resident one from the runner's buffers (uploaded when its id is new
- * or its size changed), else a buffer of this job. */
-static vdbs_status bind_input(gpu_job *job, vdbs_runner *runner, const vdbs_kernel_input *in, int i,
-                              vdbs_error *err)
+/* A free slot of the resident table, grown when full; NULL when out of memory. */
+static runner_resident *resident_free_slot(vdbs_runner *runner)
 {
-    if (!in->resident) {
-        vdbs_status st = vdbs_gpu_buffer_create(job->gpu, in->size, in->data, &job->inputs[i], err);
-        if (st == VDBS_OK)
-            vdbs_gpu_buffer_bind(job->gpu, job->inputs[i], (unsigned)i);
-        return st;
-    }
+    for (int k = 0; k < runner->resident_slots; ++k)
+        if (!runner->resident[k].id)
+            return &runner->resident[k];
+    int slots = runner->resident_slots ? 2 * runner->resident_slots : RUNNER_FIRST_RESIDENT;
+    runner_resident *grown = realloc(runner->resident, sizeof *grown * (size_t)slots);
+    if (!grown)
+        return NULL;
+    memset(grown + runner->resident_slots, 0,
+           sizeof *grown * (size_t)(slots - runner->resident_slots));
+    runner_resident *slot = grown + runner->resident_slots;
+    runner->resident = grown;
+    runner->resident_slots = slots;
+    return slot;
+}
+
+/* The runner's buffer of a resident input, uploaded when its id is new or its size changed. */
+static vdbs_status resident_buffer(vdbs_runner *runner, const vdbs_kernel_input *in,
+                                   vdbs_gpu_buffer *buffer, vdbs_error *err)
+{
     runner_resident *slot = NULL;
-    for (int k = 0; k < RUNNER_MAX_RESIDENT && !slot; ++k)
+    for (int k = 0; k < runner->resident_slots && !slot; ++k)
         if (runner->resident[k].id == in->resident)
             slot = &runner->resident[k];
     if (slot && slot->size != in->size) {
@@ -293,20 +333,28 @@ static vdbs_status bind_input(gpu_job *job, vdbs_runner *runner, const vdbs_kern
         slot = NULL;
     }
     if (!slot) {
-        for (int k = 0; k < RUNNER_MAX_RESIDENT && !slot; ++k)
-            if (!runner->resident[k].id)
-                slot = &runner->resident[k];
-        if (!slot)
-            return vdbs_error_set(err, VDBS_ERR_INTERNAL, "more than %d resident inputs",
-                                  RUNNER_MAX_RESIDENT);
-        vdbs_status st = vdbs_gpu_buffer_create(job->gpu, in->size, in->data, &slot->buffer, err);
+        if (!(slot = resident_free_slot(runner)))
+            return vdbs_error_set(err, VDBS_ERR_NOMEM, "out of memory for resident inputs");
+        vdbs_status st = upload(runner, in->size, in->data, &slot->buffer, err);
         if (st != VDBS_OK)
             return st;
+        runner->transfer.resident_uploaded += in->size;
         slot->id = in->resident;
         slot->size = in->size;
     }
-    vdbs_gpu_buffer_bind(job->gpu, slot->buffer, (unsigned)i);
+    *buffer = slot->buffer;
     return VDBS_OK;
+}
+
+/* Binds input i: a resident one from the runner's buffers, else a buffer of this job. */
+static vdbs_status bind_input(gpu_job *job, const vdbs_kernel_input *in, int i, vdbs_error *err)
+{
+    vdbs_gpu_buffer buffer = {0};
+    vdbs_status st = in->resident ? resident_buffer(job->runner, in, &buffer, err)
+                                  : upload(job->runner, in->size, in->data, &job->inputs[i], err);
+    if (st == VDBS_OK)
+        vdbs_gpu_buffer_bind(job->gpu, in->resident ? buffer : job->inputs[i], (unsigned)i);
+    return st;
 }
 
 /* Builds the program and uploads the inputs; the state buffers start with `state`
@@ -315,26 +363,24 @@ static vdbs_status job_init(gpu_job *job, vdbs_runner *runner, const vdbs_kernel
                             const void *state, vdbs_error *err)
 {
     memset(job, 0, sizeof *job);
+    job->runner = runner;
     job->gpu = runner->gpu;
     if (!d->shader)
         return vdbs_error_set(err, VDBS_ERR_INTERNAL, "kernel without a shader");
     vdbs_status st = runner_program_get(runner, d->shader, &job->program, err);
     for (int i = 0; i < VDBS_KERNEL_MAX_INPUTS && st == VDBS_OK; ++i)
         if (d->inputs[i].size > 0)
-            st = bind_input(job, runner, &d->inputs[i], i, err);
+            st = bind_input(job, &d->inputs[i], i, err);
     for (int i = 0; i < (d->in_place ? 1 : 2) && st == VDBS_OK; ++i)
-        st = vdbs_gpu_buffer_create(job->gpu, state_bytes(d), i == 0 ? state : NULL,
-                                    &job->states[i], err);
+        st = upload(runner, state_bytes(d), i == 0 ? state : NULL, &job->states[i], err);
     /* In place: both bindings name one buffer (the steps touch different items). */
     if (d->in_place)
         job->states[1] = job->states[0];
     if (st == VDBS_OK)
-        st = vdbs_gpu_buffer_create(job->gpu, d->output_words * 4u * (size_t)d->items, NULL,
-                                    &job->output, err);
+        st = upload(runner, d->output_words * 4u * (size_t)d->items, NULL, &job->output, err);
     uint64_t groups = (d->items + VS_PASS_LOCAL_SIZE - 1) / VS_PASS_LOCAL_SIZE;
     if (st == VDBS_OK)
-        st = vdbs_gpu_buffer_create(job->gpu, sizeof(float) * (size_t)groups, NULL, &job->partials,
-                                    err);
+        st = upload(runner, sizeof(float) * (size_t)groups, NULL, &job->partials, err);
     if (st == VDBS_OK) {
         vdbs_gpu_buffer_bind(job->gpu, job->output, VS_PASS_BINDING_OUTPUT);
         vdbs_gpu_buffer_bind(job->gpu, job->partials, VS_PASS_BINDING_REDUCE);
@@ -350,8 +396,8 @@ static vdbs_status job_dispatch(gpu_job *job, const vdbs_kernel_desc *d, int in,
                                 uint32_t control[VS_PASS_WORDS], vdbs_error *err)
 {
     vdbs_gpu_buffer control_buffer = {0};
-    vdbs_status st = vdbs_gpu_buffer_create(job->gpu, sizeof(uint32_t) * VS_PASS_WORDS, control,
-                                            &control_buffer, err);
+    vdbs_status st =
+        upload(job->runner, sizeof(uint32_t) * VS_PASS_WORDS, control, &control_buffer, err);
     if (st != VDBS_OK)
         return st;
     vdbs_gpu_buffer_bind(job->gpu, control_buffer, VS_PASS_BINDING_CONTROL);
@@ -360,8 +406,7 @@ static vdbs_status job_dispatch(gpu_job *job, const vdbs_kernel_desc *d, int in,
     st = vdbs_gpu_dispatch_items(job->gpu, job->program, d->items, VS_PASS_LOCAL_SIZE, d->gpu_chunk,
                                  NULL, NULL, err);
     if (st == VDBS_OK)
-        st = vdbs_gpu_buffer_read(job->gpu, control_buffer, 0, sizeof(uint32_t) * VS_PASS_WORDS,
-                                  control, err);
+        st = read_back(job->runner, control_buffer, sizeof(uint32_t) * VS_PASS_WORDS, control, err);
     vdbs_gpu_buffer_destroy(job->gpu, control_buffer);
     return st;
 }
@@ -430,9 +475,30 @@ static vdbs_status gpu_run(vdbs_runner *runner, const vdbs_kernel_desc *d,
         }
     }
     if (st == VDBS_OK && d->output)
-        st = vdbs_gpu_buffer_read(job.gpu, job.output, 0, d->output_words * 4u * (size_t)d->items,
-                                  d->output, err);
+        st = read_back(runner, job.output, d->output_words * 4u * (size_t)d->items, d->output, err);
     job_free(&job);
+    return st;
+}
+
+/* Step `it` of an iterate on the GPU: its dispatch, and its reduction read back and combined
+ * (unless the caller wants none). */
+static vdbs_status gpu_step(gpu_job *job, const vdbs_kernel_desc *d, int it, int in,
+                            float *partials, size_t groups, double *reduction, vdbs_error *err)
+{
+    uint32_t control[VS_PASS_WORDS];
+    control_init(control, 1, it);
+    vdbs_status st = job_dispatch(job, d, in, control, err);
+    if (st == VDBS_OK && control[VS_PASS_FAILED])
+        st = vdbs_error_set(err, VDBS_ERR_GPU,
+                            "%s: one step exceeds the GPU driver's loop limit; use "
+                            "--backend cpu",
+                            d->shader);
+    *reduction = 0.0;
+    if (st != VDBS_OK || d->reduce == VDBS_REDUCE_NONE)
+        return st;
+    st = read_back(job->runner, job->partials, sizeof(float) * groups, partials, err);
+    for (size_t g = 0; g < groups && st == VDBS_OK; ++g)
+        *reduction = combine(d->reduce, *reduction, (double)partials[g]);
     return st;
 }
 
@@ -444,7 +510,7 @@ static vdbs_status gpu_iterate(vdbs_runner *runner, const vdbs_kernel_desc *d, i
     if (!partials)
         return vdbs_error_set(err, VDBS_ERR_NOMEM, "out of memory for %zu partial sums", groups);
     gpu_job job;
-    vdbs_status st = job_init(&job, runner, d, d->state, err);
+    vdbs_status st = job_init(&job, runner, d, d->state_zeroed ? NULL : d->state, err);
     if (st != VDBS_OK) {
         free(partials);
         return st;
@@ -455,29 +521,17 @@ static vdbs_status gpu_iterate(vdbs_runner *runner, const vdbs_kernel_desc *d, i
             st = vdbs_error_cancelled(err);
             break;
         }
-        uint32_t control[VS_PASS_WORDS];
-        control_init(control, 1, it);
-        st = job_dispatch(&job, d, in, control, err);
+        double reduction = 0.0;
+        st = gpu_step(&job, d, it, in, partials, groups, &reduction, err);
         ++result->dispatches;
-        if (st == VDBS_OK && control[VS_PASS_FAILED])
-            st = vdbs_error_set(err, VDBS_ERR_GPU,
-                                "%s: one step exceeds the GPU driver's loop limit; use "
-                                "--backend cpu",
-                                d->shader);
-        if (st == VDBS_OK)
-            st = vdbs_gpu_buffer_read(job.gpu, job.partials, 0, sizeof(float) * groups, partials,
-                                      err);
         if (st != VDBS_OK)
             break;
-        double reduction = 0.0;
-        for (size_t g = 0; g < groups; ++g)
-            reduction = combine(d->reduce, reduction, (double)partials[g]);
         in = 1 - in;
         if (step_done(d, it, reduction, result))
             break;
     }
     if (st == VDBS_OK)
-        st = vdbs_gpu_buffer_read(job.gpu, job.states[in], 0, state_bytes(d), d->state, err);
+        st = read_back(runner, job.states[in], state_bytes(d), d->state, err);
     job_free(&job);
     free(partials);
     return st;

@@ -65,8 +65,12 @@ static double fld_step(void *user, int step, const void *state_in, void *state_o
     return xax;
 }
 
-vdbs_status vdbs_fld_operator(vdbs_runner *runner, const uint32_t *params, const float *coef,
-                              int64_t cells, const float *x, float *y, double *xax, vdbs_error *err)
+/* y = A x; the parameters and coefficients are kept on the GPU under their ids (0: uploaded
+ * for this call), so that a solve uploads them once, not at every application. Without xax
+ * no reduction is read back. */
+static vdbs_status operator_apply(vdbs_runner *runner, const uint32_t *params, uint64_t params_id,
+                                  const float *coef, uint64_t coef_id, int64_t cells,
+                                  const float *x, float *y, double *xax, vdbs_error *err)
 {
     fld_kernel k = {params, coef};
     memcpy(y, x, sizeof(float) * (size_t)cells);
@@ -76,20 +80,25 @@ vdbs_status vdbs_fld_operator(vdbs_runner *runner, const uint32_t *params, const
     desc.user = &k;
     desc.cpu_step = fld_step;
     desc.shader = "fld_apply.comp";
-    desc.inputs[1] =
-        (vdbs_kernel_input){.data = params, .size = sizeof(uint32_t) * VS_FLD_PARAM_WORDS};
-    desc.inputs[2] = (vdbs_kernel_input){
-        .data = coef, .size = sizeof(float) * VS_FLD_COEF_WORDS * 3 * (size_t)cells};
+    desc.inputs[1] = (vdbs_kernel_input){params, sizeof(uint32_t) * VS_FLD_PARAM_WORDS, params_id};
+    desc.inputs[2] =
+        (vdbs_kernel_input){coef, sizeof(float) * VS_FLD_COEF_WORDS * 3 * (size_t)cells, coef_id};
     desc.state_words = 1;
     desc.state = y;
     desc.max_iterations = 1;
-    desc.reduce = VDBS_REDUCE_SUM;
+    desc.reduce = xax ? VDBS_REDUCE_SUM : VDBS_REDUCE_NONE;
     vdbs_kernel_result result;
     memset(&result, 0, sizeof result);
     vdbs_status st = vdbs_kernel_iterate(runner, &desc, &result, err);
     if (xax)
         *xax = result.reduction;
     return st;
+}
+
+vdbs_status vdbs_fld_operator(vdbs_runner *runner, const uint32_t *params, const float *coef,
+                              int64_t cells, const float *x, float *y, double *xax, vdbs_error *err)
+{
+    return operator_apply(runner, params, 0, coef, 0, cells, x, y, xax, err);
 }
 
 /* ---- the discrete system ---- */
@@ -111,6 +120,10 @@ typedef struct fld_level {
     double *r, *z, *t; /* one channel's right side, correction and scratch */
     float *xf, *yf;    /* the kernel's float input and output */
     int via_runner;    /* 0: the operator in a host loop (vdbs_fld_desc.runner_cells) */
+    uint32_t params[3][VS_FLD_PARAM_WORDS]; /* the kernel's, per channel */
+    /* Via the runner: the resident ids of params (per channel, for the solve) and of coef (a
+     * new one whenever the coefficients are rebuilt), so that the GPU holds each once. */
+    uint64_t params_id[3], coef_id;
 } fld_level;
 
 /* Multigrid levels down to a grid of at most FLD_COARSEST cells along every axis. */
@@ -118,6 +131,7 @@ typedef struct fld_level {
 #define FLD_COARSEST 4
 
 typedef struct fld_system {
+    vdbs_runner *runner;
     const vdbs_fld_grid *grid;
     int64_t cells;
     double d_max; /* cap of D: a medium with sigma_tr = 1 / (the grid's largest extent) */
@@ -229,6 +243,12 @@ static int levels_create(fld_system *sys)
         memcpy(lv->n, n, sizeof n);
         lv->cells = (int64_t)n[0] * n[1] * n[2];
         lv->via_runner = lv->cells >= sys->runner_cells;
+        for (int ch = 0; ch < 3; ++ch) {
+            for (int a = 0; a < 3; ++a)
+                lv->params[ch][VS_FLD_OFF_N + a] = (uint32_t)n[a];
+            lv->params[ch][VS_FLD_OFF_CHANNEL] = (uint32_t)ch;
+            lv->params_id[ch] = lv->via_runner ? vdbs_runner_resident_id(sys->runner) : 0;
+        }
         const size_t cells = (size_t)lv->cells;
         if (l == 0) {
             lv->coef = sys->coef;
@@ -257,6 +277,9 @@ static void levels_free(fld_system *sys)
 {
     for (int l = 0; l < sys->levels; ++l) {
         fld_level *lv = &sys->level[l];
+        for (int ch = 0; ch < 3; ++ch)
+            vdbs_runner_release(sys->runner, lv->params_id[ch]);
+        vdbs_runner_release(sys->runner, lv->coef_id);
         if (l > 0) {
             free(lv->coef);
             free(lv->diag);
@@ -309,6 +332,17 @@ static void levels_build(fld_system *sys)
                     lv->coef[coef_at(c, ch, k)] = (float)sum[ch][k];
         }
         level_diag(lv);
+    }
+}
+
+/* After the coefficients changed: every runner level's GPU copy is stale, so it gets a new
+ * id (uploaded at its first application). */
+static void levels_renew(fld_system *sys)
+{
+    for (int l = 0; l < sys->levels; ++l) {
+        fld_level *lv = &sys->level[l];
+        vdbs_runner_release(sys->runner, lv->coef_id);
+        lv->coef_id = lv->via_runner ? vdbs_runner_resident_id(sys->runner) : 0;
     }
 }
 
@@ -428,15 +462,13 @@ typedef struct fld_cost {
 static vdbs_status level_apply(vdbs_runner *runner, fld_level *lv, int ch, const double *x,
                                double *y, fld_cost *cost, vdbs_error *err)
 {
-    uint32_t params[VS_FLD_PARAM_WORDS] = {0};
-    for (int a = 0; a < 3; ++a)
-        params[VS_FLD_OFF_N + a] = (uint32_t)lv->n[a];
-    params[VS_FLD_OFF_CHANNEL] = (uint32_t)ch;
+    const uint32_t *params = lv->params[ch];
     for (int64_t c = 0; c < lv->cells; ++c)
         lv->xf[c] = (float)x[c];
     vdbs_status st = VDBS_OK;
     if (lv->via_runner)
-        st = vdbs_fld_operator(runner, params, lv->coef, lv->cells, lv->xf, lv->yf, NULL, err);
+        st = operator_apply(runner, params, lv->params_id[ch], lv->coef, lv->coef_id, lv->cells,
+                            lv->xf, lv->yf, NULL, err);
     else
         for (int64_t c = 0; c < lv->cells; ++c)
             lv->yf[c] = vs_fld_apply(params, lv->coef, lv->xf, (int)c);
@@ -672,6 +704,7 @@ vdbs_status vdbs_fld_solve_grid(vdbs_runner *runner, const vdbs_fld_grid *grid,
         d.tolerance = 1e-5;
     fld_system sys;
     memset(&sys, 0, sizeof sys);
+    sys.runner = runner;
     sys.grid = grid;
     sys.runner_cells = d.runner_cells;
     sys.cancel = d.cancel;
@@ -707,6 +740,7 @@ vdbs_status vdbs_fld_solve_grid(vdbs_runner *runner, const vdbs_fld_grid *grid,
         update_d(&sys, have_phi ? phi : NULL, !d.limiter_off);
         build_coef(&sys);
         levels_build(&sys);
+        levels_renew(&sys);
         const double tolerance = last ? d.tolerance : fmax(d.tolerance, FLD_EARLY_TOLERANCE);
         double worst = 0.0, change = 0.0, norm = 0.0;
         boundary = 0.0;

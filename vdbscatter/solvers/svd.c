@@ -230,6 +230,127 @@ static void next_source(const vdbs_svd_grid *g, const float *moments, float *sou
             }
 }
 
+/* The stats that describe the problem rather than the iteration. */
+static void stats_begin(const vdbs_svd_grid *grid, vdbs_svd_stats *stats)
+{
+    const vdbs_phasemat *pm = grid->phase;
+    stats->directions = pm->d;
+    stats->terms = grid->terms;
+    stats->cells = (int64_t)grid->n[0] * grid->n[1] * grid->n[2];
+    stats->cell_side = grid->h;
+    stats->delta_m_f = pm->f;
+    stats->g_scaled = pm->g_scaled;
+    stats->factor_rmse = vdbs_phasemat_rmse(pm, grid->terms);
+    stats->iterations = 0;
+    stats->converged = 0;
+    stats->balance = 0.0;
+    stats->clamped_fraction = 0.0;
+    stats->residual = 1.0;
+}
+
+/* Directions per sweep step: the caller's, else on the GPU as many as keep a step's loops
+ * under SVD_GPU_TRIPS (0 on the C path: a whole octant). */
+static int sweep_chunk(vdbs_runner *runner, const vdbs_svd_grid *grid, int chunk)
+{
+    if (chunk > 0 || vdbs_runner_backend(runner) != VDBS_BACKEND_GPU)
+        return chunk;
+    chunk = SVD_GPU_TRIPS / (2 * grid->terms + grid->light_count + 16);
+    return chunk > 0 ? chunk : 1;
+}
+
+/* One sweep through the runner, every step of it an iteration of an in-place kernel. The
+ * inputs that stay the same for the solve (parameters, tables, medium, direct light) are
+ * resident on the GPU under `ids` (the caller releases them), so that a solve uploads them
+ * once; the source, new every sweep, is uploaded with it, and the state starts zeroed on the
+ * GPU. */
+static void sweep_kernel(const vdbs_svd_grid *grid, const svd_layout *l, svd_kernel *k,
+                         const uint64_t ids[4], float *state, vdbs_kernel_desc *kd)
+{
+    const size_t cells = (size_t)grid->n[0] * grid->n[1] * grid->n[2];
+    memset(kd, 0, sizeof *kd);
+    kd->items = (uint64_t)grid->n[0] * (uint64_t)grid->n[1];
+    kd->user = k;
+    kd->cpu_step = svd_step;
+    kd->cpu_chunk = 16;
+    kd->shader = "svd_sweep.comp";
+    kd->inputs[1] = (vdbs_kernel_input){l->params, sizeof l->params, ids[0]};
+    kd->inputs[2] = (vdbs_kernel_input){l->tables, sizeof(float) * l->table_words, ids[1]};
+    kd->inputs[3] = (vdbs_kernel_input){grid->sigma_t, sizeof(float) * cells, ids[2]};
+    kd->inputs[4] = (vdbs_kernel_input){
+        grid->direct, sizeof(float) * 3 * cells * (size_t)grid->light_count, ids[3]};
+    kd->inputs[5] = (vdbs_kernel_input){.data = k->source,
+                                        .size = sizeof(float) * cells * (size_t)grid->terms * 3};
+    kd->state = state;
+    kd->state_zeroed = 1;
+    kd->state_items = 1;
+    kd->state_words = l->state_words;
+    kd->in_place = 1;
+    kd->max_iterations = VS_SVD_OCTANTS * l->chunks * l->planes;
+    kd->reduce = VDBS_REDUCE_NONE;
+}
+
+/* Sweep `it`'s tallies into stats from its per-cell records `out`: the power balance, the
+ * clamp, and the fluence's relative change since the last sweep (previous: updated). */
+static void sweep_tally(int64_t cells, int directions, const float *out, int it, double *previous,
+                        vdbs_svd_stats *stats)
+{
+    stats->cell_direction_updates += cells * directions;
+    double emitted = 0.0, collided = 0.0, leaked = 0.0, clamped = 0.0, change = 0.0, total = 0.0;
+    for (int64_t c = 0; c < cells; ++c) {
+        const float *rec = out + (size_t)c * VS_SVD_OUT_WORDS;
+        emitted += rec[VS_SVD_OUT_SOURCE];
+        collided += rec[VS_SVD_OUT_COLLIDE];
+        leaked += rec[VS_SVD_OUT_LEAK];
+        clamped += rec[VS_SVD_OUT_CLAMPED];
+        for (int ch = 0; ch < 3; ++ch) {
+            double phi = rec[VS_SVD_OUT_FLUENCE + ch];
+            change += fabs(phi - previous[3 * c + ch]);
+            total += fabs(phi);
+            previous[3 * c + ch] = phi;
+        }
+    }
+    if (it == 0)
+        stats->first_power = emitted;
+    stats->emitted = emitted;
+    stats->collided = collided;
+    stats->leaked = leaked;
+    stats->clamped = clamped;
+    if (emitted > 0.0)
+        stats->balance = fmax(stats->balance, fabs(emitted - collided - leaked) / emitted);
+    if (emitted + clamped > 0.0)
+        stats->clamped_fraction = fmax(stats->clamped_fraction, clamped / (emitted + clamped));
+    stats->iterations = it + 1;
+    stats->residual = total > 0.0 ? change / total : 0.0;
+}
+
+/* The iterations' progress: the residual's way from 1 to the target on a log scale. */
+static void sweep_progress(const vdbs_svd_desc *desc, const vdbs_svd_stats *stats, int it)
+{
+    if (!desc->progress)
+        return;
+    if (it == 0)
+        vdbs_progress_begin(desc->progress, desc->progress->enabled, "svd iterations", 1000);
+    if (desc->residual > 0.0 && desc->residual < 1.0) {
+        double done = log(fmax(stats->residual, desc->residual)) / log(desc->residual);
+        vdbs_progress_update(desc->progress, (uint64_t)(1000.0 * fmin(fmax(done, 0.0), 1.0)));
+    }
+}
+
+/* The solve's outputs from the last sweep's state (each may be NULL). */
+static void solve_outputs(int64_t cells, int terms, const float *state, const float *out,
+                          double *fluence, double *flux, float *moments)
+{
+    for (int64_t c = 0; c < cells; ++c) {
+        const float *rec = out + (size_t)c * VS_SVD_OUT_WORDS;
+        for (int v = 0; fluence && v < 3; ++v)
+            fluence[3 * c + v] = rec[VS_SVD_OUT_FLUENCE + v];
+        for (int v = 0; flux && v < 9; ++v)
+            flux[9 * c + v] = rec[VS_SVD_OUT_FLUX + v];
+    }
+    if (moments)
+        memcpy(moments, state, sizeof *state * (size_t)cells * (size_t)terms * 3);
+}
+
 vdbs_status vdbs_svd_solve_grid(vdbs_runner *runner, const vdbs_svd_grid *grid,
                                 const vdbs_svd_desc *desc, double *fluence, double *flux,
                                 float *moments, vdbs_svd_stats *stats, vdbs_error *err)
@@ -237,128 +358,51 @@ vdbs_status vdbs_svd_solve_grid(vdbs_runner *runner, const vdbs_svd_grid *grid,
     vdbs_svd_stats local;
     if (!stats)
         stats = &local;
-    const vdbs_phasemat *pm = grid->phase;
-    const int N = grid->terms;
-    const int64_t cells = (int64_t)grid->n[0] * grid->n[1] * grid->n[2];
-    stats->directions = pm->d;
-    stats->terms = N;
-    stats->cells = cells;
-    stats->cell_side = grid->h;
-    stats->delta_m_f = pm->f;
-    stats->g_scaled = pm->g_scaled;
-    stats->factor_rmse = vdbs_phasemat_rmse(pm, N);
-    int chunk = desc->chunk;
-    if (chunk <= 0 && vdbs_runner_backend(runner) == VDBS_BACKEND_GPU)
-        chunk = SVD_GPU_TRIPS / (2 * N + grid->light_count + 16);
-    if (chunk <= 0 && vdbs_runner_backend(runner) == VDBS_BACKEND_GPU)
-        chunk = 1;
+    stats_begin(grid, stats);
+    const int64_t cells = stats->cells;
     svd_layout l;
-    vdbs_status st = layout_build(grid, chunk, &l, err);
+    vdbs_status st = layout_build(grid, sweep_chunk(runner, grid, desc->chunk), &l, err);
     if (st != VDBS_OK)
         return st;
     stats->chunk = l.chunk;
     stats->steps_per_sweep = VS_SVD_OCTANTS * l.chunks * l.planes;
-    const size_t moment_floats = (size_t)cells * N * 3;
     float *state = malloc(sizeof *state * l.state_words);
-    float *source = malloc(sizeof *source * moment_floats);
+    float *source = malloc(sizeof *source * (size_t)cells * grid->terms * 3);
     double *previous = calloc(3 * (size_t)cells, sizeof *previous);
-    if (!state || !source || !previous) {
+    const uint64_t ids[4] = {vdbs_runner_resident_id(runner), vdbs_runner_resident_id(runner),
+                             vdbs_runner_resident_id(runner), vdbs_runner_resident_id(runner)};
+    if (!state || !source || !previous)
         st = vdbs_error_set(err, VDBS_ERR_NOMEM, "out of memory for %lld cells x %d terms",
-                            (long long)cells, N);
-        goto done;
-    }
-    next_source(grid, grid->warm, source);
-    const int max_iterations = desc->max_iterations > 0 ? desc->max_iterations : SVD_MAX_ITERATIONS;
+                            (long long)cells, grid->terms);
     svd_kernel k = {l.params, l.tables, grid->sigma_t, grid->direct, source};
     vdbs_kernel_desc kd;
-    memset(&kd, 0, sizeof kd);
-    kd.items = (uint64_t)grid->n[0] * (uint64_t)grid->n[1];
-    kd.user = &k;
-    kd.cpu_step = svd_step;
-    kd.cpu_chunk = 16;
-    kd.shader = "svd_sweep.comp";
-    kd.inputs[1] = (vdbs_kernel_input){.data = l.params, .size = sizeof l.params};
-    kd.inputs[2] = (vdbs_kernel_input){.data = l.tables, .size = sizeof(float) * l.table_words};
-    kd.inputs[3] =
-        (vdbs_kernel_input){.data = grid->sigma_t, .size = sizeof(float) * (size_t)cells};
-    kd.inputs[4] =
-        (vdbs_kernel_input){.data = grid->direct,
-                            .size = sizeof(float) * 3 * (size_t)cells * (size_t)grid->light_count};
-    kd.inputs[5] = (vdbs_kernel_input){.data = source, .size = sizeof(float) * moment_floats};
-    kd.state = state;
-    kd.state_items = 1;
-    kd.state_words = l.state_words;
-    kd.in_place = 1;
-    kd.max_iterations = stats->steps_per_sweep;
-    stats->iterations = 0;
-    stats->converged = 0;
-    stats->balance = 0.0;
-    stats->clamped_fraction = 0.0;
-    stats->residual = 1.0;
+    sweep_kernel(grid, &l, &k, ids, state, &kd);
     kd.cancel = vdbs_progress_cancel(desc->progress);
-    for (int it = 0; it < max_iterations; ++it) {
+    const size_t out = l.params[VS_SVD_OFF_STATE_OUT]; /* the per-cell records in the state */
+    const int max_iterations = desc->max_iterations > 0 ? desc->max_iterations : SVD_MAX_ITERATIONS;
+    if (st == VDBS_OK)
+        next_source(grid, grid->warm, source);
+    for (int it = 0; it < max_iterations && st == VDBS_OK; ++it) {
         if (vdbs_cancelled(kd.cancel)) {
             st = vdbs_error_cancelled(err);
             break;
         }
+        /* The GPU clears its copy itself (kd.state_zeroed); the C path sweeps this one. */
         memset(state, 0, sizeof *state * l.state_words);
-        st = vdbs_kernel_iterate(runner, &kd, NULL, err);
-        if (st != VDBS_OK)
+        if ((st = vdbs_kernel_iterate(runner, &kd, NULL, err)) != VDBS_OK)
             break;
-        stats->cell_direction_updates += cells * pm->d;
-        double emitted = 0.0, collided = 0.0, leaked = 0.0, clamped = 0.0, change = 0.0,
-               total = 0.0;
-        const float *out = state + l.params[VS_SVD_OFF_STATE_OUT];
-        for (int64_t c = 0; c < cells; ++c) {
-            const float *rec = out + (size_t)c * VS_SVD_OUT_WORDS;
-            emitted += rec[VS_SVD_OUT_SOURCE];
-            collided += rec[VS_SVD_OUT_COLLIDE];
-            leaked += rec[VS_SVD_OUT_LEAK];
-            clamped += rec[VS_SVD_OUT_CLAMPED];
-            for (int ch = 0; ch < 3; ++ch) {
-                double phi = rec[VS_SVD_OUT_FLUENCE + ch];
-                change += fabs(phi - previous[3 * c + ch]);
-                total += fabs(phi);
-                previous[3 * c + ch] = phi;
-            }
-        }
-        if (it == 0)
-            stats->first_power = emitted;
-        stats->emitted = emitted;
-        stats->collided = collided;
-        stats->leaked = leaked;
-        stats->clamped = clamped;
-        if (emitted > 0.0)
-            stats->balance = fmax(stats->balance, fabs(emitted - collided - leaked) / emitted);
-        if (emitted + clamped > 0.0)
-            stats->clamped_fraction = fmax(stats->clamped_fraction, clamped / (emitted + clamped));
-        stats->iterations = it + 1;
-        stats->residual = total > 0.0 ? change / total : 0.0;
+        sweep_tally(cells, grid->phase->d, state + out, it, previous, stats);
         next_source(grid, state, source);
-        if (desc->progress && it == 0)
-            vdbs_progress_begin(desc->progress, desc->progress->enabled, "svd iterations", 1000);
-        if (desc->progress && desc->residual > 0.0 && desc->residual < 1.0) {
-            double done = log(fmax(stats->residual, desc->residual)) / log(desc->residual);
-            vdbs_progress_update(desc->progress, (uint64_t)(1000.0 * fmin(fmax(done, 0.0), 1.0)));
-        }
+        sweep_progress(desc, stats, it);
         if (stats->residual <= desc->residual) {
             stats->converged = 1;
             break;
         }
     }
-    if (st == VDBS_OK) {
-        const float *out = state + l.params[VS_SVD_OFF_STATE_OUT];
-        for (int64_t c = 0; c < cells; ++c) {
-            const float *rec = out + (size_t)c * VS_SVD_OUT_WORDS;
-            for (int v = 0; fluence && v < 3; ++v)
-                fluence[3 * c + v] = rec[VS_SVD_OUT_FLUENCE + v];
-            for (int v = 0; flux && v < 9; ++v)
-                flux[9 * c + v] = rec[VS_SVD_OUT_FLUX + v];
-        }
-        if (moments)
-            memcpy(moments, state, sizeof *state * moment_floats);
-    }
-done:
+    if (st == VDBS_OK)
+        solve_outputs(cells, grid->terms, state, state + out, fluence, flux, moments);
+    for (int i = 0; i < 4; ++i)
+        vdbs_runner_release(runner, ids[i]);
     layout_free(&l);
     free(state);
     free(source);

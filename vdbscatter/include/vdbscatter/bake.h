@@ -44,6 +44,9 @@ typedef struct vdbs_bake_report {
     char grid[256];
     unsigned long long active_voxels;
     unsigned long long output_voxels;
+    /* Bytes the solve moved between the host and the GPU (vdbs_runner_transfers; 0 on the C
+     * path). */
+    unsigned long long bytes_uploaded, bytes_read_back;
     int sky_directions;
     char s1[8];        /* "march" or "grid" */
     int s1_oversample; /* 0 for march */

@@ -63,6 +63,18 @@ uint64_t vdbs_runner_resident_id(vdbs_runner *runner);
 /* Frees the GPU copy kept under id (nothing on the C path or for an unknown id). */
 void vdbs_runner_release(vdbs_runner *runner, uint64_t id);
 
+/* Bytes the runner has moved between the host and the GPU since it was created. Uploads:
+ * kernel inputs, initial states and every dispatch's control words; read-backs: final states,
+ * outputs, control words and reduction partials. The C path moves nothing (its kernels read
+ * the caller's arrays): all 0. */
+typedef struct vdbs_runner_transfer {
+    unsigned long long uploaded;
+    unsigned long long read_back;
+    unsigned long long resident_uploaded; /* of uploaded: resident inputs' (kept under an id) */
+} vdbs_runner_transfer;
+
+vdbs_runner_transfer vdbs_runner_transfers(const vdbs_runner *runner);
+
 /* A read-only input of a shader, bound at its index in vdbs_kernel_desc.inputs. */
 typedef struct vdbs_kernel_input {
     const void *data;
@@ -75,7 +87,13 @@ typedef struct vdbs_kernel_input {
 
 #define VDBS_KERNEL_MAX_INPUTS 8
 
-typedef enum vdbs_reduce { VDBS_REDUCE_SUM = 0, VDBS_REDUCE_MAX = 1 } vdbs_reduce;
+typedef enum vdbs_reduce {
+    VDBS_REDUCE_SUM = 0,
+    VDBS_REDUCE_MAX = 1,
+    /* The caller wants no reduction (result.reduction 0, tolerance unused): the GPU reads
+     * back no partials after each step. */
+    VDBS_REDUCE_NONE = 2
+} vdbs_reduce;
 
 typedef struct vdbs_kernel_desc {
     uint64_t items;
@@ -101,7 +119,9 @@ typedef struct vdbs_kernel_desc {
     uint64_t gpu_chunk;     /* items per dispatch call; default: as many as the GPU allows */
 
     /* iterate */
-    void *state; /* state_items * state_words words: the initial state in, the final one out */
+    void *state;      /* state_items * state_words words: the initial state in, the final one out */
+    int state_zeroed; /* the caller's initial state is all zeros: the GPU clears its copy
+                         instead of uploading it */
     uint64_t state_items; /* items the state holds; default `items` (a sweep's steps each
                              cover a part of it) */
     int in_place;         /* every step reads and writes one state instead of ping-pong: a sweep in
