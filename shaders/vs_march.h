@@ -274,6 +274,96 @@ VS_FUNC vs_march_state vs_march_begin(pnanovdb_vec3_t origin, pnanovdb_vec3_t di
     return m;
 }
 
+/* The steps of vs_march_advance, inlined into its loop like it (VS_FUNC_HOT). */
+
+/* The cell at t, found by the probe a little ahead (vs_march_begin), and the t at which the
+ * ray leaves it along each axis. */
+VS_FUNC_HOT void vs_march_locate(pnanovdb_vec3_t origin, pnanovdb_vec3_t dir, float t, float probe,
+                                 PNANOVDB_INOUT(pnanovdb_coord_t) cell_at,
+                                 PNANOVDB_INOUT(pnanovdb_vec3_t) next)
+{
+    pnanovdb_vec3_t q = vs_vec3_madd(origin, dir, t + probe);
+    pnanovdb_coord_t c =
+        vs_coord(VS_INT(vs_floor(q.x)), VS_INT(vs_floor(q.y)), VS_INT(vs_floor(q.z)));
+    PNANOVDB_DEREF(next).x =
+        vs_max(t, vs_axis_exit(origin.x, dir.x, VS_FLOAT(c.x), VS_FLOAT(c.x + 1)));
+    PNANOVDB_DEREF(next).y =
+        vs_max(t, vs_axis_exit(origin.y, dir.y, VS_FLOAT(c.y), VS_FLOAT(c.y + 1)));
+    PNANOVDB_DEREF(next).z =
+        vs_max(t, vs_axis_exit(origin.z, dir.z, VS_FLOAT(c.z), VS_FLOAT(c.z + 1)));
+    PNANOVDB_DEREF(cell_at) = c;
+}
+
+/* Where the ray leaves the empty tile that holds the whole cell c (corners c and c + 1), or
+ * -VS_T_INFINITE when the cell is not known to be empty. */
+VS_FUNC_HOT float vs_march_empty_exit(pnanovdb_buf_t buf,
+                                      PNANOVDB_INOUT(pnanovdb_readaccessor_t) acc,
+                                      pnanovdb_vec3_t origin, pnanovdb_vec3_t dir,
+                                      pnanovdb_coord_t c)
+{
+    int dim =
+        VS_INT(pnanovdb_readaccessor_get_dim(PNANOVDB_GRID_TYPE_FLOAT, buf, acc, PNANOVDB_REF(c)));
+    int last = dim - 1;
+    if (dim > 1 && (c.x & last) != last && (c.y & last) != last && (c.z & last) != last &&
+        vs_density_voxel(buf, acc, c) == 0.0f) {
+        int mask = ~last;
+        float hi = VS_FLOAT(last);
+        float bx = VS_FLOAT(c.x & mask), by = VS_FLOAT(c.y & mask), bz = VS_FLOAT(c.z & mask);
+        return vs_min(vs_axis_exit(origin.x, dir.x, bx, bx + hi),
+                      vs_min(vs_axis_exit(origin.y, dir.y, by, by + hi),
+                             vs_axis_exit(origin.z, dir.z, bz, bz + hi)));
+    }
+    return -VS_T_INFINITE;
+}
+
+/* The corners of cell c: fetched whole (fetched 0), or stepped from the previous cell's
+ * `cell` one step along axis fetched - 2. */
+VS_FUNC_HOT vs_cell vs_march_fetch(pnanovdb_buf_t buf, PNANOVDB_INOUT(pnanovdb_readaccessor_t) acc,
+                                   vs_cell cell, pnanovdb_coord_t c, int fetched,
+                                   pnanovdb_coord_t sign)
+{
+    if (fetched == 0)
+        return vs_cell_fetch(buf, acc, c);
+    int axis = fetched - 2;
+    return vs_cell_step(buf, acc, cell, c, axis,
+                        axis == 0 ? sign.x : (axis == 1 ? sign.y : sign.z));
+}
+
+/* Simpson's rule for the optical depth over [t, t_exit] inside cell c. */
+VS_FUNC_HOT float vs_march_simpson(vs_cell cell, pnanovdb_coord_t c, pnanovdb_vec3_t origin,
+                                   pnanovdb_vec3_t dir, float t, float t_exit, float density_scale)
+{
+    pnanovdb_vec3_t local =
+        vs_vec3(origin.x - VS_FLOAT(c.x), origin.y - VS_FLOAT(c.y), origin.z - VS_FLOAT(c.z));
+    float fa = vs_cell_eval(cell, vs_vec3_madd(local, dir, t));
+    float fm = vs_cell_eval(cell, vs_vec3_madd(local, dir, 0.5f * (t + t_exit)));
+    float fb = vs_cell_eval(cell, vs_vec3_madd(local, dir, t_exit));
+    VS_PRECISE float segment = (t_exit - t) * (fa + 4.0f * fm + fb) * (1.0f / 6.0f) * density_scale;
+    return segment;
+}
+
+/* Steps c into the next cell, which shares a face with it; returns the `fetched` code of
+ * that step (2 + axis). */
+VS_FUNC_HOT int vs_march_next_cell(PNANOVDB_INOUT(pnanovdb_coord_t) c,
+                                   PNANOVDB_INOUT(pnanovdb_vec3_t) next, pnanovdb_coord_t sign,
+                                   pnanovdb_vec3_t delta)
+{
+    if (PNANOVDB_DEREF(next).x <= PNANOVDB_DEREF(next).y &&
+        PNANOVDB_DEREF(next).x <= PNANOVDB_DEREF(next).z) {
+        PNANOVDB_DEREF(c).x += sign.x;
+        PNANOVDB_DEREF(next).x += delta.x;
+        return 2;
+    }
+    if (PNANOVDB_DEREF(next).y <= PNANOVDB_DEREF(next).z) {
+        PNANOVDB_DEREF(c).y += sign.y;
+        PNANOVDB_DEREF(next).y += delta.y;
+        return 3;
+    }
+    PNANOVDB_DEREF(c).z += sign.z;
+    PNANOVDB_DEREF(next).z += delta.z;
+    return 4;
+}
+
 /* Integrates on to t_target (or the ray's end), cell by cell with Simpson's rule, which is
  * exact for the trilinear interpolant's cubic on any part of a cell. Stops for good once the
  * depth passes VS_TAU_LIMIT (transmittance 0 in float). */
@@ -295,57 +385,27 @@ VS_FUNC_HOT void vs_march_advance(pnanovdb_buf_t buf, PNANOVDB_INOUT(pnanovdb_re
     int step = PNANOVDB_DEREF(m).steps;
     for (; step < VS_MARCH_MAX_STEPS && t < t_stop; ++step) {
         if (locate != 0) {
-            pnanovdb_vec3_t q = vs_vec3_madd(origin, dir, t + probe);
-            c = vs_coord(VS_INT(vs_floor(q.x)), VS_INT(vs_floor(q.y)), VS_INT(vs_floor(q.z)));
-            next.x = vs_max(t, vs_axis_exit(origin.x, dir.x, VS_FLOAT(c.x), VS_FLOAT(c.x + 1)));
-            next.y = vs_max(t, vs_axis_exit(origin.y, dir.y, VS_FLOAT(c.y), VS_FLOAT(c.y + 1)));
-            next.z = vs_max(t, vs_axis_exit(origin.z, dir.z, VS_FLOAT(c.z), VS_FLOAT(c.z + 1)));
+            vs_march_locate(origin, dir, t, probe, PNANOVDB_REF(c), PNANOVDB_REF(next));
             locate = 0;
             fetched = 0;
         }
         /* A cell is checked and fetched once, however many stops a caller makes in it. */
         if (fetched != 1) {
-            int dim = VS_INT(
-                pnanovdb_readaccessor_get_dim(PNANOVDB_GRID_TYPE_FLOAT, buf, acc, PNANOVDB_REF(c)));
-            int last = dim - 1;
-            /* Skippable only when the whole cell (corners c and c+1) lies in the empty tile. */
-            if (dim > 1 && (c.x & last) != last && (c.y & last) != last && (c.z & last) != last &&
-                vs_density_voxel(buf, acc, c) == 0.0f) {
-                int mask = ~last;
-                float hi = VS_FLOAT(last);
-                float bx = VS_FLOAT(c.x & mask), by = VS_FLOAT(c.y & mask),
-                      bz = VS_FLOAT(c.z & mask);
-                float t_empty = vs_min(vs_axis_exit(origin.x, dir.x, bx, bx + hi),
-                                       vs_min(vs_axis_exit(origin.y, dir.y, by, by + hi),
-                                              vs_axis_exit(origin.z, dir.z, bz, bz + hi)));
-                if (t_empty > t + probe) {
-                    t = t_empty;
-                    locate = 1;
-                    continue;
-                }
+            float t_empty = vs_march_empty_exit(buf, acc, origin, dir, c);
+            if (t_empty > t + probe) {
+                t = t_empty;
+                locate = 1;
+                continue;
             }
-            if (fetched == 0) {
-                cell = vs_cell_fetch(buf, acc, c);
-            } else {
-                int axis = fetched - 2;
-                int sign = axis == 0
-                               ? PNANOVDB_DEREF(m).sign.x
-                               : (axis == 1 ? PNANOVDB_DEREF(m).sign.y : PNANOVDB_DEREF(m).sign.z);
-                cell = vs_cell_step(buf, acc, cell, c, axis, sign);
-            }
+            cell = vs_march_fetch(buf, acc, cell, c, fetched, PNANOVDB_DEREF(m).sign);
             fetched = 1;
         }
         float t_cell = vs_min(next.x, vs_min(next.y, next.z));
         float t_exit = vs_min(t_stop, t_cell);
         if (t_exit > t) {
-            pnanovdb_vec3_t local = vs_vec3(origin.x - VS_FLOAT(c.x), origin.y - VS_FLOAT(c.y),
-                                            origin.z - VS_FLOAT(c.z));
-            float fa = vs_cell_eval(cell, vs_vec3_madd(local, dir, t));
-            float fm = vs_cell_eval(cell, vs_vec3_madd(local, dir, 0.5f * (t + t_exit)));
-            float fb = vs_cell_eval(cell, vs_vec3_madd(local, dir, t_exit));
-            VS_PRECISE float segment = (t_exit - t) * (fa + 4.0f * fm + fb) * (1.0f / 6.0f) *
-                                       PNANOVDB_DEREF(m).density_scale;
-            vs_accum_add(PNANOVDB_REF(PNANOVDB_DEREF(m).tau), segment);
+            vs_accum_add(
+                PNANOVDB_REF(PNANOVDB_DEREF(m).tau),
+                vs_march_simpson(cell, c, origin, dir, t, t_exit, PNANOVDB_DEREF(m).density_scale));
             if (vs_accum_value(PNANOVDB_DEREF(m).tau) > VS_TAU_LIMIT) {
                 PNANOVDB_DEREF(m).done = 1;
                 break;
@@ -356,19 +416,8 @@ VS_FUNC_HOT void vs_march_advance(pnanovdb_buf_t buf, PNANOVDB_INOUT(pnanovdb_re
         if (t_exit < t_cell && t_exit >= t_stop)
             break;
         /* The next cell shares a face with this one (fetched == 1 here). */
-        if (next.x <= next.y && next.x <= next.z) {
-            c.x += PNANOVDB_DEREF(m).sign.x;
-            next.x += PNANOVDB_DEREF(m).delta.x;
-            fetched = 2;
-        } else if (next.y <= next.z) {
-            c.y += PNANOVDB_DEREF(m).sign.y;
-            next.y += PNANOVDB_DEREF(m).delta.y;
-            fetched = 3;
-        } else {
-            c.z += PNANOVDB_DEREF(m).sign.z;
-            next.z += PNANOVDB_DEREF(m).delta.z;
-            fetched = 4;
-        }
+        fetched = vs_march_next_cell(PNANOVDB_REF(c), PNANOVDB_REF(next), PNANOVDB_DEREF(m).sign,
+                                     PNANOVDB_DEREF(m).delta);
     }
     PNANOVDB_DEREF(m).t = t;
     PNANOVDB_DEREF(m).c = c;

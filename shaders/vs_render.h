@@ -24,8 +24,9 @@
  * handles are addresses, so a grid at a non-zero offset reads like one at 0.
  *
  * Three tables: the medium (vs_medium.h), the lights (vs_lights.h) and this render table
- * (camera, step, grid offsets; written by vdbscatter/render.c). The sky's S1 sums the light
- * table's ordinates, each with its own radiance, so that non-uniform skies need no change.
+ * (camera, step, grid offsets; written by vdbscatter/render/march_session.c). The sky's S1
+ * sums the light table's ordinates, each with its own radiance, so that non-uniform skies
+ * need no change.
  *
  * With light grids (vs_lightgrid.h; the render table says so), the transmittance toward a
  * light or sky ordinate is a lookup in its grid, one grid per light in the light table's
@@ -347,6 +348,189 @@ VS_FUNC void vs_render_next_segment(vs_render_ray_info ray, PNANOVDB_INOUT(vs_re
         PNANOVDB_DEREF(st).stop = 2;
 }
 
+/* Where segment k of the ray begins (k = ray.n: where the last one ends). */
+VS_FUNC float vs_render_segment_at(vs_render_ray_info ray, int k)
+{
+    VS_PRECISE float t =
+        k == ray.n ? ray.t0 + ray.span : ray.t0 + ray.span * (VS_FLOAT(k) * ray.inv_n);
+    return t;
+}
+
+/* What a unit marches (from origin along dir over [0, tmax]) and how the transmittance it
+ * finds adds to S: color * T * phase * falloff. */
+struct vs_render_target {
+    pnanovdb_vec3_t origin;
+    pnanovdb_vec3_t dir;
+    float tmax;
+    float phase;
+    float falloff;
+    pnanovdb_vec3_t color;
+};
+PNANOVDB_STRUCT_TYPEDEF(vs_render_target)
+
+/* Toward direct light `light` (a sun or a point light) from the segment's midpoint. */
+VS_FUNC vs_render_target vs_render_light_target(VS_DATA_PARAM(vs_vec4, medium_data)
+                                                    VS_DATA_PARAM(vs_vec4, light_data)
+                                                        vs_render_ray_info ray,
+                                                int light, pnanovdb_vec3_t mid, float g)
+{
+    vs_render_target u;
+    u.origin = mid;
+    u.dir = ray.dir;
+    u.tmax = VS_T_INFINITE;
+    u.phase = 0.0f;
+    u.falloff = 1.0f;
+    pnanovdb_vec3_t at = vs_light_index(VS_DATA_ARG(light_data) light);
+    pnanovdb_vec3_t world = vs_light_world(VS_DATA_ARG(light_data) light);
+    u.color = vs_light_color(VS_DATA_ARG(light_data) light);
+    if (vs_light_type(VS_DATA_ARG(light_data) light) == VS_LIGHT_SUN) {
+        u.dir = at;
+        u.phase = vs_hg_dirs(g, world, ray.wo);
+    } else {
+        vs_point_view v =
+            vs_point_light_view(VS_DATA_ARG(medium_data) VS_DATA_ARG(light_data) light, mid);
+        pnanovdb_vec3_t d = v.offset;
+        pnanovdb_vec3_t w = v.world;
+        float r = v.distance;
+        u.falloff = v.falloff;
+        /* A light exactly at the midpoint has no direction: isotropic, unshadowed. */
+        u.dir = vs_vec3(1.0f, 0.0f, 0.0f);
+        u.tmax = 0.0f;
+        u.phase = VS_INV_4PI;
+        if (r > 0.0f) {
+            u.dir = vs_vec3_scale(d, 1.0f / r);
+            u.tmax = r;
+            u.phase = vs_hg_dirs(g, vs_vec3_scale(w, -1.0f / r), ray.wo);
+        }
+    }
+    return u;
+}
+
+/* Toward sky ordinate `sky` from the segment's midpoint. */
+VS_FUNC vs_render_target vs_render_sky_target(VS_DATA_PARAM(vs_vec4, light_data)
+                                                  vs_render_ray_info ray,
+                                              int sky, pnanovdb_vec3_t mid, float g)
+{
+    vs_render_target u;
+    u.origin = mid;
+    u.dir = vs_ordinate_index(VS_DATA_ARG(light_data) sky);
+    u.tmax = VS_T_INFINITE;
+    u.phase =
+        vs_hg_dirs(g, vs_vec3_scale(vs_ordinate_world(VS_DATA_ARG(light_data) sky), -1.0f), ray.wo);
+    u.falloff = 1.0f;
+    u.color = vs_ordinate_weighted(VS_DATA_ARG(light_data) sky);
+    return u;
+}
+
+/* Unit 0 marches the camera segment [a, b]; the others march from its midpoint toward
+ * direct light unit - 1, then toward the sky ordinates. */
+VS_FUNC vs_render_target vs_render_unit_target(VS_DATA_PARAM(vs_vec4, medium_data)
+                                                   VS_DATA_PARAM(vs_vec4, light_data)
+                                                       vs_render_ray_info ray,
+                                               int unit, int light_count, float a, float b,
+                                               pnanovdb_vec3_t mid)
+{
+    float g = vs_medium_g(VS_DATA_ONLY_ARG(medium_data));
+    if (unit - 1 >= light_count)
+        return vs_render_sky_target(VS_DATA_ARG(light_data) ray, unit - 1 - light_count, mid, g);
+    if (unit > 0)
+        return vs_render_light_target(VS_DATA_ARG(medium_data) VS_DATA_ARG(light_data) ray,
+                                      unit - 1, mid, g);
+    vs_render_target u;
+    u.origin = vs_vec3_madd(ray.origin, ray.dir, a);
+    u.dir = ray.dir;
+    u.tmax = b - a;
+    u.phase = 0.0f;
+    u.falloff = 1.0f;
+    u.color = vs_vec3(0.0f, 0.0f, 0.0f);
+    return u;
+}
+
+/* The unit's optical depth: toward a light, a lookup in its light grid when the render
+ * table has light grids; else the unit's one march. */
+VS_FUNC vs_accum vs_render_unit_depth(VS_DATA_PARAM(vs_vec4, medium_data)
+                                          VS_DATA_PARAM(vs_vec4, render_data)
+                                              VS_DATA_PARAM(vs_uint, lgrid_data) pnanovdb_buf_t buf,
+                                      PNANOVDB_INOUT(vs_render_accessors) accs, int unit,
+                                      pnanovdb_vec3_t mid, vs_render_target u)
+{
+    vs_accum depth;
+    if (unit > 0 && render_data[VS_RENDER_OFF_MARCH].z != 0.0f) {
+        vs_accum_init(PNANOVDB_REF(depth));
+        vs_accum_add(
+            PNANOVDB_REF(depth),
+            vs_lgrid_depth(VS_DATA_ARG(medium_data) VS_DATA_ARG(lgrid_data) unit - 1, mid));
+    } else {
+        depth = vs_march(buf, PNANOVDB_REF(PNANOVDB_DEREF(accs).density), u.origin, u.dir, u.tmax,
+                         vs_medium_box_lo(VS_DATA_ONLY_ARG(medium_data)),
+                         vs_medium_box_hi(VS_DATA_ONLY_ARG(medium_data)),
+                         vs_medium_density_scale(VS_DATA_ONLY_ARG(medium_data)));
+    }
+    return depth;
+}
+
+/* Unit 0's result, the camera segment of optical depth `depth`: the transmittance on to its
+ * end, its weight T_a - T_b and its Sms at the midpoint. Returns 0 when the segment was
+ * passed over (empty, or another pixel's phase): then the ray has moved on to the next. */
+VS_FUNC int vs_render_camera_segment(VS_DATA_PARAM(vs_vec4, render_data) pnanovdb_buf_t buf,
+                                     PNANOVDB_INOUT(vs_render_accessors) accs,
+                                     vs_render_ray_info ray, PNANOVDB_INOUT(vs_render_state) st,
+                                     vs_accum depth, pnanovdb_vec3_t mid)
+{
+    float tau = vs_accum_value(depth);
+    if (!(tau > 0.0f)) {
+        vs_render_next_segment(ray, st);
+        return 0;
+    }
+    /* T_a - T_b = T_a (1 - exp(-tau)), accurate for thin segments too. */
+    float w = PNANOVDB_DEREF(st).transmittance * vs_one_minus_exp_neg(tau);
+    vs_accum_add(PNANOVDB_REF(PNANOVDB_DEREF(st).tau), tau);
+    if (vs_accum_value(PNANOVDB_DEREF(st).tau) > VS_TAU_LIMIT) {
+        PNANOVDB_DEREF(st).transmittance = 0.0f;
+        PNANOVDB_DEREF(st).stop = 1;
+    } else {
+        PNANOVDB_DEREF(st).transmittance = vs_accum_exp_neg(PNANOVDB_DEREF(st).tau);
+    }
+    if (!(w > 0.0f) || PNANOVDB_DEREF(st).seg % ray.phases != ray.phase) {
+        vs_render_next_segment(ray, st);
+        return 0;
+    }
+    PNANOVDB_DEREF(st).weight = w * VS_FLOAT(ray.phases);
+    PNANOVDB_DEREF(st).source = render_data[VS_RENDER_OFF_MARCH].y != 0.0f
+                                    ? vs_render_ms(buf, accs, mid, ray.wo)
+                                    : vs_vec3(0.0f, 0.0f, 0.0f);
+    return 1;
+}
+
+/* The light of a unit toward a light or sky ordinate added to S: through the medium and,
+ * for a direct light, past the solid occluders (no shadow table: visible) seen from the
+ * midpoint of the segment [a, b]. */
+VS_FUNC void vs_render_light_arrives(VS_DATA_PARAM(float, shadow_data) vs_render_ray_info ray,
+                                     PNANOVDB_INOUT(vs_render_state) st, vs_render_target u,
+                                     vs_accum depth, int light, int light_count, float a, float b)
+{
+    float transmittance = vs_accum_exp_neg(depth);
+    if (light < light_count)
+        transmittance *=
+            vs_shadow_visibility(VS_DATA_ARG(shadow_data) light,
+                                 vs_vec3_madd(ray.world_origin, ray.wo, -0.5f * (a + b)));
+    PNANOVDB_DEREF(st).source =
+        vs_vec3_madd(PNANOVDB_DEREF(st).source, u.color, transmittance * u.phase * u.falloff);
+}
+
+/* The segment's S is complete: its light scattered toward the camera joins the radiance. */
+VS_FUNC void vs_render_segment_end(VS_DATA_PARAM(vs_vec4, medium_data) vs_render_ray_info ray,
+                                   PNANOVDB_INOUT(vs_render_state) st)
+{
+    pnanovdb_vec3_t s = PNANOVDB_DEREF(st).source;
+    pnanovdb_vec3_t albedo = vs_medium_albedo(VS_DATA_ONLY_ARG(medium_data));
+    float w = PNANOVDB_DEREF(st).weight;
+    PNANOVDB_DEREF(st).radiance = vs_vec3(PNANOVDB_DEREF(st).radiance.x + albedo.x * s.x * w,
+                                          PNANOVDB_DEREF(st).radiance.y + albedo.y * s.y * w,
+                                          PNANOVDB_DEREF(st).radiance.z + albedo.z * s.z * w);
+    vs_render_next_segment(ray, st);
+}
+
 /* One unit of work, which always marches exactly once through one call site: the camera
  * segment (unit 0; it also samples Sms), or the transmittance toward one light or sky
  * ordinate from the segment's midpoint. Keeping one march per unit bounds the loop
@@ -361,115 +545,27 @@ VS_FUNC void vs_render_unit(VS_RENDER_TABLES pnanovdb_buf_t buf,
     int with_s1 = render_data[VS_RENDER_OFF_VIEW].y != 0.0f ? 1 : 0;
     int light_count = with_s1 * vs_lights_direct_count(VS_DATA_ONLY_ARG(light_data));
     int sky_count = with_s1 * vs_lights_ordinate_count(VS_DATA_ONLY_ARG(light_data));
-    float density_scale = vs_medium_density_scale(VS_DATA_ONLY_ARG(medium_data));
-    pnanovdb_vec3_t box_lo = vs_medium_box_lo(VS_DATA_ONLY_ARG(medium_data));
-    pnanovdb_vec3_t box_hi = vs_medium_box_hi(VS_DATA_ONLY_ARG(medium_data));
-    float g = vs_medium_g(VS_DATA_ONLY_ARG(medium_data));
     int seg = PNANOVDB_DEREF(st).seg;
     int unit = PNANOVDB_DEREF(st).unit;
-    VS_PRECISE float a = ray.t0 + ray.span * (VS_FLOAT(seg) * ray.inv_n);
-    VS_PRECISE float b =
-        seg + 1 == ray.n ? ray.t0 + ray.span : ray.t0 + ray.span * (VS_FLOAT(seg + 1) * ray.inv_n);
+    VS_PRECISE float a = vs_render_segment_at(ray, seg);
+    VS_PRECISE float b = vs_render_segment_at(ray, seg + 1);
     pnanovdb_vec3_t mid = vs_vec3_madd(ray.origin, ray.dir, 0.5f * (a + b));
 
-    /* What this unit marches: origin, direction, length; and how its result is used. */
-    pnanovdb_vec3_t origin = mid;
-    pnanovdb_vec3_t dir = ray.dir;
-    float tmax = VS_T_INFINITE;
-    float phase = 0.0f;
-    float falloff = 1.0f;
-    pnanovdb_vec3_t color = vs_vec3(0.0f, 0.0f, 0.0f);
-    int light = unit - 1;
-    int sky = unit - 1 - light_count;
+    vs_render_target u = vs_render_unit_target(VS_DATA_ARG(medium_data) VS_DATA_ARG(light_data) ray,
+                                               unit, light_count, a, b, mid);
+    vs_accum depth = vs_render_unit_depth(VS_DATA_ARG(medium_data) VS_DATA_ARG(render_data)
+                                              VS_DATA_ARG(lgrid_data) buf,
+                                          accs, unit, mid, u);
     if (unit == 0) {
-        origin = vs_vec3_madd(ray.origin, ray.dir, a);
-        tmax = b - a;
-    } else if (light < light_count) {
-        pnanovdb_vec3_t at = vs_light_index(VS_DATA_ARG(light_data) light);
-        pnanovdb_vec3_t world = vs_light_world(VS_DATA_ARG(light_data) light);
-        color = vs_light_color(VS_DATA_ARG(light_data) light);
-        if (vs_light_type(VS_DATA_ARG(light_data) light) == VS_LIGHT_SUN) {
-            dir = at;
-            phase = vs_hg_dirs(g, world, ray.wo);
-        } else {
-            vs_point_view v =
-                vs_point_light_view(VS_DATA_ARG(medium_data) VS_DATA_ARG(light_data) light, mid);
-            pnanovdb_vec3_t d = v.offset;
-            pnanovdb_vec3_t w = v.world;
-            float r = v.distance;
-            falloff = v.falloff;
-            /* A light exactly at the midpoint has no direction: isotropic, unshadowed. */
-            dir = vs_vec3(1.0f, 0.0f, 0.0f);
-            tmax = 0.0f;
-            phase = VS_INV_4PI;
-            if (r > 0.0f) {
-                dir = vs_vec3_scale(d, 1.0f / r);
-                tmax = r;
-                phase = vs_hg_dirs(g, vs_vec3_scale(w, -1.0f / r), ray.wo);
-            }
-        }
-    } else {
-        dir = vs_ordinate_index(VS_DATA_ARG(light_data) sky);
-        color = vs_ordinate_weighted(VS_DATA_ARG(light_data) sky);
-        phase = vs_hg_dirs(g, vs_vec3_scale(vs_ordinate_world(VS_DATA_ARG(light_data) sky), -1.0f),
-                           ray.wo);
-    }
-
-    vs_accum depth;
-    if (unit > 0 && render_data[VS_RENDER_OFF_MARCH].z != 0.0f) {
-        vs_accum_init(PNANOVDB_REF(depth));
-        vs_accum_add(
-            PNANOVDB_REF(depth),
-            vs_lgrid_depth(VS_DATA_ARG(medium_data) VS_DATA_ARG(lgrid_data) unit - 1, mid));
-    } else {
-        depth = vs_march(buf, PNANOVDB_REF(PNANOVDB_DEREF(accs).density), origin, dir, tmax, box_lo,
-                         box_hi, density_scale);
-    }
-
-    if (unit == 0) {
-        float tau = vs_accum_value(depth);
-        if (!(tau > 0.0f)) {
-            vs_render_next_segment(ray, st);
+        if (vs_render_camera_segment(VS_DATA_ARG(render_data) buf, accs, ray, st, depth, mid) == 0)
             return;
-        }
-        /* T_a - T_b = T_a (1 - exp(-tau)), accurate for thin segments too. */
-        float w = PNANOVDB_DEREF(st).transmittance * vs_one_minus_exp_neg(tau);
-        vs_accum_add(PNANOVDB_REF(PNANOVDB_DEREF(st).tau), tau);
-        if (vs_accum_value(PNANOVDB_DEREF(st).tau) > VS_TAU_LIMIT) {
-            PNANOVDB_DEREF(st).transmittance = 0.0f;
-            PNANOVDB_DEREF(st).stop = 1;
-        } else {
-            PNANOVDB_DEREF(st).transmittance = vs_accum_exp_neg(PNANOVDB_DEREF(st).tau);
-        }
-        if (!(w > 0.0f) || seg % ray.phases != ray.phase) {
-            vs_render_next_segment(ray, st);
-            return;
-        }
-        PNANOVDB_DEREF(st).weight = w * VS_FLOAT(ray.phases);
-        PNANOVDB_DEREF(st).source = render_data[VS_RENDER_OFF_MARCH].y != 0.0f
-                                        ? vs_render_ms(buf, accs, mid, ray.wo)
-                                        : vs_vec3(0.0f, 0.0f, 0.0f);
     } else {
-        float transmittance = vs_accum_exp_neg(depth);
-        /* Solid occluders between the point and a direct light (no table: visible). */
-        if (light < light_count)
-            transmittance *=
-                vs_shadow_visibility(VS_DATA_ARG(shadow_data) light,
-                                     vs_vec3_madd(ray.world_origin, ray.wo, -0.5f * (a + b)));
-        PNANOVDB_DEREF(st).source =
-            vs_vec3_madd(PNANOVDB_DEREF(st).source, color, transmittance * phase * falloff);
+        vs_render_light_arrives(VS_DATA_ARG(shadow_data) ray, st, u, depth, unit - 1, light_count,
+                                a, b);
     }
-
     PNANOVDB_DEREF(st).unit = unit + 1;
-    if (unit + 1 > light_count + sky_count) {
-        pnanovdb_vec3_t s = PNANOVDB_DEREF(st).source;
-        pnanovdb_vec3_t albedo = vs_medium_albedo(VS_DATA_ONLY_ARG(medium_data));
-        float w = PNANOVDB_DEREF(st).weight;
-        PNANOVDB_DEREF(st).radiance = vs_vec3(PNANOVDB_DEREF(st).radiance.x + albedo.x * s.x * w,
-                                              PNANOVDB_DEREF(st).radiance.y + albedo.y * s.y * w,
-                                              PNANOVDB_DEREF(st).radiance.z + albedo.z * s.z * w);
-        vs_render_next_segment(ray, st);
-    }
+    if (unit + 1 > light_count + sky_count)
+        vs_render_segment_end(VS_DATA_ARG(medium_data) ray, st);
 }
 
 /* Runs up to max_units units (fewer when the ray is done). */

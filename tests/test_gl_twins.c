@@ -24,6 +24,7 @@
 #include "vdbscatter/fog.h"
 #include "vdbscatter/lightgrid.h"
 #include "vdbscatter/lights.h"
+#include "vdbscatter/march_session.h"
 #include "vdbscatter/pop.h"
 #include "vdbscatter/render.h"
 #include "vdbscatter/scene.h"

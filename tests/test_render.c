@@ -13,6 +13,7 @@
 #include "vdbscatter/bake.h"
 #include "vdbscatter/camera.h"
 #include "vdbscatter/fog.h"
+#include "vdbscatter/march_session.h"
 #include "vdbscatter/render.h"
 #include "vdbscatter/shadow.h"
 #include "vdbscatter/samples.h"

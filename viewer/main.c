@@ -26,6 +26,7 @@
 #include "vdbscatter/fog.h"
 #include "vdbscatter/runner.h"
 #include "vdbscatter/litvdb.h"
+#include "vdbscatter/march_session.h"
 #include "vdbscatter/mesh.h"
 #include "vdbscatter/render.h"
 #include "vdbscatter/vdbio.h"

@@ -11,7 +11,7 @@
 
 #include "vdbscatter/gpu.h"
 #include "vdbscatter/mesh.h"
-#include "vdbscatter/render.h"
+#include "vdbscatter/march_session.h"
 
 /* Positions and normals interleaved, 6 floats a vertex. */
 #define VERTEX_FLOATS 6

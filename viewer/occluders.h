@@ -8,7 +8,7 @@
 
 #include "vdbscatter/camera.h"
 #include "vdbscatter/fog.h"
-#include "vdbscatter/render.h"
+#include "vdbscatter/march_session.h"
 #include "vdbscatter/scene.h"
 #include "vdbscatter/shadow.h"
 #include "vdbscatter/status.h"

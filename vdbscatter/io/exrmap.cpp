@@ -125,6 +125,85 @@ void read_float_planes(Imf::InputFile &file, const Imath::Box2i &dw,
     file.readPixels(dw.min.y, dw.max.y);
 }
 
+/* The image is the data window: OpenEXR's own lat-long functions (ImfEnvmap.h) are defined
+ * on it, and the display window of a map is often a crop or overscan frame nobody means as
+ * the sphere. compare, too, matches data windows pixel for pixel (of the same size,
+ * wherever they sit). */
+Imath::Box2i image_window(const Imf::Header &header)
+{
+    if (header.hasType() && Imf::isDeepData(header.type()))
+        throw Refusal{"deep OpenEXR images are not supported"};
+    const Imath::Box2i dw = header.dataWindow();
+    const long long w64 = (long long)dw.max.x - dw.min.x + 1;
+    const long long h64 = (long long)dw.max.y - dw.min.y + 1;
+    if (w64 <= 0 || h64 <= 0 || w64 > (1 << 24) || h64 > (1 << 24))
+        throw Refusal{"data window " + std::to_string(w64) + "x" + std::to_string(h64) +
+                      " is unusable"};
+    return dw;
+}
+
+const char *const se_names[3] = {"se.R", "se.G", "se.B"};
+
+/* Whether the standard errors are read: wanted and all three channels present. */
+bool with_standard_errors(const Imf::ChannelList &channels, bool want_se)
+{
+    bool with_se = want_se;
+    for (const char *n : se_names)
+        with_se = with_se && channels.findChannel(n) != nullptr;
+    if (with_se)
+        for (const char *n : se_names)
+            require_full_resolution(channels, n);
+    return with_se;
+}
+
+/* Luminance/chroma (Y, RY, BY) into image->rgb: RgbaInputFile reconstructs RGB as half. */
+void read_chroma(const char *path, const Imath::Box2i &dw, vdbs_image *image)
+{
+    const int w = image->width, h = image->height;
+    Imf::RgbaInputFile rgba(path);
+    Imf::Array2D<Imf::Rgba> pixels(h, w);
+    rgba.setFrameBuffer(&pixels[0][0] - (ptrdiff_t)dw.min.x - (ptrdiff_t)dw.min.y * (ptrdiff_t)w, 1,
+                        (size_t)w);
+    rgba.readPixels(dw.min.y, dw.max.y);
+    for (int y = 0; y < h; ++y)
+        for (int x = 0; x < w; ++x) {
+            float *t = image->rgb + 3 * ((size_t)y * w + x);
+            t[0] = pixels[y][x].r;
+            t[1] = pixels[y][x].g;
+            t[2] = pixels[y][x].b;
+        }
+}
+
+/* The chosen channels (and the standard errors) into the allocated image. */
+void read_pixels(const char *path, Imf::InputFile &file, const Imath::Box2i &dw,
+                 const Choice &choice, bool with_se, vdbs_image *image)
+{
+    std::vector<std::string> names;
+    std::vector<float *> planes;
+    if (choice.chroma) {
+        read_chroma(path, dw, image);
+    } else if (choice.grey) {
+        names.push_back("Y");
+        planes.push_back(image->rgb);
+    } else {
+        const char *rgb[3] = {"R", "G", "B"};
+        for (int c = 0; c < 3; ++c) {
+            names.push_back(choice.prefix + rgb[c]);
+            planes.push_back(image->rgb + c);
+        }
+    }
+    for (int c = 0; with_se && c < 3; ++c) {
+        names.push_back(se_names[c]);
+        planes.push_back(image->se + c);
+    }
+    if (!names.empty())
+        read_float_planes(file, dw, names, planes, 3);
+    const size_t texels = (size_t)image->width * (size_t)image->height;
+    if (choice.grey)
+        for (size_t i = 0; i < texels; ++i)
+            image->rgb[3 * i + 1] = image->rgb[3 * i + 2] = image->rgb[3 * i];
+}
+
 /* Both public readers: the colour channels choose_channels picks and, when want_se is set
  * and all three are present, se.R, se.G, se.B. */
 vdbs_status read_exr(const char *path, vdbs_image *image, bool want_se, vdbs_error *err)
@@ -133,70 +212,17 @@ vdbs_status read_exr(const char *path, vdbs_image *image, bool want_se, vdbs_err
     try {
         Imf::InputFile file(path);
         const Imf::Header &header = file.header();
-        if (header.hasType() && Imf::isDeepData(header.type()))
-            throw Refusal{"deep OpenEXR images are not supported"};
-        /* The image is the data window: OpenEXR's own lat-long functions (ImfEnvmap.h) are
-         * defined on it, and the display window of a map is often a crop or overscan frame
-         * nobody means as the sphere. compare, too, matches data windows pixel for pixel
-         * (of the same size, wherever they sit). */
-        const Imath::Box2i dw = header.dataWindow();
-        const long long w64 = (long long)dw.max.x - dw.min.x + 1;
-        const long long h64 = (long long)dw.max.y - dw.min.y + 1;
-        if (w64 <= 0 || h64 <= 0 || w64 > (1 << 24) || h64 > (1 << 24))
-            throw Refusal{"data window " + std::to_string(w64) + "x" + std::to_string(h64) +
-                          " is unusable"};
+        const Imath::Box2i dw = image_window(header);
         const Imf::ChannelList &channels = header.channels();
         const Choice choice = choose_channels(channels, want_se);
-        const char *const se_names[3] = {"se.R", "se.G", "se.B"};
-        bool with_se = want_se;
-        for (const char *n : se_names)
-            with_se = with_se && channels.findChannel(n) != nullptr;
-        if (with_se)
-            for (const char *n : se_names)
-                require_full_resolution(channels, n);
-        vdbs_status st = vdbs_image_alloc(image, (int)w64, (int)h64, with_se, err);
+        const bool with_se = with_standard_errors(channels, want_se);
+        vdbs_status st =
+            vdbs_image_alloc(image, dw.max.x - dw.min.x + 1, dw.max.y - dw.min.y + 1, with_se, err);
         if (st != VDBS_OK) {
             const std::string why = err ? err->message : "";
             return vdbs_error_set(err, st, "%s: %s", path, why.c_str());
         }
-        const int w = image->width, h = image->height;
-        const size_t texels = (size_t)w * (size_t)h;
-        std::vector<std::string> names;
-        std::vector<float *> planes;
-        if (choice.chroma) {
-            /* Luminance/chroma (Y, RY, BY): RgbaInputFile reconstructs RGB as half. */
-            Imf::RgbaInputFile rgba(path);
-            Imf::Array2D<Imf::Rgba> pixels(h, w);
-            rgba.setFrameBuffer(&pixels[0][0] - (ptrdiff_t)dw.min.x -
-                                    (ptrdiff_t)dw.min.y * (ptrdiff_t)w,
-                                1, (size_t)w);
-            rgba.readPixels(dw.min.y, dw.max.y);
-            for (int y = 0; y < h; ++y)
-                for (int x = 0; x < w; ++x) {
-                    float *t = image->rgb + 3 * ((size_t)y * w + x);
-                    t[0] = pixels[y][x].r;
-                    t[1] = pixels[y][x].g;
-                    t[2] = pixels[y][x].b;
-                }
-        } else if (choice.grey) {
-            names.push_back("Y");
-            planes.push_back(image->rgb);
-        } else {
-            const char *rgb[3] = {"R", "G", "B"};
-            for (int c = 0; c < 3; ++c) {
-                names.push_back(choice.prefix + rgb[c]);
-                planes.push_back(image->rgb + c);
-            }
-        }
-        for (int c = 0; with_se && c < 3; ++c) {
-            names.push_back(se_names[c]);
-            planes.push_back(image->se + c);
-        }
-        if (!names.empty())
-            read_float_planes(file, dw, names, planes, 3);
-        if (choice.grey)
-            for (size_t i = 0; i < texels; ++i)
-                image->rgb[3 * i + 1] = image->rgb[3 * i + 2] = image->rgb[3 * i];
+        read_pixels(path, file, dw, choice, with_se, image);
         return VDBS_OK;
     } catch (const Refusal &r) {
         vdbs_image_free(image);

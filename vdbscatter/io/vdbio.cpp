@@ -177,91 +177,48 @@ std::string world_str(const openvdb::math::Transform &t, const Coord &c)
     return format("(%g, %g, %g)", w.x(), w.y(), w.z());
 }
 
-/* Reads archives through Archive's protected API instead of io::File: the stream
- * throws on every short read, so a truncated file is an error instead of garbage,
- * and grids are listed in file order while only the chosen ones are loaded. */
-class Reader : public openvdb::io::Archive
+/* Opens an archive for reading: the file must exist, be a regular file and start with the
+ * OpenVDB magic number. Returns its size; the stream then throws on every short read. */
+uint64_t open_vdb_file(const std::string &file, std::ifstream &is)
+{
+    struct stat st;
+    if (stat(file.c_str(), &st) != 0)
+        fail(VDBS_ERR_INPUT,
+             format("%s: %s", file.c_str(), errno == ENOENT ? "no such file" : strerror(errno)));
+    if (S_ISDIR(st.st_mode))
+        fail(VDBS_ERR_INPUT, format("%s: is a directory, not a VDB file", file.c_str()));
+    const uint64_t size = static_cast<uint64_t>(st.st_size);
+    is.open(file, std::ios::in | std::ios::binary);
+    if (!is)
+        fail(VDBS_ERR_INPUT, format("%s: cannot open: %s", file.c_str(), strerror(errno)));
+    int64_t magic = 0;
+    is.read(reinterpret_cast<char *>(&magic), sizeof magic);
+    if (is.gcount() != sizeof magic || magic != openvdb::OPENVDB_MAGIC)
+        fail(VDBS_ERR_INPUT,
+             format("%s: not an OpenVDB file%s", file.c_str(), size == 0 ? " (empty file)" : ""));
+    is.seekg(0);
+    is.exceptions(std::ios::failbit | std::ios::badbit | std::ios::eofbit);
+    return size;
+}
+
+/* An archive file open for reading through Archive's protected API instead of io::File:
+ * the stream throws on every short read, so a truncated file is an error instead of
+ * garbage, and every failure while reading becomes a Failure that names the file. */
+class ArchiveInput : public openvdb::io::Archive
 {
   public:
-    struct Entry {
-        openvdb::io::GridDescriptor gd;
-        GridBase::Ptr grid; /* type, half flag; filled by load() */
-        bool loaded = false;
-    };
-
     std::string path;
-    std::vector<Entry> entries;
-    openvdb::MetaMap file_meta;
 
-    void open(const std::string &file, bool load_all)
-    {
-        path = file;
-        struct stat st;
-        if (stat(file.c_str(), &st) != 0)
-            fail(VDBS_ERR_INPUT, format("%s: %s", file.c_str(),
-                                        errno == ENOENT ? "no such file" : strerror(errno)));
-        if (S_ISDIR(st.st_mode))
-            fail(VDBS_ERR_INPUT, format("%s: is a directory, not a VDB file", file.c_str()));
-        size_ = static_cast<uint64_t>(st.st_size);
-        is_.open(file, std::ios::in | std::ios::binary);
-        if (!is_)
-            fail(VDBS_ERR_INPUT, format("%s: cannot open: %s", file.c_str(), strerror(errno)));
-        int64_t magic = 0;
-        is_.read(reinterpret_cast<char *>(&magic), sizeof magic);
-        if (is_.gcount() != sizeof magic || magic != openvdb::OPENVDB_MAGIC)
-            fail(VDBS_ERR_INPUT, format("%s: not an OpenVDB file%s", file.c_str(),
-                                        size_ == 0 ? " (empty file)" : ""));
-        is_.seekg(0);
-        is_.exceptions(std::ios::failbit | std::ios::badbit | std::ios::eofbit);
-        guard_io([&] { read_directory(load_all); });
-    }
-
-    GridBase::Ptr load(size_t index)
-    {
-        guard_io([&] { load_entry(index); });
-        return entries[index].grid;
-    }
-
-    /* Human-readable name: "density", or "density@1" for the second of several. */
-    std::string display_name(size_t index) const
-    {
-        const std::string &name = entries[index].gd.gridName();
-        int before = 0, total = 0;
-        for (size_t i = 0; i < entries.size(); ++i) {
-            if (entries[i].gd.gridName() == name) {
-                if (i < index)
-                    ++before;
-                ++total;
-            }
-        }
-        return total > 1 ? format("%s@%d", name.c_str(), before) : name;
-    }
-
-    std::string grid_list() const
-    {
-        std::string out;
-        /* The error line must stay readable (and fit vdbs_error) for files with many grids. */
-        const size_t shown = std::min<size_t>(entries.size(), 16);
-        for (size_t i = 0; i < shown; ++i) {
-            if (i)
-                out += ", ";
-            out += sanitize(display_name(i), 60) + " (" + sanitize(value_type(i), 30) + ")";
-        }
-        if (shown < entries.size())
-            out += format(" and %zu more", entries.size() - shown);
-        return out;
-    }
-
-    std::string value_type(size_t index) const
-    {
-        const Entry &e = entries[index];
-        return e.grid ? e.grid->valueType() : e.gd.gridType();
-    }
-
-  private:
+  protected:
     std::ifstream is_;
     uint64_t size_ = 0;
     openvdb::io::StreamMetadata::Ptr stream_meta_;
+
+    void open_stream(const std::string &file)
+    {
+        path = file;
+        size_ = open_vdb_file(file, is_);
+    }
 
     template <typename F> void guard_io(F &&body)
     {
@@ -287,16 +244,11 @@ class Reader : public openvdb::io::Archive
         }
     }
 
-    uint64_t pos()
-    {
-        return static_cast<uint64_t>(static_cast<std::streamoff>(is_.tellg()));
-    }
-
     /* A string length beyond the end of the file means truncation or garbage;
      * checked before OpenVDB allocates it. */
     void check_string_ahead()
     {
-        const uint64_t at = pos();
+        const uint64_t at = static_cast<uint64_t>(static_cast<std::streamoff>(is_.tellg()));
         uint32_t len = 0;
         is_.read(reinterpret_cast<char *>(&len), sizeof len);
         if (at + sizeof len + len > size_)
@@ -306,7 +258,8 @@ class Reader : public openvdb::io::Archive
         is_.seekg(static_cast<std::streamoff>(at));
     }
 
-    void read_directory(bool load_all)
+    /* The archive's header and file metadata; returns the grid count that follows. */
+    int32_t read_header(openvdb::MetaMap &file_meta)
     {
         readHeader(is_);
         stream_meta_ = std::make_shared<openvdb::io::StreamMetadata>();
@@ -319,36 +272,81 @@ class Reader : public openvdb::io::Archive
         const int32_t count = readGridCount(is_);
         if (count < 0 || static_cast<uint64_t>(count) > size_)
             fail(VDBS_ERR_INPUT, format("%s: corrupt file (grid count %d)", path.c_str(), count));
-        for (int32_t i = 0; i < count; ++i) {
-            check_string_ahead();
-            Entry e;
-            e.grid = e.gd.read(is_);
-            if (!e.grid)
-                fail(VDBS_ERR_INPUT, format("%s: grid type %s is not supported", path.c_str(),
-                                            sanitize(e.gd.gridType(), 60).c_str()));
-            if (inputHasGridOffsets()) {
-                const uint64_t end = static_cast<uint64_t>(e.gd.getEndPos());
-                if (e.gd.getGridPos() < 0 || e.gd.getGridPos() > e.gd.getEndPos() || end > size_)
-                    fail(VDBS_ERR_INPUT,
-                         format("%s: truncated file (grid \"%s\" ends at byte %llu, the file "
-                                "has %llu bytes)",
-                                path.c_str(), sanitize(e.gd.gridName(), 80).c_str(),
-                                static_cast<unsigned long long>(end),
-                                static_cast<unsigned long long>(size_)));
-                entries.push_back(e);
-                e.gd.seekToEnd(is_);
-            } else {
-                /* Without offsets the grids can only be read in sequence. */
-                Archive::readGrid(e.grid, e.gd, is_);
-                e.loaded = true;
-                entries.push_back(e);
-            }
-        }
+        return count;
+    }
+
+    /* A grid that would end past the end of the file means truncation. */
+    void check_grid_extent(const openvdb::io::GridDescriptor &gd)
+    {
+        const uint64_t end = static_cast<uint64_t>(gd.getEndPos());
+        if (gd.getGridPos() < 0 || gd.getGridPos() > gd.getEndPos() || end > size_)
+            fail(VDBS_ERR_INPUT,
+                 format("%s: truncated file (grid \"%s\" ends at byte %llu, the file "
+                        "has %llu bytes)",
+                        path.c_str(), sanitize(gd.gridName(), 80).c_str(),
+                        static_cast<unsigned long long>(end),
+                        static_cast<unsigned long long>(size_)));
+    }
+};
+
+/* The grids of an archive, listed in file order while only the chosen ones are loaded. */
+class Reader : public ArchiveInput
+{
+  public:
+    struct Entry {
+        openvdb::io::GridDescriptor gd;
+        GridBase::Ptr grid; /* type, half flag; filled by load() */
+        bool loaded = false;
+    };
+
+    std::vector<Entry> entries;
+    openvdb::MetaMap file_meta;
+
+    void open(const std::string &file, bool load_all)
+    {
+        open_stream(file);
+        guard_io([&] { read_directory(load_all); });
+    }
+
+    GridBase::Ptr load(size_t index)
+    {
+        guard_io([&] { load_entry(index); });
+        return entries[index].grid;
+    }
+
+  private:
+    void read_directory(bool load_all)
+    {
+        const int32_t count = read_header(file_meta);
+        for (int32_t i = 0; i < count; ++i)
+            read_descriptor();
         if (load_all) {
             for (size_t i = 0; i < entries.size(); ++i)
                 load_entry(i);
         }
         connect_instances();
+    }
+
+    /* The next grid's descriptor; the grid itself is read now only when the file has no
+     * offsets to come back to it. */
+    void read_descriptor()
+    {
+        check_string_ahead();
+        Entry e;
+        e.grid = e.gd.read(is_);
+        if (!e.grid)
+            fail(VDBS_ERR_INPUT, format("%s: grid type %s is not supported", path.c_str(),
+                                        sanitize(e.gd.gridType(), 60).c_str()));
+        if (inputHasGridOffsets()) {
+            check_grid_extent(e.gd);
+            entries.push_back(e);
+            e.gd.seekToEnd(is_);
+        } else {
+            /* Without offsets the grids can only be read in sequence. */
+            Archive::readGrid(e.grid, e.gd, is_);
+            e.loaded = true;
+            entries.push_back(e);
+        }
     }
 
     void load_entry(size_t index, size_t depth = 0)
@@ -391,6 +389,42 @@ class Reader : public openvdb::io::Archive
         }
     }
 };
+
+/* Human-readable name: "density", or "density@1" for the second of several. */
+std::string display_name(const Reader &r, size_t index)
+{
+    const std::string &name = r.entries[index].gd.gridName();
+    int before = 0, total = 0;
+    for (size_t i = 0; i < r.entries.size(); ++i) {
+        if (r.entries[i].gd.gridName() == name) {
+            if (i < index)
+                ++before;
+            ++total;
+        }
+    }
+    return total > 1 ? format("%s@%d", name.c_str(), before) : name;
+}
+
+std::string value_type(const Reader &r, size_t index)
+{
+    const Reader::Entry &e = r.entries[index];
+    return e.grid ? e.grid->valueType() : e.gd.gridType();
+}
+
+std::string grid_list(const Reader &r)
+{
+    std::string out;
+    /* The error line must stay readable (and fit vdbs_error) for files with many grids. */
+    const size_t shown = std::min<size_t>(r.entries.size(), 16);
+    for (size_t i = 0; i < shown; ++i) {
+        if (i)
+            out += ", ";
+        out += sanitize(display_name(r, i), 60) + " (" + sanitize(value_type(r, i), 30) + ")";
+    }
+    if (shown < r.entries.size())
+        out += format(" and %zu more", r.entries.size() - shown);
+    return out;
+}
 
 /* Writes through Archive's protected stream API so that write errors on our own
  * std::ofstream are seen (io::File::write does not check them). */
@@ -501,7 +535,7 @@ size_t select_grid(const Reader &r, const vdbio_read_options &o)
     if (named.empty() && !o.grid_name) {
         std::vector<size_t> scalar;
         for (size_t i = 0; i < r.entries.size(); ++i) {
-            const std::string t = r.value_type(i);
+            const std::string t = value_type(r, i);
             if (t == "float" || t == "double")
                 scalar.push_back(i);
         }
@@ -510,11 +544,11 @@ size_t select_grid(const Reader &r, const vdbio_read_options &o)
         fail(VDBS_ERR_INPUT,
              format("%s: no grid named \"density\" and %s; grids: %s", path.c_str(),
                     scalar.empty() ? "no float grid" : "several float grids (pick one with --grid)",
-                    r.grid_list().c_str()));
+                    grid_list(r).c_str()));
     }
     if (named.empty())
         fail(VDBS_ERR_INPUT, format("%s: no grid named \"%s\"; grids: %s", path.c_str(),
-                                    sanitize(wanted, 80).c_str(), r.grid_list().c_str()));
+                                    sanitize(wanted, 80).c_str(), grid_list(r).c_str()));
     if (static_cast<size_t>(o.grid_index) >= named.size())
         fail(VDBS_ERR_INPUT,
              format("%s: grid index %d out of range: %zu grid%s named \"%s\"", path.c_str(),
@@ -526,6 +560,80 @@ size_t select_grid(const Reader &r, const vdbio_read_options &o)
                     path.c_str(), named.size(), sanitize(wanted, 80).c_str(),
                     sanitize(wanted, 80).c_str()));
     return named[static_cast<size_t>(o.grid_index)];
+}
+
+/* The grid as float (a double grid converted), with its metadata and transform. */
+FloatGrid::Ptr float_grid(const GridBase::Ptr &base, const std::string &type)
+{
+    FloatGrid::Ptr grid;
+    if (type == "double") {
+        auto dgrid = openvdb::gridPtrCast<openvdb::DoubleGrid>(base);
+        if (!dgrid)
+            fail(VDBS_ERR_INTERNAL, "double grid cast failed");
+        grid = FloatGrid::create(std::make_shared<FloatTree>(dgrid->tree()));
+        grid->insertMeta(*dgrid);
+        grid->setTransform(dgrid->transform().copy());
+    } else {
+        grid = openvdb::gridPtrCast<FloatGrid>(base);
+        if (!grid)
+            fail(VDBS_ERR_INTERNAL, "float grid cast failed");
+    }
+    return grid;
+}
+
+/* An affine fog volume: a level set only with from_levelset, which converts it. */
+void require_fog_volume(FloatGrid &grid, const vdbio_read_options &o, const char *path,
+                        const std::string &gname)
+{
+    if (!grid.transform().isLinear())
+        fail(VDBS_ERR_INPUT,
+             format("%s: grid \"%s\" has a non-linear (%s) transform; only affine transforms "
+                    "are supported",
+                    path, gname.c_str(), grid.transform().mapType().c_str()));
+    const openvdb::GridClass cls = grid.getGridClass();
+    if (cls == openvdb::GRID_LEVEL_SET && !o.from_levelset)
+        fail(VDBS_ERR_INPUT,
+             format("%s: grid \"%s\" is a level set (signed distance), not a density; pass "
+                    "--from-levelset to convert it to a fog volume",
+                    path, gname.c_str()));
+    if (o.from_levelset) {
+        if (cls == openvdb::GRID_FOG_VOLUME) {
+            warn(o.warn, o.warn_user,
+                 format("%s: grid \"%s\" is already a fog volume; --from-levelset ignored", path,
+                        gname.c_str()));
+        } else {
+            openvdb::tools::sdfToFogVolume(grid);
+        }
+    }
+}
+
+/* Refuses NaN, Inf and negative active values, naming the first of each. cls is the grid's
+ * class as read (before any conversion). */
+void require_valid_values(const ActiveStats &s, const FloatGrid &grid, openvdb::GridClass cls,
+                          const std::string &type, const vdbio_read_options &o, const char *path,
+                          const std::string &gname)
+{
+    if (!s.nonfinite && !s.negative)
+        return;
+    std::string what;
+    const openvdb::math::Transform &t = grid.transform();
+    if (s.nonfinite)
+        what += format("%llu NaN/Inf active value%s (first %g at index %s, world %s)%s",
+                       static_cast<unsigned long long>(s.nonfinite), s.nonfinite == 1 ? "" : "s",
+                       static_cast<double>(s.nonfinite_value), coord_str(s.first_nonfinite).c_str(),
+                       world_str(t, s.first_nonfinite).c_str(),
+                       type == "double" ? " after conversion to float" : "");
+    if (s.nonfinite && s.negative)
+        what += " and ";
+    if (s.negative)
+        what += format("%llu negative active value%s (first %g at index %s, world %s)",
+                       static_cast<unsigned long long>(s.negative), s.negative == 1 ? "" : "s",
+                       static_cast<double>(s.negative_value), coord_str(s.first_negative).c_str(),
+                       world_str(t, s.first_negative).c_str());
+    const bool hint = s.negative && cls != openvdb::GRID_FOG_VOLUME && !o.from_levelset;
+    fail(VDBS_ERR_INPUT,
+         format("%s: grid \"%s\" has %s%s", path, gname.c_str(), what.c_str(),
+                hint ? "; if it is a signed distance field, pass --from-levelset" : ""));
 }
 
 void density_read(const char *path, const vdbio_read_options *options, vdbio_density **out)
@@ -540,51 +648,18 @@ void density_read(const char *path, const vdbio_read_options *options, vdbio_den
     Reader r;
     r.open(path, /*load_all=*/false);
     const size_t index = select_grid(r, o);
-    const std::string label = r.display_name(index);
+    const std::string label = display_name(r, index);
     const std::string gname = sanitize(label, 120);
-    const std::string type = r.value_type(index);
+    const std::string type = value_type(r, index);
     if (type != "float" && type != "double")
         fail(VDBS_ERR_INPUT,
              format("%s: grid \"%s\" holds %s values; a density must be a float or double grid",
                     path, gname.c_str(), sanitize(type, 40).c_str()));
 
-    GridBase::Ptr base = r.load(index);
-    FloatGrid::Ptr grid;
-    if (type == "double") {
-        auto dgrid = openvdb::gridPtrCast<openvdb::DoubleGrid>(base);
-        if (!dgrid)
-            fail(VDBS_ERR_INTERNAL, "double grid cast failed");
-        grid = FloatGrid::create(std::make_shared<FloatTree>(dgrid->tree()));
-        grid->insertMeta(*dgrid);
-        grid->setTransform(dgrid->transform().copy());
-    } else {
-        grid = openvdb::gridPtrCast<FloatGrid>(base);
-        if (!grid)
-            fail(VDBS_ERR_INTERNAL, "float grid cast failed");
-    }
-
-    if (!grid->transform().isLinear())
-        fail(VDBS_ERR_INPUT,
-             format("%s: grid \"%s\" has a non-linear (%s) transform; only affine transforms "
-                    "are supported",
-                    path, gname.c_str(), grid->transform().mapType().c_str()));
-
+    FloatGrid::Ptr grid = float_grid(r.load(index), type);
     const double original_background = static_cast<double>(grid->background());
     const openvdb::GridClass cls = grid->getGridClass();
-    if (cls == openvdb::GRID_LEVEL_SET && !o.from_levelset)
-        fail(VDBS_ERR_INPUT,
-             format("%s: grid \"%s\" is a level set (signed distance), not a density; pass "
-                    "--from-levelset to convert it to a fog volume",
-                    path, gname.c_str()));
-    if (o.from_levelset) {
-        if (cls == openvdb::GRID_FOG_VOLUME) {
-            warn(o.warn, o.warn_user,
-                 format("%s: grid \"%s\" is already a fog volume; --from-levelset ignored", path,
-                        gname.c_str()));
-        } else {
-            openvdb::tools::sdfToFogVolume(*grid);
-        }
-    }
+    require_fog_volume(*grid, o, path, gname);
 
     if (grid->tree().activeVoxelCount() == 0)
         fail(VDBS_ERR_INPUT,
@@ -599,29 +674,7 @@ void density_read(const char *path, const vdbio_read_options *options, vdbio_den
                     path, gname.c_str(), background));
 
     const ActiveStats s = active_stats(grid->tree());
-    if (s.nonfinite || s.negative) {
-        std::string what;
-        const openvdb::math::Transform &t = grid->transform();
-        if (s.nonfinite)
-            what +=
-                format("%llu NaN/Inf active value%s (first %g at index %s, world %s)%s",
-                       static_cast<unsigned long long>(s.nonfinite), s.nonfinite == 1 ? "" : "s",
-                       static_cast<double>(s.nonfinite_value), coord_str(s.first_nonfinite).c_str(),
-                       world_str(t, s.first_nonfinite).c_str(),
-                       type == "double" ? " after conversion to float" : "");
-        if (s.nonfinite && s.negative)
-            what += " and ";
-        if (s.negative)
-            what +=
-                format("%llu negative active value%s (first %g at index %s, world %s)",
-                       static_cast<unsigned long long>(s.negative), s.negative == 1 ? "" : "s",
-                       static_cast<double>(s.negative_value), coord_str(s.first_negative).c_str(),
-                       world_str(t, s.first_negative).c_str());
-        const bool hint = s.negative && cls != openvdb::GRID_FOG_VOLUME && !o.from_levelset;
-        fail(VDBS_ERR_INPUT,
-             format("%s: grid \"%s\" has %s%s", path, gname.c_str(), what.c_str(),
-                    hint ? "; if it is a signed distance field, pass --from-levelset" : ""));
-    }
+    require_valid_values(s, *grid, cls, type, o, path, gname);
 
     auto d = std::make_unique<vdbio_density>();
     d->grid = grid;
@@ -728,7 +781,7 @@ bool reserved_grid_meta(const std::string &key)
     return key.compare(0, 5, "file_") == 0;
 }
 
-void vdb_write(const char *path, const char *input_path, const vdbio_write_request *req)
+void check_write_request(const char *path, const vdbio_write_request *req)
 {
     if (!path || !req || !req->density || !req->density->grid)
         fail(VDBS_ERR_INTERNAL, "vdbio_write: NULL argument");
@@ -737,11 +790,13 @@ void vdb_write(const char *path, const char *input_path, const vdbio_write_reque
     if (req->vec3_grid_count < 0 || (req->vec3_grid_count && !req->vec3_grids) ||
         req->file_meta_count < 0 || (req->file_meta_count && !req->file_meta))
         fail(VDBS_ERR_INTERNAL, "vdbio_write: bad grid or metadata list");
-    check_output(path, input_path);
+}
 
+/* The density as written: the caller's tree, or with half floats a copy clamped to the half
+ * range when any value lies beyond it (counted into clamped). */
+FloatGrid::Ptr density_for_write(const vdbio_write_request *req, uint64_t &clamped)
+{
     const FloatGrid &src = *req->density->grid;
-    uint64_t clamped = 0;
-
     FloatGrid::Ptr density;
     if (req->half) {
         bool big = false;
@@ -764,40 +819,49 @@ void vdb_write(const char *path, const char *input_path, const vdbio_write_reque
     density->setName("density");
     density->setGridClass(openvdb::GRID_FOG_VOLUME);
     density->setSaveFloatAsHalf(req->half != 0);
+    return density;
+}
 
-    openvdb::GridCPtrVec grids;
-    std::vector<GridBase::Ptr> all{density};
-    for (int g = 0; g < req->vec3_grid_count; ++g) {
-        const vdbio_vec3_grid &vg = req->vec3_grids[g];
-        if (!vg.name || !vg.name[0] || (!vg.values && req->coord_count))
-            fail(VDBS_ERR_INTERNAL, format("vdbio_write: vec3 grid %d has no name or values", g));
-        for (const GridBase::Ptr &other : all) {
-            if (other->getName() == vg.name)
-                fail(VDBS_ERR_INTERNAL, format("vdbio_write: two grids named \"%s\"", vg.name));
-        }
-        Vec3SGrid::Ptr grid = Vec3SGrid::create(openvdb::Vec3s(0.0f));
-        grid->setName(vg.name);
-        grid->setTransform(src.transform().copy());
-        grid->setGridClass(openvdb::GRID_UNKNOWN);
-        grid->setVectorType(openvdb::VEC_INVARIANT);
-        grid->setSaveFloatAsHalf(req->half != 0);
-        auto acc = grid->getAccessor();
-        for (size_t i = 0; i < req->coord_count; ++i) {
-            const int32_t *c = req->coords + 3 * i;
-            openvdb::Vec3s v(vg.values[3 * i], vg.values[3 * i + 1], vg.values[3 * i + 2]);
-            if (req->half) {
-                for (int a = 0; a < 3; ++a) {
-                    if (std::fabs(v[a]) > kHalfMax) {
-                        v[a] = std::copysign(kHalfMax, v[a]);
-                        ++clamped;
-                    }
+/* The request's vec3 grid g over its output voxels, named uniquely among the grids so far
+ * (`all`); with half floats clamped to the half range (counted into clamped). */
+Vec3SGrid::Ptr vec3_for_write(const vdbio_write_request *req, int g,
+                              const std::vector<GridBase::Ptr> &all, uint64_t &clamped)
+{
+    const vdbio_vec3_grid &vg = req->vec3_grids[g];
+    if (!vg.name || !vg.name[0] || (!vg.values && req->coord_count))
+        fail(VDBS_ERR_INTERNAL, format("vdbio_write: vec3 grid %d has no name or values", g));
+    for (const GridBase::Ptr &other : all) {
+        if (other->getName() == vg.name)
+            fail(VDBS_ERR_INTERNAL, format("vdbio_write: two grids named \"%s\"", vg.name));
+    }
+    Vec3SGrid::Ptr grid = Vec3SGrid::create(openvdb::Vec3s(0.0f));
+    grid->setName(vg.name);
+    grid->setTransform(req->density->grid->transform().copy());
+    grid->setGridClass(openvdb::GRID_UNKNOWN);
+    grid->setVectorType(openvdb::VEC_INVARIANT);
+    grid->setSaveFloatAsHalf(req->half != 0);
+    auto acc = grid->getAccessor();
+    for (size_t i = 0; i < req->coord_count; ++i) {
+        const int32_t *c = req->coords + 3 * i;
+        openvdb::Vec3s v(vg.values[3 * i], vg.values[3 * i + 1], vg.values[3 * i + 2]);
+        if (req->half) {
+            for (int a = 0; a < 3; ++a) {
+                if (std::fabs(v[a]) > kHalfMax) {
+                    v[a] = std::copysign(kHalfMax, v[a]);
+                    ++clamped;
                 }
             }
-            acc.setValueOn(Coord(c[0], c[1], c[2]), v);
         }
-        all.push_back(grid);
+        acc.setValueOn(Coord(c[0], c[1], c[2]), v);
     }
+    return grid;
+}
 
+/* The file's metadata (a "creator" unless given); every key that is not one of OpenVDB's
+ * own per-grid keys goes on each grid too. */
+openvdb::MetaMap file_metadata(const vdbio_write_request *req,
+                               const std::vector<GridBase::Ptr> &all)
+{
     openvdb::MetaMap file_meta;
     bool has_creator = false;
     for (int m = 0; m < req->file_meta_count; ++m) {
@@ -813,19 +877,26 @@ void vdb_write(const char *path, const char *input_path, const vdbio_write_reque
     }
     if (!has_creator)
         file_meta.insertMeta("creator", openvdb::StringMetadata("vdbscatter"));
-    for (const GridBase::Ptr &g : all)
-        grids.push_back(g);
+    return file_meta;
+}
 
+/* A hidden temporary file beside the output, for the rename into place. */
+std::string temporary_path(const char *path)
+{
     const std::string out = path;
     const size_t slash = out.rfind('/');
     const std::string dir = slash == std::string::npos ? "" : out.substr(0, slash + 1);
     const std::string base = slash == std::string::npos ? out : out.substr(slash + 1);
     if (base.empty())
         fail(VDBS_ERR_INPUT, format("%s: output path names a directory", path));
-    const std::string tmp = dir + "." + base + ".tmp." + std::to_string(getpid());
+    return dir + "." + base + ".tmp." + std::to_string(getpid());
+}
 
-    if (vdbs_cancelled(req->cancel))
-        fail(VDBS_ERR_CANCELLED, VDBS_CANCELLED_MESSAGE);
+/* Writes the grids to tmp, syncs it and renames it onto path; on any failure (a cancel
+ * included) tmp is removed and the old file stays. */
+void write_atomically(const char *path, const std::string &tmp, const openvdb::GridCPtrVec &grids,
+                      const openvdb::MetaMap &file_meta, const vdbs_cancel *cancel)
+{
     try {
         std::ofstream os(tmp, std::ios::out | std::ios::binary | std::ios::trunc);
         if (!os)
@@ -848,7 +919,7 @@ void vdb_write(const char *path, const char *input_path, const vdbio_write_reque
         close(fd);
         /* The write itself cannot stop midway; a cancel that came during it ends here, before
          * the new file replaces the old one (the catch below removes the temporary file). */
-        if (vdbs_cancelled(req->cancel))
+        if (vdbs_cancelled(cancel))
             fail(VDBS_ERR_CANCELLED, VDBS_CANCELLED_MESSAGE);
         if (rename(tmp.c_str(), path) != 0)
             fail(VDBS_ERR_IO,
@@ -867,6 +938,24 @@ void vdb_write(const char *path, const char *input_path, const vdbio_write_reque
         unlink(tmp.c_str());
         throw;
     }
+}
+
+void vdb_write(const char *path, const char *input_path, const vdbio_write_request *req)
+{
+    check_write_request(path, req);
+    check_output(path, input_path);
+    uint64_t clamped = 0;
+    std::vector<GridBase::Ptr> all{density_for_write(req, clamped)};
+    for (int g = 0; g < req->vec3_grid_count; ++g)
+        all.push_back(vec3_for_write(req, g, all, clamped));
+    const openvdb::MetaMap file_meta = file_metadata(req, all);
+    openvdb::GridCPtrVec grids;
+    for (const GridBase::Ptr &g : all)
+        grids.push_back(g);
+    const std::string tmp = temporary_path(path);
+    if (vdbs_cancelled(req->cancel))
+        fail(VDBS_ERR_CANCELLED, VDBS_CANCELLED_MESSAGE);
+    write_atomically(path, tmp, grids, file_meta, req->cancel);
     if (clamped)
         warn(req->warn, req->warn_user,
              format("%s: %llu value%s beyond the half-float range clamped to +-65504", path,

@@ -401,23 +401,11 @@ void vdbs_light_grids_free(vdbs_light_grids *grids)
     memset(grids, 0, sizeof *grids);
 }
 
-vdbs_status vdbs_light_grids_build(vdbs_runner *runner, const vdbs_volume *volume,
-                                   const vdbs_scene *scene, const vdbs_light_table *lights,
-                                   int first, int count, const vdbs_light_grid_desc *desc,
-                                   vdbs_light_grids *out, vdbs_error *err)
+/* One plan per light of [first, first + count): a point light's grid is radial, a sun's or
+ * sky ordinate's directional (sky light travels away from its sky). */
+static vdbs_status plan_grids(const vdbs_volume *volume, const vdbs_light_table *lights, int first,
+                              int count, int F, grid_plan *plans, vdbs_error *err)
 {
-    memset(out, 0, sizeof *out);
-    if (first < 0 || count < 0 || first + count > lights->direct_count + lights->ordinate_count)
-        return vdbs_error_set(err, VDBS_ERR_INTERNAL, "light grids: lights %d..%d of %d", first,
-                              first + count, lights->direct_count + lights->ordinate_count);
-    double t0 = omp_get_wtime();
-    vdbs_medium medium;
-    vdbs_medium_init(&medium, volume, scene);
-    vdbs_medium_pack(&medium, out->medium);
-    const int F = oversample_of(desc);
-    grid_plan *plans = calloc((size_t)(count > 0 ? count : 1), sizeof *plans);
-    if (!plans)
-        return vdbs_error_set(err, VDBS_ERR_NOMEM, "out of memory for light grids");
     vdbs_status st = VDBS_OK;
     for (int g = 0; g < count && st == VDBS_OK; ++g) {
         int l = first + g;
@@ -431,91 +419,161 @@ vdbs_status vdbs_light_grids_build(vdbs_runner *runner, const vdbs_volume *volum
             st = plan_directional(volume, travel, F, &plans[g], err);
         }
     }
-    /* Layout: count and headers, radii and live bits (what the sweep reads), column records,
-     * then the depth samples. */
-    int64_t at = VS_LGRIDS_OFF_HEADERS + (int64_t)count * VS_LGRID_WORDS;
-    int slots = count > 0 ? count : 1;
-    int64_t *radii_at = calloc((size_t)slots, 3 * sizeof *radii_at);
-    int64_t *columns_at = radii_at ? radii_at + slots : NULL;
-    int64_t *live_at = radii_at ? radii_at + 2 * slots : NULL;
-    if (st == VDBS_OK && !radii_at)
-        st = vdbs_error_set(err, VDBS_ERR_NOMEM, "out of memory for light grids");
-    for (int g = 0; g < count && st == VDBS_OK; ++g) {
-        radii_at[g] = at;
-        at += plans[g].kind == VS_LGRID_RADIAL ? plans[g].n[2] : 0;
-        live_at[g] = at;
-        at += plans[g].live ? (plans[g].n[0] * plans[g].n[1] + 31) / 32 : 0;
-    }
-    const int64_t prefix = at;
-    for (int g = 0; g < count && st == VDBS_OK; ++g) {
-        columns_at[g] = at;
-        at += VS_LGRID_COLUMN_WORDS * plans[g].n[0] * plans[g].n[1];
-        out->stats.columns += plans[g].n[0] * plans[g].n[1];
-        out->stats.cells += plans[g].n[0] * plans[g].n[1] * plans[g].n[2];
-    }
-    const int64_t depth_at = at;
-    if (st == VDBS_OK && depth_at > MAX_WORDS)
-        st = vdbs_error_set(err, VDBS_ERR_INPUT,
-                            "light grids of %lld columns are too large; lower the oversample",
-                            (long long)out->stats.columns);
-    uint32_t *words = st == VDBS_OK ? calloc((size_t)depth_at, sizeof *words) : NULL;
-    if (st == VDBS_OK && !words)
-        st = vdbs_error_set(err, VDBS_ERR_NOMEM, "out of memory for light grids");
-    if (st == VDBS_OK) {
-        words[VS_LGRIDS_OFF_COUNT] = (uint32_t)count;
-        words[VS_LGRIDS_OFF_ACROSS] =
-            desc && desc->bilinear ? VS_LGRID_ACROSS_BILINEAR : VS_LGRID_ACROSS_CATMULL_ROM;
-        for (int g = 0; g < count; ++g)
-            header_write(words, g, &plans[g], (size_t)columns_at[g], (size_t)radii_at[g],
-                         (size_t)live_at[g]);
-    }
-    /* One tile for all grids: the largest any of them needs. */
-    int64_t tile_samples = 1;
-    for (int g = 0; g < count; ++g)
-        if (tile_columns(&plans[g]) * plans[g].n[2] > tile_samples)
-            tile_samples = tile_columns(&plans[g]) * plans[g].n[2];
-    float *tile = st == VDBS_OK ? malloc(sizeof *tile * (size_t)tile_samples) : NULL;
-    if (st == VDBS_OK && !tile)
-        st = vdbs_error_set(err, VDBS_ERR_NOMEM, "out of memory for a light-grid tile");
-    depth_store store = {NULL, 0, 0};
-    for (int g = 0; g < count && st == VDBS_OK; ++g)
-        st = sweep_grid(runner, volume, out->medium, words, (size_t)prefix, g, &plans[g], tile,
-                        words + columns_at[g], &store, &out->stats.columns_empty, err);
-    free(tile);
-    if (st == VDBS_OK && depth_at + store.count > MAX_WORDS)
-        st = vdbs_error_set(err, VDBS_ERR_INPUT,
-                            "light grids of %lld stored samples are too large; lower the "
-                            "oversample",
-                            (long long)store.count);
-    if (st == VDBS_OK) {
-        uint32_t *grown = realloc(words, sizeof *words * (size_t)(depth_at + store.count));
-        if (!grown) {
-            st = vdbs_error_set(err, VDBS_ERR_NOMEM, "out of memory for light grids");
-        } else {
-            words = grown;
-            if (store.count > 0) /* every column empty: no samples, store.data NULL */
-                memcpy(words + depth_at, store.data, sizeof *store.data * (size_t)store.count);
-            /* Record offsets were relative to the store. */
-            for (int g = 0; g < count; ++g)
-                for (int64_t c = 0; c < plans[g].n[0] * plans[g].n[1]; ++c)
-                    words[columns_at[g] + VS_LGRID_COLUMN_WORDS * c + VS_LGRID_COLUMN_OFFSET] +=
-                        (uint32_t)depth_at;
-        }
-    }
-    free(store.data);
+    return st;
+}
+
+static void plans_free(grid_plan *plans, int count)
+{
     for (int g = 0; g < count; ++g) {
         free(plans[g].radius);
         free(plans[g].live);
     }
     free(plans);
-    free(radii_at);
+}
+
+/* Where each grid's parts sit in the set's words. Layout: count and headers, radii and
+ * live bits (what the sweep reads: the first `prefix` words), column records, then the
+ * depth samples from depth_at. */
+typedef struct grid_layout {
+    int64_t *radii_at, *columns_at, *live_at; /* per grid, one allocation */
+    int64_t prefix, depth_at;
+} grid_layout;
+
+/* Also counts the grids' columns and cells into stats. */
+static vdbs_status layout_grids(const grid_plan *plans, int count, grid_layout *lay,
+                                vdbs_light_grid_stats *stats, vdbs_error *err)
+{
+    int64_t at = VS_LGRIDS_OFF_HEADERS + (int64_t)count * VS_LGRID_WORDS;
+    int slots = count > 0 ? count : 1;
+    lay->radii_at = calloc((size_t)slots, 3 * sizeof *lay->radii_at);
+    if (!lay->radii_at)
+        return vdbs_error_set(err, VDBS_ERR_NOMEM, "out of memory for light grids");
+    lay->columns_at = lay->radii_at + slots;
+    lay->live_at = lay->radii_at + 2 * slots;
+    for (int g = 0; g < count; ++g) {
+        lay->radii_at[g] = at;
+        at += plans[g].kind == VS_LGRID_RADIAL ? plans[g].n[2] : 0;
+        lay->live_at[g] = at;
+        at += plans[g].live ? (plans[g].n[0] * plans[g].n[1] + 31) / 32 : 0;
+    }
+    lay->prefix = at;
+    for (int g = 0; g < count; ++g) {
+        lay->columns_at[g] = at;
+        at += VS_LGRID_COLUMN_WORDS * plans[g].n[0] * plans[g].n[1];
+        stats->columns += plans[g].n[0] * plans[g].n[1];
+        stats->cells += plans[g].n[0] * plans[g].n[1] * plans[g].n[2];
+    }
+    lay->depth_at = at;
+    if (lay->depth_at > MAX_WORDS)
+        return vdbs_error_set(err, VDBS_ERR_INPUT,
+                              "light grids of %lld columns are too large; lower the oversample",
+                              (long long)stats->columns);
+    return VDBS_OK;
+}
+
+/* The set's words before the depth samples: the count, the filter across columns and
+ * every grid's header (radii and live bits included); the records are filled by the
+ * sweeps. */
+static vdbs_status words_begin(const grid_plan *plans, int count, const vdbs_light_grid_desc *desc,
+                               const grid_layout *lay, uint32_t **words, vdbs_error *err)
+{
+    uint32_t *w = calloc((size_t)lay->depth_at, sizeof *w);
+    if (!w)
+        return vdbs_error_set(err, VDBS_ERR_NOMEM, "out of memory for light grids");
+    w[VS_LGRIDS_OFF_COUNT] = (uint32_t)count;
+    w[VS_LGRIDS_OFF_ACROSS] =
+        desc && desc->bilinear ? VS_LGRID_ACROSS_BILINEAR : VS_LGRID_ACROSS_CATMULL_ROM;
+    for (int g = 0; g < count; ++g)
+        header_write(w, g, &plans[g], (size_t)lay->columns_at[g], (size_t)lay->radii_at[g],
+                     (size_t)lay->live_at[g]);
+    *words = w;
+    return VDBS_OK;
+}
+
+/* Sweeps every grid into its column records and the store, through one tile for all grids
+ * (the largest any of them needs); counts the empty columns. */
+static vdbs_status sweep_grids(vdbs_runner *runner, const vdbs_volume *volume,
+                               const grid_plan *plans, int count, const grid_layout *lay,
+                               uint32_t *words, depth_store *store, vdbs_light_grids *out,
+                               vdbs_error *err)
+{
+    int64_t tile_samples = 1;
+    for (int g = 0; g < count; ++g)
+        if (tile_columns(&plans[g]) * plans[g].n[2] > tile_samples)
+            tile_samples = tile_columns(&plans[g]) * plans[g].n[2];
+    float *tile = malloc(sizeof *tile * (size_t)tile_samples);
+    if (!tile)
+        return vdbs_error_set(err, VDBS_ERR_NOMEM, "out of memory for a light-grid tile");
+    vdbs_status st = VDBS_OK;
+    for (int g = 0; g < count && st == VDBS_OK; ++g)
+        st = sweep_grid(runner, volume, out->medium, words, (size_t)lay->prefix, g, &plans[g], tile,
+                        words + lay->columns_at[g], store, &out->stats.columns_empty, err);
+    free(tile);
+    return st;
+}
+
+/* Appends the stored samples after the records (*words grows) and makes the records'
+ * offsets, relative to the store until now, absolute. */
+static vdbs_status append_depths(const grid_plan *plans, int count, const grid_layout *lay,
+                                 const depth_store *store, uint32_t **words, vdbs_error *err)
+{
+    const int64_t depth_at = lay->depth_at;
+    if (depth_at + store->count > MAX_WORDS)
+        return vdbs_error_set(err, VDBS_ERR_INPUT,
+                              "light grids of %lld stored samples are too large; lower the "
+                              "oversample",
+                              (long long)store->count);
+    uint32_t *grown = realloc(*words, sizeof **words * (size_t)(depth_at + store->count));
+    if (!grown)
+        return vdbs_error_set(err, VDBS_ERR_NOMEM, "out of memory for light grids");
+    *words = grown;
+    if (store->count > 0) /* every column empty: no samples, store->data NULL */
+        memcpy(grown + depth_at, store->data, sizeof *store->data * (size_t)store->count);
+    for (int g = 0; g < count; ++g)
+        for (int64_t c = 0; c < plans[g].n[0] * plans[g].n[1]; ++c)
+            grown[lay->columns_at[g] + VS_LGRID_COLUMN_WORDS * c + VS_LGRID_COLUMN_OFFSET] +=
+                (uint32_t)depth_at;
+    return VDBS_OK;
+}
+
+vdbs_status vdbs_light_grids_build(vdbs_runner *runner, const vdbs_volume *volume,
+                                   const vdbs_scene *scene, const vdbs_light_table *lights,
+                                   int first, int count, const vdbs_light_grid_desc *desc,
+                                   vdbs_light_grids *out, vdbs_error *err)
+{
+    memset(out, 0, sizeof *out);
+    if (first < 0 || count < 0 || first + count > lights->direct_count + lights->ordinate_count)
+        return vdbs_error_set(err, VDBS_ERR_INTERNAL, "light grids: lights %d..%d of %d", first,
+                              first + count, lights->direct_count + lights->ordinate_count);
+    double t0 = omp_get_wtime();
+    vdbs_medium medium;
+    vdbs_medium_init(&medium, volume, scene);
+    vdbs_medium_pack(&medium, out->medium);
+    grid_plan *plans = calloc((size_t)(count > 0 ? count : 1), sizeof *plans);
+    if (!plans)
+        return vdbs_error_set(err, VDBS_ERR_NOMEM, "out of memory for light grids");
+    grid_layout lay = {0};
+    uint32_t *words = NULL;
+    depth_store store = {NULL, 0, 0};
+    vdbs_status st = plan_grids(volume, lights, first, count, oversample_of(desc), plans, err);
+    if (st == VDBS_OK)
+        st = layout_grids(plans, count, &lay, &out->stats, err);
+    if (st == VDBS_OK)
+        st = words_begin(plans, count, desc, &lay, &words, err);
+    if (st == VDBS_OK)
+        st = sweep_grids(runner, volume, plans, count, &lay, words, &store, out, err);
+    if (st == VDBS_OK)
+        st = append_depths(plans, count, &lay, &store, &words, err);
+    free(store.data);
+    plans_free(plans, count);
+    free(lay.radii_at);
     if (st != VDBS_OK) {
         free(words);
         memset(out, 0, sizeof *out);
         return st;
     }
     out->words = words;
-    out->word_count = (size_t)(depth_at + store.count);
+    out->word_count = (size_t)(lay.depth_at + store.count);
     out->count = count;
     out->stats.stored = store.count;
     out->stats.seconds_sweep = omp_get_wtime() - t0;

@@ -97,16 +97,17 @@ static float *texel_weights(const vdbs_envmap *env, const vdbs_lights_desc *desc
     return w;
 }
 
-vdbs_status vdbs_lights_build(const vdbs_volume *volume, const vdbs_scene *scene,
-                              const vdbs_lights_desc *desc, vdbs_light_table *table,
+/* The scene's env lights: constant colours summed into table->sky, at most one map loaded
+ * into table->env; *direct counts the other lights (suns and points). On an error the
+ * caller frees the table. */
+static vdbs_status sky_lights(const vdbs_scene *scene, vdbs_light_table *table, int *direct,
                               vdbs_error *err)
 {
-    memset(table, 0, sizeof *table);
-    int direct = 0;
+    *direct = 0;
     for (int i = 0; i < scene->light_count; ++i) {
         const vdbs_light *light = &scene->lights[i];
         if (light->type != VDBS_LIGHT_ENV) {
-            ++direct;
+            ++*direct;
             continue;
         }
         const char *file = vdbs_light_env_file(scene, light);
@@ -120,33 +121,25 @@ vdbs_status vdbs_lights_build(const vdbs_volume *volume, const vdbs_scene *scene
                 table->sky[c] += light->color[c];
             continue;
         }
-        if (table->env) {
-            vdbs_error_set(err, VDBS_ERR_INPUT,
-                           "%s: one environment map per scene (the other is %s)", file,
-                           table->env_file);
-            vdbs_lights_free(table);
-            return VDBS_ERR_INPUT;
-        }
+        if (table->env)
+            return vdbs_error_set(err, VDBS_ERR_INPUT,
+                                  "%s: one environment map per scene (the other is %s)", file,
+                                  table->env_file);
         table->env = calloc(1, sizeof *table->env);
         if (!table->env)
             return vdbs_error_set(err, VDBS_ERR_NOMEM, "out of memory for an env map");
         snprintf(table->env_file, sizeof table->env_file, "%s", file);
         vdbs_status st = vdbs_envmap_load(file, light->env_scale, table->env, err);
-        if (st != VDBS_OK) {
-            vdbs_lights_free(table);
+        if (st != VDBS_OK)
             return st;
-        }
     }
-    table->min_distance = 0.5 * volume->mean_voxel_size;
-    int k = table->has_sky && desc && desc->sky_ordinates > 0 ? desc->sky_ordinates : 0;
-    table->direct = calloc(direct > 0 ? (size_t)direct : 1, sizeof *table->direct);
-    table->ordinates = calloc(k > 0 ? (size_t)k : 1, sizeof *table->ordinates);
-    double *dirs = calloc(k > 0 ? 3 * (size_t)k : 1, sizeof *dirs);
-    if (!table->direct || !table->ordinates || !dirs) {
-        free(dirs);
-        vdbs_lights_free(table);
-        return vdbs_error_set(err, VDBS_ERR_NOMEM, "out of memory for the light table");
-    }
+    return VDBS_OK;
+}
+
+/* The suns and point lights with their world and index geometry, in the scene's order. */
+static vdbs_status direct_lights(const vdbs_volume *volume, const vdbs_scene *scene,
+                                 vdbs_light_table *table, vdbs_error *err)
+{
     for (int i = 0; i < scene->light_count; ++i) {
         const vdbs_light *light = &scene->lights[i];
         if (light->type == VDBS_LIGHT_ENV)
@@ -155,69 +148,114 @@ vdbs_status vdbs_lights_build(const vdbs_volume *volume, const vdbs_scene *scene
         l->type = light->type;
         memcpy(l->color, light->color, sizeof l->color);
         if (light->type == VDBS_LIGHT_SUN) {
-            if (!vdbs_volume_sun_step(volume, light->direction, l->world, l->index)) {
-                free(dirs);
-                vdbs_lights_free(table);
+            if (!vdbs_volume_sun_step(volume, light->direction, l->world, l->index))
                 return vdbs_error_set(err, VDBS_ERR_INPUT, "sun %d has a zero direction", i);
-            }
         } else {
             memcpy(l->world, light->position, sizeof l->world);
             vdbs_volume_index_point(volume, light->position, l->index);
         }
         ++table->direct_count;
     }
-    if (table->env) {
-        /* Importance-sampled from the map; a constant env on top adds to every ordinate. */
-        double *weight = calloc(k > 0 ? (size_t)k : 1, sizeof *weight);
-        double *radiance = calloc(k > 0 ? 3 * (size_t)k : 1, sizeof *radiance);
-        int sun = 0, fail = 0;
-        double sun_dir[3], sun_power[3], sun_omega = 0.0;
-        float *texel_weight =
-            texel_weights(table->env, desc, &sun, sun_dir, sun_power, &sun_omega, &fail);
-        int got = weight && radiance && !fail
-                      ? vdbs_envmap_sample(table->env, texel_weight, k - sun, dirs + 3 * sun,
-                                           weight + sun, radiance + 3 * sun, err)
-                      : -1;
-        free(texel_weight);
-        if (got >= 0 && sun) {
-            /* The split-off sun: one ordinate carrying its power over its solid angle. */
-            memcpy(dirs, sun_dir, sizeof sun_dir);
-            weight[0] = sun_omega;
-            for (int c = 0; c < 3; ++c)
-                radiance[c] = sun_power[c] / sun_omega;
-            got += 1;
-        }
-        if (got < 0) {
-            free(weight);
-            free(radiance);
-            free(dirs);
-            vdbs_lights_free(table);
-            return vdbs_error_set(err, VDBS_ERR_NOMEM, "out of memory for the light table");
-        }
-        for (int d = 0; d < got; ++d) {
-            vdbs_sky_ordinate *o = &table->ordinates[d];
-            memcpy(o->world, dirs + 3 * d, sizeof o->world);
-            vdbs_volume_index_vector(volume, o->world, o->index);
-            o->weight = weight[d];
-            for (int c = 0; c < 3; ++c)
-                o->radiance[c] = radiance[3 * d + c] + table->sky[c];
-        }
-        k = got;
-        free(weight);
-        free(radiance);
-    } else {
-        vdbs_sphere_directions(k, dirs);
-        for (int d = 0; d < k; ++d) {
-            vdbs_sky_ordinate *o = &table->ordinates[d];
-            memcpy(o->world, dirs + 3 * d, sizeof o->world);
-            vdbs_volume_index_vector(volume, o->world, o->index);
-            o->weight = 4.0 * VDBS_PI / k;
-            memcpy(o->radiance, table->sky, sizeof o->radiance);
-        }
+    return VDBS_OK;
+}
+
+static void put_ordinate(const vdbs_volume *volume, vdbs_sky_ordinate *o, const double world[3])
+{
+    memcpy(o->world, world, sizeof o->world);
+    vdbs_volume_index_vector(volume, o->world, o->index);
+}
+
+/* k sky ordinates importance-sampled from the map (a split-off sun first, with its power
+ * over its solid angle), a constant env on top added to every one. Returns how many were
+ * drawn, -1 when out of memory (err set). dirs has room for k. */
+static int map_ordinates(const vdbs_volume *volume, const vdbs_lights_desc *desc, int k,
+                         double *dirs, vdbs_light_table *table, vdbs_error *err)
+{
+    double *weight = calloc(k > 0 ? (size_t)k : 1, sizeof *weight);
+    double *radiance = calloc(k > 0 ? 3 * (size_t)k : 1, sizeof *radiance);
+    int sun = 0, fail = 0;
+    double sun_dir[3], sun_power[3], sun_omega = 0.0;
+    float *texel_weight =
+        texel_weights(table->env, desc, &sun, sun_dir, sun_power, &sun_omega, &fail);
+    int got = weight && radiance && !fail
+                  ? vdbs_envmap_sample(table->env, texel_weight, k - sun, dirs + 3 * sun,
+                                       weight + sun, radiance + 3 * sun, err)
+                  : -1;
+    free(texel_weight);
+    if (got >= 0 && sun) {
+        /* The split-off sun: one ordinate carrying its power over its solid angle. */
+        memcpy(dirs, sun_dir, sizeof sun_dir);
+        weight[0] = sun_omega;
+        for (int c = 0; c < 3; ++c)
+            radiance[c] = sun_power[c] / sun_omega;
+        got += 1;
     }
-    table->ordinate_count = k;
+    if (got < 0)
+        vdbs_error_set(err, VDBS_ERR_NOMEM, "out of memory for the light table");
+    for (int d = 0; d < got; ++d) {
+        vdbs_sky_ordinate *o = &table->ordinates[d];
+        put_ordinate(volume, o, dirs + 3 * d);
+        o->weight = weight[d];
+        for (int c = 0; c < 3; ++c)
+            o->radiance[c] = radiance[3 * d + c] + table->sky[c];
+    }
+    free(weight);
+    free(radiance);
+    return got;
+}
+
+/* k sky ordinates of a constant sky: directions spread over the sphere, equal weights. */
+static void uniform_ordinates(const vdbs_volume *volume, int k, double *dirs,
+                              vdbs_light_table *table)
+{
+    vdbs_sphere_directions(k, dirs);
+    for (int d = 0; d < k; ++d) {
+        vdbs_sky_ordinate *o = &table->ordinates[d];
+        put_ordinate(volume, o, dirs + 3 * d);
+        o->weight = 4.0 * VDBS_PI / k;
+        memcpy(o->radiance, table->sky, sizeof o->radiance);
+    }
+}
+
+static vdbs_status build_table(const vdbs_volume *volume, const vdbs_scene *scene,
+                               const vdbs_lights_desc *desc, vdbs_light_table *table,
+                               vdbs_error *err)
+{
+    int direct = 0;
+    vdbs_status st = sky_lights(scene, table, &direct, err);
+    if (st != VDBS_OK)
+        return st;
+    table->min_distance = 0.5 * volume->mean_voxel_size;
+    int k = table->has_sky && desc && desc->sky_ordinates > 0 ? desc->sky_ordinates : 0;
+    table->direct = calloc(direct > 0 ? (size_t)direct : 1, sizeof *table->direct);
+    table->ordinates = calloc(k > 0 ? (size_t)k : 1, sizeof *table->ordinates);
+    double *dirs = calloc(k > 0 ? 3 * (size_t)k : 1, sizeof *dirs);
+    if (!table->direct || !table->ordinates || !dirs) {
+        free(dirs);
+        return vdbs_error_set(err, VDBS_ERR_NOMEM, "out of memory for the light table");
+    }
+    st = direct_lights(volume, scene, table, err);
+    if (st == VDBS_OK && table->env) {
+        /* Importance-sampled from the map; a constant env on top adds to every ordinate. */
+        k = map_ordinates(volume, desc, k, dirs, table, err);
+        if (k < 0)
+            st = VDBS_ERR_NOMEM;
+    } else if (st == VDBS_OK) {
+        uniform_ordinates(volume, k, dirs, table);
+    }
     free(dirs);
-    vdbs_status st = vdbs_lights_pack(table, err);
+    if (st != VDBS_OK)
+        return st;
+    table->ordinate_count = k;
+    return vdbs_lights_pack(table, err);
+}
+
+vdbs_status vdbs_lights_build(const vdbs_volume *volume, const vdbs_scene *scene,
+                              const vdbs_lights_desc *desc, vdbs_light_table *table,
+                              vdbs_error *err)
+{
+    memset(table, 0, sizeof *table);
+    vdbs_status st = build_table(volume, scene, desc, table, err);
     if (st != VDBS_OK)
         vdbs_lights_free(table);
     return st;

@@ -13,6 +13,7 @@
 
 #include "vdbscatter/medium.h"
 #include "base/vdbs_math.h"
+#include "render/image_check.h"
 #include "vs_common.h"
 #include "vs_march.h"
 #include "vs_phase.h"
@@ -122,26 +123,43 @@ static double sigma_at(ref_tracker *tr, const double o[3], const double d[3], do
 
 enum { TRACK_ESCAPED = 0, TRACK_COLLIDED = 1, TRACK_GAVE_UP = 2 };
 
+/* Both trackers walk the majorant cells that the ray o + t d, t in [0, tmax], crosses. The
+ * walk starts here: 0 when the ray misses the support box, else *exit_axis is the face it
+ * leaves through. */
+static int walk_begin(const ref_tracker *tr, const double o[3], const double d[3], double tmax,
+                      vdbs_majorant_dda *s, int *exit_axis)
+{
+    double t0, t1;
+    if (!vdbs_majorant_grid_clip(tr->grid, o, d, tmax, &t0, &t1, exit_axis))
+        return 0;
+    vdbs_majorant_dda_init(s, tr->grid, o, d, t0, t1);
+    return 1;
+}
+
+/* The walk's next segment [*ta, *tb] with a positive majorant *mu (the others hold no
+ * collision); 0 at the end of the ray. */
+static int walk_next(vdbs_majorant_dda *s, double *ta, double *tb, double *mu)
+{
+    while (vdbs_majorant_dda_next(s, ta, tb, mu))
+        if (*mu > 0.0)
+            return 1;
+    return 0;
+}
+
 /* Delta tracking from index point o along d (index image of a unit world step) for
  * t in [0, tmax]: the first real collision, or escape through face *exit_axis (-1 when
  * the ray never meets the support box). */
 static int delta_track(ref_tracker *tr, ref_rng *rng, const double o[3], const double d[3],
                        double tmax, double *t_hit, int *exit_axis)
 {
-    double t0, t1;
-    int axis;
-    if (!vdbs_majorant_grid_clip(tr->grid, o, d, tmax, &t0, &t1, &axis)) {
+    vdbs_majorant_dda s;
+    if (!walk_begin(tr, o, d, tmax, &s, exit_axis)) {
         *exit_axis = -1;
         return TRACK_ESCAPED;
     }
-    *exit_axis = axis;
-    vdbs_majorant_dda s;
-    vdbs_majorant_dda_init(&s, tr->grid, o, d, t0, t1);
     double tau = rng_exp(rng);
     double ta, tb, mu;
-    while (vdbs_majorant_dda_next(&s, &ta, &tb, &mu)) {
-        if (!(mu > 0.0))
-            continue;
+    while (walk_next(&s, &ta, &tb, &mu)) {
         double t = ta;
         for (;;) {
             if (--tr->budget < 0)
@@ -167,17 +185,13 @@ static int delta_track(ref_tracker *tr, ref_rng *rng, const double o[3], const d
 static double ratio_track(ref_tracker *tr, ref_rng *rng, const double o[3], const double d[3],
                           double tmax)
 {
-    double t0, t1;
-    int axis;
-    if (!vdbs_majorant_grid_clip(tr->grid, o, d, tmax, &t0, &t1, &axis))
-        return 1.0;
     vdbs_majorant_dda s;
-    vdbs_majorant_dda_init(&s, tr->grid, o, d, t0, t1);
+    int axis;
+    if (!walk_begin(tr, o, d, tmax, &s, &axis))
+        return 1.0;
     double transmittance = 1.0;
     double ta, tb, mu;
-    while (vdbs_majorant_dda_next(&s, &ta, &tb, &mu)) {
-        if (!(mu > 0.0))
-            continue;
+    while (walk_next(&s, &ta, &tb, &mu)) {
         double t = ta;
         for (;;) {
             if (--tr->budget < 0)
@@ -429,14 +443,103 @@ static void trace_camera(const ref_ctx *ctx, ref_tracker *tr, ref_rng *rng, cons
 
 /* ---- rendering ---- */
 
-static vdbs_status check_image(const vdbs_camera_frame *frame, const vdbs_image *image,
-                               vdbs_error *err)
+/* One pixel's round of round_spp samples after n_old earlier ones: Welford's running mean
+ * and sum of squared deviations, merged with the earlier rounds' sums in acc (NULL: one
+ * round only), written to the image as rgb and se. */
+static void render_pixel(const ref_ctx *ctx, ref_tracker *tr, const vdbs_camera_frame *frame,
+                         uint64_t seed, int64_t p, int64_t n_old, int round_spp, double *acc,
+                         vdbs_image *image)
 {
-    if (!image || !image->rgb || image->width != frame->width || image->height != frame->height)
-        return vdbs_error_set(err, VDBS_ERR_INTERNAL,
-                              "reference: the image must be allocated at %dx%d", frame->width,
-                              frame->height);
-    return VDBS_OK;
+    const uint64_t first_sample = (uint64_t)n_old;
+    int px = (int)(p % frame->width), py = (int)(p / frame->width);
+    double dir[3];
+    vdbs_camera_ray(frame, px + 0.5, py + 0.5, dir);
+    /* Welford's running mean and sum of squared deviations. */
+    double mean[3] = {0.0, 0.0, 0.0}, m2[3] = {0.0, 0.0, 0.0};
+    for (int s = 0; s < round_spp; ++s) {
+        ref_rng rng = rng_make(seed, (uint64_t)p, first_sample + (uint64_t)s);
+        double l[3];
+        trace_camera(ctx, tr, &rng, frame->origin, dir, l);
+        for (int c = 0; c < 3; ++c) {
+            double delta = l[c] - mean[c];
+            mean[c] += delta / (s + 1);
+            m2[c] += delta * (l[c] - mean[c]);
+        }
+    }
+    float *rgb = image->rgb + 3 * p;
+    float *se = image->se ? image->se + 3 * p : NULL;
+    for (int c = 0; c < 3; ++c) {
+        double n = (double)round_spp;
+        double m = mean[c], q = m2[c];
+        if (acc) {
+            double *a = acc + 6 * p + 2 * c;
+            if (n_old > 0) {
+                /* Merge with the earlier rounds (Chan et al.). */
+                double na = (double)n_old, delta = m - a[0];
+                n = na + round_spp;
+                m = a[0] + delta * round_spp / n;
+                q = a[1] + q + delta * delta * na * round_spp / n;
+            }
+            a[0] = m;
+            a[1] = q;
+        }
+        rgb[c] = (float)m;
+        if (se)
+            se[c] = n > 1.0 ? (float)sqrt(fmax(q, 0.0) / (n * (n - 1.0))) : 0.0f;
+    }
+}
+
+/* One round over all pixels; *done counts the finished pixels for the progress of a render
+ * without a time limit. */
+static void render_round(const ref_ctx *ctx, const vdbs_camera_frame *frame,
+                         const vdbs_reference_options *options, int64_t n_old, int round_spp,
+                         double *acc, vdbs_image *image, int64_t *done)
+{
+    const int64_t pixels = (int64_t)frame->width * frame->height;
+    vdbs_progress *progress = options->progress;
+#pragma omp parallel
+    {
+        ref_tracker tr;
+        tracker_init(ctx, &tr);
+#pragma omp for schedule(dynamic, 4)
+        for (int64_t p = 0; p < pixels; ++p) {
+            if (vdbs_progress_cancelled(progress))
+                continue; /* an OpenMP loop cannot break */
+            render_pixel(ctx, &tr, frame, options->seed, p, n_old, round_spp, acc, image);
+            if (progress && options->time_limit <= 0.0) {
+                int64_t now_done;
+#pragma omp atomic capture
+                now_done = ++*done;
+                if (omp_get_thread_num() == 0)
+                    vdbs_progress_update(progress,
+                                         (uint64_t)((double)progress->total * now_done / pixels));
+            }
+        }
+    }
+}
+
+/* Under a time limit, after a round of round_spp samples that began at round_started (the
+ * render at started; taken samples per pixel so far): the next round's samples per pixel,
+ * 0 when none fits in the time left. */
+static int next_round(const vdbs_reference_options *options, double started, double round_started,
+                      int round_spp, int64_t taken)
+{
+    vdbs_progress *progress = options->progress;
+    double now = vdbs_now(), elapsed = now - started, last = now - round_started;
+    if (progress)
+        vdbs_progress_update(progress, (uint64_t)((double)progress->total *
+                                                  fmin(1.0, elapsed / options->time_limit)));
+    /* Rounds double while they are short (each costs a fork and a join of the
+     * threads, which a busy machine can stretch to milliseconds), and the next round
+     * must fit in the time left. */
+    int64_t next = round_spp;
+    if (last < options->time_limit / 50.0)
+        next *= 2;
+    while (next > options->spp && elapsed + last * next / round_spp > options->time_limit)
+        next /= 2;
+    if (elapsed + last * next / round_spp > options->time_limit || taken + next > INT_MAX)
+        return 0;
+    return (int)next;
 }
 
 vdbs_status vdbs_reference_render(const vdbs_volume *volume, const vdbs_scene *scene,
@@ -449,7 +552,7 @@ vdbs_status vdbs_reference_render(const vdbs_volume *volume, const vdbs_scene *s
     if (options->spp < 1)
         return vdbs_error_set(err, VDBS_ERR_INPUT, "reference: spp must be >= 1 (got %d)",
                               options->spp);
-    vdbs_status st = check_image(frame, image, err);
+    vdbs_status st = render_check_image(frame, image, RENDER_IMAGE_REFERENCE, err);
     if (st != VDBS_OK)
         return st;
     ref_ctx ctx;
@@ -458,12 +561,10 @@ vdbs_status vdbs_reference_render(const vdbs_volume *volume, const vdbs_scene *s
         return st;
 
     const int64_t pixels = (int64_t)frame->width * frame->height;
-    const int spp = options->spp;
     const double started = vdbs_now();
-    vdbs_progress *progress = options->progress;
     int64_t done = 0;
     int64_t taken = 0; /* samples per pixel finished */
-    int round_spp = spp;
+    int round_spp = options->spp;
     /* Rounds under a time limit keep each pixel's mean and sum of squared deviations in
      * double (the float image would round them between rounds). */
     double *acc = NULL;
@@ -474,66 +575,10 @@ vdbs_status vdbs_reference_render(const vdbs_volume *volume, const vdbs_scene *s
             return vdbs_error_set(err, VDBS_ERR_NOMEM, "out of memory for the pixel sums");
         }
     }
-
     for (;;) {
-        const int64_t n_old = taken;
-        const uint64_t first_sample = (uint64_t)n_old;
         const double round_started = vdbs_now();
-#pragma omp parallel
-        {
-            ref_tracker tr;
-            tracker_init(&ctx, &tr);
-#pragma omp for schedule(dynamic, 4)
-            for (int64_t p = 0; p < pixels; ++p) {
-                if (vdbs_progress_cancelled(progress))
-                    continue; /* an OpenMP loop cannot break */
-                int px = (int)(p % frame->width), py = (int)(p / frame->width);
-                double dir[3];
-                vdbs_camera_ray(frame, px + 0.5, py + 0.5, dir);
-                /* Welford's running mean and sum of squared deviations. */
-                double mean[3] = {0.0, 0.0, 0.0}, m2[3] = {0.0, 0.0, 0.0};
-                for (int s = 0; s < round_spp; ++s) {
-                    ref_rng rng = rng_make(options->seed, (uint64_t)p, first_sample + (uint64_t)s);
-                    double l[3];
-                    trace_camera(&ctx, &tr, &rng, frame->origin, dir, l);
-                    for (int c = 0; c < 3; ++c) {
-                        double delta = l[c] - mean[c];
-                        mean[c] += delta / (s + 1);
-                        m2[c] += delta * (l[c] - mean[c]);
-                    }
-                }
-                float *rgb = image->rgb + 3 * p;
-                float *se = image->se ? image->se + 3 * p : NULL;
-                for (int c = 0; c < 3; ++c) {
-                    double n = (double)round_spp;
-                    double m = mean[c], q = m2[c];
-                    if (acc) {
-                        double *a = acc + 6 * p + 2 * c;
-                        if (n_old > 0) {
-                            /* Merge with the earlier rounds (Chan et al.). */
-                            double na = (double)n_old, delta = m - a[0];
-                            n = na + round_spp;
-                            m = a[0] + delta * round_spp / n;
-                            q = a[1] + q + delta * delta * na * round_spp / n;
-                        }
-                        a[0] = m;
-                        a[1] = q;
-                    }
-                    rgb[c] = (float)m;
-                    if (se)
-                        se[c] = n > 1.0 ? (float)sqrt(fmax(q, 0.0) / (n * (n - 1.0))) : 0.0f;
-                }
-                if (progress && options->time_limit <= 0.0) {
-                    int64_t now_done;
-#pragma omp atomic capture
-                    now_done = ++done;
-                    if (omp_get_thread_num() == 0)
-                        vdbs_progress_update(
-                            progress, (uint64_t)((double)progress->total * now_done / pixels));
-                }
-            }
-        }
-        if (vdbs_progress_cancelled(progress)) {
+        render_round(&ctx, frame, options, taken, round_spp, acc, image, &done);
+        if (vdbs_progress_cancelled(options->progress)) {
             free(acc);
             ctx_free(&ctx);
             return vdbs_error_cancelled(err);
@@ -541,21 +586,9 @@ vdbs_status vdbs_reference_render(const vdbs_volume *volume, const vdbs_scene *s
         taken += round_spp;
         if (!(options->time_limit > 0.0))
             break;
-        double now = vdbs_now(), elapsed = now - started, last = now - round_started;
-        if (progress)
-            vdbs_progress_update(progress, (uint64_t)((double)progress->total *
-                                                      fmin(1.0, elapsed / options->time_limit)));
-        /* Rounds double while they are short (each costs a fork and a join of the
-         * threads, which a busy machine can stretch to milliseconds), and the next round
-         * must fit in the time left. */
-        int64_t next = round_spp;
-        if (last < options->time_limit / 50.0)
-            next *= 2;
-        while (next > spp && elapsed + last * next / round_spp > options->time_limit)
-            next /= 2;
-        if (elapsed + last * next / round_spp > options->time_limit || taken + next > INT_MAX)
+        round_spp = next_round(options, started, round_started, round_spp, taken);
+        if (round_spp == 0)
             break;
-        round_spp = (int)next;
     }
     if (spp_done)
         *spp_done = (int)taken;
@@ -569,6 +602,148 @@ vdbs_status vdbs_reference_render(const vdbs_volume *volume, const vdbs_scene *s
 typedef struct tally_sums {
     double r, r2, t, t2, a, a2, side;
 } tally_sums;
+
+/* Where the tally's paths start: on a disc of `radius` about `centre` facing the sun
+ * (unit travel s, disc axes u1 and u2), `back` behind it so that every start lies outside
+ * the support box; sun_axis is the index axis whose faces face the sun most nearly. */
+typedef struct tally_setup {
+    const double *centre;
+    double radius, back;
+    double s[3], u1[3], u2[3];
+    double sun_index[3]; /* s in index space */
+    int sun_axis;
+    int max_bounces;
+    uint64_t seed;
+} tally_setup;
+
+/* Index axis whose faces are the most nearly perpendicular to the unit travel s: the
+ * world-space normal of face a is the gradient of index coordinate a. */
+static int sun_face_axis(const vdbs_volume *volume, const double s[3])
+{
+    int sun_axis = 0;
+    double best = -1.0;
+    for (int a = 0; a < 3; ++a) {
+        const double *n = volume->world_to_index[a];
+        double len = sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
+        double c = fabs(n[0] * s[0] + n[1] * s[1] + n[2] * s[2]) / len;
+        if (c > best) {
+            best = c;
+            sun_axis = a;
+        }
+    }
+    return sun_axis;
+}
+
+static void tally_setup_init(const ref_ctx *ctx, const vdbs_light *sun, const double centre[3],
+                             double radius, int max_bounces, uint64_t seed, tally_setup *ts)
+{
+    ts->centre = centre;
+    ts->radius = radius;
+    ts->max_bounces = max_bounces;
+    ts->seed = seed;
+    memcpy(ts->s, sun->direction, sizeof ts->s);
+    normalize3(ts->s);
+    ts->sun_axis = sun_face_axis(ctx->volume, ts->s);
+    /* Start far enough back along the sun that every start is outside the support box. */
+    double box_centre[3], box_radius;
+    support_sphere(ctx, box_centre, &box_radius);
+    double dc = 0.0;
+    for (int a = 0; a < 3; ++a)
+        dc += (centre[a] - box_centre[a]) * (centre[a] - box_centre[a]);
+    ts->back = sqrt(dc) + box_radius + radius + 1.0;
+    vdbs_ortho_basis(ts->s, ts->u1, ts->u2);
+    vdbs_volume_index_vector(ctx->volume, ts->s, ts->sun_index);
+}
+
+/* Path n of the tally: analog tracking with the albedo as survival weight; adds the energy
+ * it reflects, transmits (and leaks through the side faces) and absorbs to acc. */
+static void tally_path(const ref_ctx *ctx, ref_tracker *tr, const tally_setup *ts, int64_t n,
+                       tally_sums *acc)
+{
+    const double *centre = ts->centre, *s = ts->s, *u1 = ts->u1, *u2 = ts->u2;
+    const double albedo = ctx->medium.albedo[0];
+    ref_rng rng = rng_make(ts->seed, UINT64_C(0x7a11), (uint64_t)n);
+    double rr = ts->radius * sqrt(rng_next(&rng)), phi = 2.0 * VDBS_PI * rng_next(&rng);
+    double xw[3], xi[3], w[3], d[3];
+    for (int a = 0; a < 3; ++a)
+        xw[a] = centre[a] + rr * (cos(phi) * u1[a] + sin(phi) * u2[a]) - ts->back * s[a];
+    memcpy(w, s, sizeof w);
+    memcpy(d, ts->sun_index, sizeof d);
+    vdbs_volume_index_point(ctx->volume, xw, xi);
+    tr->budget = REF_PATH_STEPS;
+    double beta = 1.0, refl = 0.0, trans = 0.0, absorbed = 0.0;
+    for (int bounce = 1;; ++bounce) {
+        double t;
+        int axis;
+        int r = delta_track(tr, &rng, xi, d, HUGE_VAL, &t, &axis);
+        if (r == TRACK_ESCAPED) {
+            if (w[0] * s[0] + w[1] * s[1] + w[2] * s[2] < 0.0)
+                refl = beta;
+            else
+                trans = beta;
+            if (axis >= 0 && axis != ts->sun_axis)
+                acc->side += beta;
+            break;
+        }
+        if (r == TRACK_GAVE_UP || bounce > ts->max_bounces) {
+            absorbed += beta;
+            break;
+        }
+        for (int a = 0; a < 3; ++a) {
+            xw[a] += w[a] * t;
+            xi[a] += d[a] * t;
+        }
+        absorbed += beta * (1.0 - albedo);
+        beta *= albedo;
+        if (!(beta > 0.0))
+            break;
+        double mu, sin_theta;
+        vs_hg_sample_d(ctx->medium.g, rng_next(&rng), &mu, &sin_theta);
+        scatter_dir(w, mu, sin_theta, rng_next(&rng));
+        vdbs_volume_index_vector(ctx->volume, w, d);
+        if (bounce >= REF_RR_START && beta < 1.0) {
+            if (rng_next(&rng) >= beta)
+                break;
+            beta = 1.0;
+        }
+    }
+    acc->r += refl;
+    acc->r2 += refl * refl;
+    acc->t += trans;
+    acc->t2 += trans * trans;
+    acc->a += absorbed;
+    acc->a2 += absorbed * absorbed;
+}
+
+/* The chunks' sums in chunk order (whatever the threads did), as means and their
+ * standard errors over `paths` paths. */
+static void tally_finish(const tally_sums *sums, int64_t chunks, int64_t paths,
+                         vdbs_reference_tally *tally)
+{
+    tally_sums total = {0};
+    for (int64_t k = 0; k < chunks; ++k) {
+        total.r += sums[k].r;
+        total.r2 += sums[k].r2;
+        total.t += sums[k].t;
+        total.t2 += sums[k].t2;
+        total.a += sums[k].a;
+        total.a2 += sums[k].a2;
+        total.side += sums[k].side;
+    }
+    const double n = (double)paths;
+    tally->reflected = total.r / n;
+    tally->transmitted = total.t / n;
+    tally->absorbed = total.a / n;
+    tally->side_leak = total.side / n;
+    if (paths > 1) {
+        tally->reflected_se =
+            sqrt(fmax(0.0, total.r2 / n - tally->reflected * tally->reflected) / (n - 1.0));
+        tally->transmitted_se =
+            sqrt(fmax(0.0, total.t2 / n - tally->transmitted * tally->transmitted) / (n - 1.0));
+        tally->absorbed_se =
+            sqrt(fmax(0.0, total.a2 / n - tally->absorbed * tally->absorbed) / (n - 1.0));
+    }
+}
 
 vdbs_status vdbs_reference_tally_sun(const vdbs_volume *volume, const vdbs_scene *scene,
                                      const double centre[3], double radius, int64_t paths,
@@ -588,35 +763,8 @@ vdbs_status vdbs_reference_tally_sun(const vdbs_volume *volume, const vdbs_scene
     vdbs_status st = ctx_init(volume, scene, max_bounces, 1, &ctx, err);
     if (st != VDBS_OK)
         return st;
-
-    double s[3];
-    memcpy(s, sun->direction, sizeof s);
-    normalize3(s);
-    /* Index axis whose faces are the most nearly perpendicular to the sun: the
-     * world-space normal of face a is the gradient of index coordinate a. */
-    int sun_axis = 0;
-    double best = -1.0;
-    for (int a = 0; a < 3; ++a) {
-        const double *n = volume->world_to_index[a];
-        double len = sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
-        double c = fabs(n[0] * s[0] + n[1] * s[1] + n[2] * s[2]) / len;
-        if (c > best) {
-            best = c;
-            sun_axis = a;
-        }
-    }
-    /* Start far enough back along the sun that every start is outside the support box. */
-    double box_centre[3], box_radius;
-    support_sphere(&ctx, box_centre, &box_radius);
-    double dc = 0.0;
-    for (int a = 0; a < 3; ++a)
-        dc += (centre[a] - box_centre[a]) * (centre[a] - box_centre[a]);
-    double back = sqrt(dc) + box_radius + radius + 1.0;
-    double u1[3], u2[3];
-    vdbs_ortho_basis(s, u1, u2);
-    double sun_index[3];
-    vdbs_volume_index_vector(volume, s, sun_index);
-    const double albedo = ctx.medium.albedo[0];
+    tally_setup ts;
+    tally_setup_init(&ctx, sun, centre, radius, max_bounces, seed, &ts);
 
     const int64_t chunks = (paths + REF_TALLY_CHUNK - 1) / REF_TALLY_CHUNK;
     tally_sums *sums = calloc((size_t)chunks, sizeof *sums);
@@ -632,87 +780,14 @@ vdbs_status vdbs_reference_tally_sun(const vdbs_volume *volume, const vdbs_scene
         for (int64_t k = 0; k < chunks; ++k) {
             tally_sums acc = {0};
             int64_t end = (k + 1) * REF_TALLY_CHUNK < paths ? (k + 1) * REF_TALLY_CHUNK : paths;
-            for (int64_t n = k * REF_TALLY_CHUNK; n < end; ++n) {
-                ref_rng rng = rng_make(seed, UINT64_C(0x7a11), (uint64_t)n);
-                double rr = radius * sqrt(rng_next(&rng)), phi = 2.0 * VDBS_PI * rng_next(&rng);
-                double xw[3], xi[3], w[3], d[3];
-                for (int a = 0; a < 3; ++a)
-                    xw[a] = centre[a] + rr * (cos(phi) * u1[a] + sin(phi) * u2[a]) - back * s[a];
-                memcpy(w, s, sizeof w);
-                memcpy(d, sun_index, sizeof d);
-                vdbs_volume_index_point(volume, xw, xi);
-                tr.budget = REF_PATH_STEPS;
-                double beta = 1.0, refl = 0.0, trans = 0.0, absorbed = 0.0;
-                for (int bounce = 1;; ++bounce) {
-                    double t;
-                    int axis;
-                    int r = delta_track(&tr, &rng, xi, d, HUGE_VAL, &t, &axis);
-                    if (r == TRACK_ESCAPED) {
-                        if (w[0] * s[0] + w[1] * s[1] + w[2] * s[2] < 0.0)
-                            refl = beta;
-                        else
-                            trans = beta;
-                        if (axis >= 0 && axis != sun_axis)
-                            acc.side += beta;
-                        break;
-                    }
-                    if (r == TRACK_GAVE_UP || bounce > max_bounces) {
-                        absorbed += beta;
-                        break;
-                    }
-                    for (int a = 0; a < 3; ++a) {
-                        xw[a] += w[a] * t;
-                        xi[a] += d[a] * t;
-                    }
-                    absorbed += beta * (1.0 - albedo);
-                    beta *= albedo;
-                    if (!(beta > 0.0))
-                        break;
-                    double mu, sin_theta;
-                    vs_hg_sample_d(ctx.medium.g, rng_next(&rng), &mu, &sin_theta);
-                    scatter_dir(w, mu, sin_theta, rng_next(&rng));
-                    vdbs_volume_index_vector(volume, w, d);
-                    if (bounce >= REF_RR_START && beta < 1.0) {
-                        if (rng_next(&rng) >= beta)
-                            break;
-                        beta = 1.0;
-                    }
-                }
-                acc.r += refl;
-                acc.r2 += refl * refl;
-                acc.t += trans;
-                acc.t2 += trans * trans;
-                acc.a += absorbed;
-                acc.a2 += absorbed * absorbed;
-            }
+            for (int64_t n = k * REF_TALLY_CHUNK; n < end; ++n)
+                tally_path(&ctx, &tr, &ts, n, &acc);
             sums[k] = acc;
         }
     }
-    tally_sums total = {0};
-    for (int64_t k = 0; k < chunks; ++k) {
-        total.r += sums[k].r;
-        total.r2 += sums[k].r2;
-        total.t += sums[k].t;
-        total.t2 += sums[k].t2;
-        total.a += sums[k].a;
-        total.a2 += sums[k].a2;
-        total.side += sums[k].side;
-    }
+    tally_finish(sums, chunks, paths, tally);
     free(sums);
     ctx_free(&ctx);
-    const double n = (double)paths;
-    tally->reflected = total.r / n;
-    tally->transmitted = total.t / n;
-    tally->absorbed = total.a / n;
-    tally->side_leak = total.side / n;
-    if (paths > 1) {
-        tally->reflected_se =
-            sqrt(fmax(0.0, total.r2 / n - tally->reflected * tally->reflected) / (n - 1.0));
-        tally->transmitted_se =
-            sqrt(fmax(0.0, total.t2 / n - tally->transmitted * tally->transmitted) / (n - 1.0));
-        tally->absorbed_se =
-            sqrt(fmax(0.0, total.a2 / n - tally->absorbed * tally->absorbed) / (n - 1.0));
-    }
     return VDBS_OK;
 }
 
@@ -1118,13 +1193,15 @@ static double probe_sources(probe_ctx *pc)
     return total;
 }
 
-vdbs_status vdbs_reference_probe(const vdbs_volume *volume, const vdbs_scene *scene,
-                                 const vdbs_reference_probe_options *options, const double *points,
-                                 size_t count, double *ms, double *ms_l1, double *ms_se,
-                                 double *ms_l1_se, vdbs_error *err)
+/* Where the probe writes: Sms (3 per point) and its first moment (9 per point), and their
+ * standard errors; any may be NULL. */
+typedef struct probe_out {
+    double *ms, *ms_l1, *ms_se, *ms_l1_se;
+} probe_out;
+
+static vdbs_status probe_check(const vdbs_reference_probe_options *o, const double *points,
+                               size_t count, vdbs_error *err)
 {
-    const vdbs_reference_probe_options defaults = {0};
-    const vdbs_reference_probe_options *o = options ? options : &defaults;
     if (o->photons < 0 || o->max_bounces < 0 || !(o->radius >= 0.0) || !isfinite(o->radius))
         return vdbs_error_set(err, VDBS_ERR_INPUT,
                               "probe: photons (%lld), radius (%g) and max_bounces (%d) must be "
@@ -1135,20 +1212,174 @@ vdbs_status vdbs_reference_probe(const vdbs_volume *volume, const vdbs_scene *sc
     for (size_t i = 0; i < 3 * count; ++i)
         if (!isfinite(points[i]))
             return vdbs_error_set(err, VDBS_ERR_INPUT, "probe: point %zu is not finite", i / 3);
+    return VDBS_OK;
+}
+
+static void probe_clear(const probe_out *out, size_t count)
+{
+    if (out->ms)
+        memset(out->ms, 0, sizeof *out->ms * 3 * count);
+    if (out->ms_l1)
+        memset(out->ms_l1, 0, sizeof *out->ms_l1 * 9 * count);
+    if (out->ms_se)
+        memset(out->ms_se, 0, sizeof *out->ms_se * 3 * count);
+    if (out->ms_l1_se)
+        memset(out->ms_l1_se, 0, sizeof *out->ms_l1_se * 9 * count);
+}
+
+/* The probe's sums: each thread's for its batch, the finished batches waiting for their
+ * turn, and the merged sums (12 per point, as probe_thread.acc): s1 of the batches' sums,
+ * s2 of their squares over the batch's photons. */
+typedef struct probe_sums {
+    int threads;
+    probe_thread *th;
+    probe_result **pending;
+    double *s1, *s2;
+} probe_sums;
+
+static void probe_sums_free(probe_sums *ps)
+{
+    for (int k = 0; ps->th && k < ps->threads; ++k) {
+        free(ps->th[k].acc);
+        free(ps->th[k].batch_mark);
+        free(ps->th[k].seg_mark);
+        free(ps->th[k].touched);
+    }
+    free(ps->th);
+    free(ps->pending);
+    free(ps->s1);
+    free(ps->s2);
+    memset(ps, 0, sizeof *ps);
+}
+
+/* 0 when out of memory (free with probe_sums_free either way). */
+static int probe_sums_alloc(probe_sums *ps, size_t count, int64_t batches)
+{
+    ps->threads = omp_get_max_threads();
+    ps->s1 = calloc(12 * count, sizeof *ps->s1);
+    ps->s2 = calloc(12 * count, sizeof *ps->s2);
+    ps->th = calloc((size_t)ps->threads, sizeof *ps->th);
+    ps->pending = calloc((size_t)batches, sizeof *ps->pending);
+    int ok = ps->s1 && ps->s2 && ps->th && ps->pending;
+    for (int k = 0; ok && k < ps->threads; ++k) {
+        probe_thread *th = &ps->th[k];
+        th->acc = calloc(12 * count, sizeof *th->acc);
+        th->batch_mark = calloc(count, sizeof *th->batch_mark);
+        th->seg_mark = calloc(count, sizeof *th->seg_mark);
+        th->touched = malloc(count * sizeof *th->touched);
+        ok = th->acc && th->batch_mark && th->seg_mark && th->touched;
+    }
+    return ok;
+}
+
+/* Merges the finished batches whose turn it is (*next onwards, in order); `lost` stands
+ * for a batch whose sums could not be kept. */
+static void probe_merge_ready(probe_sums *ps, int64_t *next, int64_t batches, probe_result *lost)
+{
+    while (*next < batches && ps->pending[*next]) {
+        probe_result *r = ps->pending[*next];
+        for (size_t j = 0; j < r->n; ++j)
+            for (int q = 0; q < 12; ++q) {
+                double x = r->val[12 * j + q];
+                ps->s1[12 * r->idx[j] + q] += x;
+                ps->s2[12 * r->idx[j] + q] += x * x / r->photons;
+            }
+        if (r != lost)
+            free(r);
+        ps->pending[(*next)++] = NULL;
+    }
+}
+
+/* Traces the photons in batches of `batch` on all threads into ps; 0 when a batch's sums
+ * could not be kept (out of memory). */
+static int probe_trace(const probe_ctx *pc, const vdbs_reference_probe_options *o, int64_t photons,
+                       int64_t batch, int64_t batches, probe_sums *ps)
+{
+    vdbs_progress *progress = o->progress;
+    int ok = 1;
+    probe_result lost = {0};
+    int64_t next = 0; /* the next batch to merge */
+#pragma omp parallel
+    {
+        probe_thread *me = &ps->th[omp_get_thread_num()];
+        ref_tracker tr;
+        tracker_init(pc->ref, &tr);
+#pragma omp for schedule(dynamic, 1)
+        for (int64_t k = 0; k < batches; ++k) {
+            int64_t first = k * batch, end = first + batch < photons ? first + batch : photons;
+            me->batch = (uint64_t)k;
+            for (int64_t n = first; n < end; ++n) {
+                ref_rng rng = rng_make(o->seed, UINT64_C(0x9b0be), (uint64_t)n);
+                probe_photon(pc, &tr, &rng, me);
+            }
+            probe_result *res = probe_pack(me, (double)(end - first));
+            /* Batches merge in their order (a finished batch waits in `pending` for the
+             * ones before it, and no thread waits for another), so the sums do not
+             * depend on the threads. */
+#pragma omp critical(vdbs_probe_merge)
+            {
+                ps->pending[k] = res ? res : &lost;
+                if (!res)
+                    ok = 0;
+                probe_merge_ready(ps, &next, batches, &lost);
+                if (progress)
+                    vdbs_progress_update(progress,
+                                         (uint64_t)((double)progress->total * next / batches));
+            }
+        }
+    }
+    return ok;
+}
+
+/* The merged sums of `photons` photons in `batches` batches as Sms and its first moment
+ * (medium anisotropy g) per point of balls of `radius`, the errors from the batches'
+ * spread. */
+static void probe_results(const probe_sums *ps, size_t count, int64_t photons, int64_t batches,
+                          double radius, double g, const probe_out *out)
+{
+    const double n = (double)photons, volume_ball = 4.0 / 3.0 * VDBS_PI * radius * radius * radius;
+    const double k_phi = 1.0 / (4.0 * VDBS_PI * volume_ball * n);
+    const double k_l1 = 3.0 * g / (4.0 * VDBS_PI * volume_ball * n);
+    for (size_t i = 0; i < count; ++i)
+        for (int q = 0; q < 12; ++q) {
+            double sum = ps->s1[12 * i + q];
+            double var = batches > 1
+                             ? fmax(0.0, ps->s2[12 * i + q] - sum * sum / n) / (double)(batches - 1)
+                             : 0.0;
+            /* se of the sum: sqrt(n var). */
+            double se = sqrt(n * var);
+            if (q < 3) {
+                if (out->ms)
+                    out->ms[3 * i + q] = sum * k_phi;
+                if (out->ms_se)
+                    out->ms_se[3 * i + q] = se * k_phi;
+            } else {
+                if (out->ms_l1)
+                    out->ms_l1[9 * i + q - 3] = sum * k_l1;
+                if (out->ms_l1_se)
+                    out->ms_l1_se[9 * i + q - 3] = se * fabs(k_l1);
+            }
+        }
+}
+
+vdbs_status vdbs_reference_probe(const vdbs_volume *volume, const vdbs_scene *scene,
+                                 const vdbs_reference_probe_options *options, const double *points,
+                                 size_t count, double *ms, double *ms_l1, double *ms_se,
+                                 double *ms_l1_se, vdbs_error *err)
+{
+    const vdbs_reference_probe_options defaults = {0};
+    const vdbs_reference_probe_options *o = options ? options : &defaults;
+    vdbs_status st = probe_check(o, points, count, err);
+    if (st != VDBS_OK)
+        return st;
     const int64_t photons = o->photons > 0 ? o->photons : (int64_t)1 << 20;
     const int max_bounces = o->max_bounces > 0 ? o->max_bounces : 1000;
     const double radius = o->radius > 0.0 ? o->radius : 2.0 * volume->mean_voxel_size;
-    if (ms)
-        memset(ms, 0, sizeof *ms * 3 * count);
-    if (ms_l1)
-        memset(ms_l1, 0, sizeof *ms_l1 * 9 * count);
-    if (ms_se)
-        memset(ms_se, 0, sizeof *ms_se * 3 * count);
-    if (ms_l1_se)
-        memset(ms_l1_se, 0, sizeof *ms_l1_se * 9 * count);
+    const probe_out out = {ms, ms_l1, ms_se, ms_l1_se};
+    probe_clear(&out, count);
 
     ref_ctx ctx;
-    vdbs_status st = ctx_init(volume, scene, max_bounces, 1, &ctx, err);
+    st = ctx_init(volume, scene, max_bounces, 1, &ctx, err);
     if (st != VDBS_OK)
         return st;
     probe_ctx pc;
@@ -1174,99 +1405,13 @@ vdbs_status vdbs_reference_probe(const vdbs_volume *volume, const vdbs_scene *sc
     int64_t batch = photons / PROBE_MIN_BATCHES;
     batch = batch < 1 ? 1 : batch > PROBE_BATCH ? PROBE_BATCH : batch;
     const int64_t batches = (photons + batch - 1) / batch;
-    const int threads = omp_get_max_threads();
-    double *s1 = calloc(12 * count, sizeof *s1), *s2 = calloc(12 * count, sizeof *s2);
-    probe_thread *th = calloc((size_t)threads, sizeof *th);
-    probe_result **pending = calloc((size_t)batches, sizeof *pending);
-    int ok = s1 && s2 && th && pending;
-    for (int k = 0; ok && k < threads; ++k) {
-        th[k].acc = calloc(12 * count, sizeof *th[k].acc);
-        th[k].batch_mark = calloc(count, sizeof *th[k].batch_mark);
-        th[k].seg_mark = calloc(count, sizeof *th[k].seg_mark);
-        th[k].touched = malloc(count * sizeof *th[k].touched);
-        ok = th[k].acc && th[k].batch_mark && th[k].seg_mark && th[k].touched;
-    }
-    if (ok) {
-        vdbs_progress *progress = o->progress;
-        probe_result lost = {0}; /* stands for a batch whose sums could not be kept */
-        int64_t next = 0;        /* the next batch to merge */
-#pragma omp parallel
-        {
-            probe_thread *me = &th[omp_get_thread_num()];
-            ref_tracker tr;
-            tracker_init(&ctx, &tr);
-#pragma omp for schedule(dynamic, 1)
-            for (int64_t k = 0; k < batches; ++k) {
-                int64_t first = k * batch, end = first + batch < photons ? first + batch : photons;
-                me->batch = (uint64_t)k;
-                for (int64_t n = first; n < end; ++n) {
-                    ref_rng rng = rng_make(o->seed, UINT64_C(0x9b0be), (uint64_t)n);
-                    probe_photon(&pc, &tr, &rng, me);
-                }
-                probe_result *res = probe_pack(me, (double)(end - first));
-                /* Batches merge in their order (a finished batch waits in `pending` for the
-                 * ones before it, and no thread waits for another), so the sums do not
-                 * depend on the threads. */
-#pragma omp critical(vdbs_probe_merge)
-                {
-                    pending[k] = res ? res : &lost;
-                    if (!res)
-                        ok = 0;
-                    while (next < batches && pending[next]) {
-                        probe_result *r = pending[next];
-                        for (size_t j = 0; j < r->n; ++j)
-                            for (int q = 0; q < 12; ++q) {
-                                double x = r->val[12 * j + q];
-                                s1[12 * r->idx[j] + q] += x;
-                                s2[12 * r->idx[j] + q] += x * x / r->photons;
-                            }
-                        if (r != &lost)
-                            free(r);
-                        pending[next++] = NULL;
-                    }
-                    if (progress)
-                        vdbs_progress_update(progress,
-                                             (uint64_t)((double)progress->total * next / batches));
-                }
-            }
-        }
-    }
-    if (ok) {
-        const double n = (double)photons,
-                     volume_ball = 4.0 / 3.0 * VDBS_PI * radius * radius * radius;
-        const double k_phi = 1.0 / (4.0 * VDBS_PI * volume_ball * n);
-        const double k_l1 = 3.0 * ctx.medium.g / (4.0 * VDBS_PI * volume_ball * n);
-        for (size_t i = 0; i < count; ++i)
-            for (int q = 0; q < 12; ++q) {
-                double sum = s1[12 * i + q];
-                double var = batches > 1
-                                 ? fmax(0.0, s2[12 * i + q] - sum * sum / n) / (double)(batches - 1)
-                                 : 0.0;
-                /* se of the sum: sqrt(n var). */
-                double se = sqrt(n * var);
-                if (q < 3) {
-                    if (ms)
-                        ms[3 * i + q] = sum * k_phi;
-                    if (ms_se)
-                        ms_se[3 * i + q] = se * k_phi;
-                } else {
-                    if (ms_l1)
-                        ms_l1[9 * i + q - 3] = sum * k_l1;
-                    if (ms_l1_se)
-                        ms_l1_se[9 * i + q - 3] = se * fabs(k_l1);
-                }
-            }
-    }
-    for (int k = 0; th && k < threads; ++k) {
-        free(th[k].acc);
-        free(th[k].batch_mark);
-        free(th[k].seg_mark);
-        free(th[k].touched);
-    }
-    free(th);
-    free(pending);
-    free(s1);
-    free(s2);
+    probe_sums ps = {0};
+    int ok = probe_sums_alloc(&ps, count, batches);
+    if (ok)
+        ok = probe_trace(&pc, o, photons, batch, batches, &ps);
+    if (ok)
+        probe_results(&ps, count, photons, batches, radius, ctx.medium.g, &out);
+    probe_sums_free(&ps);
     probe_grid_free(&pc.grid);
     ctx_free(&ctx);
     if (!ok)

@@ -89,6 +89,92 @@ static double coarse_depth(const vdbs_coarse_frame *m, const float *sigma, const
     return tau;
 }
 
+/* The camera's frustum grid (VDBS_IMPORTANCE_GRID^2 texels) over the volume's support, from
+ * a near distance of half a voxel at least. */
+static vdbs_status frustum_frame(const vdbs_volume *volume, const vdbs_scene *scene,
+                                 vdbs_radial_frame *f, vdbs_error *err)
+{
+    vdbs_camera_frame camera;
+    vdbs_status st = vdbs_camera_frame_init(&scene->camera, &camera, err);
+    if (st != VDBS_OK)
+        return st;
+    double near, far;
+    vdbs_volume_support_distances(volume, camera.origin, &near, &far);
+    near = fmax(near, 0.5 * volume->mean_voxel_size);
+    far = fmax(far, 2.0 * near);
+    return vdbs_radial_perspective(&camera, VDBS_IMPORTANCE_GRID, VDBS_IMPORTANCE_GRID, near, far,
+                                   f, err);
+}
+
+/* The coarse world-aligned medium the projection marches through. */
+static void projection_medium(const vdbs_volume *volume, vdbs_coarse_frame *medium)
+{
+    double corners[8][3];
+    vdbs_volume_support_corners(volume, corners);
+    const double extent = vdbs_volume_support_extent(volume);
+    const double world_axes[3][3] = {{1, 0, 0}, {0, 1, 0}, {0, 0, 1}};
+    vdbs_coarse_fit(corners, world_axes, extent / IMPORTANCE_MEDIUM_CELLS, medium);
+}
+
+/* The cells that scatter importance, once: weight V sigma_s Phi_W, the lobe's anisotropy,
+ * its direction and the cell's centroid (IMPORTANCE_SOURCE_WORDS each); each map texel then
+ * sums over these. Returns how many. */
+static int64_t scatter_sources(const vdbs_radial_frame *f, const float *state, const float *sigma,
+                               double albedo, double *scatter)
+{
+    const int64_t cells = vdbs_radial_cells(f), texels = (int64_t)f->n[0] * f->n[1];
+    int64_t sources = 0;
+    for (int64_t c = 0; c < cells; ++c) {
+        const float *cell = state + c * VS_POP_STATE_WORDS;
+        const double phi = cell[VS_POP_STATE_ACC_L];
+        if (!(phi > 0.0) || !(sigma[c] > 0.0))
+            continue;
+        double *src = scatter + sources++ * IMPORTANCE_SOURCE_WORDS;
+        src[0] = vdbs_radial_cell_volume(f, c) * sigma[c] * albedo * phi;
+        src[1] = fmin(fmax(cell[VS_POP_STATE_ACC_LA] / phi, -0.99), 0.99);
+        memcpy(src + 2, f->dir + 3 * (c % texels), 3 * sizeof *src);
+        vdbs_radial_cell_centroid(f, c, src + 5);
+    }
+    return sources;
+}
+
+/* Every texel of the map: the importance the sources scatter towards its direction,
+ * attenuated through the coarse medium (grey, in the red channel). */
+static void project_sources(const double *scatter, int64_t sources, const vdbs_coarse_frame *medium,
+                            const float *medium_sigma, vdbs_envmap *map)
+{
+    const int w = map->width, h = map->height;
+#pragma omp parallel for schedule(dynamic, 1)
+    for (int texel = 0; texel < w * h; ++texel) {
+        double dir[3], m = 0.0;
+        vdbs_envmap_direction(map, texel % w, texel / w, dir);
+        for (int64_t q = 0; q < sources; ++q) {
+            const double *src = scatter + q * IMPORTANCE_SOURCE_WORDS, *d = src + 2;
+            const double mu = dir[0] * d[0] + dir[1] * d[1] + dir[2] * d[2];
+            m += src[0] * vs_hg_eval_d(src[1], 1.0 - mu) *
+                 exp(-coarse_depth(medium, medium_sigma, src + 5, dir));
+        }
+        map->rgb[3 * texel] = (float)m;
+    }
+}
+
+/* The map relative to its mean over the sphere, over a floor of VDBS_IMPORTANCE_FLOOR, in
+ * all three channels (1 everywhere when nothing scatters). */
+static void normalize_map(vdbs_envmap *map)
+{
+    const int w = map->width, h = map->height;
+    double mean = 0.0;
+    for (int texel = 0; texel < w * h; ++texel)
+        mean += map->rgb[3 * texel] * vdbs_envmap_texel_solid_angle(map, texel % w, texel / w);
+    mean /= 4.0 * VDBS_PI;
+    for (int texel = 0; texel < w * h; ++texel) {
+        float v = mean > 0.0 ? (float)(VDBS_IMPORTANCE_FLOOR +
+                                       (1.0 - VDBS_IMPORTANCE_FLOOR) * map->rgb[3 * texel] / mean)
+                             : 1.0f;
+        map->rgb[3 * texel] = map->rgb[3 * texel + 1] = map->rgb[3 * texel + 2] = v;
+    }
+}
+
 vdbs_status vdbs_importance_map(vdbs_runner *runner, const vdbs_volume *volume,
                                 const vdbs_scene *scene, const vdbs_medium_box *box,
                                 vdbs_envmap *map, vdbs_importance_stats *stats, vdbs_error *err)
@@ -98,25 +184,12 @@ vdbs_status vdbs_importance_map(vdbs_runner *runner, const vdbs_volume *volume,
     if (!scene->camera.present)
         return vdbs_error_set(err, VDBS_ERR_INPUT,
                               "--pop-importance needs a camera (--camera or camera in --scene)");
-    vdbs_camera_frame camera;
-    vdbs_status st = vdbs_camera_frame_init(&scene->camera, &camera, err);
-    if (st != VDBS_OK)
-        return st;
-    double near, far;
-    vdbs_volume_support_distances(volume, camera.origin, &near, &far);
-    near = fmax(near, 0.5 * volume->mean_voxel_size);
-    far = fmax(far, 2.0 * near);
     vdbs_radial_frame f;
-    st = vdbs_radial_perspective(&camera, VDBS_IMPORTANCE_GRID, VDBS_IMPORTANCE_GRID, near, far, &f,
-                                 err);
+    vdbs_status st = frustum_frame(volume, scene, &f, err);
     if (st != VDBS_OK)
         return st;
-    double corners[8][3];
-    vdbs_volume_support_corners(volume, corners);
-    const double extent = vdbs_volume_support_extent(volume);
-    const double world_axes[3][3] = {{1, 0, 0}, {0, 1, 0}, {0, 0, 1}};
     vdbs_coarse_frame medium;
-    vdbs_coarse_fit(corners, world_axes, extent / IMPORTANCE_MEDIUM_CELLS, &medium);
+    projection_medium(volume, &medium);
     const int64_t cells = vdbs_radial_cells(&f), medium_cells = vdbs_coarse_cells(&medium);
     const double albedo3[3] = {scene->albedo[0], scene->albedo[1], scene->albedo[2]};
     const double albedo = (albedo3[0] + albedo3[1] + albedo3[2]) / 3.0;
@@ -152,43 +225,9 @@ vdbs_status vdbs_importance_map(vdbs_runner *runner, const vdbs_volume *volume,
     if (st != VDBS_OK)
         goto done;
     vdbs_coarse_sigma(&medium, volume, box, scene->density_scale, medium_sigma);
-    /* The cells that scatter importance, once: weight V sigma_s Phi_W, the lobe's anisotropy,
-     * its direction and the cell's centroid; each map texel then sums over these. */
-    const int64_t texels = (int64_t)f.n[0] * f.n[1];
-    int64_t sources = 0;
-    for (int64_t c = 0; c < cells; ++c) {
-        const float *cell = state + c * VS_POP_STATE_WORDS;
-        const double phi = cell[VS_POP_STATE_ACC_L];
-        if (!(phi > 0.0) || !(sigma[c] > 0.0))
-            continue;
-        double *src = scatter + sources++ * IMPORTANCE_SOURCE_WORDS;
-        src[0] = vdbs_radial_cell_volume(&f, c) * sigma[c] * albedo * phi;
-        src[1] = fmin(fmax(cell[VS_POP_STATE_ACC_LA] / phi, -0.99), 0.99);
-        memcpy(src + 2, f.dir + 3 * (c % texels), 3 * sizeof *src);
-        vdbs_radial_cell_centroid(&f, c, src + 5);
-    }
-#pragma omp parallel for schedule(dynamic, 1)
-    for (int texel = 0; texel < w * h; ++texel) {
-        double dir[3], m = 0.0;
-        vdbs_envmap_direction(map, texel % w, texel / w, dir);
-        for (int64_t q = 0; q < sources; ++q) {
-            const double *src = scatter + q * IMPORTANCE_SOURCE_WORDS, *d = src + 2;
-            const double mu = dir[0] * d[0] + dir[1] * d[1] + dir[2] * d[2];
-            m += src[0] * vs_hg_eval_d(src[1], 1.0 - mu) *
-                 exp(-coarse_depth(&medium, medium_sigma, src + 5, dir));
-        }
-        map->rgb[3 * texel] = (float)m;
-    }
-    double mean = 0.0;
-    for (int texel = 0; texel < w * h; ++texel)
-        mean += map->rgb[3 * texel] * vdbs_envmap_texel_solid_angle(map, texel % w, texel / w);
-    mean /= 4.0 * VDBS_PI;
-    for (int texel = 0; texel < w * h; ++texel) {
-        float v = mean > 0.0 ? (float)(VDBS_IMPORTANCE_FLOOR +
-                                       (1.0 - VDBS_IMPORTANCE_FLOOR) * map->rgb[3 * texel] / mean)
-                             : 1.0f;
-        map->rgb[3 * texel] = map->rgb[3 * texel + 1] = map->rgb[3 * texel + 2] = v;
-    }
+    project_sources(scatter, scatter_sources(&f, state, sigma, albedo, scatter), &medium,
+                    medium_sigma, map);
+    normalize_map(map);
     stats->seconds_project = vdbs_now() - t1;
 done:
     if (st != VDBS_OK)
