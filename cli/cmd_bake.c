@@ -121,6 +121,41 @@ static cJSON *report_json(const char *input, const char *output, const vdbs_scen
     return j;
 }
 
+/* The report: into --report's file, on stdout with --json, else a summary on stderr unless
+ * -q. Returns the exit status (1 when the --report file cannot be written). */
+static int print_report(const cli_args *args, cJSON *j, const vdbs_scene *scene,
+                        const vdbs_bake_report *report, const char *out)
+{
+    const char *report_path = cli_value(args, "--report");
+    int status = CLI_EXIT_OK;
+    if (report_path) {
+        char *text = cJSON_Print(j);
+        FILE *f = fopen(report_path, "w");
+        if (!f || fputs(text, f) < 0 || fputc('\n', f) < 0)
+            status = cli_fail("bake", 1, "cannot write the --report file");
+        if (f && fclose(f) != 0)
+            status = cli_fail("bake", 1, "cannot write the --report file");
+        free(text);
+    }
+    if (cli_flag(args, "--json")) {
+        char *text = cJSON_Print(j);
+        puts(text);
+        free(text);
+    } else if (!cli_flag(args, "-q")) {
+        fprintf(stderr,
+                "baked %llu voxels of '%s' (%s, quality %s) on %s in %.2fs (solve %.2fs) -> %s\n",
+                report->output_voxels, report->grid, scene->method, scene->quality, report->backend,
+                report->seconds_total, report->seconds_solve, out);
+        const vdbs_solver *solver = vdbs_solver_find(scene->method);
+        if (solver && solver->report_text) {
+            char text[256];
+            solver->report_text(vdbs_bake_report_stats(report), text, sizeof text);
+            fprintf(stderr, "  %s: %s\n", solver->name, text);
+        }
+    }
+    return status;
+}
+
 /* After the help: the methods and their options, from the solver table. */
 static void print_solver_help(void)
 {
@@ -199,33 +234,7 @@ int cmd_bake(int argc, char **argv)
         cJSON_AddNumberToObject(j, "density_target_depth", target_depth);
     cJSON_AddNumberToObject(j, "mean_optical_depth", report.advice.mean_depth);
     cJSON_AddNumberToObject(j, "ms_to_ss_estimate", report.advice.ms_to_ss);
-    const char *report_path = cli_value(&args, "--report");
-    int status = CLI_EXIT_OK;
-    if (report_path) {
-        char *text = cJSON_Print(j);
-        FILE *f = fopen(report_path, "w");
-        if (!f || fputs(text, f) < 0 || fputc('\n', f) < 0)
-            status = cli_fail("bake", 1, "cannot write the --report file");
-        if (f && fclose(f) != 0)
-            status = cli_fail("bake", 1, "cannot write the --report file");
-        free(text);
-    }
-    if (cli_flag(&args, "--json")) {
-        char *text = cJSON_Print(j);
-        puts(text);
-        free(text);
-    } else if (!quiet) {
-        fprintf(stderr,
-                "baked %llu voxels of '%s' (%s, quality %s) on %s in %.2fs (solve %.2fs) -> %s\n",
-                report.output_voxels, report.grid, scene.method, scene.quality, report.backend,
-                report.seconds_total, report.seconds_solve, out);
-        const vdbs_solver *solver = vdbs_solver_find(scene.method);
-        if (solver && solver->report_text) {
-            char text[256];
-            solver->report_text(vdbs_bake_report_stats(&report), text, sizeof text);
-            fprintf(stderr, "  %s: %s\n", solver->name, text);
-        }
-    }
+    int status = print_report(&args, j, &scene, &report, out);
     cJSON_Delete(j);
     return cli_interrupt_status("bake", status); /* a signal after the new file was in place */
 }
