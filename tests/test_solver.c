@@ -69,6 +69,12 @@ static void test_keys_and_flags_unique(void **state)
             assert_non_null(strstr(help, o->flag));
         }
     assert_int_equal(options, 16);
+    /* cost hints: measured, and a higher quality never costs less */
+    for (int m = 0; (s = vdbs_solver_at(m)) != NULL; ++m)
+        for (int q = 0; q < VDBS_QUALITY_COUNT; ++q) {
+            assert_true(s->cost[q] > 0.0);
+            assert_true(q == 0 || s->cost[q] >= s->cost[q - 1]);
+        }
     assert_true(options <= VDBS_MAX_SOLVER_SETTINGS);
     assert_null(vdbs_solver_at(-1));
     assert_null(vdbs_solver_find("inet")); /* no entry for a method that is not implemented */
