@@ -1,7 +1,7 @@
 /* Flux-limited diffusion (Koerner et al. 2014), shared by C and GLSL: the parameter and
  * coefficient layouts of the discrete steady equation -div(D grad phi) + sigma_a phi = Q on a
  * grid of cubic cells, and its operator y = A x for one colour channel. Include after
- * vs_common.h. Host side: vdbscatter/fld.c.
+ * vs_common.h. Host side: vdbscatter/solvers/fld.c.
  *
  * Cell-centred finite volumes: per cell and channel sigma_a, the Marshak leak of its boundary
  * faces (per volume) and the couplings D_face / h^2 to the +x, +y and +z neighbours (0 at the

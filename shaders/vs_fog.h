@@ -1,6 +1,6 @@
 /* Analytic single scattering in a homogeneous fog (Biri 2006, papers/single-scattering.md),
  * shared by C and GLSL. Include after vs_common.h and vs_phase.h. The table is a float array
- * (an SSBO `fog_data` in GLSL) written by vdbscatter/fog.c.
+ * (an SSBO `fog_data` in GLSL) written by vdbscatter/render/fog.c.
  *
  * Conventions (docs/design.md): HG of the cosine between propagation directions; a view ray is
  * x(s) = o + s d (d unit, s the distance from the camera); light arriving at the camera

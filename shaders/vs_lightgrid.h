@@ -1,6 +1,6 @@
 /* Light grids (docs/design.md "Light grids"), shared by C and GLSL: the packed layout of a set
  * of grids, the sweep of one column and the optical-depth lookup. Include after
- * vs_common.h and vs_medium.h (and vs_march.h for the sweep). Written by vdbscatter/lightgrid.c.
+ * vs_common.h and vs_medium.h (and vs_march.h for the sweep). Written by vdbscatter/lights/lightgrid.c.
  *
  * A set is one buffer of 32-bit words (`lgrid_data`: a pointer parameter in C, an SSBO in
  * GLSL): a count, then one header per grid (named offsets below; floats stored as their

@@ -1,5 +1,5 @@
 /* The light table: every light of a scene resolved once against a volume, in the layout
- * that the C kernels and the compute shaders read (written by vdbscatter/lights.c).
+ * that the C kernels and the compute shaders read (written by vdbscatter/lights/lights.c).
  * Include after vs_common.h and vs_medium.h. Layout by name, as PNanoVDB.h names its own: an entry
  * is one vec4 and every field has an offset constant and an accessor; no kernel indexes the table
  * by bare row numbers.

@@ -1,6 +1,6 @@
 /* The medium table: what every kernel needs to know of the volume besides its density
  * grid (sigma_t = density * density_scale, sigma_s = albedo sigma_t, HG g, the affine map
- * both ways and the support box), written by vdbscatter/medium.c. Include after
+ * both ways and the support box), written by vdbscatter/medium/medium.c. Include after
  * vs_common.h. Named offsets and accessors, one vec4 per entry. */
 #ifndef VS_MEDIUM_H
 #define VS_MEDIUM_H

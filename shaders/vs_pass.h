@@ -1,4 +1,4 @@
-/* The kernel runner's protocol with a compute shader (vdbscatter/kernel.c is the host side).
+/* The kernel runner's protocol with a compute shader (vdbscatter/gpu/runner.c is the host side).
  * Compiled as C for the names and as GLSL for the buffers and helpers.
  *
  * Why passes: Mesa's llvmpipe ends every loop of a shader invocation after 65535

@@ -1,7 +1,7 @@
 /* Principal-Ordinates Propagation (Elek et al. 2014, Secs. 4.2-4.3), shared by
  * C and GLSL: the parameter layout of one propagation grid and the gather that moves every
  * cell's light one cell in one iteration. Include after vs_common.h. Host side:
- * vdbscatter/pop.c.
+ * vdbscatter/solvers/pop.c.
  *
  * A grid has n0 x n1 x n2 cubic cells of world side h; axis 2 runs along the grid's principal
  * direction d (a sun's or sky ordinate's travel; any axis for the isotropic residuum). Cell

@@ -1,6 +1,6 @@
 /* Discrete ordinates with a factored phase (Gong and Ren, docs/methods/svd.md),
  * shared by C and GLSL: the parameter, table and state layouts of one transport sweep and the
- * sweep of one cell. Include after vs_common.h and vs_phase.h. Host side: vdbscatter/svd.c.
+ * sweep of one cell. Include after vs_common.h and vs_phase.h. Host side: vdbscatter/solvers/svd.c.
  *
  * The grid has n0 x n1 x n2 cubic cells of world side h (cell (i, j, k) is item
  * (k n1 + j) n0 + i). D directions w_d with solid angles dw_d, sorted by octant, are swept
