@@ -8,7 +8,10 @@ refactor). Times are the solve / render stage of the --json reports (load and wr
 excluded); for the FLD and SVD bakes the method's own solve stage (fld_solve, svd_solve: the
 S1 pass before it excluded). The table gives B/A per case: 1.00 is the same speed, and what B
 moved between host and GPU (the report's `transfer`, where B has it); a second table gives
-the shader / C ratio of each FLD and SVD case for A and for B."""
+the shader / C ratio of each FLD and SVD case for A and for B. On a shared machine,
+OMP_NUM_THREADS=1 LP_NUM_THREADS=1 in the environment runs both backends on one thread each:
+with two, every OpenMP region and llvmpipe dispatch waits for a second thread that other
+processes may be holding, and the C path's times multiply."""
 import argparse
 import os
 import statistics
@@ -38,51 +41,55 @@ def main():
     sun = ["--density-scale", "20", "--sun", "0.3,-1,0.2:3,3,3", "--point", "0.2,0.9,0.1:2,2,2"]
     sky = ["--density-scale", "20", "--sun", "0.3,-1,0.2", "--env", "0.2,0.3,0.5", "--quality", "low"]
     # The iterative solvers' own solves: FLD with every level of 48 cells across through the
-    # runner's operator (thousands of applications), SVD's sweeps at the low quality's 32
-    # directions on 24 cells.
+    # runner's operator (thousands of applications), SVD's sweeps of 64 directions and 8
+    # terms on 24 cells at g 0.6 (hundreds of steps per sweep).
     fld = ["--method", "fld", "--fld-res", "48", "--density-scale", "20",
            "--sun", "0.3,-1,0.2:3,3,3"]
-    svd = ["--method", "svd", "--svd-res", "24", "--quality", "low", "--density-scale", "20",
-           "--sun", "0.3,-1,0.2:3,3,3"]
-    cases = []
-    for backend in ("cpu", "gpu"):
-        cases += [
-            (f"bake cloud 96^3, sun + point, {backend}", backend, "solve",
-             lambda e, o, b=backend: ["bake", cloud, "-o", o + ".vdb", "--backend", b, *sun]),
-            (f"bake cloud 96^3, sun + sky 16 dirs, {backend}", backend, "solve",
-             lambda e, o, b=backend: ["bake", cloud, "-o", o + ".vdb", "--backend", b, *sky]),
-            (f"render baked cloud 160x120, quality low, {backend}", backend, "render",
-             lambda e, o, b=backend: ["render", lit, "-o", o + ".exr", "--backend", b,
-                                      "--size", "160x120", "--quality", "low"]),
-            (f"bake cloud 96^3, fld 48 cells, sun, {backend}", backend, "fld_solve",
-             lambda e, o, b=backend: ["bake", cloud, "-o", o + ".vdb", "--backend", b, *fld]),
-            (f"bake cloud 96^3, svd 24 cells 32 dirs, sun, {backend}", backend, "svd_solve",
-             lambda e, o, b=backend: ["bake", cloud, "-o", o + ".vdb", "--backend", b, *svd]),
-        ]
+    svd = ["--method", "svd", "--svd-res", "24", "--svd-directions", "64", "--svd-terms", "8",
+           "--g", "0.6", "--density-scale", "20", "--sun", "0.3,-1,0.2:3,3,3"]
+    bake = lambda flags: lambda o, b: ["bake", cloud, "-o", o + ".vdb", "--backend", b, *flags]
+    cases = [
+        ("bake cloud 96^3, sun + point", "solve", bake(sun)),
+        ("bake cloud 96^3, sun + sky 16 dirs", "solve", bake(sky)),
+        ("render baked cloud 160x120, quality low", "render",
+         lambda o, b: ["render", lit, "-o", o + ".exr", "--backend", b, "--size", "160x120",
+                       "--quality", "low"]),
+        ("bake cloud 96^3, fld 48 cells, sun", "fld_solve", bake(fld)),
+        ("bake cloud 96^3, svd 24 cells 64 dirs 8 terms, sun", "svd_solve", bake(svd)),
+    ]
+    backends = ("cpu", "gpu")
     rows = {}
-    for name, backend, stage, argv in cases:
-        times, moved = [[], []], "-"
+    for name, stage, argv in cases:
+        # Both backends in every round, so that a shader / C ratio compares runs made close
+        # together on a machine whose load changes.
+        times = {b: [[], []] for b in backends}
+        moved = {b: "-" for b in backends}
         for r in range(args.runs):
-            for i, exe in enumerate(exes):
-                rep = run_json([exe, *argv(exe, os.path.join(tmp, f"o{i}")), "--json", "-q"])
-                times[i].append(rep["seconds"][stage])
-                if i == 1 and "transfer" in rep:
-                    t = rep["transfer"]
-                    moved = f"{t['uploaded_bytes'] / 1e6:.2f} / {t['read_back_bytes'] / 1e6:.2f}"
-        ma, mb = statistics.median(times[0]), statistics.median(times[1])
-        rows[name] = (ma, mb, moved)
-        print(f"{name}: A {ma:.3f}s B {mb:.3f}s B/A {mb / ma:.3f}", flush=True)
+            for b in backends:
+                for i, exe in enumerate(exes):
+                    rep = run_json([exe, *argv(os.path.join(tmp, f"o{i}"), b), "--json", "-q"])
+                    times[b][i].append(rep["seconds"][stage])
+                    if i == 1 and "transfer" in rep:
+                        t = rep["transfer"]
+                        moved[b] = (f"{t['uploaded_bytes'] / 1e6:.2f} / "
+                                    f"{t['read_back_bytes'] / 1e6:.2f}")
+        for b in backends:
+            ma, mb = statistics.median(times[b][0]), statistics.median(times[b][1])
+            rows[f"{name}, {b}"] = (ma, mb, moved[b])
+            print(f"{name}, {b}: A {ma:.3f}s B {mb:.3f}s B/A {mb / ma:.3f}", flush=True)
+    threads = os.environ.get("OMP_NUM_THREADS", "default")
     with open(args.out, "w") as f:
-        f.write(f"| case (median of {args.runs}) | A s | B s | B / A | B transfer MB "
-                "(up / back) |\n|---|---|---|---|---|\n")
-        for name, (ma, mb, moved) in rows.items():
-            f.write(f"| {name} | {ma:.3f} | {mb:.3f} | {mb / ma:.3f} | {moved} |\n")
+        f.write(f"| case (median of {args.runs}; OMP_NUM_THREADS {threads}) | A s | B s | B / A | "
+                "B transfer MB (up / back) |\n|---|---|---|---|---|\n")
+        for b in backends:
+            for name, _, _ in cases:
+                ma, mb, m = rows[f"{name}, {b}"]
+                f.write(f"| {name}, {b} | {ma:.3f} | {mb:.3f} | {mb / ma:.3f} | {m} |\n")
         f.write("\n| solve | A shader / C | B shader / C |\n|---|---|---|\n")
-        for name in rows:
-            if name.endswith(", gpu") and ("fld" in name or "svd" in name):
-                gpu, cpu = rows[name], rows[name[:-len("gpu")] + "cpu"]
-                f.write(f"| {name[:-len(', gpu')]} | {gpu[0] / cpu[0]:.2f} | "
-                        f"{gpu[1] / cpu[1]:.2f} |\n")
+        for name, stage, _ in cases:
+            if stage in ("fld_solve", "svd_solve"):
+                gpu, cpu = rows[f"{name}, gpu"], rows[f"{name}, cpu"]
+                f.write(f"| {name} | {gpu[0] / cpu[0]:.2f} | {gpu[1] / cpu[1]:.2f} |\n")
     print(open(args.out).read())
 
 
