@@ -288,7 +288,7 @@ static vdbs_status write_lit(bake_job *j, vdbs_bake_report *report, vdbs_error *
     };
     /* radiance_view, the last, only with a camera; then the state's grids */
     const int fixed_count = (int)(sizeof fixed / sizeof fixed[0]) - (j->out.radiance_view ? 0 : 1);
-    const int state_max = j->keep ? 1 << 16 : 0;
+    const int state_max = j->keep ? state->grids(j->keep, NULL, 0) : 0;
     vdbio_vec3_grid *grids = calloc((size_t)(fixed_count + state_max), sizeof *grids);
     if (!grids)
         return vdbs_error_set(err, VDBS_ERR_NOMEM, "out of memory for the grid list");

@@ -507,9 +507,7 @@ static vdbs_status parse_solver_option(const parse_ctx *ctx, const cJSON *sol,
     int v = 0;
     if ((st = get_int_in(ctx, sol, "solver", o->key, (int)o->min, (int)o->max, &v)) != VDBS_OK)
         return st;
-    if (o->even && v % 2 != 0)
-        return fail(ctx, path, "%d is odd (%s needs an even count)", v, o->even);
-    return vdbs_solver_option_set(s, o, what, v, ctx->err);
+    return vdbs_solver_option_set(s, o, what, v, ctx->err); /* evenness: the option's check */
 }
 
 static vdbs_status parse_solver(const parse_ctx *ctx, const cJSON *sol, vdbs_scene *s)

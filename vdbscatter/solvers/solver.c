@@ -105,11 +105,7 @@ double vdbs_solver_option_value(const vdbs_scene *scene, const vdbs_solver_optio
     const double v = vdbs_scene_solver_value(scene, option->key);
     if (v != 0.0 || option->kind == VDBS_OPTION_CHOICE)
         return v;
-    int level = 1, count = 0;
-    const vdbs_quality *ladder = vdbs_quality_list(&count);
-    if (quality)
-        level = (int)(quality - ladder);
-    return level >= 0 && level < count ? option->preset[level] : 0.0;
+    return option->preset[vdbs_quality_level(quality ? quality->name : NULL)];
 }
 
 static int choice_count(const vdbs_solver_option *option)

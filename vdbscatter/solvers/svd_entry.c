@@ -134,6 +134,8 @@ static vdbs_status state_read(const char *path, const vdbs_volume *volume, const
 static int state_grids(const void *state, vdbio_vec3_grid *grids, int max)
 {
     svd_state *s = (svd_state *)state; /* the names are made here, once */
+    if (!grids)
+        return s->moments.terms;
     const int n = s->moments.terms < max ? s->moments.terms : max;
     if (!s->names && n > 0 && !(s->names = calloc((size_t)n, sizeof *s->names)))
         return -1;

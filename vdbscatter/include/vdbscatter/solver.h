@@ -75,7 +75,7 @@ typedef struct vdbs_solver_state {
     vdbs_status (*read)(const char *path, const vdbs_volume *volume, const vdbs_scene *scene,
                         void **state, vdbs_error *err);
     /* The grids and file metadata that --keep-state writes, pointing into the state. Each
-     * returns how many it filled, at most `max`. */
+     * returns how many it filled, at most `max`; grids with NULL returns how many it has. */
     int (*grids)(const void *state, vdbio_vec3_grid *grids, int max);
     int (*meta)(const void *state, vdbio_meta *meta, int max);
     void (*destroy)(void *state); /* NULL is fine */
