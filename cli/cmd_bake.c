@@ -8,6 +8,8 @@
 
 #include <cjson/cJSON.h>
 
+#include "vdbscatter/litvdb.h"
+
 #include "commands.h"
 #include "interrupt.h"
 #include "options.h"
@@ -54,6 +56,10 @@ static const char help[] =
     "path\n" CLI_S1_HELP
     "  --from-levelset          convert a level set to a fog volume instead of refusing it\n"
     "  --half                   store grids as half floats (values clamped to 65504)\n"
+    "  --store lights|none      lights (default): also store the optical depth toward every\n"
+    "                           light and sky direction, so that renders of the lit VDB\n"
+    "                           need no light sweeps (docs/lit-vdb.md); none: radiance and\n"
+    "                           the multiple-scattering grids only\n"
     "  --report FILE.json       write timings per stage, parameters and output grids\n"
     "  --json                   print the report as JSON on stdout\n"
     "  -q                       no progress, summary or warnings\n";
@@ -61,7 +67,7 @@ static const char help[] =
 static const cli_option own_options[] = {
     CLI_COMMON_OPTIONS,          {"--from-levelset", CLI_FLAG}, {"--half", CLI_FLAG},
     {"--report", CLI_VALUE},     {"--method", CLI_VALUE},       {"--keep-state", CLI_FLAG},
-    {"--warm-start", CLI_VALUE}, {"--camera", CLI_VALUE},
+    {"--warm-start", CLI_VALUE}, {"--camera", CLI_VALUE},       {"--store", CLI_VALUE},
 };
 
 /* bake's options, then every solver's own flags from the solver table. */
@@ -111,8 +117,14 @@ static cJSON *report_json(const char *input, const char *output, const vdbs_scen
     cJSON_AddItemToObject(j, "radiance_max", cli_json_triple(rmax));
     const char *grids[] = {"density", "radiance", "ms",           "ms_l1x",
                            "ms_l1y",  "ms_l1z",   "radiance_view"};
-    cJSON_AddItemToObject(j, "grids",
-                          cJSON_CreateStringArray(grids, scene->camera.present ? 7 : 6));
+    cJSON *names = cJSON_CreateStringArray(grids, scene->camera.present ? 7 : 6);
+    cJSON_AddItemToObject(j, "grids", names);
+    for (int i = 0; i < r->stored_direct + r->stored_sky; ++i) {
+        char name[32];
+        vdbs_lit_depth_name(i, r->stored_direct, name, sizeof name);
+        cJSON_AddItemToArray(names, cJSON_CreateString(name));
+    }
+    cJSON_AddStringToObject(j, "store", r->stored_direct + r->stored_sky ? "lights" : "none");
     char *scene_text = vdbs_scene_to_json(scene);
     cJSON *parsed = scene_text ? cJSON_Parse(scene_text) : NULL;
     free(scene_text);
@@ -213,6 +225,10 @@ int cmd_bake(int argc, char **argv)
         return cli_fail("bake", st, err.message);
     o.from_levelset = cli_flag(&args, "--from-levelset");
     o.half = cli_flag(&args, "--half");
+    const char *store = cli_value(&args, "--store");
+    if (store && strcmp(store, "lights") != 0 && strcmp(store, "none") != 0)
+        return cli_fail("bake", 2, "--store: expected lights or none");
+    o.store = store && strcmp(store, "none") == 0 ? VDBS_STORE_NONE : VDBS_STORE_LIGHTS;
     o.keep_state = cli_flag(&args, "--keep-state");
     o.warm_start = cli_value(&args, "--warm-start");
     o.progress = !quiet && isatty(STDERR_FILENO);

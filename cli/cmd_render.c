@@ -25,7 +25,9 @@ static const char help[] =
     "modes (--mode; default: baked for a lit VDB, single otherwise):\n"
     "  single      S = S1 only: transmittance to every sun and point light and a fixed\n"
     "              quadrature of sky directions, from light grids (or marched: --s1)\n"
-    "  baked       S1 as in single plus Sms from the lit VDB's ms and ms_l1* grids\n"
+    "  baked       the lit VDB as baked: S1 from its stored optical depths to the lights\n"
+    "              (light grids swept for older files) plus Sms from its ms and ms_l1*\n"
+    "              grids; flags that change its lights or medium need --relight\n"
     "  reference   Monte-Carlo path tracing of the density, all scattering orders\n"
     "              (EXR files also get the per-pixel standard errors se.R, se.G, se.B)\n"
     "\n"
@@ -65,6 +67,9 @@ static const char help[] =
     "other options:\n"
     "  -o, --output FILE        .exr (linear float) or .png (8-bit sRGB)\n"
     "  --mode single|baked|reference\n"
+    "  --relight                baked: S1 from light grids swept for the lights and medium\n"
+    "                           as given (the flags above on top of the baked ones); Sms\n"
+    "                           stays as baked\n"
     "  --backend auto|cpu|gpu   single/baked: auto = a hardware GPU if EGL finds one, else\n"
     "                           the C path; reference always runs on the C path\n" CLI_S1_HELP
     "  --exposure EV            PNG only: scale by 2^EV before the sRGB encoding\n"
@@ -77,6 +82,7 @@ static const cli_option options[] = {
     {"--exposure", CLI_VALUE}, {"--spp", CLI_VALUE},
     {"--time", CLI_VALUE},     {"--max-bounces", CLI_VALUE},
     {"--seed", CLI_VALUE},     {"--env-nee", CLI_VALUE},
+    {"--relight", CLI_FLAG},
     {NULL, CLI_FLAG},
 };
 
@@ -93,6 +99,7 @@ typedef struct render_args {
     unsigned long long seed;
     int s1_march, s1_oversample;
     int no_env_nee;
+    int relight;
 } render_args;
 
 static int has_suffix(const char *path, const char *suffix)
@@ -150,6 +157,7 @@ static vdbs_status parse_args(const cli_args *args, render_args *r, vdbs_error *
         if (!r->spp_given)
             r->spp = 4;
     }
+    r->relight = cli_flag(args, "--relight");
     r->max_bounces = 1000;
     if ((v = cli_value(args, "--max-bounces")) &&
         (st = cli_integer("--max-bounces", v, 1, 1000000000L, &r->max_bounces, err)) != VDBS_OK)
@@ -214,6 +222,7 @@ static void print_json(const char *input, const render_args *r, const vdbs_rende
     cJSON_AddNumberToObject(t, "total", rep->seconds_total);
     if (rep->s1[0]) {
         cJSON_AddStringToObject(j, "s1", rep->s1);
+        cJSON_AddBoolToObject(j, "relight", r->relight);
         if (rep->s1_oversample > 0) {
             cJSON_AddNumberToObject(j, "s1_oversample", rep->s1_oversample);
             cJSON_AddNumberToObject(t, "s1_sweep", rep->march_stats.grids.seconds_sweep);
@@ -276,6 +285,7 @@ int cmd_render(int argc, char **argv)
     desc.backend = r.backend;
     desc.s1_march = r.s1_march;
     desc.s1_oversample = r.s1_oversample;
+    desc.relight = r.relight;
     desc.camera = r.camera.present ? &r.camera : NULL;
     desc.width = r.size_given ? r.width : 0;
     desc.height = r.size_given ? r.height : 0;
@@ -300,11 +310,13 @@ int cmd_render(int argc, char **argv)
     if (cli_flag(&args, "--json")) {
         print_json(input, &r, &rep);
     } else if (!quiet) {
-        char detail[64];
+        char detail[96];
         if (r.mode == VDBS_RENDER_REFERENCE)
             snprintf(detail, sizeof detail, "%d spp", rep.spp);
         else
-            snprintf(detail, sizeof detail, "quality %s", rep.quality);
+            snprintf(detail, sizeof detail, "quality %s, S1 %s%s", rep.quality,
+                     strcmp(rep.s1, "stored") == 0 ? "from the stored depths" : rep.s1,
+                     r.relight ? ", relit" : "");
         fprintf(stderr, "rendered %dx%d of '%s' (%s, %s) on %s in %.2fs -> %s\n", rep.width,
                 rep.height, rep.grid, rep.mode, detail, rep.backend, rep.seconds_render, r.output);
     }

@@ -30,6 +30,14 @@
 
 #define VS_LGRID_DIRECTIONAL 0u
 #define VS_LGRID_RADIAL 1u
+/* A lit VDB's stored optical depth (docs/lit-vdb.md): a NanoVDB float grid inside the
+ * render's grid buffer (vs_render.h), sampled trilinearly at TO_GRID p + ORIGIN (its own index
+ * space: a sun's or sky ordinate's grid lies in the light's frame, a point light's on the
+ * density's voxels); only the render reads this kind, since only it holds that buffer. */
+#define VS_LGRID_VOXEL 2u
+/* The same for a point light: the grid's index space is its radial grid's (texel, texel,
+ * shell), the header's N, ORIGIN and RADII as VS_LGRID_RADIAL's. */
+#define VS_LGRID_VOXEL_RADIAL 3u
 
 /* The set: grid count, how directional grids interpolate across columns, then the headers
  * from word VS_LGRIDS_OFF_HEADERS on. */
@@ -54,6 +62,8 @@
 /* 9 floats, directional: rows mapping an index offset from ORIGIN to grid coordinates in
  * samples (u, v, w). */
 #define VS_LGRID_OFF_TO_GRID 20
+/* uint, VS_LGRID_VOXEL: the float grid's byte offset in the render's grid buffer / 32. */
+#define VS_LGRID_OFF_VOXEL_GRID 29
 #define VS_LGRID_WORDS 32
 /* Column record: words per column and their meaning. */
 #define VS_LGRID_COLUMN_OFFSET 0
@@ -307,20 +317,23 @@ VS_FUNC float vs_lgrid_dir_depth(VS_DATA_PARAM(vs_uint, lgrid_data) int grid, pn
             }
         }
     }
-    /* No overshoot beyond the four nearest columns (sharp edges of the medium). */
+        /* No overshoot beyond the four nearest columns (sharp edges of the medium). */
     return sum < lo ? lo : (sum > hi ? hi : sum);
 }
 
-VS_FUNC float vs_lgrid_radial_depth(VS_DATA_PARAM(vs_vec4, medium_data)
-                                        VS_DATA_PARAM(vs_uint, lgrid_data) int grid,
-                                    pnanovdb_vec3_t p)
+/* Radial grid `grid`'s coordinates of index-space point p: (texel u, texel v, shell), each a
+ * sample index plus the fraction to the next, clamped to the grid as the lookup clamps; w is
+ * -1 at the light itself (no direction). */
+VS_FUNC pnanovdb_vec3_t vs_lgrid_radial_coords(VS_DATA_PARAM(vs_vec4, medium_data)
+                                                   VS_DATA_PARAM(vs_uint, lgrid_data) int grid,
+                                               pnanovdb_vec3_t p)
 {
     pnanovdb_vec3_t light = vs_lgrid_vec3(VS_DATA_ARG(lgrid_data) grid, VS_LGRID_OFF_ORIGIN);
     pnanovdb_vec3_t v = vs_medium_to_world(
         VS_DATA_ARG(medium_data) vs_vec3(p.x - light.x, p.y - light.y, p.z - light.z));
     float r = vs_sqrt(vs_vec3_dot(v, v));
     if (!(r > 0.0f))
-        return 0.0f;
+        return vs_vec3(0.0f, 0.0f, -1.0f);
     int n = vs_lgrid_n(VS_DATA_ARG(lgrid_data) grid, 0);
     int n2 = vs_lgrid_n(VS_DATA_ARG(lgrid_data) grid, 2);
     pnanovdb_vec3_t e = vs_octahedral_encode(v);
@@ -343,6 +356,21 @@ VS_FUNC float vs_lgrid_radial_depth(VS_DATA_PARAM(vs_vec4, medium_data)
         float r0 = vs_word_float(lgrid_data[radii + VS_UINT(k)]);
         fr = (r - r0) / (vs_word_float(lgrid_data[radii + VS_UINT(k + 1)]) - r0);
     }
+    return vs_vec3(VS_FLOAT(i) + fu, VS_FLOAT(j) + fv, VS_FLOAT(k) + fr);
+}
+
+/* Bilinear across texels, linear between shells. */
+VS_FUNC float vs_lgrid_radial_depth(VS_DATA_PARAM(vs_vec4, medium_data)
+                                        VS_DATA_PARAM(vs_uint, lgrid_data) int grid,
+                                    pnanovdb_vec3_t p)
+{
+    pnanovdb_vec3_t c =
+        vs_lgrid_radial_coords(VS_DATA_ARG(medium_data) VS_DATA_ARG(lgrid_data) grid, p);
+    if (c.z < 0.0f)
+        return 0.0f;
+    int n = vs_lgrid_n(VS_DATA_ARG(lgrid_data) grid, 0);
+    int i = VS_INT(c.x), j = VS_INT(c.y), k = VS_INT(c.z);
+    float fu = c.x - VS_FLOAT(i), fv = c.y - VS_FLOAT(j), fr = c.z - VS_FLOAT(k);
     int i1 = i + 1 < n ? i + 1 : i;
     int j1 = j + 1 < n ? j + 1 : j;
     float d00 = vs_lgrid_column_depth(VS_DATA_ARG(lgrid_data) grid, i, j, k, fr);

@@ -30,7 +30,9 @@
  *
  * With light grids (vs_lightgrid.h; the render table says so), the transmittance toward a
  * light or sky ordinate is a lookup in its grid, one grid per light in the light table's
- * order, instead of a march: the units stay the same, only the camera segment marches.
+ * order, instead of a march: the units stay the same, only the camera segment marches. A
+ * lit VDB's stored depths (VS_LGRID_VOXEL) are such grids too, float grids in this buffer
+ * sampled trilinearly at the segment's midpoint.
  */
 #ifndef VS_RENDER_H
 #define VS_RENDER_H
@@ -446,8 +448,37 @@ VS_FUNC vs_render_target vs_render_unit_target(VS_DATA_PARAM(vs_vec4, medium_dat
     return u;
 }
 
-/* The unit's optical depth: toward a light, a lookup in its light grid when the render
- * table has light grids; else the unit's one march. */
+/* Grid `grid` of the light-grid set, of kind VS_LGRID_VOXEL: the stored depth at index point
+ * p, trilinear in the grid's own index space (the background 0 outside its stored voxels,
+ * which cover everywhere a lookup near the density lands). */
+VS_FUNC float vs_render_stored_depth(VS_DATA_PARAM(vs_vec4, medium_data)
+                                         VS_DATA_PARAM(vs_uint, lgrid_data) pnanovdb_buf_t buf,
+                                     int grid, pnanovdb_vec3_t p)
+{
+    vs_uint unit = vs_lgrid_word(VS_DATA_ARG(lgrid_data) grid, VS_LGRID_OFF_VOXEL_GRID);
+#if defined(PNANOVDB_GLSL)
+    pnanovdb_address_t address = pnanovdb_address_offset(pnanovdb_address_null(), unit * 32u);
+#else
+    pnanovdb_address_t address =
+        pnanovdb_address_offset64(pnanovdb_address_null(), (uint64_t)unit * 32u);
+#endif
+    pnanovdb_readaccessor_t acc = vs_grid_accessor(buf, address);
+    pnanovdb_vec3_t g;
+    if (vs_lgrid_word(VS_DATA_ARG(lgrid_data) grid, VS_LGRID_OFF_KIND) == VS_LGRID_VOXEL_RADIAL) {
+        g = vs_lgrid_radial_coords(VS_DATA_ARG(medium_data) VS_DATA_ARG(lgrid_data) grid, p);
+        if (g.z < 0.0f)
+            return 0.0f;
+    } else {
+        pnanovdb_vec3_t t = vs_lgrid_vec3(VS_DATA_ARG(lgrid_data) grid, VS_LGRID_OFF_ORIGIN);
+        g = vs_vec3(vs_lgrid_coordinate(VS_DATA_ARG(lgrid_data) grid, 0, p) + t.x,
+                    vs_lgrid_coordinate(VS_DATA_ARG(lgrid_data) grid, 1, p) + t.y,
+                    vs_lgrid_coordinate(VS_DATA_ARG(lgrid_data) grid, 2, p) + t.z);
+    }
+    return vs_density_at(buf, PNANOVDB_REF(acc), g);
+}
+
+/* The unit's optical depth: toward a light, a lookup in its light grid (or its stored depth)
+ * when the render table has light grids; else the unit's one march. */
 VS_FUNC vs_accum vs_render_unit_depth(VS_DATA_PARAM(vs_vec4, medium_data)
                                           VS_DATA_PARAM(vs_vec4, render_data)
                                               VS_DATA_PARAM(vs_uint, lgrid_data) pnanovdb_buf_t buf,
@@ -457,9 +488,14 @@ VS_FUNC vs_accum vs_render_unit_depth(VS_DATA_PARAM(vs_vec4, medium_data)
     vs_accum depth;
     if (unit > 0 && render_data[VS_RENDER_OFF_MARCH].z != 0.0f) {
         vs_accum_init(PNANOVDB_REF(depth));
-        vs_accum_add(
-            PNANOVDB_REF(depth),
-            vs_lgrid_depth(VS_DATA_ARG(medium_data) VS_DATA_ARG(lgrid_data) unit - 1, mid));
+        float d = vs_lgrid_word(VS_DATA_ARG(lgrid_data) unit - 1, VS_LGRID_OFF_KIND) >=
+                          VS_LGRID_VOXEL
+                      ? vs_render_stored_depth(VS_DATA_ARG(medium_data) VS_DATA_ARG(lgrid_data)
+                                                   buf,
+                                               unit - 1, mid)
+                      : vs_lgrid_depth(VS_DATA_ARG(medium_data) VS_DATA_ARG(lgrid_data) unit - 1,
+                                       mid);
+        vs_accum_add(PNANOVDB_REF(depth), d);
     } else {
         depth = vs_march(buf, PNANOVDB_REF(PNANOVDB_DEREF(accs).density), u.origin, u.dir, u.tmax,
                          vs_medium_box_lo(VS_DATA_ONLY_ARG(medium_data)),

@@ -217,7 +217,7 @@ static void test_light_grids(void **state)
 
 typedef struct render_scenario {
     const vdbs_volume *volume;
-    const vdbs_ms_grids *ms;
+    const vdbs_lit_grids *ms;
     const vdbs_scene *scene;
     vdbs_march_options options;
     const vdbs_shadow_table *shadows; /* may be NULL */
@@ -406,7 +406,7 @@ static void test_render_baked_synthetic(void **state)
     test_sample_volume("cloud", 32, 3, &volume);
     const char *path = test_tmp_path("gl_twins_lit.vdb");
     write_synthetic_lit(&volume, path);
-    vdbs_ms_grids ms;
+    vdbs_lit_grids ms;
     test_load_ms_grids(path, volume.index_to_world, &ms);
     vdbs_scene scene;
     lit_scene(&scene, 8.0, 0.85);
@@ -480,7 +480,7 @@ static void test_render_baked_synthetic(void **state)
     vdbs_fog_free(&fog);
     free(backdrop);
     vdbs_shadow_table_free(&shadows);
-    vdbs_ms_grids_free(&ms);
+    vdbs_lit_grids_free(&ms);
     vdbs_volume_free(&volume);
 }
 

@@ -180,7 +180,7 @@ static void solve_with_flux(const vdbs_volume *volume, const vdbs_scene *scene, 
     vdbs_light_table lights;
     if (vdbs_lights_build(volume, scene, &ld, &lights, &err) != VDBS_OK)
         fail_msg("%s", err.message);
-    vdbs_s1_outputs out = {radiance, NULL, flux, NULL, NULL};
+    vdbs_s1_outputs out = {radiance, NULL, flux, NULL, NULL, NULL};
     if (vdbs_single_scatter_grids_out(test_runner(VDBS_BACKEND_CPU), volume, scene, &lights, NULL,
                                       &out, NULL, NULL, &err) != VDBS_OK)
         fail_msg("%s", err.message);

@@ -187,7 +187,7 @@ static void test_ms_reconstruction(void **state)
     const char *path = test_tmp_path("render_constant_lit.vdb");
     write_constant_lit(path, ms, l1, &volume);
     vdbs_error err;
-    vdbs_ms_grids grids;
+    vdbs_lit_grids grids;
     test_load_ms_grids(path, volume.index_to_world, &grids);
 
     vdbs_scene scene;
@@ -255,7 +255,7 @@ static void test_ms_reconstruction(void **state)
     free(dirs);
     free(buffer);
     free(table);
-    vdbs_ms_grids_free(&grids);
+    vdbs_lit_grids_free(&grids);
     vdbs_volume_free(&volume);
 }
 
@@ -445,7 +445,7 @@ static void test_baked_single_bake_equals_single(void **state)
     assert_int_equal(vdbs_volume_load(input, &read, &source, &err), VDBS_OK);
     read.grid_name = "density";
     assert_int_equal(vdbs_volume_load(lit_path, &read, &baked, &err), VDBS_OK);
-    vdbs_ms_grids grids;
+    vdbs_lit_grids grids;
     test_load_ms_grids(lit_path, baked.index_to_world, &grids);
 
     const int w = 32, h = 24;
@@ -475,7 +475,7 @@ static void test_baked_single_bake_equals_single(void **state)
     assert_true(relrmse <= 1e-3);
     free(a.rgb);
     free(b.rgb);
-    vdbs_ms_grids_free(&grids);
+    vdbs_lit_grids_free(&grids);
     vdbs_volume_free(&baked);
     vdbs_volume_free(&source);
 }

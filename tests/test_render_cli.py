@@ -288,19 +288,20 @@ class LitInput(Base):
         self.assertLessEqual(metrics["relrmse"], 1e-3)
 
     def test_baked_grids_match_marches(self):
-        """render --mode baked with light grids (the default) against the exact light marches
-        (--s1 march) on the cloud sample, sun + sky, g = 0.85: within 1% relative RMSE; the
-        summary gives the grids' sizes and the stages' times."""
+        """render --mode baked --relight with light grids (the default) against the exact light
+        marches (--s1 march) on the cloud sample, sun + sky, g = 0.85: within 1% relative RMSE;
+        the summary gives the grids' sizes and the stages' times."""
         lit = self.bake()
         grids, marches = self.path("grids.exr"), self.path("marches.exr")
-        p = run("render", lit, "-o", grids, "--size", "64x48", "--json", check=0)
+        p = run("render", lit, "-o", grids, "--size", "64x48", "--json", "--relight", check=0)
         j = json.loads(p.stdout)
         # the lit VDB was baked at low: its quality's one sample per voxel
         self.assertEqual((j["mode"], j["s1"], j["s1_oversample"]), ("baked", "grid", 1))
         self.assertGreater(j["light_grids"]["columns"], j["light_grids"]["columns_empty"])
         self.assertGreater(j["light_grids"]["samples_stored"], 0)
         self.assertLessEqual(j["seconds"]["s1_sweep"] + j["seconds"]["march"], j["seconds"]["render"])
-        p = run("render", lit, "-o", marches, "--size", "64x48", "--s1", "march", "--json", check=0)
+        p = run("render", lit, "-o", marches, "--size", "64x48", "--s1", "march", "--json", "--relight",
+                check=0)
         j = json.loads(p.stdout)
         self.assertEqual(j["s1"], "march")
         self.assertNotIn("light_grids", j)
@@ -312,7 +313,7 @@ class LitInput(Base):
         lit = self.bake()
         png = self.path("flat.png")
         run("render", lit, "-o", png, "--size", "8x6", "--density-scale", "0", "--env", "0.2,0.3,0.5",
-            "-q", check=0)
+            "-q", "--relight", check=0)
         _, _, rgb = read_png(png)
         self.assertEqual(rgb, [srgb8(0.2), srgb8(0.3), srgb8(0.5)] * 48)
         p = run("render", lit, "-o", self.path("single.exr"), "--size", "8x6", "--mode", "single", "--json",
@@ -332,6 +333,24 @@ class GpuBackend(Base):
         p = run("compare", gpu, cpu, "--json")
         if p.returncode != 0:
             self.skipTest("vdbscatter compare is not available")
+        self.assertLess(json.loads(p.stdout)["relrmse"], 1e-5)
+
+    def test_gpu_matches_cpu_from_stored_depths(self):
+        """A lit VDB's stored depths (a sun's and an ordinate's light-frame grids, a point light's
+        radial grid) read by the shader as by the C path."""
+        lit = self.path("lit.vdb")
+        run("bake", sample("smoke.vdb"), "--scene", sample("smoke.json"), "--quality", "low", "--method",
+            "single", "--env", "0.2,0.3,0.4", "--sun", "0.3,-1,0.2", "--point", "0.2,0.9,0.1:2,2,2", "-o", lit,
+            "-q", check=0)
+        cpu, gpu = self.path("cpu.exr"), self.path("gpu.exr")
+        common = [lit, "--size", "16x12", "--json"]
+        self.assertEqual(json.loads(run("render", *common, "-o", cpu, "--backend", "cpu", check=0).stdout)["s1"],
+                         "stored")
+        p = run("render", *common, "-o", gpu, "--backend", "gpu")
+        if p.returncode != 0:
+            self.skipTest(f"no GL context: {p.stderr.strip()}")
+        self.assertEqual(json.loads(p.stdout)["s1"], "stored")
+        p = run("compare", gpu, cpu, "--json", check=0)
         self.assertLess(json.loads(p.stdout)["relrmse"], 1e-5)
 
 

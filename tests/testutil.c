@@ -65,13 +65,13 @@ void test_add_sun_point_sky(vdbs_scene *scene)
     memcpy(scene->lights[2].color, sky, sizeof sky);
 }
 
-void test_load_ms_grids(const char *path, const double index_to_world[3][4], vdbs_ms_grids *ms)
+void test_load_ms_grids(const char *path, const double index_to_world[3][4], vdbs_lit_grids *ms)
 {
     vdbio_lit *lit = NULL;
     vdbs_error err;
     if (vdbio_lit_open(path, &lit, &err) != VDBS_OK)
         fail_msg("%s", err.message);
-    if (vdbs_ms_grids_load(lit, index_to_world, ms, &err) != VDBS_OK)
+    if (vdbs_lit_grids_load(lit, index_to_world, 0, ms, &err) != VDBS_OK)
         fail_msg("%s", err.message);
     vdbio_lit_close(lit);
     remove(path);

@@ -32,7 +32,7 @@ void test_add_sun_point_sky(vdbs_scene *scene);
 
 /* Loads the ms / ms_l1* grids of a lit VDB written by a test, then removes the file;
  * fails the test on any error. */
-void test_load_ms_grids(const char *path, const double index_to_world[3][4], vdbs_ms_grids *ms);
+void test_load_ms_grids(const char *path, const double index_to_world[3][4], vdbs_lit_grids *ms);
 
 /* Writes a lit VDB over the volume's output voxels whose radiance and ms grids are `ms`
  * and whose ms_l1x/y/z are l1[0..2] (3 floats per voxel each); fails the test on error. */

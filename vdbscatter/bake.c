@@ -1,5 +1,6 @@
 #include "vdbscatter/bake.h"
 
+#include <cjson/cJSON.h>
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -9,6 +10,7 @@
 #include "vdbscatter/camera_radiance.h"
 #include "vdbscatter/lightgrid.h"
 #include "vdbscatter/lights.h"
+#include "vdbscatter/litvdb.h"
 #include "vdbscatter/progress.h"
 #include "vdbscatter/runner.h"
 #include "vdbscatter/scene_file.h"
@@ -20,9 +22,82 @@
 #define VDBSCATTER_VERSION "0"
 #endif
 
-/* The lit VDB's fixed metadata, then the solver state's. */
-#define BAKE_META_FIXED 11
-#define BAKE_META_MAX (BAKE_META_FIXED + 8)
+/* The lit VDB's fixed metadata, the stored lights', then the solver state's. */
+#define BAKE_META_FIXED 13
+#define BAKE_META_MAX (BAKE_META_FIXED + 1 + 8)
+
+/* The optical depths toward every light that --store lights keeps, and their metadata. */
+typedef struct stored_lights {
+    int direct, count;               /* direct lights, then sky ordinates */
+    vdbs_light_grid_samples *depth;  /* per light (vdbs_solve.light_depths) */
+    char *json;                      /* vdbscatter_lights */
+} stored_lights;
+
+static void stored_free(stored_lights *k)
+{
+    for (int i = 0; k->depth && i < k->count; ++i)
+        vdbs_light_grid_samples_free(&k->depth[i]);
+    free(k->depth);
+    free(k->json);
+    memset(k, 0, sizeof *k);
+}
+
+static cJSON *json_triple(const double v[3])
+{
+    const double rounded[3] = {(float)v[0], (float)v[1], (float)v[2]};
+    return cJSON_CreateDoubleArray(rounded, 3);
+}
+
+/* vdbscatter_lights: per stored grid, what S1 needs to evaluate it (docs/lit-vdb.md). */
+static char *stored_lights_json(const vdbs_light_table *lights,
+                                const vdbs_light_grid_samples *depth)
+{
+    cJSON *list = cJSON_CreateArray();
+    const double origin[3] = {0.0, 0.0, 0.0};
+    for (int i = 0; list && i < lights->direct_count + lights->ordinate_count; ++i) {
+        char name[32];
+        vdbs_lit_depth_name(i, lights->direct_count, name, sizeof name);
+        cJSON *e = cJSON_CreateObject();
+        cJSON_AddItemToArray(list, e);
+        cJSON_AddStringToObject(e, "grid", name);
+        const vdbs_direct_light *d = i < lights->direct_count ? &lights->direct[i] : NULL;
+        if (d && d->type == VDBS_LIGHT_POINT) {
+            cJSON_AddStringToObject(e, "type", "point");
+            cJSON_AddItemToObject(e, "position", json_triple(d->world));
+            cJSON_AddItemToObject(e, "intensity", json_triple(d->color));
+            cJSON_AddNumberToObject(e, "min_distance", (float)lights->min_distance);
+            /* the depth grid's layout: octahedral texels x shells (docs/lit-vdb.md) */
+            cJSON_AddNumberToObject(e, "texels", depth[i].texels);
+            double *radii = malloc(sizeof *radii * (size_t)(depth[i].shells + 1));
+            for (int k = 0; radii && k < depth[i].shells; ++k)
+                radii[k] = depth[i].radii[k];
+            cJSON_AddItemToObject(e, "radii",
+                                  radii ? cJSON_CreateDoubleArray(radii, depth[i].shells)
+                                        : cJSON_CreateNull());
+            free(radii);
+        } else {
+            double color[3], travel[3];
+            vdbs_lights_arrival(lights, i, origin, color, travel);
+            cJSON_AddStringToObject(e, "type", d ? "sun" : "sky");
+            cJSON_AddItemToObject(e, "travel", json_triple(travel));
+            cJSON_AddItemToObject(e, "radiance", json_triple(color));
+        }
+    }
+    char *text = list ? cJSON_PrintUnformatted(list) : NULL;
+    cJSON_Delete(list);
+    return text;
+}
+
+/* Room for every light's depth, kept by the solve's S1 pass (vdbs_solve.light_depths). */
+static vdbs_status stored_alloc(const vdbs_light_table *lights, stored_lights *k, vdbs_error *err)
+{
+    k->direct = lights->direct_count;
+    k->count = lights->direct_count + lights->ordinate_count;
+    k->depth = calloc((size_t)k->count + 1, sizeof *k->depth);
+    if (!k->depth)
+        return vdbs_error_set(err, VDBS_ERR_NOMEM, "out of memory for the stored lights");
+    return VDBS_OK;
+}
 
 static void warn(const vdbs_bake_options *o, const char *fmt, const char *arg)
 {
@@ -40,15 +115,20 @@ const void *vdbs_bake_report_stats(const vdbs_bake_report *report)
 /* Runs the scene's solver on the chosen backend; the lights are resolved here, once. */
 static vdbs_status solve(const vdbs_bake_options *o, const vdbs_solver *solver,
                          const vdbs_quality *quality, const vdbs_volume *volume, vdbs_solve *s,
-                         vdbs_bake_report *report, vdbs_error *err)
+                         stored_lights *stored, vdbs_bake_report *report, vdbs_error *err)
 {
     vdbs_lights_desc lights_desc = {0};
     lights_desc.sky_ordinates =
         o->scene->sky_directions > 0 ? o->scene->sky_directions : quality->sky_directions;
     vdbs_light_table lights;
     vdbs_status st = vdbs_lights_build(volume, o->scene, &lights_desc, &lights, err);
-    if (st != VDBS_OK)
+    if (st == VDBS_OK && stored)
+        st = stored_alloc(&lights, stored, err);
+    if (st != VDBS_OK) {
+        vdbs_lights_free(&lights);
         return st;
+    }
+    s->light_depths = stored ? stored->depth : NULL;
     vdbs_runner_desc runner_desc = {0};
     runner_desc.backend = o->backend;
     vdbs_runner *runner = NULL;
@@ -76,6 +156,8 @@ static vdbs_status solve(const vdbs_bake_options *o, const vdbs_solver *solver,
     s->s1_stats = &stats;
     memset(&report->solver_stats, 0, sizeof report->solver_stats);
     st = solver->run(s, report->solver_stats.bytes, err);
+    if (st == VDBS_OK && stored && !(stored->json = stored_lights_json(&lights, stored->depth)))
+        st = vdbs_error_set(err, VDBS_ERR_NOMEM, "out of memory for the stored lights");
     vdbs_runner_transfer moved = vdbs_runner_transfers(runner);
     report->bytes_uploaded = moved.uploaded;
     report->bytes_read_back = moved.read_back;
@@ -112,7 +194,7 @@ vdbs_status vdbs_bake_volume(const vdbs_bake_options *o, const vdbs_volume *volu
     for (int a = 0; a < 3; ++a)
         s.ms_l1[a] = ms_l1[a];
     double t0 = vdbs_now();
-    vdbs_status st = solve(o, solver, quality, volume, &s, report, err);
+    vdbs_status st = solve(o, solver, quality, volume, &s, NULL, report, err);
     report->seconds_solve = report->seconds_total = vdbs_now() - t0;
     return st;
 }
@@ -131,6 +213,7 @@ typedef struct bake_job {
     vdbs_scene *scene; /* the caller's, resolved against the volume (auto density scale) */
     void *warm, *keep; /* the solver's state: read by --warm-start, written by --keep-state */
     vdbs_solve out;    /* the output arrays */
+    stored_lights stored;
     char *scene_json;
 } bake_job;
 
@@ -142,6 +225,7 @@ static void job_free(bake_job *j)
         state->destroy(j->keep);
     }
     free(j->scene_json);
+    stored_free(&j->stored);
     for (int a = 0; a < 3; ++a)
         if (j->out.ms_l1[a] != j->out.ms)
             free(j->out.ms_l1[a]);
@@ -256,8 +340,9 @@ static vdbs_status write_lit(bake_job *j, vdbs_bake_report *report, vdbs_error *
 {
     const vdbs_bake_options *o = &j->options;
     const vdbs_scene *scene = j->scene;
-    char sky[16], seconds[32], scale[32], g[32], albedo[96];
+    char sky[16], seconds[32], scale[32], g[32], albedo[96], format[16];
     snprintf(sky, sizeof sky, "%d", j->sky);
+    snprintf(format, sizeof format, "%d", VDBS_LIT_FORMAT);
     snprintf(seconds, sizeof seconds, "%.6f", report->seconds_solve);
     /* 17 digits: exact, and the text lit VDBs have always carried */
     snprintf(scale, sizeof scale, "%.17g", scene->density_scale);
@@ -276,11 +361,15 @@ static vdbs_status write_lit(bake_job *j, vdbs_bake_report *report, vdbs_error *
         {"vdbscatter_backend", report->backend},
         {"vdbscatter_solve_seconds", seconds},
         {"vdbscatter_scene", j->scene_json},
+        {"vdbscatter_format", format},
+        {"vdbscatter_store", j->stored.depth ? "lights" : "none"},
     };
     const vdbs_solver_state *state = j->solver->state;
     int meta_count = BAKE_META_FIXED;
+    if (j->stored.json)
+        meta[meta_count++] = (vdbio_meta){"vdbscatter_lights", j->stored.json};
     if (j->keep)
-        meta_count += state->meta(j->keep, meta + BAKE_META_FIXED, BAKE_META_MAX - BAKE_META_FIXED);
+        meta_count += state->meta(j->keep, meta + meta_count, BAKE_META_MAX - meta_count);
     const vdbio_vec3_grid fixed[] = {
         {"radiance", j->out.radiance}, {"ms", j->out.ms},
         {"ms_l1x", j->out.ms_l1[0]},   {"ms_l1y", j->out.ms_l1[1]},
@@ -298,7 +387,40 @@ static vdbs_status write_lit(bake_job *j, vdbs_bake_report *report, vdbs_error *
         free(grids);
         return vdbs_error_set(err, VDBS_ERR_NOMEM, "out of memory for the state's grid names");
     }
+    /* The stored depths: the sky's many ordinates as half floats (a depth's relative rounding
+     * of 2^-11 moves exp(-depth) by at most 2^-11 depth exp(-depth) < 2e-4), the few direct
+     * lights as floats. */
+    vdbio_float_grid *depths = calloc((size_t)j->stored.count + 1, sizeof *depths);
+    char(*names)[32] = calloc((size_t)j->stored.count + 1, sizeof *names);
+    vdbio_transform *maps = calloc((size_t)j->stored.count + 1, sizeof *maps);
+    if (!depths || !names || !maps) {
+        free(depths);
+        free(names);
+        free(maps);
+        free(grids);
+        return vdbs_error_set(err, VDBS_ERR_NOMEM, "out of memory for the grid list");
+    }
+    for (int i = 0; i < j->stored.count; ++i) {
+        const vdbs_light_grid_samples *d = &j->stored.depth[i];
+        vdbs_lit_depth_name(i, j->stored.direct, names[i], sizeof names[i]);
+        /* the grid's index space -> the density's -> world */
+        for (int r = 0; r < 3; ++r)
+            for (int c = 0; c < 4; ++c) {
+                double m = c == 3 ? j->volume.index_to_world[r][3] : 0.0;
+                for (int q = 0; q < 3; ++q)
+                    m += j->volume.index_to_world[r][q] * d->to_index[q][c];
+                maps[i].m[r][c] = m;
+            }
+        depths[i] = (vdbio_float_grid){.name = names[i],
+                                       .values = d->values,
+                                       .coords = d->coords,
+                                       .coord_count = d->count,
+                                       .transform = &maps[i],
+                                       .half = i >= j->stored.direct};
+    }
     vdbio_write_request request = {0};
+    request.float_grids = depths;
+    request.float_grid_count = j->stored.count;
     request.density = j->volume.density;
     request.coords = j->volume.coords;
     request.coord_count = j->volume.coord_count;
@@ -314,6 +436,9 @@ static vdbs_status write_lit(bake_job *j, vdbs_bake_report *report, vdbs_error *
     vdbs_status st = vdbio_write(o->output, j->input, &request, err);
     report->seconds_write = vdbs_now() - t_write;
     free(grids);
+    free(depths);
+    free(names);
+    free(maps);
     /* A cancel after the rename: the new file is complete and stays, but the caller asked
      * to stop and hears so. */
     if (st == VDBS_OK && vdbs_cancelled(o->cancel))
@@ -354,13 +479,16 @@ vdbs_status vdbs_bake(const vdbs_bake_options *o, vdbs_bake_report *report, vdbs
     }
     if (st == VDBS_OK) {
         double t_solve = vdbs_now();
-        st = solve(&j.options, j.solver, j.quality, &j.volume, &j.out, report, err);
+        st = solve(&j.options, j.solver, j.quality, &j.volume, &j.out,
+                   o->store == VDBS_STORE_NONE ? NULL : &j.stored, report, err);
         report->seconds_solve = vdbs_now() - t_solve;
     }
     if (st == VDBS_OK) {
         for (size_t v = 0; v < j.volume.coord_count; ++v)
             for (int c = 0; c < 3; ++c)
                 report->radiance_max[c] = fmaxf(report->radiance_max[c], j.out.radiance[3 * v + c]);
+        report->stored_direct = j.stored.direct;
+        report->stored_sky = j.stored.count - j.stored.direct;
         st = write_lit(&j, report, err);
     }
     if (j.has_volume)

@@ -324,13 +324,13 @@ static vdbs_status finish_rebake(viewer *v, int wait, vdbs_error *err)
     job->running = 0;
     free(job->scene);
     vdbs_status st = job->status;
-    vdbs_ms_grids ms;
+    vdbs_lit_grids ms;
     memset(&ms, 0, sizeof ms);
     if (st == VDBS_OK) {
         vdbio_lit *lit = NULL;
         st = vdbio_lit_open(job->output, &lit, err);
         if (st == VDBS_OK) {
-            st = vdbs_ms_grids_load(lit, v->in.volume.index_to_world, &ms, err);
+            st = vdbs_lit_grids_load(lit, v->in.volume.index_to_world, 0, &ms, err);
             vdbio_lit_close(lit);
         }
     } else {
@@ -341,7 +341,7 @@ static vdbs_status finish_rebake(viewer *v, int wait, vdbs_error *err)
         /* The session reads in.ms: a new one over the new grids. */
         vdbs_march_session_destroy(v->session);
         v->session = NULL;
-        vdbs_ms_grids_free(&v->in.ms);
+        vdbs_lit_grids_free(&v->in.ms);
         v->in.ms = ms;
         st = vdbs_march_session_create(v->runner, &v->in.volume, &v->in.ms, v->in.scene, &v->march,
                                        &v->session, err);
@@ -349,7 +349,7 @@ static vdbs_status finish_rebake(viewer *v, int wait, vdbs_error *err)
             occluder_lighting(v);
         v->ms_stale = 0;
     } else {
-        vdbs_ms_grids_free(&ms);
+        vdbs_lit_grids_free(&ms);
     }
     if (st != VDBS_OK)
         snprintf(v->message, sizeof v->message, "re-bake failed: %s", err->message);

@@ -788,6 +788,7 @@ void check_write_request(const char *path, const vdbio_write_request *req)
     if (req->coord_count && !req->coords)
         fail(VDBS_ERR_INTERNAL, "vdbio_write: coordinates missing");
     if (req->vec3_grid_count < 0 || (req->vec3_grid_count && !req->vec3_grids) ||
+        req->float_grid_count < 0 || (req->float_grid_count && !req->float_grids) ||
         req->file_meta_count < 0 || (req->file_meta_count && !req->file_meta))
         fail(VDBS_ERR_INTERNAL, "vdbio_write: bad grid or metadata list");
 }
@@ -851,6 +852,43 @@ Vec3SGrid::Ptr vec3_for_write(const vdbio_write_request *req, int g,
                     ++clamped;
                 }
             }
+        }
+        acc.setValueOn(Coord(c[0], c[1], c[2]), v);
+    }
+    return grid;
+}
+
+/* The request's float grid g, as vec3_for_write; a half grid's values are rounded to half
+ * here (clamped beyond its range), so that saving it as half loses nothing more. */
+FloatGrid::Ptr float_for_write(const vdbio_write_request *req, int g,
+                               const std::vector<GridBase::Ptr> &all, uint64_t &clamped)
+{
+    const vdbio_float_grid &fg = req->float_grids[g];
+    if (!fg.name || !fg.name[0] || (!fg.values && (fg.coords ? fg.coord_count : req->coord_count)))
+        fail(VDBS_ERR_INTERNAL, format("vdbio_write: float grid %d has no name or values", g));
+    for (const GridBase::Ptr &other : all) {
+        if (other->getName() == fg.name)
+            fail(VDBS_ERR_INTERNAL, format("vdbio_write: two grids named \"%s\"", fg.name));
+    }
+    const bool half = req->half || fg.half;
+    const int32_t *coords = fg.coords ? fg.coords : req->coords;
+    const size_t count = fg.coords ? fg.coord_count : req->coord_count;
+    FloatGrid::Ptr grid = FloatGrid::create(0.0f);
+    grid->setName(fg.name);
+    grid->setTransform(fg.transform ? transform_from_c(fg.transform)
+                                    : req->density->grid->transform().copy());
+    grid->setGridClass(openvdb::GRID_UNKNOWN);
+    grid->setSaveFloatAsHalf(half);
+    auto acc = grid->getAccessor();
+    for (size_t i = 0; i < count; ++i) {
+        const int32_t *c = coords + 3 * i;
+        float v = fg.values[i];
+        if (half) {
+            if (std::fabs(v) > kHalfMax) {
+                v = std::copysign(kHalfMax, v);
+                ++clamped;
+            }
+            v = static_cast<float>(openvdb::math::half(v));
         }
         acc.setValueOn(Coord(c[0], c[1], c[2]), v);
     }
@@ -948,6 +986,8 @@ void vdb_write(const char *path, const char *input_path, const vdbio_write_reque
     std::vector<GridBase::Ptr> all{density_for_write(req, clamped)};
     for (int g = 0; g < req->vec3_grid_count; ++g)
         all.push_back(vec3_for_write(req, g, all, clamped));
+    for (int g = 0; g < req->float_grid_count; ++g)
+        all.push_back(float_for_write(req, g, all, clamped));
     const openvdb::MetaMap file_meta = file_metadata(req, all);
     openvdb::GridCPtrVec grids;
     for (const GridBase::Ptr &g : all)
@@ -1284,6 +1324,21 @@ vdbs_status vdbio_lit_vec3_nanovdb(const vdbio_lit *lit, const char *grid, void 
         if (!buffer || !size)
             fail(VDBS_ERR_INTERNAL, "vdbio_lit_vec3_nanovdb: NULL argument");
         const Vec3SGrid &g = lit_typed<Vec3SGrid>(lit, grid, "vec3s");
+        copy_nanovdb(nanovdb::openToNanoVDB(g), buffer, size);
+    });
+}
+
+vdbs_status vdbio_lit_float_nanovdb(const vdbio_lit *lit, const char *grid, void **buffer,
+                                    size_t *size, vdbs_error *err)
+{
+    if (buffer)
+        *buffer = nullptr;
+    if (size)
+        *size = 0;
+    return guarded(err, [&] {
+        if (!buffer || !size)
+            fail(VDBS_ERR_INTERNAL, "vdbio_lit_float_nanovdb: NULL argument");
+        const FloatGrid &g = lit_typed<FloatGrid>(lit, grid, "float");
         copy_nanovdb(nanovdb::openToNanoVDB(g), buffer, size);
     });
 }

@@ -606,6 +606,98 @@ float vdbs_light_grids_sample(const vdbs_light_grids *grids, int grid, int i, in
     return vs_lgrid_column_depth(grids->words, grid, i, j, k, 0.0f);
 }
 
+/* Column (i, j)'s stored stretch [first, end); end 0 for an empty column. */
+static void column_span(const vdbs_light_grids *grids, int grid, int i, int j, int *first,
+                        int *end)
+{
+    vs_uint record = vs_lgrid_record(grids->words, grid, i, j);
+    int count = (int)grids->words[record + VS_LGRID_COLUMN_COUNT];
+    *first = (int)grids->words[record + VS_LGRID_COLUMN_FIRST];
+    *end = count > 0 ? *first + count : 0;
+}
+
+void vdbs_light_grid_samples_free(vdbs_light_grid_samples *samples)
+{
+    free(samples->coords);
+    free(samples->values);
+    free(samples->radii);
+    memset(samples, 0, sizeof *samples);
+}
+
+vdbs_status vdbs_light_grids_samples(const vdbs_light_grids *grids, int grid,
+                                     vdbs_light_grid_samples *out, vdbs_error *err)
+{
+    memset(out, 0, sizeof *out);
+    int n[3];
+    vdbs_light_grids_shape(grids, grid, n);
+    /* Two passes: count, then fill. */
+    for (int pass = 0; pass < 2; ++pass) {
+        size_t at = 0;
+        for (int j = 0; j < n[1]; ++j)
+            for (int i = 0; i < n[0]; ++i) {
+                int first, end, reach = 0;
+                column_span(grids, grid, i, j, &first, &end);
+                if (end == 0)
+                    continue;
+                for (int b = j - 1; b <= j + 1; ++b)
+                    for (int a = i - 1; a <= i + 1; ++a) {
+                        int f, e;
+                        if (a < 0 || b < 0 || a >= n[0] || b >= n[1])
+                            continue;
+                        column_span(grids, grid, a, b, &f, &e);
+                        reach = e > reach ? e : reach;
+                    }
+                reach = reach + 1 < n[2] ? reach + 1 : n[2];
+                for (int k = first; k < reach; ++k, ++at) {
+                    if (pass == 0)
+                        continue;
+                    out->coords[3 * at] = i;
+                    out->coords[3 * at + 1] = j;
+                    out->coords[3 * at + 2] = k;
+                    out->values[at] = vdbs_light_grids_sample(grids, grid, i, j, k);
+                }
+            }
+        if (pass == 0) {
+            out->count = at;
+            out->coords = malloc(sizeof *out->coords * 3 * (at ? at : 1));
+            out->values = malloc(sizeof *out->values * (at ? at : 1));
+            if (!out->coords || !out->values) {
+                vdbs_light_grid_samples_free(out);
+                return vdbs_error_set(err, VDBS_ERR_NOMEM, "out of memory for %zu light-grid samples",
+                                      at);
+            }
+        }
+    }
+    if (vs_lgrid_word(grids->words, grid, VS_LGRID_OFF_KIND) == VS_LGRID_RADIAL) {
+        out->radial = 1;
+        out->texels = n[0];
+        out->shells = n[2];
+        if (!(out->radii = malloc(sizeof *out->radii * (size_t)n[2]))) {
+            vdbs_light_grid_samples_free(out);
+            return vdbs_error_set(err, VDBS_ERR_NOMEM, "out of memory for shell radii");
+        }
+        vs_uint radii = vs_lgrid_word(grids->words, grid, VS_LGRID_OFF_RADII);
+        for (int k = 0; k < n[2]; ++k)
+            out->radii[k] = vs_word_float(grids->words[radii + (vs_uint)k]);
+        for (int r = 0; r < 3; ++r)
+            out->to_index[r][r] = 1.0;
+        return VDBS_OK;
+    }
+    pnanovdb_vec3_t o = vs_lgrid_vec3(grids->words, grid, VS_LGRID_OFF_ORIGIN);
+    pnanovdb_vec3_t u = vs_lgrid_vec3(grids->words, grid, VS_LGRID_OFF_STEP_U);
+    pnanovdb_vec3_t v = vs_lgrid_vec3(grids->words, grid, VS_LGRID_OFF_STEP_V);
+    pnanovdb_vec3_t w = vs_lgrid_vec3(grids->words, grid, VS_LGRID_OFF_TRAVEL);
+    float h = vs_lgrid_float(grids->words, grid, VS_LGRID_OFF_SPACING);
+    const double cols[4][3] = {{u.x, u.y, u.z},
+                               {v.x, v.y, v.z},
+                               {(double)h * w.x, (double)h * w.y, (double)h * w.z},
+                               {o.x, o.y, o.z}};
+    for (int r = 0; r < 3; ++r)
+        for (int c = 0; c < 4; ++c)
+            out->to_index[r][c] = cols[c][r];
+    return VDBS_OK;
+}
+
 float vdbs_light_grids_depth(const vdbs_light_grids *grids, int grid, const double index[3])
 {
     return vs_lgrid_depth((const vs_vec4 *)grids->medium, grids->words, grid,

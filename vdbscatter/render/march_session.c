@@ -37,15 +37,18 @@
 /* Pixels per C task: rays differ a lot in cost. */
 #define RENDER_CPU_CHUNK 16u
 
-/* Byte offsets of the four ms grids in the render buffer (density first). */
-static void ms_offsets(const vdbs_volume *volume, const vdbs_ms_grids *ms, uint64_t offsets[4])
+/* Byte offsets in the render buffer (density first) of the four ms grids, then of the stored
+ * depth grids: 4 + grids->depth_count of them. */
+static void grid_offsets(const vdbs_volume *volume, const vdbs_lit_grids *grids,
+                         uint64_t *offsets)
 {
     uint64_t at = volume->nano_size;
-    const size_t sizes[4] = {ms->ms_size, ms->l1x_size, ms->l1y_size, ms->l1z_size};
-    for (int i = 0; i < 4; ++i) {
+    const size_t ms_sizes[4] = {grids->ms_size, grids->l1x_size, grids->l1y_size,
+                                grids->l1z_size};
+    for (int i = 0; i < 4 + grids->depth_count; ++i) {
         at = (at + 31u) / 32u * 32u;
         offsets[i] = at;
-        at += sizes[i];
+        at += i < 4 ? ms_sizes[i] : grids->depth[i - 4].size;
     }
 }
 
@@ -60,7 +63,7 @@ static void put_pinhole(float *forward, float *right, float *up, const vdbs_came
                    frame->up[2] * frame->tan_half_y, 0.0);
 }
 
-vdbs_status vdbs_render_table(const vdbs_volume *volume, const vdbs_ms_grids *ms,
+vdbs_status vdbs_render_table(const vdbs_volume *volume, const vdbs_lit_grids *ms,
                               const vdbs_camera_frame *frame, const vdbs_march_options *options,
                               float **data, size_t *entries, vdbs_error *err)
 {
@@ -74,12 +77,14 @@ vdbs_status vdbs_render_table(const vdbs_volume *volume, const vdbs_ms_grids *ms
     float *t = calloc(VS_RENDER_SIZE, 4 * sizeof *t);
     if (!t)
         return vdbs_error_set(err, VDBS_ERR_NOMEM, "out of memory for the render table");
-    int with_ms = vdbs_ms_grids_present(ms);
+    int with_ms = vdbs_lit_grids_have_ms(ms);
     vdbs_table_put(t + 4 * VS_RENDER_OFF_MARCH, options->step_voxels, with_ms ? 1.0 : 0.0, 0.0,
                    0.0);
     if (with_ms) {
-        uint64_t offsets[4];
-        ms_offsets(volume, ms, offsets);
+        uint64_t offsets[4] = {0, 0, 0, 0};
+        vdbs_lit_grids only_ms = *ms;
+        only_ms.depth_count = 0;
+        grid_offsets(volume, &only_ms, offsets);
         uint64_t units[4];
         for (int i = 0; i < 4; ++i) {
             units[i] = offsets[i] / 32u;
@@ -109,27 +114,39 @@ vdbs_status vdbs_render_table(const vdbs_volume *volume, const vdbs_ms_grids *ms
     return VDBS_OK;
 }
 
-vdbs_status vdbs_render_buffer(const vdbs_volume *volume, const vdbs_ms_grids *ms,
+vdbs_status vdbs_render_buffer(const vdbs_volume *volume, const vdbs_lit_grids *grids,
                                uint32_t **buffer, size_t *size, int *owned, vdbs_error *err)
 {
-    if (!vdbs_ms_grids_present(ms)) {
+    int depths = grids ? grids->depth_count : 0;
+    if (!vdbs_lit_grids_have_ms(grids) && depths == 0) {
         *buffer = volume->nano;
         *size = volume->nano_size;
         *owned = 0;
         return VDBS_OK;
     }
-    uint64_t offsets[4];
-    ms_offsets(volume, ms, offsets);
-    size_t total = (size_t)offsets[3] + ms->l1z_size;
+    uint64_t *offsets = malloc(sizeof *offsets * (size_t)(4 + depths));
+    if (!offsets)
+        return vdbs_error_set(err, VDBS_ERR_NOMEM, "out of memory for grid offsets");
+    grid_offsets(volume, grids, offsets);
+    size_t total = (size_t)offsets[3] + grids->l1z_size;
+    if (depths)
+        total = (size_t)offsets[3 + depths] + grids->depth[depths - 1].size;
     uint32_t *b = aligned_alloc(32, (total + 31u) / 32u * 32u);
-    if (!b)
+    if (!b) {
+        free(offsets);
         return vdbs_error_set(err, VDBS_ERR_NOMEM, "out of memory for %zu bytes of grids", total);
+    }
     memset(b, 0, (total + 31u) / 32u * 32u);
     memcpy(b, volume->nano, volume->nano_size);
-    const uint32_t *src[4] = {ms->ms, ms->l1x, ms->l1y, ms->l1z};
-    const size_t sizes[4] = {ms->ms_size, ms->l1x_size, ms->l1y_size, ms->l1z_size};
-    for (int i = 0; i < 4; ++i)
-        memcpy((char *)b + offsets[i], src[i], sizes[i]);
+    const uint32_t *src[4] = {grids->ms, grids->l1x, grids->l1y, grids->l1z};
+    const size_t sizes[4] = {grids->ms_size, grids->l1x_size, grids->l1y_size, grids->l1z_size};
+    for (int i = 0; i < 4 + depths; ++i) {
+        if (i < 4 && src[i])
+            memcpy((char *)b + offsets[i], src[i], sizes[i]);
+        else if (i >= 4)
+            memcpy((char *)b + offsets[i], grids->depth[i - 4].grid, grids->depth[i - 4].size);
+    }
+    free(offsets);
     *buffer = b;
     *size = total;
     *owned = 1;
@@ -175,9 +192,10 @@ static void march_items(void *user, uint64_t begin, uint64_t end)
 struct vdbs_march_session {
     vdbs_runner *runner;
     const vdbs_volume *volume;
-    const vdbs_ms_grids *ms;
+    const vdbs_lit_grids *ms;   /* NULL without ms grids */
+    const vdbs_lit_grids *lit;  /* the caller's grids: ms and the stored depths */
     vdbs_march_options options; /* as given to create (the lights' settings) */
-    uint32_t *grids;            /* density then ms grids (vdbs_render_buffer) */
+    uint32_t *grids;            /* density, ms grids, stored depths (vdbs_render_buffer) */
     size_t grids_size;
     int grids_owned;
     int have_lights;
@@ -190,6 +208,7 @@ struct vdbs_march_session {
     float no_backdrop[4];                    /* one far "surface", for a frame without one */
     const float *shadows;                    /* the caller's (vs_shadow.h) or no_shadows */
     size_t shadow_floats;
+    int stored; /* the light grids are the lit VDB's stored depths */
     uint64_t id_grids, id_lights, id_light_grids, id_env, id_shadows;
 };
 
@@ -199,8 +218,10 @@ void vdbs_march_session_tables(const vdbs_march_session *s, vdbs_march_tables *o
     out->light_floats = s->lights.packed_entries * 4;
     out->medium = s->medium;
     out->medium_floats = sizeof s->medium / sizeof s->medium[0];
-    out->light_grids = s->options.s1_march ? NULL : s->light_grids.words;
-    out->light_grid_words = s->options.s1_march ? 0 : s->light_grids.word_count;
+    /* The stored depths' kind needs the render's buffer: no tables for the surfaces. */
+    int swept = !s->options.s1_march && !s->stored;
+    out->light_grids = swept ? s->light_grids.words : NULL;
+    out->light_grid_words = swept ? s->light_grids.word_count : 0;
 }
 
 void vdbs_march_session_set_shadows(vdbs_march_session *s, const float *table, size_t floats)
@@ -210,6 +231,9 @@ void vdbs_march_session_set_shadows(vdbs_march_session *s, const float *table, s
     s->shadow_floats = table && floats >= VS_SHADOW_OFF_ENTRIES ? floats : VS_SHADOW_OFF_ENTRIES;
     s->id_shadows = vdbs_runner_resident_id(s->runner);
 }
+
+static vdbs_status session_scene(vdbs_march_session *s, const vdbs_scene *scene, int stored,
+                                 vdbs_error *err);
 
 static void session_drop_lights(vdbs_march_session *s)
 {
@@ -235,8 +259,89 @@ void vdbs_march_session_destroy(vdbs_march_session *session)
     free(session);
 }
 
+static uint32_t float_word(double value)
+{
+    float f = (float)value;
+    uint32_t w;
+    memcpy(&w, &f, sizeof w);
+    return w;
+}
+
+/* The light-grid set of a lit VDB's stored depths: one VS_LGRID_VOXEL header per light,
+ * pointing at its float grid in the render buffer. The depths must be the table's lights. */
+static vdbs_status stored_light_grids(vdbs_march_session *s, vdbs_error *err)
+{
+    const vdbs_lit_grids *lit = s->lit;
+    int n = lit->depth_count;
+    if (lit->depth_direct != s->lights.direct_count ||
+        n - lit->depth_direct != s->lights.ordinate_count)
+        return vdbs_error_set(err, VDBS_ERR_INPUT,
+                              "the lit VDB stores depths for %d direct light%s and %d sky "
+                              "ordinate%s, the scene has %d and %d: render it with --relight",
+                              lit->depth_direct, lit->depth_direct == 1 ? "" : "s",
+                              n - lit->depth_direct, n - lit->depth_direct == 1 ? "" : "s",
+                              s->lights.direct_count, s->lights.ordinate_count);
+    size_t words = VS_LGRIDS_OFF_HEADERS + (size_t)n * VS_LGRID_WORDS;
+    for (int i = 0; i < n; ++i)
+        words += lit->depth[i].radial ? (size_t)lit->depth[i].shells : 0u;
+    uint64_t *offsets = malloc(sizeof *offsets * (size_t)(4 + n));
+    uint32_t *w = calloc(words, sizeof *w);
+    if (!offsets || !w) {
+        free(offsets);
+        free(w);
+        return vdbs_error_set(err, VDBS_ERR_NOMEM, "out of memory for the stored light grids");
+    }
+    grid_offsets(s->volume, lit, offsets);
+    w[VS_LGRIDS_OFF_COUNT] = (uint32_t)n;
+    w[VS_LGRIDS_OFF_ACROSS] = VS_LGRID_ACROSS_BILINEAR;
+    size_t radii_at = VS_LGRIDS_OFF_HEADERS + (size_t)n * VS_LGRID_WORDS;
+    vdbs_status st = VDBS_OK;
+    for (int i = 0; i < n && st == VDBS_OK; ++i) {
+        const vdbs_lit_depth *d = &lit->depth[i];
+        uint32_t *h = w + vs_lgrid_header(i);
+        uint64_t unit = offsets[4 + i] / 32u;
+        if (unit > 0xffffffffu)
+            st = vdbs_error_set(err, VDBS_ERR_INPUT, "lit grids too large to address");
+        h[VS_LGRID_OFF_VOXEL_GRID] = (uint32_t)unit;
+        if (d->radial) {
+            /* the radial grid's header as the sweep writes it: light, texels, shells */
+            if (i >= s->lights.direct_count || s->lights.direct[i].type != VDBS_LIGHT_POINT) {
+                st = vdbs_error_set(err, VDBS_ERR_INPUT,
+                                    "stored depth %d is a point light's, the scene's light is "
+                                    "not: render it with --relight",
+                                    i);
+                break;
+            }
+            h[VS_LGRID_OFF_KIND] = VS_LGRID_VOXEL_RADIAL;
+            h[VS_LGRID_OFF_N] = h[VS_LGRID_OFF_N + 1] = (uint32_t)d->texels;
+            h[VS_LGRID_OFF_N + 2] = (uint32_t)d->shells;
+            h[VS_LGRID_OFF_RADII] = (uint32_t)radii_at;
+            for (int r = 0; r < 3; ++r)
+                h[VS_LGRID_OFF_ORIGIN + r] = float_word(s->lights.direct[i].index[r]);
+            for (int k = 0; k < d->shells; ++k)
+                w[radii_at++] = float_word(d->radii[k]);
+            continue;
+        }
+        h[VS_LGRID_OFF_KIND] = VS_LGRID_VOXEL;
+        for (int r = 0; r < 3; ++r) {
+            h[VS_LGRID_OFF_ORIGIN + r] = float_word(d->to_grid[r][3]);
+            for (int c = 0; c < 3; ++c)
+                h[VS_LGRID_OFF_TO_GRID + 3 * r + c] = float_word(d->to_grid[r][c]);
+        }
+    }
+    free(offsets);
+    if (st != VDBS_OK) {
+        free(w);
+        return st;
+    }
+    s->light_grids.words = w;
+    s->light_grids.word_count = words;
+    s->light_grids.count = n;
+    return VDBS_OK;
+}
+
 vdbs_status vdbs_march_session_create(vdbs_runner *runner, const vdbs_volume *volume,
-                                      const vdbs_ms_grids *ms, const vdbs_scene *scene,
+                                      const vdbs_lit_grids *ms, const vdbs_scene *scene,
                                       const vdbs_march_options *options, vdbs_march_session **out,
                                       vdbs_error *err)
 {
@@ -247,10 +352,11 @@ vdbs_status vdbs_march_session_create(vdbs_runner *runner, const vdbs_volume *vo
     s->runner = runner;
     s->volume = volume;
     s->no_backdrop[0] = VS_T_INFINITE;
-    s->ms = vdbs_ms_grids_present(ms) ? ms : NULL;
+    s->ms = vdbs_lit_grids_have_ms(ms) ? ms : NULL;
+    s->lit = ms;
     s->options = *options;
     vdbs_status st =
-        vdbs_render_buffer(volume, s->ms, &s->grids, &s->grids_size, &s->grids_owned, err);
+        vdbs_render_buffer(volume, ms, &s->grids, &s->grids_size, &s->grids_owned, err);
     /* GLSL addresses bytes with 32-bit unsigned integers. */
     if (st == VDBS_OK && vdbs_runner_backend(runner) == VDBS_BACKEND_GPU &&
         s->grids_size > 0xffffffffu)
@@ -261,7 +367,7 @@ vdbs_status vdbs_march_session_create(vdbs_runner *runner, const vdbs_volume *vo
     s->id_grids = vdbs_runner_resident_id(runner);
     vdbs_march_session_set_shadows(s, NULL, 0);
     if (st == VDBS_OK)
-        st = vdbs_march_session_set_scene(s, scene, err);
+        st = session_scene(s, scene, options->stored_depths && ms && ms->depth_count > 0, err);
     if (st != VDBS_OK) {
         vdbs_march_session_destroy(s);
         return st;
@@ -272,6 +378,12 @@ vdbs_status vdbs_march_session_create(vdbs_runner *runner, const vdbs_volume *vo
 
 vdbs_status vdbs_march_session_set_scene(vdbs_march_session *s, const vdbs_scene *scene,
                                          vdbs_error *err)
+{
+    return session_scene(s, scene, 0, err);
+}
+
+static vdbs_status session_scene(vdbs_march_session *s, const vdbs_scene *scene, int stored,
+                                 vdbs_error *err)
 {
     session_drop_lights(s);
     const vdbs_march_options *options = &s->options;
@@ -288,7 +400,12 @@ vdbs_status vdbs_march_session_set_scene(vdbs_march_session *s, const vdbs_scene
     /* The light grids of every light and sky ordinate, built once (none for the march).
      * Bilinear across columns: a camera sample's error averages along the ray and over the
      * lights, and the lookups are memory-bound (bench/RESULTS.md). */
-    if (!options->s1_march) {
+    s->stored = stored;
+    if (stored) {
+        st = stored_light_grids(s, err);
+        if (options->stats)
+            memset(&options->stats->grids, 0, sizeof options->stats->grids);
+    } else if (!options->s1_march) {
         vdbs_light_grid_desc gd = {options->s1_oversample, 1};
         st = vdbs_light_grids_build(s->runner, s->volume, scene, &s->lights, 0,
                                     s->lights.direct_count + s->lights.ordinate_count, &gd,
@@ -445,17 +562,17 @@ vdbs_status vdbs_march_session_draw(vdbs_march_session *s, const vdbs_camera_fra
                               VDBS_MAX_INTERLEAVE);
     float *table = NULL;
     size_t entries = 0;
-    const vdbs_ms_grids *ms = options->no_multiple ? NULL : s->ms;
+    const vdbs_lit_grids *ms = options->no_multiple ? NULL : s->ms;
     if ((st = vdbs_render_table(s->volume, ms, frame, options, &table, &entries, err)) != VDBS_OK)
         return st;
-    if (!s->options.s1_march)
+    const int lookups = s->stored || !s->options.s1_march;
+    if (lookups)
         table[4 * VS_RENDER_OFF_MARCH + 2] = 1.0f;
     table[4 * VS_RENDER_OFF_WORLD_ORIGIN + 3] = options->backdrop ? 1.0f : 0.0f;
     const float *backdrop = options->backdrop ? options->backdrop : s->no_backdrop;
-    const uint32_t *lgrid_words = s->options.s1_march ? s->no_grids : s->light_grids.words;
-    size_t lgrid_bytes = s->options.s1_march
-                             ? sizeof s->no_grids
-                             : sizeof *s->light_grids.words * s->light_grids.word_count;
+    const uint32_t *lgrid_words = lookups ? s->light_grids.words : s->no_grids;
+    size_t lgrid_bytes = lookups ? sizeof *s->light_grids.words * s->light_grids.word_count
+                                 : sizeof s->no_grids;
     /* The map the rays that leave see, already in the kernels' layout; a zero header
      * without one. */
     const float *env = s->lights.env ? s->lights.env->data : s->no_env;

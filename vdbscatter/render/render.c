@@ -25,7 +25,7 @@ int vdbs_render_quality(const char *quality, vdbs_march_options *options)
 }
 
 vdbs_status vdbs_render_march(vdbs_runner *runner, const vdbs_volume *volume,
-                              const vdbs_ms_grids *ms, const vdbs_scene *scene,
+                              const vdbs_lit_grids *ms, const vdbs_scene *scene,
                               const vdbs_camera_frame *frame, const vdbs_march_options *options,
                               vdbs_image *image, vdbs_error *err)
 {
@@ -82,6 +82,62 @@ static void apply_overrides(unsigned set, const vdbs_scene *given, vdbs_scene *s
     }
 }
 
+static int same_triple(const double a[3], const double b[3])
+{
+    return a[0] == b[0] && a[1] == b[1] && a[2] == b[2];
+}
+
+/* Whether two scenes have the same medium and lights (what a lit VDB was baked with). */
+static int same_lighting(const vdbs_scene *a, const vdbs_scene *b)
+{
+    if (a->density_scale != b->density_scale ||
+        a->density_target_depth != b->density_target_depth || !same_triple(a->albedo, b->albedo) ||
+        a->g != b->g || a->light_count != b->light_count ||
+        a->sky_directions != b->sky_directions || strcmp(a->grid, b->grid) != 0)
+        return 0;
+    for (int i = 0; i < a->light_count; ++i) {
+        const vdbs_light *p = &a->lights[i], *q = &b->lights[i];
+        const char *fp = vdbs_light_env_file(a, p), *fq = vdbs_light_env_file(b, q);
+        if (p->type != q->type || !same_triple(p->direction, q->direction) ||
+            !same_triple(p->position, q->position) || !same_triple(p->color, q->color) ||
+            p->angular_diameter_deg != q->angular_diameter_deg || p->env_scale != q->env_scale ||
+            (fp == NULL) != (fq == NULL) || (fp && strcmp(fp, fq) != 0))
+            return 0;
+    }
+    return 1;
+}
+
+/* A baked render shows the lit VDB as baked: settings that change its lights or medium
+ * would leave its multiple scattering stale, so they need --relight. */
+static vdbs_status check_unchanged(const vdbs_render_desc *d, const vdbs_scene *baked,
+                                   const vdbs_scene *scene, vdbs_error *err)
+{
+    static const struct {
+        unsigned bit;
+        const char *flags;
+    } changes[] = {
+        {VDBS_SCENE_SET_DENSITY_SCALE, "--density-scale"},
+        {VDBS_SCENE_SET_ALBEDO, "--albedo"},
+        {VDBS_SCENE_SET_G, "--g"},
+        {VDBS_SCENE_SET_LIGHTS, "--sun, --point and --env"},
+        {VDBS_SCENE_SET_SKY_DIRECTIONS, "--sky-directions"},
+        {VDBS_SCENE_SET_GRID, "--grid"},
+    };
+    for (size_t i = 0; i < sizeof changes / sizeof changes[0]; ++i)
+        if (d->scene_set & changes[i].bit)
+            return vdbs_error_set(err, VDBS_ERR_INPUT,
+                                  "%s change%s the lights or medium the lit VDB was baked with; "
+                                  "add --relight to relight it (its multiple scattering stays "
+                                  "as baked)",
+                                  changes[i].flags, strchr(changes[i].flags, ',') ? "" : "s");
+    if ((d->scene_set & VDBS_SCENE_FROM_FILE) && !same_lighting(baked, scene))
+        return vdbs_error_set(err, VDBS_ERR_INPUT,
+                              "--scene: its lights or medium differ from the ones the lit VDB "
+                              "was baked with; add --relight to relight it (its multiple "
+                              "scattering stays as baked)");
+    return VDBS_OK;
+}
+
 /* Opens the input: a lit VDB brings its baked scene (*is_lit), and the render scene is
  * resolved from it and the caller's. On success *lit is open (the caller closes it). */
 static vdbs_status resolve_scene(const vdbs_render_desc *d, const char *input, vdbio_lit **lit,
@@ -91,6 +147,8 @@ static vdbs_status resolve_scene(const vdbs_render_desc *d, const char *input, v
     vdbs_status st = vdbio_lit_open(input, lit, err);
     if (st != VDBS_OK)
         return st;
+    if (d->relight && d->mode != VDBS_RENDER_DEFAULT && d->mode != VDBS_RENDER_BAKED)
+        return vdbs_error_set(err, VDBS_ERR_INPUT, "--relight applies to --mode baked only");
     const char *meta = vdbio_lit_meta(*lit, "vdbscatter_scene");
     *is_lit = meta && vdbio_lit_has_grid(*lit, "radiance") && vdbio_lit_has_grid(*lit, "density");
     vdbs_scene *baked = malloc(sizeof *baked);
@@ -105,6 +163,13 @@ static vdbs_status resolve_scene(const vdbs_render_desc *d, const char *input, v
     *mode = d->mode != VDBS_RENDER_DEFAULT ? d->mode
             : *is_lit                      ? VDBS_RENDER_BAKED
                                            : VDBS_RENDER_SINGLE;
+    if (d->relight && !*is_lit) {
+        free(baked);
+        return vdbs_error_set(err, VDBS_ERR_INPUT,
+                              "--relight needs a lit VDB written by vdbscatter bake ('%s' is not "
+                              "one)",
+                              input);
+    }
     if (*mode == VDBS_RENDER_BAKED && !*is_lit) {
         free(baked);
         return vdbs_error_set(err, VDBS_ERR_INPUT,
@@ -123,7 +188,11 @@ static vdbs_status resolve_scene(const vdbs_render_desc *d, const char *input, v
         if (*is_lit && scene->light_count == 0)
             vdbs_scene_copy_lights(scene, baked);
     }
+    if (*is_lit && *mode == VDBS_RENDER_BAKED && !d->relight)
+        st = check_unchanged(d, baked, scene, err);
     free(baked);
+    if (st != VDBS_OK)
+        return st;
     /* No light is reported after the density grid is found (vdbs_render_open). */
     return vdbs_scene_validate_opt(scene, 1, err);
 }
@@ -149,7 +218,7 @@ static void choose_camera(const vdbs_render_desc *d, const vdbs_scene *scene,
 }
 
 static vdbs_status render_image(const vdbs_render_desc *d, vdbs_render_mode mode,
-                                const vdbs_volume *volume, const vdbs_ms_grids *ms,
+                                const vdbs_volume *volume, const vdbs_lit_grids *ms,
                                 const vdbs_scene *scene, const vdbs_camera_frame *frame,
                                 vdbs_march_options *march, vdbs_image *image,
                                 vdbs_render_report *report, vdbs_error *err)
@@ -185,8 +254,11 @@ static vdbs_status render_image(const vdbs_render_desc *d, vdbs_render_mode mode
         if (d->s1_oversample > 0)
             march->s1_oversample = d->s1_oversample;
         march->stats = &report->march_stats;
-        snprintf(report->s1, sizeof report->s1, "%s", d->s1_march ? "march" : "grid");
-        report->s1_oversample = d->s1_march                ? 0
+        snprintf(report->s1, sizeof report->s1, "%s",
+                 march->stored_depths ? "stored"
+                 : d->s1_march        ? "march"
+                                      : "grid");
+        report->s1_oversample = d->s1_march || march->stored_depths ? 0
                                 : march->s1_oversample > 0 ? march->s1_oversample
                                                            : VDBS_LIGHT_GRID_DEFAULT_OVERSAMPLE;
         report->spp = 1;
@@ -207,6 +279,21 @@ static vdbs_status input_path(const vdbs_render_desc *d, const char **input, vdb
     if (!*input || !(*input)[0])
         return vdbs_error_set(err, VDBS_ERR_INPUT,
                               "no input VDB (give IN.vdb or volume.file in --scene)");
+    return VDBS_OK;
+}
+
+/* S1 from the lit VDB's stored depths: its sky ordinates are the ones it was baked with. */
+static vdbs_status use_stored(const vdbs_render_desc *d, vdbs_render_input *in, vdbs_error *err)
+{
+    if (d->s1_march || d->s1_oversample > 0)
+        return vdbs_error_set(err, VDBS_ERR_INPUT,
+                              "--s1 applies to --relight: this lit VDB stores the optical depths "
+                              "to its lights");
+    in->stored = 1;
+    in->march.stored_depths = 1;
+    int sky = in->ms.depth_count - in->ms.depth_direct;
+    if (sky > 0)
+        in->march.sky_directions = sky;
     return VDBS_OK;
 }
 
@@ -252,7 +339,9 @@ vdbs_status vdbs_render_open(const vdbs_render_desc *d, vdbs_render_input *in, v
             st = vdbs_error_set(err, VDBS_ERR_INPUT,
                                 "no lights: give --sun, --point or --env (or a --scene)");
         if (st == VDBS_OK && in->mode == VDBS_RENDER_BAKED)
-            st = vdbs_ms_grids_load(lit, in->volume.index_to_world, &in->ms, err);
+            st = vdbs_lit_grids_load(lit, in->volume.index_to_world, !d->relight, &in->ms, err);
+        if (st == VDBS_OK && in->ms.depth_count > 0)
+            st = use_stored(d, in, err);
     }
     if (lit)
         vdbio_lit_close(lit);
@@ -265,7 +354,7 @@ vdbs_status vdbs_render_open(const vdbs_render_desc *d, vdbs_render_input *in, v
 
 void vdbs_render_input_free(vdbs_render_input *in)
 {
-    vdbs_ms_grids_free(&in->ms);
+    vdbs_lit_grids_free(&in->ms);
     vdbs_volume_free(&in->volume);
     free(in->scene);
     memset(in, 0, sizeof *in);

@@ -115,7 +115,7 @@ vdbs_status vdbs_single_scatter_grids(vdbs_runner *runner, const vdbs_volume *vo
                                       vdbs_s1_stats *stats, vdbs_progress *progress,
                                       vdbs_error *err)
 {
-    vdbs_s1_outputs out = {radiance, NULL, NULL, NULL, NULL};
+    vdbs_s1_outputs out = {radiance, NULL, NULL, NULL, NULL, NULL};
     return vdbs_single_scatter_grids_out(runner, volume, scene, lights, grids, &out, stats,
                                          progress, err);
 }
@@ -159,7 +159,10 @@ vdbs_status vdbs_single_scatter_grids_out(vdbs_runner *runner, const vdbs_volume
         if (st != VDBS_OK)
             break;
         double t0 = omp_get_wtime();
-        st = vdbs_light_grids_lookup_voxels(runner, volume, &set, 0, depth, err);
+        if (out->light_grid)
+            st = out->light_grid(out->light_user, d, &set, err);
+        if (st == VDBS_OK)
+            st = vdbs_light_grids_lookup_voxels(runner, volume, &set, 0, depth, err);
         if (st == VDBS_OK)
             add_light(volume, lights, d, depth, scene->g, wo, fluence, view, flux);
         if (st == VDBS_OK && out->light_depth)

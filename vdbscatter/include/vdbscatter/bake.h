@@ -15,6 +15,13 @@
 extern "C" {
 #endif
 
+/* What a lit VDB stores beyond radiance and the multiple scattering (docs/lit-vdb.md). */
+typedef enum vdbs_bake_store {
+    VDBS_STORE_DEFAULT = 0, /* lights */
+    VDBS_STORE_LIGHTS,      /* the optical depth toward every light and sky ordinate */
+    VDBS_STORE_NONE         /* nothing more: renders relight the single scattering */
+} vdbs_bake_store;
+
 typedef struct vdbs_bake_options {
     const char *input;       /* density VDB; scene->volume_file when NULL */
     const char *output;      /* lit VDB */
@@ -25,6 +32,7 @@ typedef struct vdbs_bake_options {
     int s1_oversample; /* light-grid samples per smallest voxel; 0 = the default */
     int from_levelset;
     int half;
+    vdbs_bake_store store;
     int progress; /* show progress on stderr */
     /* For a solver with state (solver.h; svd: the radiance moments, grids svd_m0000 ...):
      * write it into the lit VDB with keep_state, start from a lit VDB's with warm_start */
@@ -66,6 +74,8 @@ typedef struct vdbs_bake_report {
     double seconds_write;
     double seconds_total;
     float radiance_max[3]; /* per channel, over output voxels */
+    /* The stored depths written (light_depth_*, then sky_depth_*; 0 with --store none). */
+    int stored_direct, stored_sky;
     double density_scale;  /* as used: auto:TAU resolved against the volume */
     vdbs_advice advice;    /* mean optical depth, estimated multiple/single ratio */
 } vdbs_bake_report;

@@ -96,6 +96,30 @@ vdbs_status vdbs_light_grids_fit(vdbs_runner *runner, const vdbs_light_grids *gr
 /* Columns n0 x n1 and samples per column n2 of grid `grid`. */
 void vdbs_light_grids_shape(const vdbs_light_grids *grids, int grid, int n[3]);
 
+/* A light grid's samples as a sparse grid of their own (a lit VDB's stored depths,
+ * docs/lit-vdb.md): sample k of column (i, j) at (i, j, k), so that trilinear interpolation in
+ * (i, j, k) is the lookup's rule (bilinear across columns, linear along them). A directional
+ * grid comes with the affine map from (i, j, k) to the volume's index space; a radial grid's
+ * (i, j, k) are (octahedral texel, texel, shell), with its texels across and shell radii.
+ * Kept: every sample whose value is not 0 and that an interpolation can reach, i.e. each
+ * column from its first stored sample to one past the last that any column around it stores
+ * (its constant tail as far as theirs reaches). */
+typedef struct vdbs_light_grid_samples {
+    int32_t *coords; /* (i, j, k) per sample */
+    float *values;
+    size_t count;
+    double to_index[3][4]; /* directional: (i, j, k, 1) -> the volume's index space */
+    int radial;            /* 1: a point light's radial grid */
+    int texels;            /* radial: texels across the octahedral map */
+    float *radii;          /* radial: the shells' radii (world), `shells` of them */
+    int shells;
+} vdbs_light_grid_samples;
+
+/* Errors: out of memory. */
+vdbs_status vdbs_light_grids_samples(const vdbs_light_grids *grids, int grid,
+                                     vdbs_light_grid_samples *out, vdbs_error *err);
+void vdbs_light_grid_samples_free(vdbs_light_grid_samples *samples);
+
 /* Sample k of column (i, j) of grid `grid`: the swept optical depth as stored. */
 float vdbs_light_grids_sample(const vdbs_light_grids *grids, int grid, int i, int j, int k);
 

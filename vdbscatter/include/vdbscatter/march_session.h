@@ -45,6 +45,10 @@ typedef struct vdbs_march_options {
      * per light and sky ordinate per camera sample; 1 by the exact march (the oracle). */
     int s1_march;
     int s1_oversample; /* light-grid oversampling; 0 = the default */
+    /* 1: S1 from the lit VDB's stored depths (vdbs_lit_grids.depth, one per light of the
+     * scene's light table) instead of light grids swept here; ignored without them. Only
+     * vdbs_march_session_create reads it: a new scene is swept (vdbs_march_session_set_scene). */
+    int stored_depths;
     /* The viewer's knobs (0 for `render`): interleaved sampling over M x M pixel blocks
      * (2..VDBS_MAX_INTERLEAVE; 0 or 1 off): every pixel evaluates S on 1/M^2 of the
      * segments, its own phase (shaders/vs_render.h), and the gather pass
@@ -71,14 +75,15 @@ typedef struct vdbs_render_stats {
 
 /* The kernel's render table (4 floats per entry, layout in shaders/vs_render.h), *data
  * malloc'd. ms may be NULL. Errors: bad options, grids beyond the 2^36-byte offset range. */
-vdbs_status vdbs_render_table(const vdbs_volume *volume, const vdbs_ms_grids *ms,
+vdbs_status vdbs_render_table(const vdbs_volume *volume, const vdbs_lit_grids *ms,
                               const vdbs_camera_frame *frame, const vdbs_march_options *options,
                               float **data, size_t *entries, vdbs_error *err);
 
 /* The buffer both paths read: the density grid at byte 0 followed by ms, l1x, l1y, l1z
- * (when ms is not NULL and set). When there are no ms grids, *buffer is volume->nano and
- * *owned is 0; otherwise a new allocation that the caller frees. */
-vdbs_status vdbs_render_buffer(const vdbs_volume *volume, const vdbs_ms_grids *ms,
+ * (when set) and the stored depths (grids may be NULL). When there are none of these,
+ * *buffer is volume->nano and *owned is 0; otherwise a new allocation that the caller
+ * frees. */
+vdbs_status vdbs_render_buffer(const vdbs_volume *volume, const vdbs_lit_grids *ms,
                                uint32_t **buffer, size_t *size, int *owned, vdbs_error *err);
 
 #define VDBS_MAX_INTERLEAVE 4
@@ -92,7 +97,7 @@ typedef struct vdbs_march_session vdbs_march_session;
 
 /* options: sky_directions, s1_march, s1_oversample and stats (light grids) are read here. */
 vdbs_status vdbs_march_session_create(vdbs_runner *runner, const vdbs_volume *volume,
-                                      const vdbs_ms_grids *ms, const vdbs_scene *scene,
+                                      const vdbs_lit_grids *ms, const vdbs_scene *scene,
                                       const vdbs_march_options *options, vdbs_march_session **out,
                                       vdbs_error *err);
 /* The occluders' shadow maps (shaders/vs_shadow.h layout; entry k for the light table's
@@ -112,7 +117,8 @@ typedef struct vdbs_march_tables {
     size_t light_grid_words;
 } vdbs_march_tables;
 void vdbs_march_session_tables(const vdbs_march_session *session, vdbs_march_tables *out);
-/* New lights or medium (a moved sun): the light table and light grids are rebuilt. */
+/* New lights or medium (a moved sun): the light table and light grids are rebuilt, by
+ * sweeping (a lit VDB's stored depths no longer apply). */
 vdbs_status vdbs_march_session_set_scene(vdbs_march_session *session, const vdbs_scene *scene,
                                          vdbs_error *err);
 /* One picture, as vdbs_render_march; options: step_voxels, the viewer's knobs, gpu_units,

@@ -37,7 +37,7 @@ int vdbs_render_quality(const char *quality, vdbs_march_options *options);
  * run in passes of options->gpu_units marches per pixel (vs_pass.h). Errors: an
  * environment map (only a constant env colour is supported), a zero sun direction. */
 vdbs_status vdbs_render_march(vdbs_runner *runner, const vdbs_volume *volume,
-                              const vdbs_ms_grids *ms, const vdbs_scene *scene,
+                              const vdbs_lit_grids *ms, const vdbs_scene *scene,
                               const vdbs_camera_frame *frame, const vdbs_march_options *options,
                               vdbs_image *image, vdbs_error *err);
 
@@ -78,6 +78,11 @@ typedef struct vdbs_render_desc {
     int gpu_units;             /* see vdbs_march_options */
     int s1_march;              /* single/baked: 1 marches to the lights (vdbs_march_options) */
     int s1_oversample;         /* light-grid oversampling; 0 = the default */
+    /* baked mode: 0 renders the lit VDB as baked, S1 from its stored depths when it has them
+     * (docs/lit-vdb.md), and refuses settings that change its lights or medium; 1 relights
+     * it: S1 from light grids swept for the scene as given (flags on top of the baked one),
+     * Sms as baked. */
+    int relight;
     /* reference mode */
     int spp;           /* default 64 (4 with time_limit) */
     double time_limit; /* seconds; 0 = one round of spp */
@@ -106,7 +111,8 @@ typedef struct vdbs_render_report {
     vdbs_camera camera;  /* as used */
     double camera_up[3]; /* the frame's up */
     double seconds_load, seconds_render, seconds_write, seconds_total;
-    /* single/baked: "grid" or "march", the grids' oversampling (0 for march), their sizes,
+    /* single/baked: "stored" (the lit VDB's depths), "grid" or "march", the grids'
+     * oversampling (0 for stored and march), their sizes,
      * and the render split into the sweeps and the camera rays */
     char s1[8];
     int s1_oversample;
@@ -122,10 +128,11 @@ vdbs_status vdbs_render(const vdbs_render_desc *desc, vdbs_render_report *report
 typedef struct vdbs_render_input {
     vdbs_render_mode mode; /* never DEFAULT */
     int is_lit;
+    int stored; /* S1 from the lit VDB's stored depths (march.stored_depths) */
     char baked_method[32]; /* a lit VDB's bake method ("pop", ...); "" otherwise */
     vdbs_scene *scene;
     vdbs_volume volume;
-    vdbs_ms_grids ms;
+    vdbs_lit_grids ms;
     vdbs_camera camera;
     vdbs_march_options march;
 } vdbs_render_input;

@@ -42,6 +42,10 @@ vdbs_status vdbs_single_scatter_grids(vdbs_runner *runner, const vdbs_volume *vo
 /* Called once per light (direct lights, then sky ordinates) with the optical depth toward it
  * at every output voxel. */
 typedef void (*vdbs_s1_light_fn)(void *user, int light, const float *depth);
+/* Called once per light, before vdbs_s1_light_fn, with its light grid (a set of one). Returns
+ * a status: an error stops the pass. */
+typedef vdbs_status (*vdbs_s1_grid_fn)(void *user, int light, const vdbs_light_grids *grid,
+                                       vdbs_error *err);
 
 /* What the light-grid S1 pass writes, 3 floats per output voxel unless said; each may be
  * NULL. */
@@ -56,6 +60,7 @@ typedef struct vdbs_s1_outputs {
      * scattering); NULL: none. */
     vdbs_s1_light_fn light_depth;
     void *light_user;
+    vdbs_s1_grid_fn light_grid; /* NULL: none; called with light_user */
 } vdbs_s1_outputs;
 
 /* The same pass writing any of the outputs. */

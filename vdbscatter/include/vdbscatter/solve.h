@@ -38,6 +38,10 @@ typedef struct vdbs_solve {
     float *ms_l1[3];      /* first moment of Sms, x / y / z components per channel */
     float *radiance_view; /* S1 toward the scene's camera (camera_radiance.h), NULL without one; the
                              bake adds Sms toward it after the solver */
+    /* Per light of the table (direct lights, then sky ordinates), zeroed: vdbs_solve_s1 fills
+     * it with the samples of that light's light grid (the lit VDB's stored depths). NULL: not
+     * kept. */
+    vdbs_light_grid_samples *light_depths;
     /* (ms and ms_l1 alias one array when the solver's writes_ms is 0) */
 } vdbs_solve;
 

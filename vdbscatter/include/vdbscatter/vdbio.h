@@ -118,6 +118,18 @@ typedef struct vdbio_vec3_grid {
     const float *values; /* 3 floats per coordinate, aligned with vdbio_write_request.coords */
 } vdbio_vec3_grid;
 
+/* A float grid: on the request's coordinates and the density's transform, or on its own. */
+typedef struct vdbio_float_grid {
+    const char *name;
+    const float *values; /* 1 float per coordinate */
+    const int32_t *coords; /* its own voxels (3 ints each); NULL: the request's coords */
+    size_t coord_count;
+    const vdbio_transform *transform; /* its own index-to-world map; NULL: the density's */
+    /* 1: saved as half floats whatever the request's `half`; values are rounded to half
+     * before the write, so the file reads back exactly what the caller is told it holds. */
+    int half;
+} vdbio_float_grid;
+
 /* String metadata (file-level unless noted). Values are written as OpenVDB string metadata. */
 typedef struct vdbio_meta {
     const char *key;
@@ -130,6 +142,8 @@ typedef struct vdbio_write_request {
     size_t coord_count;
     const vdbio_vec3_grid *vec3_grids;
     int vec3_grid_count;
+    const vdbio_float_grid *float_grids; /* after the vec3 grids */
+    int float_grid_count;
     const vdbio_meta *file_meta; /* written on the file and on every grid */
     int file_meta_count;
     int half; /* store as half floats; values beyond 65504 are clamped with a warning */
@@ -174,6 +188,9 @@ vdbs_status vdbio_lit_float(const vdbio_lit *lit, const char *grid, const int ij
  * Errors: no such grid, not a vec3s grid (VDBS_ERR_INPUT). */
 vdbs_status vdbio_lit_vec3_nanovdb(const vdbio_lit *lit, const char *grid, void **buffer,
                                    size_t *size, vdbs_error *err);
+/* The same for a float grid of the file (a NanoVDB float grid). */
+vdbs_status vdbio_lit_float_nanovdb(const vdbio_lit *lit, const char *grid, void **buffer,
+                                    size_t *size, vdbs_error *err);
 /* Transform of a grid of the file. */
 vdbs_status vdbio_lit_transform(const vdbio_lit *lit, const char *grid, vdbio_transform *out,
                                 vdbs_error *err);
