@@ -307,6 +307,8 @@ int cmd_render(int argc, char **argv)
                                         : cli_fail("render", st, err.message);
     }
 
+    if (r.relight && strcmp(rep.mode, "baked") != 0)
+        warn_line(quiet, "%s applies to a lit VDB only; ignored", "--relight");
     if (cli_flag(&args, "--json")) {
         print_json(input, &r, &rep);
     } else if (!quiet) {

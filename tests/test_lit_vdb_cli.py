@@ -140,13 +140,15 @@ class Refusals(Base):
     def test_s1_flags_and_relight_misuse(self):
         lit = self.bake("cloud", "--method", "single")
         out = self.path("x.exr")
-        for args in ([lit, "--s1", "march"], [lit, "--relight", "--mode", "single"],
-                     [sample("cloud.vdb"), "--scene", sample("cloud.json"), "--relight"]):
+        for args in ([lit, "--s1", "march"], [lit, "--relight", "--mode", "single"]):
             with self.subTest(args=args):
                 p = run("render", *args, "-o", out, "--size", "8x6")
                 self.assertEqual(p.returncode, 2, p.stderr)
                 self.assertEqual(len(p.stderr.strip().splitlines()), 1, p.stderr)
                 self.assertFalse(os.path.exists(out))
+        p = run("render", sample("cloud.vdb"), "--scene", sample("cloud.json"), "--relight", "-o", out,
+                "--size", "8x6", check=0)
+        self.assertIn("--relight applies to a lit VDB only", p.stderr)
         p = run("bake", sample("cloud.vdb"), "--scene", sample("cloud.json"), "--store", "some",
                 "-o", self.path("y.vdb"))
         self.assertEqual(p.returncode, 2)

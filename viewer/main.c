@@ -172,9 +172,11 @@ typedef struct viewer {
     float step_scale; /* [ and ] */
     int show_single, show_multiple;
     int ms_stale;
+    int relit; /* the light moved: S1 from swept light grids, no longer the stored depths */
     int dirty;
     double last_input;
     double frame_ms;
+    double open_ms; /* loading, the window and the session: before the first frame starts */
     double centre[3];
     int dragging; /* 0, 1 orbit, 2 pan, 3 light */
     double drag_x, drag_y;
@@ -280,6 +282,10 @@ static void light_moved(viewer *v, double yaw, double pitch)
     if (!view_light_turn(v->in.scene, 0, v->centre, yaw, pitch))
         return;
     vdbs_error err;
+    /* The lit VDB's stored depths were for the baked light: from here on they are swept. */
+    if (v->march.stored_depths && !v->relit)
+        snprintf(v->message, sizeof v->message, "the light moved: relighting single scattering");
+    v->relit = 1;
     if (vdbs_march_session_set_scene(v->session, v->in.scene, &err) != VDBS_OK ||
         update_shadows(v, &err) != VDBS_OK)
         snprintf(v->message, sizeof v->message, "%s", err.message);
@@ -624,6 +630,10 @@ static vdbs_status viewer_open(viewer *v, const view_args *a, GLFWwindow **windo
     v->orbit_home = v->orbit;
     volume_centre(&v->in.volume, v->centre);
     v->march = v->in.march;
+    /* Occluders' surfaces are lit through swept light grids (the stored depths are the
+     * render kernel's only), so a scene with occluders sweeps as before. */
+    if (v->in.scene->occluder_count > 0)
+        v->march.stored_depths = 0;
     v->march.s1_march = a->desc.s1_march;
     if (a->desc.s1_oversample > 0) /* else the quality's, as render */
         v->march.s1_oversample = a->desc.s1_oversample;
@@ -709,10 +719,12 @@ static vdbs_status run_screenshot(viewer *v, GLFWwindow *window, const view_args
         st = vdbs_image_write(a->screenshot, &v->image, v->exposure, err);
     double mean_ms = a->warmup > 1 ? rest_ms / (double)(a->warmup - 1) : first_ms;
     if (st == VDBS_OK && a->json) {
-        printf("{\"width\": %d, \"height\": %d, \"frames\": %ld, \"first_frame_ms\": %.3f, "
-               "\"frame_ms\": %.3f, \"backend\": \"%s\", \"renderer\": \"%s\", "
+        printf("{\"width\": %d, \"height\": %d, \"frames\": %ld, \"open_ms\": %.3f, "
+               "\"first_frame_ms\": %.3f, \"frame_ms\": %.3f, \"s1\": \"%s\", "
+               "\"backend\": \"%s\", \"renderer\": \"%s\", "
                "\"interleave\": %d, \"occluders\": %d, \"fog\": %d}\n",
-               v->image.width, v->image.height, a->warmup, first_ms, mean_ms,
+               v->image.width, v->image.height, a->warmup, v->open_ms, first_ms, mean_ms,
+               v->march.stored_depths ? "stored" : v->march.s1_march ? "march" : "grid",
                vdbs_runner_backend_name(v->runner), vdbs_runner_device(v->runner),
                v->interleave_on ? v->interleave : 1, v->occluders.count, v->march_fog.fog != NULL);
     } else if (st == VDBS_OK && !a->quiet) {
@@ -807,6 +819,9 @@ int main(int argc, char **argv)
     a.desc.input = v->input;
     a.desc.scene = scene;
     a.desc.scene_set = cli_scene_flags(&args);
+    /* Scene flags or a scene file on a lit VDB relight it, with its multiple scattering shown
+     * as stale (b re-bakes); without them the first frame comes from its stored depths. */
+    a.desc.relight = (a.desc.scene_set & ~(unsigned)VDBS_SCENE_SET_QUALITY) != 0;
     a.desc.warn = cli_warn;
     a.desc.warn_user = &a.quiet;
     if (a.screenshot && (st = vdbio_check_output(a.screenshot, v->input, &err)) != VDBS_OK) {
@@ -815,7 +830,9 @@ int main(int argc, char **argv)
         return fail(st, err.message);
     }
     GLFWwindow *window = NULL;
+    double t_open = now();
     st = viewer_open(v, &a, &window, &err);
+    v->open_ms = 1e3 * (now() - t_open);
     /* Light flags on a lit VDB: its multiple scattering belongs to the baked lights. */
     if (st == VDBS_OK)
         v->ms_stale = v->in.mode == VDBS_RENDER_BAKED && (a.desc.scene_set & VDBS_SCENE_SET_LIGHTS);

@@ -163,13 +163,6 @@ static vdbs_status resolve_scene(const vdbs_render_desc *d, const char *input, v
     *mode = d->mode != VDBS_RENDER_DEFAULT ? d->mode
             : *is_lit                      ? VDBS_RENDER_BAKED
                                            : VDBS_RENDER_SINGLE;
-    if (d->relight && !*is_lit) {
-        free(baked);
-        return vdbs_error_set(err, VDBS_ERR_INPUT,
-                              "--relight needs a lit VDB written by vdbscatter bake ('%s' is not "
-                              "one)",
-                              input);
-    }
     if (*mode == VDBS_RENDER_BAKED && !*is_lit) {
         free(baked);
         return vdbs_error_set(err, VDBS_ERR_INPUT,
