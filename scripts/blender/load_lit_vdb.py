@@ -124,10 +124,15 @@ def parse_args(argv):
     p.add_argument("--background", choices=("scene", "black"), default="scene",
                    help="full mode: what camera rays see behind the volume (default: the "
                         "scene's sky, as vdbscatter render shows it; it lights nothing)")
+    p.add_argument("--env-file", help="the scene's env map (default: its stored path, from the "
+                   "current folder or beside the lit VDB)")
     p.add_argument("--step-rate", type=float, default=1.0,
                    help="Cycles' volume step rate (ray-marching step in voxels; default 1)")
     p.add_argument("--volume-bounces", type=int, default=0,
                    help="ms and single modes: Cycles' volume bounces (default 0: single scattering)")
+    p.add_argument("--no-half-voxel-shift", dest="half_voxel_shift", action="store_false",
+                   help="keep the object at the file's transform (Cycles then shows the volume "
+                        "half a voxel off; for checking the shift)")
     p.add_argument("--threads", type=int, default=0, help="render threads (0: all)")
     p.add_argument("--save-blend", help="also save the built scene as a .blend file")
     p.add_argument("--print-meta", action="store_true", help="print the metadata and exit")
@@ -334,7 +339,17 @@ def env_light(info):
     return None
 
 
-def build_world(bpy, info, vdb_path, lights_volume):
+def find_env_file(name, vdb_path):
+    """The scene stores the env map's path as the bake was given it: try it from the current
+    folder, then beside the lit VDB (the path, then its file name)."""
+    here = os.path.dirname(os.path.abspath(vdb_path))
+    for path in (name, os.path.join(here, name), os.path.join(here, os.path.basename(name))):
+        if os.path.exists(path):
+            return os.path.abspath(path)
+    raise SystemExit(f"load_lit_vdb: cannot find the env map {name!r} of the baked scene: give --env-file")
+
+
+def build_world(bpy, info, vdb_path, lights_volume, env_file=None):
     """The scene's sky as the world: a constant colour, or a lat-long map looked up in
     vdbscatter's convention (+Y up; direction (sin lon cos lat, sin lat, cos lon cos lat);
     pixel x at longitude -2 pi (x / (W - 1) - 1/2), row y at latitude -pi (y / (H - 1) - 1/2),
@@ -352,10 +367,7 @@ def build_world(bpy, info, vdb_path, lights_volume):
     if env is None:
         bg.inputs["Color"].default_value = (0.0, 0.0, 0.0, 1.0)
     elif "file" in env and env["file"]:
-        path = env["file"]
-        if not os.path.isabs(path):
-            base = info.scene.get("_dir") or os.path.dirname(os.path.abspath(vdb_path))
-            path = os.path.join(base, path)
+        path = env_file or find_env_file(env["file"], vdb_path)
         img = bpy.data.images.load(path)
         img.colorspace_settings.name = "Linear" if "Linear" in [
             i.name for i in img.colorspace_settings.bl_rna.properties["name"].enum_items] else "Non-Color"
@@ -500,13 +512,20 @@ def build_scene(bpy, args, info):
     volume.render.space = "OBJECT"
     volume.render.step_size = 0.0       # automatic: one voxel times the step rate
     obj = bpy.data.objects.new("lit_vdb", volume)
+    # Cycles (3.4) samples voxel (i, j, k) at index (i + 1/2, j + 1/2, k + 1/2) of the grid's
+    # transform, OpenVDB (and vdbscatter) at (i, j, k): move the object back by half a voxel
+    # (measured: docs/handoff.md). Shading positions stay world positions.
+    if args.half_voxel_shift:
+        from mathutils import Vector
+        m = volume.grids["density"].matrix_object
+        obj.location = -((m @ Vector((0.5, 0.5, 0.5))) - (m @ Vector((0.0, 0.0, 0.0))))
     bpy.context.scene.collection.objects.link(obj)
     volume.materials.append(build_material(bpy, info, args.mode))
     if args.mode in ("ms", "single"):
         add_lamps(bpy, info)
-        build_world(bpy, info, args.vdb, lights_volume=True)
+        build_world(bpy, info, args.vdb, lights_volume=True, env_file=args.env_file)
     else:
-        world = build_world(bpy, info, args.vdb, lights_volume=False)
+        world = build_world(bpy, info, args.vdb, lights_volume=False, env_file=args.env_file)
         if args.background == "black":
             world.node_tree.nodes["Background"].inputs["Strength"].default_value = 0.0
     pos, tgt, fov, w, h = camera_setup(args, info)
