@@ -182,6 +182,20 @@ class BlenderHandoff(unittest.TestCase):
         # not vacuous: without the lit VDB's emission Cycles misses the multiple scattering
         self.assertGreater(single_err, ms_err + 0.1)
 
+    def test_full_mode_refuses_format_1(self):
+        """No silent picture without the depth grids: exit 2, one line naming the format."""
+        lit = self.lit
+        if any(n.startswith("light_depth_") for n in grid_names(lit)):
+            lit = self.path("format1.vdb")
+            run(EXE, "bake", os.path.join(SAMPLES, "cloud.vdb"), "--scene", os.path.join(SAMPLES, "cloud.json"),
+                "-o", lit, "--method", "single", "--store", "none", "-q")
+        out = self.path("refused.exr")
+        p = subprocess.run([BLENDER, "-b", "--factory-startup", "-noaudio", "-P", SCRIPT, "--", lit, "--mode", "full",
+                            "--out", out, "--size", "32x24", "--spp", "1"], capture_output=True, text=True, timeout=300)
+        self.assertEqual(p.returncode, 2, p.stdout[-2000:] + p.stderr[-2000:])
+        self.assertIn("format 2", p.stdout + p.stderr)
+        self.assertFalse(os.path.exists(out))
+
     def test_full_mode_against_baked_render(self):
         names = grid_names(self.lit)
         if not any(n.startswith("light_depth_") for n in names):
