@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # Installs every Debian 12 package vdbscatter needs to build, test, run and bench (plots).
 # Safe to run again: apt-get skips what is already installed.
+# --blender also installs Blender (large; for tests/test_blender.py and docs/handoff.md).
 set -euo pipefail
 
 packages=(
@@ -11,6 +12,12 @@ packages=(
   liblapacke-dev libopenblas0-pthread libcjson-dev libcmocka-dev
   python3-matplotlib
 )
+for arg in "$@"; do
+  case "$arg" in
+    --blender) packages+=(blender) ;;
+    *) echo "usage: scripts/setup.sh [--blender]" >&2; exit 2 ;;
+  esac
+done
 
 missing=()
 for p in "${packages[@]}"; do
