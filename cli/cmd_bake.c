@@ -1,4 +1,4 @@
-/* vdbscatter bake IN.vdb -o OUT.vdb: light a density volume and write a lit VDB. */
+/* vdbscatter bake IN.vdb -o OUT.vdb|OUT.nvdb: light a density volume and write a lit VDB. */
 #define _POSIX_C_SOURCE 200809L
 #include <stdio.h>
 #include <stdlib.h>
@@ -19,7 +19,7 @@
 #include "vdbscatter/scene_file.h"
 
 static const char help[] =
-    "usage: vdbscatter bake IN.vdb -o OUT.vdb [options]\n"
+    "usage: vdbscatter bake IN.vdb -o OUT.vdb|OUT.nvdb [options]\n"
     "\n"
     "Computes the in-scattered radiance of sun, point and sky lights in a density\n"
     "volume and writes a lit VDB with grids density, radiance, ms, ms_l1x, ms_l1y,\n"
@@ -51,7 +51,9 @@ static const char help[] =
     "                           its D and N)\n"
     "\n"
     "other options:\n"
-    "  -o, --output FILE        lit VDB to write (refused if equal to the input)\n"
+    "  -o, --output FILE        lit VDB to write (refused if equal to the input): FILE.vdb\n"
+    "                           (OpenVDB) or FILE.nvdb (NanoVDB, the same grids as float /\n"
+    "                           Vec3f, plus FILE.nvdb.json holding the metadata)\n"
     "  --backend auto|cpu|gpu   auto: a hardware GPU if EGL finds one, else the C "
     "path\n" CLI_S1_HELP
     "  --from-levelset          convert a level set to a fog volume instead of refusing it\n"
@@ -190,9 +192,9 @@ int cmd_bake(int argc, char **argv)
     vdbs_scene scene;
     struct stat out_stat;
     int out_is_dir = stat(out, &out_stat) == 0 && S_ISDIR(out_stat.st_mode);
-    if (!out_is_dir && !cli_has_extension(out, ".vdb")) /* a folder: the write says so */
-        return cli_fail("bake", 2,
-                        "-o: a lit VDB is written as OpenVDB: give a name ending in .vdb");
+    /* a folder: the write says so */
+    if (!out_is_dir && !cli_has_extension(out, ".vdb") && !cli_has_extension(out, ".nvdb"))
+        return cli_fail("bake", 2, "-o: expected .vdb or .nvdb");
     /* Lights are checked after the input file and grid (vdbs_bake), so that a missing file is
      * not reported as a missing light. */
     if ((st = cli_build_scene(&args, &scene, 1, &err)) != VDBS_OK)

@@ -214,9 +214,9 @@ class HelpAndFlags(Base):
         for value in ["0", "-1", "x", "nan"]:
             self.assert_bad_input(["info", cloud, "--target-depth", value], "--target-depth",
                                   output=None)
-        # A lit VDB is OpenVDB: another extension is refused, and nothing is written.
-        self.assert_bad_input(["bake", cloud, "-o", self.path("x.nvdb"), "--sun", "0,-1,0"],
-                              ".vdb", output="x.nvdb")
+        # A lit VDB is OpenVDB or NanoVDB: another extension is refused, and nothing is written.
+        self.assert_bad_input(["bake", cloud, "-o", self.path("x.vdb.txt"), "--sun", "0,-1,0"],
+                              "-o: expected .vdb or .nvdb", output="x.vdb.txt")
         help_text = run("bake", "--help", check=0).stdout
         self.assertNotIn("%%", help_text)
         self.assertNotIn("inet", help_text)

@@ -9,6 +9,7 @@
 #include <openvdb/math/Transform.h>
 #include <openvdb/tools/LevelSetUtil.h>
 #include <openvdb/tools/Morphology.h>
+#include <nanovdb/util/IO.h>
 #include <nanovdb/util/OpenToNanoVDB.h>
 
 #include <algorithm>
@@ -193,6 +194,10 @@ uint64_t open_vdb_file(const std::string &file, std::ifstream &is)
         fail(VDBS_ERR_INPUT, format("%s: cannot open: %s", file.c_str(), strerror(errno)));
     int64_t magic = 0;
     is.read(reinterpret_cast<char *>(&magic), sizeof magic);
+    /* A NanoVDB file (a bake's .nvdb) is written, never read: say so rather than "not a VDB". */
+    if (is.gcount() == sizeof magic && static_cast<uint64_t>(magic) == NANOVDB_MAGIC_NUMBER)
+        fail(VDBS_ERR_INPUT,
+             format("%s: a NanoVDB file; only OpenVDB (.vdb) files are read", file.c_str()));
     if (is.gcount() != sizeof magic || magic != openvdb::OPENVDB_MAGIC)
         fail(VDBS_ERR_INPUT,
              format("%s: not an OpenVDB file%s", file.c_str(), size == 0 ? " (empty file)" : ""));
@@ -930,58 +935,229 @@ std::string temporary_path(const char *path)
     return dir + "." + base + ".tmp." + std::to_string(getpid());
 }
 
+/* Writes body's bytes to tmp and syncs them: the data must be on disk before a rename makes
+ * it visible. Failures throw; removing tmp is the caller's (with_temporaries). */
+template <typename F> void write_synced(const char *path, const std::string &tmp, F &&body)
+{
+    std::ofstream os(tmp, std::ios::out | std::ios::binary | std::ios::trunc);
+    if (!os)
+        fail(VDBS_ERR_IO, format("%s: cannot create %s: %s", path, tmp.c_str(), strerror(errno)));
+    body(os);
+    os.flush();
+    os.close();
+    if (os.fail())
+        fail(VDBS_ERR_IO, format("%s: writing %s failed: %s", path, tmp.c_str(), strerror(errno)));
+    const int fd = ::open(tmp.c_str(), O_RDONLY);
+    if (fd < 0 || fsync(fd) != 0) {
+        const int e = errno;
+        if (fd >= 0)
+            close(fd);
+        fail(VDBS_ERR_IO, format("%s: cannot sync %s: %s", path, tmp.c_str(), strerror(e)));
+    }
+    close(fd);
+}
+
+void rename_into_place(const char *path, const std::string &tmp, const std::string &dest)
+{
+    if (rename(tmp.c_str(), dest.c_str()) != 0)
+        fail(VDBS_ERR_IO,
+             format("%s: cannot rename %s into place: %s", path, tmp.c_str(), strerror(errno)));
+}
+
+/* Runs body; on any failure (a cancel included) every temporary file is removed, so the old
+ * outputs stay, and a library's exception becomes an output error naming the library. */
+template <typename F>
+void with_temporaries(const char *path, const std::vector<std::string> &tmps, const char *library,
+                      F &&body)
+{
+    auto remove_all = [&] {
+        for (const std::string &t : tmps)
+            unlink(t.c_str());
+    };
+    try {
+        body();
+    } catch (const Failure &) {
+        remove_all();
+        throw;
+    } catch (const std::bad_alloc &) {
+        remove_all();
+        throw;
+    } catch (const std::exception &e) {
+        remove_all();
+        fail(VDBS_ERR_IO,
+             format("%s: writing failed (%s: %s)", path, library, sanitize(e.what()).c_str()));
+    } catch (...) {
+        remove_all();
+        throw;
+    }
+}
+
 /* Writes the grids to tmp, syncs it and renames it onto path; on any failure (a cancel
  * included) tmp is removed and the old file stays. */
 void write_atomically(const char *path, const std::string &tmp, const openvdb::GridCPtrVec &grids,
                       const openvdb::MetaMap &file_meta, const vdbs_cancel *cancel)
 {
-    try {
-        std::ofstream os(tmp, std::ios::out | std::ios::binary | std::ios::trunc);
-        if (!os)
-            fail(VDBS_ERR_IO,
-                 format("%s: cannot create %s: %s", path, tmp.c_str(), strerror(errno)));
-        Writer().write_to(os, grids, file_meta);
-        os.flush();
-        os.close();
-        if (os.fail())
-            fail(VDBS_ERR_IO,
-                 format("%s: writing %s failed: %s", path, tmp.c_str(), strerror(errno)));
-        /* The data must be on disk before the rename makes it visible. */
-        const int fd = ::open(tmp.c_str(), O_RDONLY);
-        if (fd < 0 || fsync(fd) != 0) {
-            const int e = errno;
-            if (fd >= 0)
-                close(fd);
-            fail(VDBS_ERR_IO, format("%s: cannot sync %s: %s", path, tmp.c_str(), strerror(e)));
-        }
-        close(fd);
+    with_temporaries(path, {tmp}, "OpenVDB", [&] {
+        write_synced(path, tmp, [&](std::ostream &os) { Writer().write_to(os, grids, file_meta); });
         /* The write itself cannot stop midway; a cancel that came during it ends here, before
-         * the new file replaces the old one (the catch below removes the temporary file). */
+         * the new file replaces the old one. */
         if (vdbs_cancelled(cancel))
             fail(VDBS_ERR_CANCELLED, VDBS_CANCELLED_MESSAGE);
-        if (rename(tmp.c_str(), path) != 0)
-            fail(VDBS_ERR_IO,
-                 format("%s: cannot rename %s into place: %s", path, tmp.c_str(), strerror(errno)));
-    } catch (const Failure &) {
-        unlink(tmp.c_str());
-        throw;
-    } catch (const std::bad_alloc &) {
-        unlink(tmp.c_str());
-        throw;
-    } catch (const std::exception &e) {
-        unlink(tmp.c_str());
-        fail(VDBS_ERR_IO,
-             format("%s: writing failed (OpenVDB: %s)", path, sanitize(e.what()).c_str()));
-    } catch (...) {
-        unlink(tmp.c_str());
-        throw;
+        rename_into_place(path, tmp, path);
+    });
+}
+
+bool has_suffix(const char *path, const char *suffix)
+{
+    const size_t n = strlen(path), e = strlen(suffix);
+    if (n <= e || path[n - e - 1] == '/')
+        return false;
+    for (size_t i = 0; i < e; ++i) {
+        if (tolower(static_cast<unsigned char>(path[n - e + i])) !=
+            tolower(static_cast<unsigned char>(suffix[i])))
+            return false;
     }
+    return true;
+}
+
+/* The NanoVDB sidecar: the file metadata a shader needs, which NanoVDB cannot hold. */
+std::string sidecar_path(const char *path)
+{
+    return std::string(path) + ".json";
+}
+
+/* A JSON string literal; bytes >= 0x80 pass through (the values are UTF-8). */
+std::string json_string(const std::string &text)
+{
+    std::string out = "\"";
+    for (unsigned char c : text) {
+        switch (c) {
+        case '"':
+            out += "\\\"";
+            break;
+        case '\\':
+            out += "\\\\";
+            break;
+        case '\n':
+            out += "\\n";
+            break;
+        case '\t':
+            out += "\\t";
+            break;
+        case '\r':
+            out += "\\r";
+            break;
+        default:
+            if (c < 0x20)
+                out += format("\\u%04x", c);
+            else
+                out += static_cast<char>(c);
+        }
+    }
+    return out + "\"";
+}
+
+/* The .vdb's file metadata as one JSON object, key for key (every value is a string). */
+std::string metadata_json(const openvdb::MetaMap &meta)
+{
+    std::string out = "{";
+    bool first = true;
+    for (auto it = meta.beginMeta(); it != meta.endMeta(); ++it) {
+        out += first ? "\n  " : ",\n  ";
+        first = false;
+        out += json_string(it->first) + ": " + json_string(it->second->str());
+    }
+    return out + "\n}\n";
+}
+
+float half_rounded(float v)
+{
+    return static_cast<float>(openvdb::math::half(v));
+}
+
+/* A grid saved as half floats in a .vdb reads back rounded; NanoVDB stores float, so it gets
+ * the rounded values themselves (a copy: the density's tree may be the caller's). */
+FloatGrid::Ptr as_read_back(const FloatGrid &grid)
+{
+    FloatGrid::Ptr copy = grid.deepCopy();
+    if (grid.saveFloatAsHalf()) {
+        for (auto it = copy->tree().beginValueAll(); it; ++it)
+            it.setValue(half_rounded(*it));
+    }
+    return copy;
+}
+
+Vec3SGrid::Ptr as_read_back(const Vec3SGrid &grid)
+{
+    Vec3SGrid::Ptr copy = grid.deepCopy();
+    if (grid.saveFloatAsHalf()) {
+        for (auto it = copy->tree().beginValueAll(); it; ++it) {
+            const openvdb::Vec3s v = *it;
+            it.setValue(openvdb::Vec3s(half_rounded(v[0]), half_rounded(v[1]), half_rounded(v[2])));
+        }
+    }
+    return copy;
+}
+
+using NanoHandle = nanovdb::GridHandle<nanovdb::HostBuffer>;
+
+/* Each grid as NanoVDB makes it from OpenVDB (name, class and the affine map carried over):
+ * float stays float, vec3s becomes Vec3f. */
+std::vector<NanoHandle> nanovdb_grids(const std::vector<GridBase::Ptr> &all)
+{
+    std::vector<NanoHandle> handles;
+    for (const GridBase::Ptr &g : all) {
+        if (auto f = openvdb::GridBase::grid<FloatGrid>(g)) {
+            FloatGrid::Ptr h = f->saveFloatAsHalf() ? as_read_back(*f) : f;
+            handles.push_back(nanovdb::openToNanoVDB(*h));
+        } else if (auto v = openvdb::GridBase::grid<Vec3SGrid>(g)) {
+            Vec3SGrid::Ptr h = v->saveFloatAsHalf() ? as_read_back(*v) : v;
+            handles.push_back(nanovdb::openToNanoVDB(*h));
+        } else {
+            fail(VDBS_ERR_INTERNAL,
+                 format("vdbio_write: grid \"%s\" has no NanoVDB type", g->getName().c_str()));
+        }
+    }
+    return handles;
+}
+
+/* The .nvdb and its sidecar, each through its own temporary file: both are written and
+ * synced before either is renamed, the sidecar first, so that a new .nvdb never appears
+ * without its metadata; a cancel or failure before the renames leaves both old files. */
+void nvdb_write_atomically(const char *path, const std::vector<NanoHandle> &handles,
+                           const std::string &json, const vdbs_cancel *cancel)
+{
+    const std::string side = sidecar_path(path);
+    const std::string tmp = temporary_path(path), side_tmp = temporary_path(side.c_str());
+    with_temporaries(path, {tmp, side_tmp}, "NanoVDB", [&] {
+        write_synced(path, side_tmp, [&](std::ostream &os) { os << json; });
+        write_synced(path, tmp, [&](std::ostream &os) {
+            nanovdb::io::writeGrids<nanovdb::HostBuffer, std::vector>(os, handles,
+                                                                      nanovdb::io::Codec::NONE);
+        });
+        if (vdbs_cancelled(cancel))
+            fail(VDBS_ERR_CANCELLED, VDBS_CANCELLED_MESSAGE);
+        rename_into_place(path, side_tmp, side);
+        try {
+            rename_into_place(path, tmp, path);
+        } catch (...) {
+            unlink(side.c_str()); /* no sidecar without its grids */
+            throw;
+        }
+    });
 }
 
 void vdb_write(const char *path, const char *input_path, const vdbio_write_request *req)
 {
     check_write_request(path, req);
     check_output(path, input_path);
+    const bool nano = has_suffix(path, ".nvdb");
+    if (!nano && !has_suffix(path, ".vdb"))
+        fail(VDBS_ERR_INPUT, format("%s: expected a name ending in .vdb or .nvdb", path));
+    if (nano && same_file(sidecar_path(path).c_str(), input_path))
+        fail(VDBS_ERR_INPUT,
+             format("%s: refusing to overwrite the input file %s with the metadata sidecar", path,
+                    input_path));
     uint64_t clamped = 0;
     std::vector<GridBase::Ptr> all{density_for_write(req, clamped)};
     for (int g = 0; g < req->vec3_grid_count; ++g)
@@ -989,13 +1165,21 @@ void vdb_write(const char *path, const char *input_path, const vdbio_write_reque
     for (int g = 0; g < req->float_grid_count; ++g)
         all.push_back(float_for_write(req, g, all, clamped));
     const openvdb::MetaMap file_meta = file_metadata(req, all);
-    openvdb::GridCPtrVec grids;
-    for (const GridBase::Ptr &g : all)
-        grids.push_back(g);
-    const std::string tmp = temporary_path(path);
-    if (vdbs_cancelled(req->cancel))
-        fail(VDBS_ERR_CANCELLED, VDBS_CANCELLED_MESSAGE);
-    write_atomically(path, tmp, grids, file_meta, req->cancel);
+    if (nano) {
+        const std::vector<NanoHandle> handles = nanovdb_grids(all);
+        const std::string json = metadata_json(file_meta);
+        if (vdbs_cancelled(req->cancel))
+            fail(VDBS_ERR_CANCELLED, VDBS_CANCELLED_MESSAGE);
+        nvdb_write_atomically(path, handles, json, req->cancel);
+    } else {
+        openvdb::GridCPtrVec grids;
+        for (const GridBase::Ptr &g : all)
+            grids.push_back(g);
+        const std::string tmp = temporary_path(path);
+        if (vdbs_cancelled(req->cancel))
+            fail(VDBS_ERR_CANCELLED, VDBS_CANCELLED_MESSAGE);
+        write_atomically(path, tmp, grids, file_meta, req->cancel);
+    }
     if (clamped)
         warn(req->warn, req->warn_user,
              format("%s: %llu value%s beyond the half-float range clamped to +-65504", path,

@@ -1,5 +1,5 @@
 /* OpenVDB file I/O behind a C API. vdbio.cpp, one of two C++ bridges (exrmap.cpp reads
- * OpenEXR), implements this header over OpenVDB and NanoVDB's OpenToNanoVDB. */
+ * OpenEXR), implements this header over OpenVDB and NanoVDB (OpenToNanoVDB, its file IO). */
 #ifndef VDBSCATTER_VDBIO_H
 #define VDBSCATTER_VDBIO_H
 
@@ -121,7 +121,7 @@ typedef struct vdbio_vec3_grid {
 /* A float grid: on the request's coordinates and the density's transform, or on its own. */
 typedef struct vdbio_float_grid {
     const char *name;
-    const float *values; /* 1 float per coordinate */
+    const float *values;   /* 1 float per coordinate */
     const int32_t *coords; /* its own voxels (3 ints each); NULL: the request's coords */
     size_t coord_count;
     const vdbio_transform *transform; /* its own index-to-world map; NULL: the density's */
@@ -161,7 +161,14 @@ typedef struct vdbio_write_request {
 vdbs_status vdbio_check_output(const char *path, const char *input_path, vdbs_error *err);
 
 /* Writes all grids to `path` through a temporary file in the same directory
- * (".NAME.tmp.PID") that is fsync'd and renamed on success and removed on failure;
+ * (".NAME.tmp.PID") that is fsync'd and renamed on success and removed on failure.
+ * The format follows the name: ".vdb" OpenVDB; ".nvdb" NanoVDB (uncompressed, NanoVDB's
+ * writer; float grids as Float, vec3s as Vec3f, each with its name and map, values as the
+ * .vdb would read back, half-rounded where it stores halves), with the file metadata as a
+ * JSON object in "PATH.json", written and synced the same way and renamed just before the
+ * .nvdb, so that a cancel or failure leaves neither new file; any other name is
+ * VDBS_ERR_INPUT (after vdbio_check_output's checks). The .nvdb's sidecar equal to
+ * `input_path` is refused as well;
  * refuses (VDBS_ERR_INPUT) a path that is the same file as `input_path` (when not
  * NULL and existing; compared by realpath and by device/inode). vec3 grids are
  * marked as non-fog ("unknown" class) with vector type "invariant". File metadata
