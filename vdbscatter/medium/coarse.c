@@ -189,10 +189,50 @@ void vdbs_coarse_ms_values(int64_t cells, const double *phi, const double *flux,
         }
 }
 
+/* Per axis, the cells whose weights are non-zero at grid coordinate x (in cells, centres at
+ * integer + 0.5) and those weights: trilinear's 2 or the cubic B-spline's 4. Indices are
+ * clamped to the grid, so that beyond the outer centres the edge cell's value continues
+ * (a clamped cell takes the weight of the one it stands for). */
+static int axis_taps(vdbs_coarse_kernel kernel, double x, int n, int idx[4], double w[4])
+{
+    double fl = floor(x - 0.5);
+    double t = x - 0.5 - fl;
+    int i0 = (int)fl, taps;
+    if (kernel == VDBS_COARSE_TRILINEAR) {
+        idx[0] = i0;
+        idx[1] = i0 + 1;
+        w[0] = 1.0 - t;
+        w[1] = t;
+        taps = 2;
+    } else {
+        /* The uniform cubic B-spline: C2 across cell boundaries, weights >= 0 summing to 1. */
+        const double t2 = t * t, t3 = t2 * t, s = 1.0 - t;
+        for (int k = 0; k < 4; ++k)
+            idx[k] = i0 - 1 + k;
+        w[0] = s * s * s / 6.0;
+        w[1] = (3.0 * t3 - 6.0 * t2 + 4.0) / 6.0;
+        w[2] = (-3.0 * t3 + 3.0 * t2 + 3.0 * t + 1.0) / 6.0;
+        w[3] = t3 / 6.0;
+        taps = 4;
+    }
+    for (int k = 0; k < taps; ++k)
+        idx[k] = idx[k] < 0 ? 0 : (idx[k] >= n ? n - 1 : idx[k]);
+    return taps;
+}
+
 vdbs_status vdbs_coarse_upsample(const vdbs_coarse_frame *f, const double *values,
                                  const vdbs_volume *volume, const vdbs_medium_box *box,
                                  double density_scale, float *ms, float *const ms_l1[3],
                                  float *radiance, vdbs_error *err)
+{
+    return vdbs_coarse_upsample_kernel(f, values, volume, box, density_scale, VDBS_COARSE_BSPLINE,
+                                       ms, ms_l1, radiance, err);
+}
+
+vdbs_status vdbs_coarse_upsample_kernel(const vdbs_coarse_frame *f, const double *values,
+                                        const vdbs_volume *volume, const vdbs_medium_box *box,
+                                        double density_scale, vdbs_coarse_kernel kernel, float *ms,
+                                        float *const ms_l1[3], float *radiance, vdbs_error *err)
 {
     const double scale = density_scale;
     const int64_t cells = vdbs_coarse_cells(f);
@@ -218,28 +258,28 @@ vdbs_status vdbs_coarse_upsample(const vdbs_coarse_frame *f, const double *value
             double idx[3] = {co[0], co[1], co[2]}, w[3];
             vdbs_volume_world_point(volume, idx, w);
             double sv = scale * vs_density_voxel(buf, &acc, vs_coord(co[0], co[1], co[2]));
-            int i0[3];
-            double fr[3];
-            coarse_trilinear(f, w, i0, fr);
+            double rel[3] = {w[0] - f->origin[0], w[1] - f->origin[1], w[2] - f->origin[2]};
+            int at[3][4], taps[3];
+            double aw[3][4];
+            for (int a = 0; a < 3; ++a)
+                taps[a] = axis_taps(kernel, dot3(rel, f->axis[a]) / f->h, f->n[a], at[a], aw[a]);
             double out[VDBS_COARSE_WIDTH] = {0}, wsum = 0.0;
-            for (int c = 0; c < 8; ++c) {
-                int id[3];
-                double wt = 1.0;
-                for (int a = 0; a < 3; ++a) {
-                    int bit = (c >> a) & 1;
-                    id[a] = i0[a] + bit;
-                    id[a] = id[a] < 0 ? 0 : (id[a] >= f->n[a] ? f->n[a] - 1 : id[a]);
-                    wt *= bit ? fr[a] : 1.0 - fr[a];
-                }
-                if (wt == 0.0)
-                    continue;
-                int64_t at = coarse_index(f, id);
-                double dr = (guide[at] - sv) / range;
-                wt *= exp(-0.5 * dr * dr) + 1e-3;
-                wsum += wt;
-                for (int v = 0; v < VDBS_COARSE_WIDTH; ++v)
-                    out[v] += wt * values[at * VDBS_COARSE_WIDTH + v];
-            }
+            for (int k = 0; k < taps[2]; ++k)
+                for (int j = 0; j < taps[1]; ++j)
+                    for (int i = 0; i < taps[0]; ++i) {
+                        double wt = aw[0][i] * aw[1][j] * aw[2][k];
+                        if (wt == 0.0)
+                            continue;
+                        const int id[3] = {at[0][i], at[1][j], at[2][k]};
+                        int64_t c = coarse_index(f, id);
+                        /* The joint bilateral factor: cells whose medium differs from the
+                         * voxel's count less (an edge in the density is an edge in ms). */
+                        double dr = (guide[c] - sv) / range;
+                        wt *= exp(-0.5 * dr * dr) + 1e-3;
+                        wsum += wt;
+                        for (int v = 0; v < VDBS_COARSE_WIDTH; ++v)
+                            out[v] += wt * values[c * VDBS_COARSE_WIDTH + v];
+                    }
             if (!(wsum > 0.0))
                 continue;
             for (int ch = 0; ch < 3; ++ch) {
