@@ -15,6 +15,7 @@ Run with OMP_NUM_THREADS=1 on a shared machine (nothing here is timed, but the r
 long); pyopenvdb needs /usr/bin/python3."""
 import argparse
 import json
+import math
 import os
 import tempfile
 
@@ -26,7 +27,11 @@ from benchlib import run_json
 HERE = os.path.dirname(os.path.abspath(__file__))
 ROOT = os.path.dirname(HERE)
 METHODS = ["pop", "fld", "svd"]
-OFFSETS = [-3.0, -2.0, 2.0, 3.0]  # neighbouring frequencies in DFT bins of a line
+# tests/seams.c's constants: neighbouring frequencies in bins of the shortest run admitted,
+# and that run's least length in voxels and in cells.
+OFFSETS = [-3.0, -2.0, 2.0, 3.0]
+MIN_RUN = 16
+MIN_CELLS = 4.0
 
 
 def scenes(data, tmp):
@@ -53,40 +58,56 @@ def dense(grid, lo, hi):
     return arr
 
 
-def seam_ratios(lit, density_path, cell_world):
-    """tests/seams.c's measure: per index axis, power of the Hann-windowed DFT of ms luminance's
-    second difference (inside the medium) at the cell frequency over the mean at +-2, +-3 bins,
-    summed over every line of the bounding box."""
+def seam_axis(m, inside, a, cell_voxels):
+    """tests/seams.c's test_seams_dense on one index axis (the same steps, in numpy)."""
+    b, c = (a + 1) % 3, (a + 2) % 3
+    mm = np.transpose(m, (c, b, a))
+    ins = np.transpose(inside, (c, b, a))
+    n = mm.shape[2]
+    f0 = 1.0 / cell_voxels
+    shortest = max(MIN_CELLS / f0, float(MIN_RUN))
+    if f0 < 0.5:
+        shortest = max(shortest, math.floor(OFFSETS[-1] / (0.5 - f0)) + 1.0)
+    min_run = math.ceil(shortest)
+    freqs = np.array([f0] + [f0 + o / min_run for o in OFFSETS])
+    if freqs[1] <= 0.0 or freqs[-1] >= 0.5 or n < min_run + 2:
+        return 0.0
+    ok = ins[..., :-2] & ins[..., 1:-1] & ins[..., 2:]  # d2 of voxel t + 1 at index t
+    d2 = mm[..., 2:] - 2.0 * mm[..., 1:-1] + mm[..., :-2]
+    power = np.zeros(len(freqs))
+    for k in range(mm.shape[0]):
+        plane = np.zeros(len(freqs), dtype=complex)  # this plane's lines, summed in phase
+        for j in range(mm.shape[1]):
+            edges = np.diff(np.concatenate(([0], ok[k, j].astype(np.int8), [0])))
+            for s0, e0 in zip(np.flatnonzero(edges == 1), np.flatnonzero(edges == -1)):
+                length = e0 - s0
+                if length < min_run:
+                    continue
+                x = np.arange(length, dtype=np.float64)
+                y = np.abs(d2[k, j, s0:e0])
+                slope, icept = np.polyfit(x, y, 1)
+                w = 0.5 - 0.5 * np.cos(2.0 * np.pi * (x + 0.5) / length)
+                y = w * (y - icept - slope * x)
+                pos = s0 + 1 + x  # absolute voxel positions along the line
+                plane += np.exp(-2j * np.pi * np.outer(freqs, pos)) @ y
+        power += np.abs(plane) ** 2
+    nb = power[1:].mean()
+    return power[0] / nb if nb > 0.0 else 0.0
+
+
+def seam_ratios(lit, density_path, cell_world, grid="ms"):
+    """The seam ratio per index axis of a lit VDB's grid (luminance) over the medium (the
+    density grid's voxels > 0) for world cells of side cell_world."""
     dens = vdb.read(density_path, "density")
-    ms = vdb.read(lit, "ms")
+    ms = vdb.read(lit, grid)
     lo, hi = dens.evalActiveVoxelBoundingBox()
     lo = [l - 1 for l in lo]  # the output voxels: the active region dilated by one voxel
     hi = [h + 1 for h in hi]
     d = dense(dens, lo, hi)
     m = dense(ms, lo, hi) @ np.array([0.2126, 0.7152, 0.0722], dtype=np.float32)
     m = m.astype(np.float64)
-    inside = d > 0
-    voxel = np.array(dens.transform.voxelSize())
-    out = []
-    for a in range(3):
-        mm = np.moveaxis(m, a, -1)
-        ins = np.moveaxis(inside, a, -1)
-        n = mm.shape[-1]
-        d2 = np.zeros_like(mm)
-        ok = ins[..., :-2] & ins[..., 1:-1] & ins[..., 2:]
-        d2[..., 1:-1] = np.where(ok, mm[..., 2:] - 2 * mm[..., 1:-1] + mm[..., :-2], 0.0)
-        count = ok.sum(axis=-1)
-        lines = d2.reshape(-1, n)[count.reshape(-1) >= 3]
-        f0 = voxel[a] / cell_world
-        freqs = [f0] + [f0 + o / n for o in OFFSETS]
-        i = np.arange(n)
-        w = 0.5 - 0.5 * np.cos(2 * np.pi * (i + 0.5) / n)
-        power = []
-        for f in freqs:
-            basis = w * np.exp(-2j * np.pi * f * i)
-            power.append(float((np.abs(lines @ basis) ** 2).sum()))
-        out.append(power[0] / np.mean(power[1:]))
-    return out
+    voxel = dens.transform.voxelSize()
+    return [seam_axis(m, d > 0, a, cell_world / voxel[a]) for a in range(3)]
 
 
 def cell_side(report, extent):
@@ -114,11 +135,12 @@ def main():
     view = ["--size", args.size, "--backend", "cpu"]
     lines = [f"`OMP_NUM_THREADS=1 bench/bench_seams.py BUILD --before PARENT/vdbscatter --size "
              f"{args.size} --ref-spp {args.ref_spp}` (C path). Seam ratio of ms per index axis "
-             "x / y / z (bar <= 1.5); error: baked image relative RMSE against the reference "
+             "x / y / z (bar <= 1.5; ms_l1: the worst of its x, y, z grids per axis); error: baked image relative RMSE against the reference "
              "(se_b: its own noise). before: trilinear upsampling (parent commit); after: "
-             "cubic B-spline.", "",
-             "| solver | volume | cell voxels | seams before | seams after | error before | "
-             "error after | se_b |", "|---|---|---|---|---|---|---|---|"]
+             "cubic B-spline; upsample s: the solver's upsampling stage, before / after.", "",
+             "| solver | volume | cell voxels | ms seams before | ms seams after | "
+             "ms_l1 seams before | ms_l1 seams after | error before | error after | se_b | "
+             "upsample s |", "|---|---|---|---|---|---|---|---|---|---|---|"]
     for title, scene in scenes(args.data, tmp):
         ref = os.path.join(cache, f"ref-{os.path.basename(scene)}-{args.size}-{args.ref_spp}.exr")
         if not os.path.exists(ref):
@@ -141,12 +163,16 @@ def main():
                 ext = max((h - l + 2) * v
                           for l, h, v in zip(lo, hi, dens.transform.voxelSize()))
                 cell = cell_side(rep, ext)
+                l1 = [seam_ratios(lit, density, cell, g) for g in ("ms_l1x", "ms_l1y", "ms_l1z")]
                 row[label] = (seam_ratios(lit, density, cell), cmp["relrmse"], cmp["se_b"],
-                              cell / dens.transform.voxelSize()[0])
+                              cell / dens.transform.voxelSize()[0],
+                              rep["seconds"].get(f"{method}_upsample", 0.0),
+                              [max(r[a] for r in l1) for a in range(3)])
             b, a = row["before"], row["after"]
             fmt = lambda r: " / ".join(f"{x:.2f}" for x in r)
             line = (f"| {method} | {title} | {a[3]:.2f} | {fmt(b[0])} | {fmt(a[0])} | "
-                    f"{b[1]:.4f} | {a[1]:.4f} | {a[2]:.4f} |")
+                    f"{fmt(b[5])} | {fmt(a[5])} | {b[1]:.4f} | {a[1]:.4f} | {a[2]:.4f} | "
+                    f"{b[4]:.2f} / {a[4]:.2f} |")
             lines.append(line)
             print(line, flush=True)
     with open(args.out, "w") as fh:
