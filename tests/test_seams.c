@@ -148,14 +148,17 @@ static void test_upsample_kernels(void **state)
             for (int v = 0; v < VDBS_COARSE_WIDTH; ++v)
                 values[c * VDBS_COARSE_WIDTH + v] = field == 0 ? 0.25 : ripple(&f, w);
         }
-        for (int k = 0; k < 2; ++k) {
-            const vdbs_coarse_kernel kernel = k ? VDBS_COARSE_TRILINEAR : VDBS_COARSE_BSPLINE;
+        for (int k = 0; k < 3; ++k) {
+            const vdbs_coarse_kernel kernels[3] = {VDBS_COARSE_BSPLINE, VDBS_COARSE_BSPLINE_INTERP,
+                                                   VDBS_COARSE_TRILINEAR};
+            const char *names[3] = {"B-spline", "interpolating B-spline", "trilinear"};
+            const vdbs_coarse_kernel kernel = kernels[k];
             memset(ms, 0, sizeof *ms * 3 * n);
             memset(radiance, 0, sizeof *radiance * 3 * n);
             for (int a = 0; a < 3; ++a)
                 memset(l1[a], 0, sizeof(float) * 3 * n);
-            assert_int_equal(vdbs_coarse_upsample_kernel(&f, values, &volume, &box, 20.0, kernel,
-                                                         ms, l1, radiance, &err),
+            assert_int_equal(vdbs_coarse_upsample(&f, values, &volume, &box, 20.0, kernel, ms, l1,
+                                                  radiance, &err),
                              VDBS_OK);
             if (field == 0) {
                 /* The weights are renormalised: a constant stays that constant. */
@@ -168,10 +171,10 @@ static void test_upsample_kernels(void **state)
             test_seams s;
             test_seams_measure(&volume, ms, f.h, &s);
             for (int a = 0; a < 3; ++a)
-                print_message("%s, axis %d: ratio %.3f at %.2f voxels per cell\n",
-                              k ? "trilinear" : "B-spline", a, s.ratio[a], s.cell_voxels[a]);
+                print_message("%s, axis %d: ratio %.3f at %.2f voxels per cell\n", names[k], a,
+                              s.ratio[a], s.cell_voxels[a]);
             for (int a = 0; a < 3; ++a) {
-                if (k)
+                if (kernel == VDBS_COARSE_TRILINEAR)
                     assert_true(s.ratio[a] >= DETECT_KERNEL);
                 else
                     assert_true(s.ratio[a] > 0.0 && s.ratio[a] <= BAR);

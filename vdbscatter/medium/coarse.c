@@ -220,19 +220,52 @@ static int axis_taps(vdbs_coarse_kernel kernel, double x, int n, int idx[4], dou
     return taps;
 }
 
-vdbs_status vdbs_coarse_upsample(const vdbs_coarse_frame *f, const double *values,
-                                 const vdbs_volume *volume, const vdbs_medium_box *box,
-                                 double density_scale, float *ms, float *const ms_l1[3],
-                                 float *radiance, vdbs_error *err)
+/* In place along one line of n samples `stride` apart: the cubic B-spline's interpolation
+ * coefficients (Unser's recursive filter, pole sqrt(3) - 2, mirror boundaries), so that the
+ * spline through them passes through the samples at the cell centres. */
+static void prefilter_line(double *c, int64_t n, int64_t stride)
 {
-    return vdbs_coarse_upsample_kernel(f, values, volume, box, density_scale, VDBS_COARSE_BSPLINE,
-                                       ms, ms_l1, radiance, err);
+    if (n < 2)
+        return;
+    const double z = sqrt(3.0) - 2.0;
+    for (int64_t k = 0; k < n; ++k)
+        c[k * stride] *= 6.0; /* (1 - z)(1 - 1/z) */
+    /* The causal filter's start: the mirrored sequence summed exactly. */
+    double zn = z, z2n = pow(z, (double)(n - 1));
+    double sum = c[0] + z2n * c[(n - 1) * stride];
+    z2n *= z2n / z;
+    for (int64_t k = 1; k < n - 1; ++k) {
+        sum += (zn + z2n) * c[k * stride];
+        zn *= z;
+        z2n /= z;
+    }
+    c[0] = sum / (1.0 - zn * zn);
+    for (int64_t k = 1; k < n; ++k)
+        c[k * stride] += z * c[(k - 1) * stride];
+    c[(n - 1) * stride] = z / (z * z - 1.0) * (z * c[(n - 2) * stride] + c[(n - 1) * stride]);
+    for (int64_t k = n - 2; k >= 0; --k)
+        c[k * stride] = z * (c[(k + 1) * stride] - c[k * stride]);
 }
 
-vdbs_status vdbs_coarse_upsample_kernel(const vdbs_coarse_frame *f, const double *values,
-                                        const vdbs_volume *volume, const vdbs_medium_box *box,
-                                        double density_scale, vdbs_coarse_kernel kernel, float *ms,
-                                        float *const ms_l1[3], float *radiance, vdbs_error *err)
+/* values' interpolation coefficients for the cubic B-spline, every channel, along x, y, z. */
+static void prefilter(const vdbs_coarse_frame *f, double *values)
+{
+    const int64_t step[3] = {VDBS_COARSE_WIDTH, (int64_t)VDBS_COARSE_WIDTH * f->n[0],
+                             (int64_t)VDBS_COARSE_WIDTH * f->n[0] * f->n[1]};
+    for (int a = 0; a < 3; ++a) {
+        const int b = (a + 1) % 3, c = (a + 2) % 3;
+#pragma omp parallel for schedule(static)
+        for (int k = 0; k < f->n[c]; ++k)
+            for (int j = 0; j < f->n[b]; ++j)
+                for (int v = 0; v < VDBS_COARSE_WIDTH; ++v)
+                    prefilter_line(values + k * step[c] + j * step[b] + v, f->n[a], step[a]);
+    }
+}
+
+vdbs_status vdbs_coarse_upsample(const vdbs_coarse_frame *f, const double *values,
+                                 const vdbs_volume *volume, const vdbs_medium_box *box,
+                                 double density_scale, vdbs_coarse_kernel kernel, float *ms,
+                                 float *const ms_l1[3], float *radiance, vdbs_error *err)
 {
     const double scale = density_scale;
     const int64_t cells = vdbs_coarse_cells(f);
@@ -248,6 +281,20 @@ vdbs_status vdbs_coarse_upsample_kernel(const vdbs_coarse_frame *f, const double
             ++count;
         }
     const double range = count > 0 ? 0.5 * sum / count : 1.0;
+    double *coef = NULL;
+    if (kernel == VDBS_COARSE_BSPLINE_INTERP) {
+        coef = malloc(sizeof *coef * (size_t)cells * VDBS_COARSE_WIDTH);
+        if (!coef) {
+            free(guide);
+            return vdbs_error_set(err, VDBS_ERR_NOMEM,
+                                  "out of memory for the upsampling coefficients");
+        }
+        memcpy(coef, values, sizeof *coef * (size_t)cells * VDBS_COARSE_WIDTH);
+        prefilter(f, coef);
+        values = coef;
+    }
+    const vdbs_coarse_kernel taps_kernel =
+        kernel == VDBS_COARSE_TRILINEAR ? VDBS_COARSE_TRILINEAR : VDBS_COARSE_BSPLINE;
     pnanovdb_buf_t buf = pnanovdb_make_buf(volume->nano, volume->nano_size / 4);
 #pragma omp parallel
     {
@@ -262,7 +309,8 @@ vdbs_status vdbs_coarse_upsample_kernel(const vdbs_coarse_frame *f, const double
             int at[3][4], taps[3];
             double aw[3][4];
             for (int a = 0; a < 3; ++a)
-                taps[a] = axis_taps(kernel, dot3(rel, f->axis[a]) / f->h, f->n[a], at[a], aw[a]);
+                taps[a] =
+                    axis_taps(taps_kernel, dot3(rel, f->axis[a]) / f->h, f->n[a], at[a], aw[a]);
             double out[VDBS_COARSE_WIDTH] = {0}, wsum = 0.0;
             for (int k = 0; k < taps[2]; ++k)
                 for (int j = 0; j < taps[1]; ++j)
@@ -283,7 +331,8 @@ vdbs_status vdbs_coarse_upsample_kernel(const vdbs_coarse_frame *f, const double
             if (!(wsum > 0.0))
                 continue;
             for (int ch = 0; ch < 3; ++ch) {
-                float v = (float)(out[VDBS_COARSE_MS + ch] / wsum);
+                /* The interpolating spline overshoots next to sharp changes: ms >= 0. */
+                float v = (float)fmax(out[VDBS_COARSE_MS + ch] / wsum, 0.0);
                 ms[3 * n + ch] += v;
                 radiance[3 * n + ch] += v;
                 for (int a = 0; a < 3; ++a)
@@ -292,5 +341,6 @@ vdbs_status vdbs_coarse_upsample_kernel(const vdbs_coarse_frame *f, const double
         }
     }
     free(guide);
+    free(coef);
     return VDBS_OK;
 }
