@@ -137,7 +137,8 @@ def main():
              f"{args.size} --ref-spp {args.ref_spp}` (C path). Seam ratio of ms per index axis "
              "x / y / z (bar <= 1.5; ms_l1: the worst of its x, y, z grids per axis); error: baked image relative RMSE against the reference "
              "(se_b: its own noise). before: trilinear upsampling (parent commit); after: "
-             "cubic B-spline; upsample s: the solver's upsampling stage, before / after.", "",
+             "the B-splines (POP smoothing, FLD and SVD interpolating); upsample s: the solver's "
+             "upsampling stage, before / after.", "",
              "| solver | volume | cell voxels | ms seams before | ms seams after | "
              "ms_l1 seams before | ms_l1 seams after | error before | error after | se_b | "
              "upsample s |", "|---|---|---|---|---|---|---|---|---|---|---|"]
