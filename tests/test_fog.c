@@ -1,7 +1,7 @@
-/* The homogeneous-fog module (vdbscatter/render/fog.c, shaders/vs_fog.h): the closed-form point-light
- * spans against the brute-force quadrature of Biri's Eq. 3 over whole pinhole images (camera
- * inside the fog looking at the light, outside a fog box, with the light behind it, far away),
- * for g = 0, 0.6 and -0.6; span additivity (the shadowed sum); the sun span against its own
+/* The homogeneous-fog module (vdbscatter/render/fog.c, shaders/vs_fog.h): the closed-form
+ * point-light spans against the brute-force quadrature of Biri's Eq. 3 over whole pinhole images
+ * (camera inside the fog looking at the light, outside a fog box, with the light behind it, far
+ * away), for g = 0, 0.6 and -0.6; span additivity (the shadowed sum); the sun span against its own
  * quadrature; the surface term against a direct hemisphere integration of Eq. 8 with
  * d = infinity; Biri's Gamma against Eq. 6; the build's input checks. */
 #include "testutil.h"

@@ -189,10 +189,83 @@ void vdbs_coarse_ms_values(int64_t cells, const double *phi, const double *flux,
         }
 }
 
+/* Per axis, the cells whose weights are non-zero at grid coordinate x (in cells, centres at
+ * integer + 0.5) and those weights: trilinear's 2 or the cubic B-spline's 4. Indices are
+ * clamped to the grid, so that beyond the outer centres the edge cell's value continues
+ * (a clamped cell takes the weight of the one it stands for). */
+static int axis_taps(vdbs_coarse_kernel kernel, double x, int n, int idx[4], double w[4])
+{
+    double fl = floor(x - 0.5);
+    double t = x - 0.5 - fl;
+    int i0 = (int)fl, taps;
+    if (kernel == VDBS_COARSE_TRILINEAR) {
+        idx[0] = i0;
+        idx[1] = i0 + 1;
+        w[0] = 1.0 - t;
+        w[1] = t;
+        taps = 2;
+    } else {
+        /* The uniform cubic B-spline: C2 across cell boundaries, weights >= 0 summing to 1. */
+        const double t2 = t * t, t3 = t2 * t, s = 1.0 - t;
+        for (int k = 0; k < 4; ++k)
+            idx[k] = i0 - 1 + k;
+        w[0] = s * s * s / 6.0;
+        w[1] = (3.0 * t3 - 6.0 * t2 + 4.0) / 6.0;
+        w[2] = (-3.0 * t3 + 3.0 * t2 + 3.0 * t + 1.0) / 6.0;
+        w[3] = t3 / 6.0;
+        taps = 4;
+    }
+    for (int k = 0; k < taps; ++k)
+        idx[k] = idx[k] < 0 ? 0 : (idx[k] >= n ? n - 1 : idx[k]);
+    return taps;
+}
+
+/* In place along one line of n samples `stride` apart: the cubic B-spline's interpolation
+ * coefficients (Unser's recursive filter, pole sqrt(3) - 2, mirror boundaries), so that the
+ * spline through them passes through the samples at the cell centres. */
+static void prefilter_line(double *c, int64_t n, int64_t stride)
+{
+    if (n < 2)
+        return;
+    const double z = sqrt(3.0) - 2.0;
+    for (int64_t k = 0; k < n; ++k)
+        c[k * stride] *= 6.0; /* (1 - z)(1 - 1/z) */
+    /* The causal filter's start: the mirrored sequence summed exactly. */
+    double zn = z, z2n = pow(z, (double)(n - 1));
+    double sum = c[0] + z2n * c[(n - 1) * stride];
+    z2n *= z2n / z;
+    for (int64_t k = 1; k < n - 1; ++k) {
+        sum += (zn + z2n) * c[k * stride];
+        zn *= z;
+        z2n /= z;
+    }
+    c[0] = sum / (1.0 - zn * zn);
+    for (int64_t k = 1; k < n; ++k)
+        c[k * stride] += z * c[(k - 1) * stride];
+    c[(n - 1) * stride] = z / (z * z - 1.0) * (z * c[(n - 2) * stride] + c[(n - 1) * stride]);
+    for (int64_t k = n - 2; k >= 0; --k)
+        c[k * stride] = z * (c[(k + 1) * stride] - c[k * stride]);
+}
+
+/* values' interpolation coefficients for the cubic B-spline, every channel, along x, y, z. */
+static void prefilter(const vdbs_coarse_frame *f, double *values)
+{
+    const int64_t step[3] = {VDBS_COARSE_WIDTH, (int64_t)VDBS_COARSE_WIDTH * f->n[0],
+                             (int64_t)VDBS_COARSE_WIDTH * f->n[0] * f->n[1]};
+    for (int a = 0; a < 3; ++a) {
+        const int b = (a + 1) % 3, c = (a + 2) % 3;
+#pragma omp parallel for schedule(static)
+        for (int k = 0; k < f->n[c]; ++k)
+            for (int j = 0; j < f->n[b]; ++j)
+                for (int v = 0; v < VDBS_COARSE_WIDTH; ++v)
+                    prefilter_line(values + k * step[c] + j * step[b] + v, f->n[a], step[a]);
+    }
+}
+
 vdbs_status vdbs_coarse_upsample(const vdbs_coarse_frame *f, const double *values,
                                  const vdbs_volume *volume, const vdbs_medium_box *box,
-                                 double density_scale, float *ms, float *const ms_l1[3],
-                                 float *radiance, vdbs_error *err)
+                                 double density_scale, vdbs_coarse_kernel kernel, float *ms,
+                                 float *const ms_l1[3], float *radiance, vdbs_error *err)
 {
     const double scale = density_scale;
     const int64_t cells = vdbs_coarse_cells(f);
@@ -208,6 +281,20 @@ vdbs_status vdbs_coarse_upsample(const vdbs_coarse_frame *f, const double *value
             ++count;
         }
     const double range = count > 0 ? 0.5 * sum / count : 1.0;
+    double *coef = NULL;
+    if (kernel == VDBS_COARSE_BSPLINE_INTERP) {
+        coef = malloc(sizeof *coef * (size_t)cells * VDBS_COARSE_WIDTH);
+        if (!coef) {
+            free(guide);
+            return vdbs_error_set(err, VDBS_ERR_NOMEM,
+                                  "out of memory for the upsampling coefficients");
+        }
+        memcpy(coef, values, sizeof *coef * (size_t)cells * VDBS_COARSE_WIDTH);
+        prefilter(f, coef);
+        values = coef;
+    }
+    const vdbs_coarse_kernel taps_kernel =
+        kernel == VDBS_COARSE_TRILINEAR ? VDBS_COARSE_TRILINEAR : VDBS_COARSE_BSPLINE;
     pnanovdb_buf_t buf = pnanovdb_make_buf(volume->nano, volume->nano_size / 4);
 #pragma omp parallel
     {
@@ -218,32 +305,34 @@ vdbs_status vdbs_coarse_upsample(const vdbs_coarse_frame *f, const double *value
             double idx[3] = {co[0], co[1], co[2]}, w[3];
             vdbs_volume_world_point(volume, idx, w);
             double sv = scale * vs_density_voxel(buf, &acc, vs_coord(co[0], co[1], co[2]));
-            int i0[3];
-            double fr[3];
-            coarse_trilinear(f, w, i0, fr);
+            double rel[3] = {w[0] - f->origin[0], w[1] - f->origin[1], w[2] - f->origin[2]};
+            int at[3][4], taps[3];
+            double aw[3][4];
+            for (int a = 0; a < 3; ++a)
+                taps[a] =
+                    axis_taps(taps_kernel, dot3(rel, f->axis[a]) / f->h, f->n[a], at[a], aw[a]);
             double out[VDBS_COARSE_WIDTH] = {0}, wsum = 0.0;
-            for (int c = 0; c < 8; ++c) {
-                int id[3];
-                double wt = 1.0;
-                for (int a = 0; a < 3; ++a) {
-                    int bit = (c >> a) & 1;
-                    id[a] = i0[a] + bit;
-                    id[a] = id[a] < 0 ? 0 : (id[a] >= f->n[a] ? f->n[a] - 1 : id[a]);
-                    wt *= bit ? fr[a] : 1.0 - fr[a];
-                }
-                if (wt == 0.0)
-                    continue;
-                int64_t at = coarse_index(f, id);
-                double dr = (guide[at] - sv) / range;
-                wt *= exp(-0.5 * dr * dr) + 1e-3;
-                wsum += wt;
-                for (int v = 0; v < VDBS_COARSE_WIDTH; ++v)
-                    out[v] += wt * values[at * VDBS_COARSE_WIDTH + v];
-            }
+            for (int k = 0; k < taps[2]; ++k)
+                for (int j = 0; j < taps[1]; ++j)
+                    for (int i = 0; i < taps[0]; ++i) {
+                        double wt = aw[0][i] * aw[1][j] * aw[2][k];
+                        if (wt == 0.0)
+                            continue;
+                        const int id[3] = {at[0][i], at[1][j], at[2][k]};
+                        int64_t c = coarse_index(f, id);
+                        /* The joint bilateral factor: cells whose medium differs from the
+                         * voxel's count less (an edge in the density is an edge in ms). */
+                        double dr = (guide[c] - sv) / range;
+                        wt *= exp(-0.5 * dr * dr) + 1e-3;
+                        wsum += wt;
+                        for (int v = 0; v < VDBS_COARSE_WIDTH; ++v)
+                            out[v] += wt * values[c * VDBS_COARSE_WIDTH + v];
+                    }
             if (!(wsum > 0.0))
                 continue;
             for (int ch = 0; ch < 3; ++ch) {
-                float v = (float)(out[VDBS_COARSE_MS + ch] / wsum);
+                /* The interpolating spline overshoots next to sharp changes: ms >= 0. */
+                float v = (float)fmax(out[VDBS_COARSE_MS + ch] / wsum, 0.0);
                 ms[3 * n + ch] += v;
                 radiance[3 * n + ch] += v;
                 for (int a = 0; a < 3; ++a)
@@ -252,5 +341,6 @@ vdbs_status vdbs_coarse_upsample(const vdbs_coarse_frame *f, const double *value
         }
     }
     free(guide);
+    free(coef);
     return VDBS_OK;
 }

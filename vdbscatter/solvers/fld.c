@@ -879,8 +879,10 @@ vdbs_status vdbs_fld_solve(const vdbs_solve *s, const vdbs_fld_desc *desc, vdbs_
     if (st == VDBS_OK) {
         double t2 = vdbs_now();
         vdbs_coarse_ms_values(cells, phi, flux, s->scene->g, values);
-        st = vdbs_coarse_upsample(&f, values, s->volume, &box, s->scene->density_scale, s->ms,
-                                  s->ms_l1, s->radiance, err);
+        /* Through the cell values: the interpolating B-spline (docs/design.md "Upsampling
+         * without seams"). */
+        st = vdbs_coarse_upsample(&f, values, s->volume, &box, s->scene->density_scale,
+                                  VDBS_COARSE_BSPLINE_INTERP, s->ms, s->ms_l1, s->radiance, err);
         stats->seconds_upsample = vdbs_now() - t2;
     }
     vdbs_medium_box_free(&box);

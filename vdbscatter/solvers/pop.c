@@ -645,8 +645,11 @@ vdbs_status vdbs_pop_solve(const vdbs_solve *s, const vdbs_pop_desc *desc, vdbs_
         st = isotropic(&r, err);
     if (st == VDBS_OK) {
         double t0 = vdbs_now();
+        /* The smoothing B-spline: measured closer to the reference than the interpolating
+         * one on the merged grid's splats (docs/design.md "Upsampling without seams"). */
         st = vdbs_coarse_upsample(&r.merged, r.merged_acc, s->volume, &r.box,
-                                  s->scene->density_scale, s->ms, s->ms_l1, s->radiance, err);
+                                  s->scene->density_scale, VDBS_COARSE_BSPLINE, s->ms, s->ms_l1,
+                                  s->radiance, err);
         stats->seconds_upsample = vdbs_now() - t0;
     }
     run_free(&r);

@@ -734,8 +734,10 @@ vdbs_status vdbs_svd_finish(vdbs_svd_run *r, vdbs_svd_stats *stats, vdbs_error *
             s->radiance[v] += s->ms[v];
         /* docs/design.md's ms and ms_l1 with the medium's g (the full phase's first moment). */
         vdbs_coarse_ms_values(r->cells, r->fluence, r->flux, s->scene->g, r->values);
+        /* Through the cell values: the interpolating B-spline (docs/design.md "Upsampling
+         * without seams"). */
         st = vdbs_coarse_upsample(&r->f, r->values, s->volume, &r->box, s->scene->density_scale,
-                                  s->ms, s->ms_l1, s->radiance, err);
+                                  VDBS_COARSE_BSPLINE_INTERP, s->ms, s->ms_l1, s->radiance, err);
         if (st == VDBS_OK && r->moments)
             moments_to_voxels(s->volume, &r->f, r->terms, r->moments, d->keep->voxels);
         r->stats.seconds_upsample = vdbs_now() - t2;

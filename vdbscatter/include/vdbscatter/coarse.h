@@ -60,14 +60,32 @@ void vdbs_coarse_sample(const vdbs_coarse_frame *f, const float *values, int wid
 void vdbs_coarse_ms_values(int64_t cells, const double *phi, const double *flux, double g,
                            double *values);
 
+/* The reconstruction across the coarse cells in vdbs_coarse_upsample (docs/design.md
+ * "Upsampling without seams": the kernels measured per solver). */
+typedef enum vdbs_coarse_kernel {
+    /* The uniform cubic B-spline over 4 x 4 x 4 cells: C2, so that the cells leave no kinks
+     * in ms; it smooths the cell values ([1 4 1] / 6 per axis at a centre). POP's: its merged
+     * grid is a sum of splats, and the smoothing measured closer to the reference. */
+    VDBS_COARSE_BSPLINE = 0,
+    /* The cubic B-spline through the cell values: its coefficients prefiltered so that the
+     * spline interpolates the cells at their centres; still C2; ms clamped at 0 where it
+     * overshoots. FLD's and SVD's, whose cells hold the solution itself. */
+    VDBS_COARSE_BSPLINE_INTERP,
+    /* Trilinear over 2 x 2 x 2 cells: C0, a kink on every plane of cell centres that close-ups
+     * show as the coarse grid (the solvers' kernel before the B-splines); kept as the seam
+     * measure's positive control. */
+    VDBS_COARSE_TRILINEAR
+} vdbs_coarse_kernel;
+
 /* Joint bilateral upsampling of `values` (VDBS_COARSE_WIDTH per cell of f) to the output
- * voxels: trilinear weights times a Gaussian on sigma_t, the cell's box-filtered value against
- * the voxel's (width half the mean non-zero cell value, plus 1e-3 so that no weight
- * vanishes). Adds ms to ms and radiance, and the moments to ms_l1. */
+ * voxels: the kernel's weights (cells beyond the grid clamped to its edge) times a Gaussian on
+ * sigma_t, the cell's box-filtered value against the voxel's (width half the mean non-zero
+ * cell value, plus 1e-3 so that no weight vanishes), renormalised. Adds ms to ms and radiance,
+ * and the moments to ms_l1. */
 vdbs_status vdbs_coarse_upsample(const vdbs_coarse_frame *f, const double *values,
                                  const vdbs_volume *volume, const vdbs_medium_box *box,
-                                 double density_scale, float *ms, float *const ms_l1[3],
-                                 float *radiance, vdbs_error *err);
+                                 double density_scale, vdbs_coarse_kernel kernel, float *ms,
+                                 float *const ms_l1[3], float *radiance, vdbs_error *err);
 
 #ifdef __cplusplus
 }
