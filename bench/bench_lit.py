@@ -53,9 +53,14 @@ def relrmse(exe, a, b):
     return json.loads(out)["relrmse"]
 
 
-def orbit_camera(k, frames, radius):
+def orbit_camera(k, frames, box):
+    """Frame k of an orbit around the volume's world box, slightly from above."""
+    lo, hi = box
+    c = [(a + b) / 2 for a, b in zip(lo, hi)]
+    radius = 1.4 * max(b - a for a, b in zip(lo, hi))
     a = 2.0 * math.pi * k / frames
-    return f"{radius * math.sin(a):.4f},{0.25 * radius:.4f},{radius * math.cos(a):.4f}:0,0,0:35"
+    p = (c[0] + radius * math.sin(a), c[1] + 0.25 * radius, c[2] + radius * math.cos(a))
+    return f"{p[0]:.3f},{p[1]:.3f},{p[2]:.3f}:{c[0]:.3f},{c[1]:.3f},{c[2]:.3f}:35"
 
 
 def main():
@@ -82,9 +87,9 @@ def main():
         out, bake_s = run([exe, "bake", vdb, "-o", lit, *SCENE, "--json", "-q"])
         bake = json.loads(out)
         voxels = bake["active_voxels"]
-        camera = orbit_camera(0, args.frames, 3.2)
-        # the cloud's own world size: frame it from the bake's camera-free default
-        frame = ["--size", SIZE]
+        info = json.loads(run([exe, "info", vdb, "--json"])[0])["grids"][0]
+        box = (info["world_min"], info["world_max"])
+        frame = ["--camera", orbit_camera(0, args.frames, box), "--size", SIZE]
         truth = os.path.join(tmp, "truth.exr")
         run([exe, "render", vdb, "-o", truth, "--mode", "reference", *SCENE, *frame,
              "--time", str(args.truth_seconds), "--seed", "99", "-q"])
@@ -117,7 +122,7 @@ def main():
         # B. the orbit
         t_stored = t_relit = t_ref = 0.0
         for k in range(args.frames):
-            cam = ["--camera", orbit_camera(k, args.frames, 3.2), "--size", SIZE]
+            cam = ["--camera", orbit_camera(k, args.frames, box), "--size", SIZE]
             t_stored += run([exe, "render", lit, "-o", stored, *cam, "-q"])[1]
             t_relit += run([exe, "render", lit, "-o", relit, *cam, "--relight", "-q"])[1]
             t_ref += run([exe, "render", vdb, "-o", ref, "--mode", "reference", *SCENE, *cam, "--spp",
@@ -148,8 +153,8 @@ def main():
         if shutil.which("xvfb-run") and os.path.exists(view):
             shot = os.path.join(tmp, "shot.exr")
             p = subprocess.run(["xvfb-run", "-a", "-s", "-screen 0 1280x720x24", view, lit, "--screenshot",
-                                shot, "--size", SIZE, "--warmup", "4", "--json", "-q",
-                                "--no-interleave"], capture_output=True, text=True)
+                                shot, *frame, "--warmup-frames", "4", "--json", "-q", "--no-interleave"],
+                               capture_output=True, text=True)
             if p.returncode == 0:
                 v = json.loads(p.stdout.strip().splitlines()[-1])
                 first = v["open_ms"] + v["first_frame_ms"]

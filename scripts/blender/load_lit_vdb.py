@@ -261,11 +261,8 @@ def direct_nodes(nb, info, wo, position):
             mu = nb.vmath("DOT_PRODUCT", _rgb(e["travel"]), wo)
             weight = trans
         elif e["type"] == "point":
-            colour = _rgb(e["intensity"])
-            d = nb.vmath("SUBTRACT", position, _rgb(e["position"]))
-            r = nb.math("MAXIMUM", nb.vmath("LENGTH", d), float(e.get("min_distance", 0.0)))
-            mu = nb.vmath("DOT_PRODUCT", nb.vmath("NORMALIZE", d), wo)
-            weight = nb.math("DIVIDE", trans, nb.math("MULTIPLY", r, r))
+            raise SystemExit("load_lit_vdb: a point light's depth grid is radial (octahedral texels x "
+                             "shells), which Cycles' shader nodes cannot sample: use --mode ms")
         else:
             raise SystemExit(f"load_lit_vdb: unknown light entry type {e['type']!r}")
         scalar = nb.math("MULTIPLY", weight, nb.hg(mu, info.g))
