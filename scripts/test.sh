@@ -3,6 +3,7 @@
 # again with AddressSanitizer + UndefinedBehaviorSanitizer and runs it once more
 # (statistical tests skipped there; GL tests without leak checks: Mesa's EGL leaks at exit).
 # --long also runs the tests labelled "long" (minutes each; tests/CMakeLists.txt lists them).
+# Tests labelled "heavy" run in the normal pass only.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 skip_long=(-LE long)
@@ -36,4 +37,4 @@ cmake -S . -B build-asan -DCMAKE_BUILD_TYPE=Debug -DVDBSCATTER_WERROR=ON -DVDBSC
 cmake --build build-asan -j "$jobs"
 export UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1
 ASAN_OPTIONS=detect_leaks=1 ctest --test-dir build-asan --output-on-failure -j "$jobs" -L unit -LE "statistical|long"
-ASAN_OPTIONS=detect_leaks=0 ctest --test-dir build-asan --output-on-failure -j "$jobs" -L "gl|cli" -LE "statistical|long"
+ASAN_OPTIONS=detect_leaks=0 ctest --test-dir build-asan --output-on-failure -j "$jobs" -L "gl|cli" -LE "statistical|long|heavy"
