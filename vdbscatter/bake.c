@@ -156,7 +156,13 @@ static vdbs_status solve(const vdbs_bake_options *o, const vdbs_solver *solver,
     s->s1_stats = &stats;
     memset(&report->solver_stats, 0, sizeof report->solver_stats);
     st = solver->run(s, report->solver_stats.bytes, err);
-    if (st == VDBS_OK && stored && !(stored->json = stored_lights_json(&lights, stored->depth)))
+    /* A solver that made no S1 pass of its own (or an empty volume) leaves the depths unset:
+     * the file then stores none, as with --store none. */
+    for (int i = 0; st == VDBS_OK && stored && stored->depth && i < stored->count; ++i)
+        if (!stored->depth[i].values)
+            stored_free(stored);
+    if (st == VDBS_OK && stored && stored->depth &&
+        !(stored->json = stored_lights_json(&lights, stored->depth)))
         st = vdbs_error_set(err, VDBS_ERR_NOMEM, "out of memory for the stored lights");
     vdbs_runner_transfer moved = vdbs_runner_transfers(runner);
     report->bytes_uploaded = moved.uploaded;
