@@ -77,13 +77,10 @@ static const char help[] =
     "  -q                       no progress, summary or warnings\n";
 
 static const cli_option options[] = {
-    CLI_COMMON_OPTIONS,        {"--camera", CLI_VALUE},
-    {"--size", CLI_VALUE},     {"--mode", CLI_VALUE},
-    {"--exposure", CLI_VALUE}, {"--spp", CLI_VALUE},
-    {"--time", CLI_VALUE},     {"--max-bounces", CLI_VALUE},
-    {"--seed", CLI_VALUE},     {"--env-nee", CLI_VALUE},
-    {"--relight", CLI_FLAG},
-    {NULL, CLI_FLAG},
+    CLI_COMMON_OPTIONS,       {"--camera", CLI_VALUE},      {"--size", CLI_VALUE},
+    {"--mode", CLI_VALUE},    {"--exposure", CLI_VALUE},    {"--spp", CLI_VALUE},
+    {"--time", CLI_VALUE},    {"--max-bounces", CLI_VALUE}, {"--seed", CLI_VALUE},
+    {"--env-nee", CLI_VALUE}, {"--relight", CLI_FLAG},      {NULL, CLI_FLAG},
 };
 
 typedef struct render_args {

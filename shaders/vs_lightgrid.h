@@ -1,6 +1,7 @@
 /* Light grids (docs/design.md "Light grids"), shared by C and GLSL: the packed layout of a set
  * of grids, the sweep of one column and the optical-depth lookup. Include after
- * vs_common.h and vs_medium.h (and vs_march.h for the sweep). Written by vdbscatter/lights/lightgrid.c.
+ * vs_common.h and vs_medium.h (and vs_march.h for the sweep). Written by
+ * vdbscatter/lights/lightgrid.c.
  *
  * A set is one buffer of 32-bit words (`lgrid_data`: a pointer parameter in C, an SSBO in
  * GLSL): a count, then one header per grid (named offsets below; floats stored as their
@@ -317,7 +318,7 @@ VS_FUNC float vs_lgrid_dir_depth(VS_DATA_PARAM(vs_uint, lgrid_data) int grid, pn
             }
         }
     }
-        /* No overshoot beyond the four nearest columns (sharp edges of the medium). */
+    /* No overshoot beyond the four nearest columns (sharp edges of the medium). */
     return sum < lo ? lo : (sum > hi ? hi : sum);
 }
 

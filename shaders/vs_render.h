@@ -488,13 +488,11 @@ VS_FUNC vs_accum vs_render_unit_depth(VS_DATA_PARAM(vs_vec4, medium_data)
     vs_accum depth;
     if (unit > 0 && render_data[VS_RENDER_OFF_MARCH].z != 0.0f) {
         vs_accum_init(PNANOVDB_REF(depth));
-        float d = vs_lgrid_word(VS_DATA_ARG(lgrid_data) unit - 1, VS_LGRID_OFF_KIND) >=
-                          VS_LGRID_VOXEL
-                      ? vs_render_stored_depth(VS_DATA_ARG(medium_data) VS_DATA_ARG(lgrid_data)
-                                                   buf,
-                                               unit - 1, mid)
-                      : vs_lgrid_depth(VS_DATA_ARG(medium_data) VS_DATA_ARG(lgrid_data) unit - 1,
-                                       mid);
+        float d =
+            vs_lgrid_word(VS_DATA_ARG(lgrid_data) unit - 1, VS_LGRID_OFF_KIND) >= VS_LGRID_VOXEL
+                ? vs_render_stored_depth(VS_DATA_ARG(medium_data) VS_DATA_ARG(lgrid_data) buf,
+                                         unit - 1, mid)
+                : vs_lgrid_depth(VS_DATA_ARG(medium_data) VS_DATA_ARG(lgrid_data) unit - 1, mid);
         vs_accum_add(PNANOVDB_REF(depth), d);
     } else {
         depth = vs_march(buf, PNANOVDB_REF(PNANOVDB_DEREF(accs).density), u.origin, u.dir, u.tmax,

@@ -28,9 +28,9 @@
 
 /* The optical depths toward every light that --store lights keeps, and their metadata. */
 typedef struct stored_lights {
-    int direct, count;               /* direct lights, then sky ordinates */
-    vdbs_light_grid_samples *depth;  /* per light (vdbs_solve.light_depths) */
-    char *json;                      /* vdbscatter_lights */
+    int direct, count;              /* direct lights, then sky ordinates */
+    vdbs_light_grid_samples *depth; /* per light (vdbs_solve.light_depths) */
+    char *json;                     /* vdbscatter_lights */
 } stored_lights;
 
 static void stored_free(stored_lights *k)

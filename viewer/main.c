@@ -724,7 +724,9 @@ static vdbs_status run_screenshot(viewer *v, GLFWwindow *window, const view_args
                "\"backend\": \"%s\", \"renderer\": \"%s\", "
                "\"interleave\": %d, \"occluders\": %d, \"fog\": %d}\n",
                v->image.width, v->image.height, a->warmup, v->open_ms, first_ms, mean_ms,
-               v->march.stored_depths ? "stored" : v->march.s1_march ? "march" : "grid",
+               v->march.stored_depths ? "stored"
+               : v->march.s1_march    ? "march"
+                                      : "grid",
                vdbs_runner_backend_name(v->runner), vdbs_runner_device(v->runner),
                v->interleave_on ? v->interleave : 1, v->occluders.count, v->march_fog.fog != NULL);
     } else if (st == VDBS_OK && !a->quiet) {

@@ -167,16 +167,16 @@ static vdbs_status load_depths(const vdbio_lit *lit, const double index_to_world
     for (int i = 0; i < n; ++i) {
         vdbs_lit_depth *d = &out->depth[i];
         vdbs_lit_depth_name(i, direct, name, sizeof name);
-        vdbs_status st = load_grid(lit, name, 0, index_to_world, &d->grid, &d->size, d->to_grid,
-                                   err);
+        vdbs_status st =
+            load_grid(lit, name, 0, index_to_world, &d->grid, &d->size, d->to_grid, err);
         if (st != VDBS_OK)
             return st;
     }
     return load_layouts(lit, out, err);
 }
 
-vdbs_status vdbs_lit_grids_load(const vdbio_lit *lit, const double index_to_world[3][4],
-                                int depths, vdbs_lit_grids *out, vdbs_error *err)
+vdbs_status vdbs_lit_grids_load(const vdbio_lit *lit, const double index_to_world[3][4], int depths,
+                                vdbs_lit_grids *out, vdbs_error *err)
 {
     memset(out, 0, sizeof *out);
     uint32_t **bufs[4] = {&out->ms, &out->l1x, &out->l1y, &out->l1z};

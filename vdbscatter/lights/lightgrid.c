@@ -607,8 +607,7 @@ float vdbs_light_grids_sample(const vdbs_light_grids *grids, int grid, int i, in
 }
 
 /* Column (i, j)'s stored stretch [first, end); end 0 for an empty column. */
-static void column_span(const vdbs_light_grids *grids, int grid, int i, int j, int *first,
-                        int *end)
+static void column_span(const vdbs_light_grids *grids, int grid, int i, int j, int *first, int *end)
 {
     vs_uint record = vs_lgrid_record(grids->words, grid, i, j);
     int count = (int)grids->words[record + VS_LGRID_COLUMN_COUNT];
@@ -663,8 +662,8 @@ vdbs_status vdbs_light_grids_samples(const vdbs_light_grids *grids, int grid,
             out->values = malloc(sizeof *out->values * (at ? at : 1));
             if (!out->coords || !out->values) {
                 vdbs_light_grid_samples_free(out);
-                return vdbs_error_set(err, VDBS_ERR_NOMEM, "out of memory for %zu light-grid samples",
-                                      at);
+                return vdbs_error_set(err, VDBS_ERR_NOMEM,
+                                      "out of memory for %zu light-grid samples", at);
             }
         }
     }

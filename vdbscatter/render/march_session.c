@@ -39,12 +39,10 @@
 
 /* Byte offsets in the render buffer (density first) of the four ms grids, then of the stored
  * depth grids: 4 + grids->depth_count of them. */
-static void grid_offsets(const vdbs_volume *volume, const vdbs_lit_grids *grids,
-                         uint64_t *offsets)
+static void grid_offsets(const vdbs_volume *volume, const vdbs_lit_grids *grids, uint64_t *offsets)
 {
     uint64_t at = volume->nano_size;
-    const size_t ms_sizes[4] = {grids->ms_size, grids->l1x_size, grids->l1y_size,
-                                grids->l1z_size};
+    const size_t ms_sizes[4] = {grids->ms_size, grids->l1x_size, grids->l1y_size, grids->l1z_size};
     for (int i = 0; i < 4 + grids->depth_count; ++i) {
         at = (at + 31u) / 32u * 32u;
         offsets[i] = at;
@@ -571,8 +569,8 @@ vdbs_status vdbs_march_session_draw(vdbs_march_session *s, const vdbs_camera_fra
     table[4 * VS_RENDER_OFF_WORLD_ORIGIN + 3] = options->backdrop ? 1.0f : 0.0f;
     const float *backdrop = options->backdrop ? options->backdrop : s->no_backdrop;
     const uint32_t *lgrid_words = lookups ? s->light_grids.words : s->no_grids;
-    size_t lgrid_bytes = lookups ? sizeof *s->light_grids.words * s->light_grids.word_count
-                                 : sizeof s->no_grids;
+    size_t lgrid_bytes =
+        lookups ? sizeof *s->light_grids.words * s->light_grids.word_count : sizeof s->no_grids;
     /* The map the rays that leave see, already in the kernels' layout; a zero header
      * without one. */
     const float *env = s->lights.env ? s->lights.env->data : s->no_env;

@@ -252,7 +252,7 @@ static vdbs_status render_image(const vdbs_render_desc *d, vdbs_render_mode mode
                  : d->s1_march        ? "march"
                                       : "grid");
         report->s1_oversample = d->s1_march || march->stored_depths ? 0
-                                : march->s1_oversample > 0 ? march->s1_oversample
+                                : march->s1_oversample > 0          ? march->s1_oversample
                                                            : VDBS_LIGHT_GRID_DEFAULT_OVERSAMPLE;
         report->spp = 1;
         vdbs_progress_begin(&progress, d->progress, "render", pixels);

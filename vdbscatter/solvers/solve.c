@@ -18,8 +18,7 @@ static void pass_depth(void *user, int light, const float *depth)
         k->next(k->next_user, light, depth);
 }
 
-static vdbs_status keep_grid(void *user, int light, const vdbs_light_grids *grid,
-                             vdbs_error *err)
+static vdbs_status keep_grid(void *user, int light, const vdbs_light_grids *grid, vdbs_error *err)
 {
     const keep_depths *k = user;
     return vdbs_light_grids_samples(grid, 0, &k->solve->light_depths[light], err);
@@ -33,16 +32,16 @@ vdbs_status vdbs_solve_s1(const vdbs_solve *s, float *flux, vdbs_s1_light_fn lig
         light_depth = pass_depth;
         light_user = &keep;
     }
-    vdbs_s1_outputs out = {s->radiance, s->radiance_view, flux, light_depth, light_user,
-                           s->light_depths ? keep_grid : NULL};
+    vdbs_s1_outputs out = {s->radiance, s->radiance_view, flux,
+                           light_depth, light_user,       s->light_depths ? keep_grid : NULL};
     vdbs_status st;
     if (s->s1_grids) {
         st = vdbs_single_scatter_grids_out(s->runner, s->volume, s->scene, s->lights, s->s1_grids,
                                            &out, s->s1_stats, s->progress, err);
         return st;
     }
-    st = vdbs_single_scatter(s->runner, s->volume, s->scene, s->lights, s->radiance,
-                                         s->progress, err);
+    st = vdbs_single_scatter(s->runner, s->volume, s->scene, s->lights, s->radiance, s->progress,
+                             err);
     if (st != VDBS_OK || (!s->radiance_view && !flux && !light_depth))
         return st;
     /* The march has no per-light output: S1 toward the camera, the flux and the lights' depths

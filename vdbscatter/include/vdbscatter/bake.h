@@ -76,8 +76,8 @@ typedef struct vdbs_bake_report {
     float radiance_max[3]; /* per channel, over output voxels */
     /* The stored depths written (light_depth_*, then sky_depth_*; 0 with --store none). */
     int stored_direct, stored_sky;
-    double density_scale;  /* as used: auto:TAU resolved against the volume */
-    vdbs_advice advice;    /* mean optical depth, estimated multiple/single ratio */
+    double density_scale; /* as used: auto:TAU resolved against the volume */
+    vdbs_advice advice;   /* mean optical depth, estimated multiple/single ratio */
 } vdbs_bake_report;
 
 vdbs_status vdbs_bake(const vdbs_bake_options *options, vdbs_bake_report *report, vdbs_error *err);

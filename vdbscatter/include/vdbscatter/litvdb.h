@@ -56,8 +56,8 @@ typedef struct vdbs_lit_grids {
  * ms grids must share (the kernel samples them in the density's index space); a depth grid
  * has its own index space (vdbs_lit_depth). Errors
  * (VDBS_ERR_INPUT): a grid missing or of another type, or on another transform. */
-vdbs_status vdbs_lit_grids_load(const vdbio_lit *lit, const double index_to_world[3][4],
-                                int depths, vdbs_lit_grids *out, vdbs_error *err);
+vdbs_status vdbs_lit_grids_load(const vdbio_lit *lit, const double index_to_world[3][4], int depths,
+                                vdbs_lit_grids *out, vdbs_error *err);
 void vdbs_lit_grids_free(vdbs_lit_grids *grids);
 /* Whether all four ms grids are there. */
 int vdbs_lit_grids_have_ms(const vdbs_lit_grids *grids);

@@ -128,7 +128,7 @@ vdbs_status vdbs_render(const vdbs_render_desc *desc, vdbs_render_report *report
 typedef struct vdbs_render_input {
     vdbs_render_mode mode; /* never DEFAULT */
     int is_lit;
-    int stored; /* S1 from the lit VDB's stored depths (march.stored_depths) */
+    int stored;            /* S1 from the lit VDB's stored depths (march.stored_depths) */
     char baked_method[32]; /* a lit VDB's bake method ("pop", ...); "" otherwise */
     vdbs_scene *scene;
     vdbs_volume volume;

@@ -51,8 +51,8 @@ typedef vdbs_status (*vdbs_s1_grid_fn)(void *user, int light, const vdbs_light_g
  * NULL. */
 typedef struct vdbs_s1_outputs {
     float *radiance;      /* S1, the fluence of the unscattered light over 4 pi */
-    float *radiance_view; /* S1 toward the scene's camera (camera_radiance.h; the scene must have one):
-                             per light its fluence times HG(g) between its direction of travel
+    float *radiance_view; /* S1 toward the scene's camera (camera_radiance.h; the scene must have
+                             one): per light its fluence times HG(g) between its direction of travel
                              and wo */
     float *flux;          /* 9 per voxel: the unscattered light's net flux, its x, y, z
                              components of R, G, B (what FLD's first-moment source needs) */
