@@ -39,7 +39,7 @@ class Matrix(Base):
                         e = self.relrmse("stored.exr", "relit.exr")
                         worst = max(worst, (e, (volume, light, g)))
                         self.assertLessEqual(e, 0.01)
-        print(f"\nstored against relit, worst relative RMSE {worst[0]:.4f} at {worst[1]}")
+        print(f"\nstored against relit, worst relative RMSE {worst[0]:.2e} at {worst[1]}")
 
 
 if __name__ == "__main__":
