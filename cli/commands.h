@@ -8,5 +8,6 @@ int cmd_bake(int argc, char **argv);
 int cmd_render(int argc, char **argv);
 int cmd_compare(int argc, char **argv);
 int cmd_phase_svd(int argc, char **argv);
+int cmd_tradeoff(int argc, char **argv);
 
 #endif

@@ -18,6 +18,7 @@ static const char usage[] =
     "  compare A B                error metrics of image A against reference B\n"
     "  info FILE.vdb              list grids, sizes, value ranges, optical thickness\n"
     "  sample NAME -o OUT.vdb     write a procedural sample volume\n"
+    "  tradeoff IN.vdb -o DIR     every method's error against time on your scene\n"
     "  phase-svd --g G --directions D   the phase matrix's factorisation error per term\n"
     "\n"
     "Run 'vdbscatter COMMAND --help' for the options of a command.\n"
@@ -48,6 +49,8 @@ int main(int argc, char **argv)
         return cmd_compare(argc - 2, argv + 2);
     if (strcmp(cmd, "sample") == 0)
         return cmd_sample(argc - 2, argv + 2);
+    if (strcmp(cmd, "tradeoff") == 0)
+        return cmd_tradeoff(argc - 2, argv + 2);
     if (strcmp(cmd, "phase-svd") == 0)
         return cmd_phase_svd(argc - 2, argv + 2);
     fprintf(stderr, "vdbscatter: unknown command '%s' (try --help)\n", cmd);
