@@ -15,6 +15,8 @@
 #include "options.h"
 #include "solver_flags.h"
 #include "vdbscatter/bake.h"
+#include "vdbscatter/plan.h"
+#include "vdbscatter/quality.h"
 #include "vdbscatter/solver.h"
 #include "vdbscatter/scene_file.h"
 
@@ -40,7 +42,13 @@ static const char help[] =
     "                           map times S, importance-sampled into the sky directions\n"
     "  --sky-directions K       sky quadrature directions (default: the quality's)\n"
     "  --method NAME            solver (default svd: the lowest measured error for its\n"
-    "                           time on general volumes; the list below)\n"
+    "                           time on general volumes; the list below), or auto: the\n"
+    "                           planner picks the method, quality and lights for --tolerance\n"
+    "  --tolerance E            with --method auto: the image relative RMSE you accept\n"
+    "                           (default 0.1); refused, naming the best it can do, where\n"
+    "                           no plan is predicted to reach it\n"
+    "  --dry-run                with --method auto: print the plan and its predictions\n"
+    "                           (with --json as JSON) and bake nothing\n"
     "  --camera PX,PY,PZ:TX,TY,TZ:FOV   the camera radiance_view is written toward\n"
     "  --quality Q              low (default) | medium | high | ultra (sky directions\n"
     "                           16/64/256/1024;\n"
@@ -70,6 +78,7 @@ static const cli_option own_options[] = {
     CLI_COMMON_OPTIONS,          {"--from-levelset", CLI_FLAG}, {"--half", CLI_FLAG},
     {"--report", CLI_VALUE},     {"--method", CLI_VALUE},       {"--keep-state", CLI_FLAG},
     {"--warm-start", CLI_VALUE}, {"--camera", CLI_VALUE},       {"--store", CLI_VALUE},
+    {"--tolerance", CLI_VALUE},  {"--dry-run", CLI_FLAG},
 };
 
 /* bake's options, then every solver's own flags from the solver table. */
@@ -127,6 +136,13 @@ static cJSON *report_json(const char *input, const char *output, const vdbs_scen
         cJSON_AddItemToArray(names, cJSON_CreateString(name));
     }
     cJSON_AddStringToObject(j, "store", r->stored_direct + r->stored_sky ? "lights" : "none");
+    if (r->planned) {
+        char *plan = vdbs_plan_json(&r->plan, &r->plan_features);
+        cJSON *p = plan ? cJSON_Parse(plan) : NULL;
+        free(plan);
+        if (p)
+            cJSON_AddItemToObject(j, "plan", p);
+    }
     char *scene_text = vdbs_scene_to_json(scene);
     cJSON *parsed = scene_text ? cJSON_Parse(scene_text) : NULL;
     free(scene_text);
@@ -168,6 +184,56 @@ static int print_report(const cli_args *args, cJSON *j, const vdbs_scene *scene,
         }
     }
     return status;
+}
+
+/* --dry-run: the plan on stdout, as JSON with --json. */
+static int print_plan(const cli_args *args, const vdbs_bake_report *report)
+{
+    char *text = vdbs_plan_json(&report->plan, &report->plan_features);
+    cJSON *plan = text ? cJSON_Parse(text) : NULL;
+    free(text);
+    if (!plan)
+        return cli_fail("bake", 1, "out of memory");
+    if (cli_flag(args, "--json")) {
+        cJSON *j = cJSON_CreateObject();
+        cJSON_AddItemToObject(j, "plan", plan);
+        char *out = cJSON_Print(j);
+        puts(out);
+        free(out);
+        cJSON_Delete(j);
+        return CLI_EXIT_OK;
+    }
+    const vdbs_plan *p = &report->plan;
+    const vdbs_plan_features *f = &report->plan_features;
+    printf("scene: mean optical depth %.3g, albedo %.3g, g %.2f, ms/ss %.2g, %.0f voxels, sky "
+           "share %.2f, point share %.2f\n",
+           f->mean_depth, f->albedo, f->g, f->ms_to_ss, f->active_voxels, f->sky_share,
+           f->point_share);
+    printf("%-8s %-8s %12s %12s\n", "method", "quality", "pred. error", "pred. bake s");
+    int count;
+    const vdbs_quality *q = vdbs_quality_list(&count);
+    for (int i = 0; i < p->candidate_count; ++i) {
+        const vdbs_plan_candidate *c = &p->candidates[i];
+        printf("%-8s %-8s %12.4f %12.2f%s\n", c->method, q[c->quality].name, c->error, c->seconds,
+               strcmp(c->method, p->chosen.method) == 0 && c->quality == p->chosen.quality
+                   ? "  <- plan"
+                   : "");
+    }
+    for (int i = 0; i < f->light_count; ++i)
+        if (p->skip[i])
+            printf("light %d left out: %.2g of the power\n", i, f->light_share[i]);
+    if (p->reachable)
+        printf("plan: --method %s --quality %s, predicted error %.3g (tolerance %g), about "
+               "%.1f s\n",
+               p->chosen.method, q[p->chosen.quality].name, p->chosen.error, p->tolerance,
+               p->chosen.seconds);
+    else
+        printf("tolerance %g is out of reach: the best predicted is %.3g (--method %s "
+               "--quality %s, about %.1f s)\n",
+               p->tolerance, p->chosen.error, p->chosen.method, q[p->chosen.quality].name,
+               p->chosen.seconds);
+    cJSON_Delete(plan);
+    return CLI_EXIT_OK;
 }
 
 /* After the help: the methods and their options, from the solver table. */
@@ -231,6 +297,21 @@ int cmd_bake(int argc, char **argv)
     if (store && strcmp(store, "lights") != 0 && strcmp(store, "none") != 0)
         return cli_fail("bake", 2, "--store: expected lights or none");
     o.store = store && strcmp(store, "none") == 0 ? VDBS_STORE_NONE : VDBS_STORE_LIGHTS;
+    const char *method = cli_value(&args, "--method");
+    const char *tolerance = cli_value(&args, "--tolerance");
+    int automatic = method && strcmp(method, "auto") == 0;
+    if (tolerance && !automatic)
+        return cli_fail("bake", 2, "--tolerance needs --method auto");
+    o.dry_run = cli_flag(&args, "--dry-run");
+    if (o.dry_run && !automatic)
+        return cli_fail("bake", 2, "--dry-run needs --method auto");
+    if (automatic) {
+        o.tolerance = 0.1;
+        if (tolerance && (st = cli_number("--tolerance", tolerance, &o.tolerance, &err)) != VDBS_OK)
+            return cli_fail("bake", st, err.message);
+        if (!(o.tolerance > 0.0 && o.tolerance < 1.0))
+            return cli_fail("bake", 2, "--tolerance: expected a relative RMSE 0 < E < 1");
+    }
     o.keep_state = cli_flag(&args, "--keep-state");
     o.warm_start = cli_value(&args, "--warm-start");
     o.progress = !quiet && isatty(STDERR_FILENO);
@@ -243,6 +324,13 @@ int cmd_bake(int argc, char **argv)
         return st == VDBS_ERR_CANCELLED ? cli_interrupt_status("bake", CLI_EXIT_FAILURE)
                                         : cli_fail("bake", st, err.message);
 
+    if (o.dry_run)
+        return print_plan(&args, &report);
+    if (report.planned) { /* the report names what the plan chose */
+        snprintf(scene.method, sizeof scene.method, "%s", report.plan.chosen.method);
+        snprintf(scene.quality, sizeof scene.quality, "%s",
+                 vdbs_quality_list(&(int){0})[report.plan.chosen.quality].name);
+    }
     double target_depth = scene.density_target_depth;
     scene.density_scale = report.density_scale; /* as resolved (auto:TAU) */
     scene.density_target_depth = 0.0;

@@ -271,6 +271,8 @@ static vdbs_status set_sky_directions(scene_build *b, const char *name, const ch
 
 static vdbs_status set_method(scene_build *b, const char *name, const char *value, vdbs_error *err)
 {
+    if (strcmp(value, "auto") == 0) /* bake's planner picks it (plan.h) */
+        return VDBS_OK;
     return vdbs_scene_set_method(b->scene, name, value, err);
 }
 

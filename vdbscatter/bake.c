@@ -24,7 +24,7 @@
 
 /* The lit VDB's fixed metadata, the stored lights', then the solver state's. */
 #define BAKE_META_FIXED 13
-#define BAKE_META_MAX (BAKE_META_FIXED + 1 + 8)
+#define BAKE_META_MAX (BAKE_META_FIXED + 2 + 8)
 
 /* The optical depths toward every light that --store lights keeps, and their metadata. */
 typedef struct stored_lights {
@@ -221,6 +221,7 @@ typedef struct bake_job {
     vdbs_solve out;    /* the output arrays */
     stored_lights stored;
     char *scene_json;
+    char *plan_json; /* --method auto */
 } bake_job;
 
 static void job_free(bake_job *j)
@@ -231,6 +232,7 @@ static void job_free(bake_job *j)
         state->destroy(j->keep);
     }
     free(j->scene_json);
+    free(j->plan_json);
     stored_free(&j->stored);
     for (int a = 0; a < 3; ++a)
         if (j->out.ms_l1[a] != j->out.ms)
@@ -259,6 +261,9 @@ static vdbs_status check_request(bake_job *j, vdbs_error *err)
                               "--method %s is not implemented yet (available: %s)", scene->method,
                               names);
     }
+    if (o->tolerance > 0.0 && (o->keep_state || o->warm_start))
+        return vdbs_error_set(err, VDBS_ERR_INPUT, "%s needs a fixed --method, not auto",
+                              o->keep_state ? "--keep-state" : "--warm-start");
     if ((o->keep_state || o->warm_start) && !j->solver->state)
         return vdbs_error_set(err, VDBS_ERR_INPUT,
                               "%s needs a method that keeps state (--method %s keeps none)",
@@ -303,6 +308,36 @@ static vdbs_status load(bake_job *j, vdbs_bake_report *report, vdbs_error *err)
     report->density_scale = j->scene->density_scale;
     vdbs_scene_advise(j->scene, &j->volume, j->solver->writes_ms, o->warn, o->warn_user,
                       &report->advice);
+    return VDBS_OK;
+}
+
+/* --method auto: the plan for the scene on its volume, applied to the job's scene. */
+static vdbs_status plan(bake_job *j, vdbs_bake_report *report, vdbs_error *err)
+{
+    const vdbs_bake_options *o = &j->options;
+    vdbs_status st = vdbs_plan_measure(j->scene, &j->volume, &report->plan_features, err);
+    if (st == VDBS_OK)
+        st = vdbs_plan_make(&report->plan_features, o->tolerance, &report->plan, err);
+    if (st != VDBS_OK)
+        return st;
+    report->planned = 1;
+    const vdbs_plan *p = &report->plan;
+    int count;
+    const vdbs_quality *q = &vdbs_quality_list(&count)[p->chosen.quality];
+    if (!p->reachable && !o->dry_run)
+        return vdbs_error_set(err, VDBS_ERR_INPUT,
+                              "--tolerance %g is out of reach on this scene: the best predicted "
+                              "is %.3g (--method %s --quality %s, about %.0f s); raise "
+                              "--tolerance or choose a method",
+                              o->tolerance, p->chosen.error, p->chosen.method, q->name,
+                              p->chosen.seconds);
+    if ((st = vdbs_plan_apply(p, j->scene, err)) != VDBS_OK)
+        return st;
+    if (!(j->plan_json = vdbs_plan_json(p, &report->plan_features)))
+        return vdbs_error_set(err, VDBS_ERR_NOMEM, "out of memory");
+    j->solver = vdbs_solver_find(j->scene->method);
+    j->quality = q;
+    j->sky = j->scene->sky_directions > 0 ? j->scene->sky_directions : q->sky_directions;
     return VDBS_OK;
 }
 
@@ -374,6 +409,8 @@ static vdbs_status write_lit(bake_job *j, vdbs_bake_report *report, vdbs_error *
     int meta_count = BAKE_META_FIXED;
     if (j->stored.json)
         meta[meta_count++] = (vdbio_meta){"vdbscatter_lights", j->stored.json};
+    if (j->plan_json)
+        meta[meta_count++] = (vdbio_meta){"vdbscatter_plan", j->plan_json};
     if (j->keep)
         meta_count += state->meta(j->keep, meta + meta_count, BAKE_META_MAX - meta_count);
     const vdbio_vec3_grid fixed[] = {
@@ -476,6 +513,14 @@ vdbs_status vdbs_bake(const vdbs_bake_options *o, vdbs_bake_report *report, vdbs
     vdbs_status st = check_request(&j, err);
     if (st == VDBS_OK)
         st = load(&j, report, err);
+    if (st == VDBS_OK && o->tolerance > 0.0)
+        st = plan(&j, report, err);
+    if (st == VDBS_OK && o->tolerance > 0.0 && o->dry_run) {
+        report_setup(&j, report);
+        report->seconds_total = vdbs_now() - t_start;
+        job_free(&j);
+        return VDBS_OK;
+    }
     if (st == VDBS_OK && j.solver->state)
         st = open_state(&j, err);
     if (st == VDBS_OK) {

@@ -565,8 +565,17 @@ static vdbs_status write_plot(const vdbs_tradeoff_report *rep, const char *input
     return st;
 }
 
+/* mkdir -p. */
 static vdbs_status make_dir(const char *path, vdbs_error *err)
 {
+    char parent[VDBS_PATH_MAX];
+    snprintf(parent, sizeof parent, "%s", path);
+    for (char *p = parent + 1; *p; ++p)
+        if (*p == '/') {
+            *p = '\0';
+            mkdir(parent, 0777); /* an error shows at the last level */
+            *p = '/';
+        }
     if (mkdir(path, 0777) != 0 && errno != EEXIST)
         return vdbs_error_set(err, VDBS_ERR_INPUT, "%s: cannot create the folder: %s", path,
                               strerror(errno));

@@ -5,6 +5,7 @@
 #include "vdbscatter/advice.h"
 #include "vdbscatter/cancel.h"
 #include "vdbscatter/lightgrid.h"
+#include "vdbscatter/plan.h"
 #include "vdbscatter/runner.h"
 #include "vdbscatter/scene.h"
 #include "vdbscatter/solver.h"
@@ -40,6 +41,12 @@ typedef struct vdbs_bake_options {
     const char *warm_start;
     vdbs_warn_fn warn;
     void *warn_user;
+    /* > 0: --method auto --tolerance E: the planner (plan.h) picks the method, quality and
+     * the lights worth baking for an image relative RMSE of E, on the volume before any
+     * solve; an E it predicts out of reach is VDBS_ERR_INPUT naming the best it can do. The
+     * scene's method and quality are replaced. */
+    double tolerance;
+    int dry_run; /* with tolerance: plan, fill the report's plan, solve and write nothing */
     /* Polled between stages and in the solvers' loops (cancel.h): once set, the bake stops
      * with VDBS_ERR_CANCELLED and leaves no temporary file; the output is the old file, or
      * the complete new one when the flag came after the rename. NULL: never. */
@@ -78,6 +85,11 @@ typedef struct vdbs_bake_report {
     int stored_direct, stored_sky;
     double density_scale; /* as used: auto:TAU resolved against the volume */
     vdbs_advice advice;   /* mean optical depth, estimated multiple/single ratio */
+    /* With a tolerance: the plan and what it was made from (also in the lit VDB's
+     * vdbscatter_plan). */
+    int planned;
+    vdbs_plan plan;
+    vdbs_plan_features plan_features;
 } vdbs_bake_report;
 
 vdbs_status vdbs_bake(const vdbs_bake_options *options, vdbs_bake_report *report, vdbs_error *err);

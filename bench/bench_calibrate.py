@@ -1,0 +1,129 @@
+#!/usr/bin/python3
+"""The calibration set: `vdbscatter tradeoff` on each scene below (every method at low,
+medium and high against a reference of relative noise --ref-noise), the scene's planner
+features (`bake --method auto --dry-run --json`), all gathered into
+bench/tradeoff/calibration.json, each scene's tradeoff.md / .csv / .png under
+bench/tradeoff/NAME/, and a summary bench/tradeoff/README.md. The planner's table
+(vdbscatter/plan_table.h) is generated from calibration.json by scripts/gen_plan_table.py.
+
+The scenes span g -0.3 to 0.9, albedo 0.5 to 0.999 and mean optical depth 0.5 to 50, with
+suns, point lights inside and outside, constant skies and an env map, on the samples and
+on volumes from other tools (VDBSCATTER_DATA_DIR, default ../shared/data beside the repo;
+scenes whose file is missing are skipped and listed).
+
+usage: bench/bench_calibrate.py BUILD [--scenes a,b] [--size 96x72] [--ref-noise 0.01]
+       [--ref-time 240] [--set calibration|validation] [--cache DIR]"""
+import argparse
+import json
+import os
+import shutil
+import subprocess
+import sys
+import time
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+ROOT = os.path.dirname(HERE)
+SAMPLES = os.path.join(ROOT, "samples")
+SCENES = os.path.join(HERE, "tradeoff", "scenes")
+DATA = os.environ.get("VDBSCATTER_DATA_DIR",
+                      os.path.join(os.path.dirname(ROOT), "shared", "data"))
+
+# name: (scene file, input VDB or None for the scene's own, what it stands for)
+CALIBRATION = {
+    "cloud": (os.path.join(SAMPLES, "cloud.json"), None,
+              "sample cloud, sun + constant sky, g 0.85, albedo 0.99"),
+    "cloud_sky": (os.path.join(SAMPLES, "cloud_sky.json"), None,
+                  "sample cloud, env map only"),
+    "smoke": (os.path.join(SAMPLES, "smoke.json"), None,
+              "sample smoke, sun + point light, g 0.3, albedo 0.8"),
+    "sphere": (os.path.join(SAMPLES, "sphere.json"), None,
+               "sample sphere, sun + point light outside, g 0, albedo 0.9"),
+    "thick_cube": (os.path.join(SCENES, "thick_cube.json"), os.path.join(SAMPLES, "cube.vdb"),
+                   "cube at optical depth 50, sun + env map, g 0.6, albedo 0.95"),
+    "disney": (os.path.join(SCENES, "disney.json"),
+               os.path.join(DATA, "wdas_cloud_sixteenth.vdb"),
+               "Disney cloud (1/16), depth 20, sun + sky, g 0.9, albedo 0.999"),
+    "usd_smoke": (os.path.join(SCENES, "usd_smoke.json"),
+                  os.path.join(DATA, "usd_smoke_000002.vdb"),
+                  "USD smoke, depth 3, sun + point light inside, g 0.5, albedo 0.9"),
+    "dragon": (os.path.join(SCENES, "dragon.json"),
+               os.path.join(DATA, "vpt_dragon_with_xform.vdb"),
+               "sparse dragon, depth 0.5, point light outside + sky, g -0.3, albedo 0.5"),
+}
+
+# Held out: never enters the planner's table.
+VALIDATION = {
+    "openvdb_smoke": (os.path.join(SCENES, "openvdb_smoke.json"),
+                      os.path.join(DATA, "openvdb_smoke1.vdb"),
+                      "OpenVDB smoke plume (1M voxels), depth 5, sun + sky"),
+    "plasma": (os.path.join(SCENES, "plasma.json"),
+               os.path.join(DATA, "plasma_blender_fluid_0001_multigrid.vdb"),
+               "Blender fluid, depth 2, point light inside"),
+    "usd_heat": (os.path.join(SCENES, "usd_heat.json"),
+                 os.path.join(DATA, "usd_densityAndHeat.vdb"),
+                 "USD density, depth 10, sun + env map, g 0.7"),
+}
+
+
+def run(cmd):
+    p = subprocess.run(cmd, capture_output=True, text=True)
+    if p.returncode != 0:
+        raise RuntimeError(f"{' '.join(cmd)}: exit {p.returncode}: {p.stderr.strip()}")
+    return json.loads(p.stdout)
+
+
+def main():
+    ap = argparse.ArgumentParser()
+    ap.add_argument("build")
+    ap.add_argument("--set", default="calibration", choices=["calibration", "validation"])
+    ap.add_argument("--scenes", default="")
+    ap.add_argument("--size", default="96x72")
+    ap.add_argument("--ref-noise", default="0.01")
+    ap.add_argument("--ref-time", default="240")
+    ap.add_argument("--qualities", default="low,medium,high")
+    ap.add_argument("--cache", default=os.path.join("/tmp", "vdbscatter-calibration"),
+                    help="where the tradeoff folders (references, images) live between runs")
+    args = ap.parse_args()
+    exe = os.path.join(args.build, "vdbscatter")
+    table = CALIBRATION if args.set == "calibration" else VALIDATION
+    names = args.scenes.split(",") if args.scenes else list(table)
+    out_json = os.path.join(HERE, "tradeoff", f"{args.set}.json")
+    gathered = json.load(open(out_json)) if os.path.exists(out_json) else {}
+    skipped = []
+    for name in names:
+        scene, vdb, what = table[name]
+        if vdb is not None and not os.path.exists(vdb):
+            skipped.append(name)
+            continue
+        inp = [vdb] if vdb else []
+        work = os.path.join(args.cache, name)
+        start = time.monotonic()
+        rep = run([exe, "tradeoff", *inp, "--scene", scene, "-o", work, "--size", args.size,
+                   "--ref-noise", args.ref_noise, "--ref-time", args.ref_time,
+                   "--qualities", args.qualities, "--json", "-q"])
+        plan = None
+        try:
+            plan = run([exe, "bake", *inp, "--scene", scene, "-o", os.path.join(work, "p.vdb"),
+                        "--method", "auto", "--tolerance", "0.1", "--dry-run", "--json", "-q"])
+        except RuntimeError as e:  # a build without the planner
+            print(f"{name}: no features: {e}", file=sys.stderr)
+        keep = os.path.join(HERE, "tradeoff", name)
+        os.makedirs(keep, exist_ok=True)
+        for f in ("tradeoff.md", "tradeoff.csv", "tradeoff.png"):
+            if os.path.exists(os.path.join(work, f)):
+                shutil.copy(os.path.join(work, f), keep)
+        gathered[name] = {"what": what, "scene": os.path.relpath(scene, ROOT),
+                          "volume": os.path.basename(vdb) if vdb else None,
+                          "size": args.size, "tradeoff": rep,
+                          "features": plan.get("features") if plan else None,
+                          "seconds": time.monotonic() - start}
+        json.dump(gathered, open(out_json, "w"), indent=1)
+        print(f"{name}: {len(rep['rows'])} runs, reference {rep['reference']['spp']} spp "
+              f"noise {rep['reference']['noise']:.4f}, {time.monotonic() - start:.0f} s",
+              flush=True)
+    if skipped:
+        print("skipped (volume missing): " + ", ".join(skipped))
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,330 @@
+#include "vdbscatter/plan.h"
+
+#include <cjson/cJSON.h>
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "base/vdbs_math.h"
+#include "vdbscatter/advice.h"
+#include "vdbscatter/lights.h"
+#include "vdbscatter/scene_file.h"
+#include "vdbscatter/solver.h"
+
+/* The calibration set, measured (bench/bench_calibrate.py). */
+typedef struct plan_scene {
+    const char *name;
+    double mean_depth, albedo, g, ms_to_ss, sky_share, point_share, active_voxels;
+} plan_scene;
+
+typedef struct plan_measure {
+    const char *scene;
+    const char *method;
+    int quality;
+    double error;   /* image relative RMSE against the reference, its noise removed */
+    double seconds; /* the bake's */
+} plan_measure;
+
+#include "plan_table.h"
+
+/* Both tables end with a zeroed row (a table may be empty). */
+
+/* Sky ordinates the measurement resolves a sky into. */
+#define PLAN_SKY_ORDINATES 64
+/* A light is left out when its power share is below this fraction of the tolerance. */
+#define PLAN_SKIP_FRACTION 0.125
+/* log(error) margin per unit of missing neighbour weight: far from every calibration scene
+ * the prediction is raised up to e^0.4 = 1.5x (errors on unseen volumes measured 1.5-3x
+ * the sample's). */
+#define PLAN_FAR_MARGIN 0.4
+
+static double mean3(const double v[3])
+{
+    return (fabs(v[0]) + fabs(v[1]) + fabs(v[2])) / 3.0;
+}
+
+/* Area of the world box [lo, hi] projected along unit direction d. */
+static double projected_area(const double lo[3], const double hi[3], const double d[3])
+{
+    const double e[3] = {hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2]};
+    return fabs(d[0]) * e[1] * e[2] + fabs(d[1]) * e[0] * e[2] + fabs(d[2]) * e[0] * e[1];
+}
+
+static double point_power(const double lo[3], const double hi[3], const double p[3],
+                          double intensity)
+{
+    double c[3], to[3], r2 = 0.0;
+    int inside = 1;
+    for (int a = 0; a < 3; ++a) {
+        inside &= p[a] >= lo[a] && p[a] <= hi[a];
+        c[a] = 0.5 * (lo[a] + hi[a]);
+        to[a] = c[a] - p[a];
+        r2 += to[a] * to[a];
+    }
+    if (inside || r2 <= 0.0)
+        return intensity * 4.0 * VDBS_PI;
+    const double r = sqrt(r2);
+    for (int a = 0; a < 3; ++a)
+        to[a] /= r;
+    return intensity * fmin(4.0 * VDBS_PI, projected_area(lo, hi, to) / r2);
+}
+
+vdbs_status vdbs_plan_measure(const vdbs_scene *scene, const vdbs_volume *volume,
+                              vdbs_plan_features *f, vdbs_error *err)
+{
+    memset(f, 0, sizeof *f);
+    vdbs_advice advice;
+    vdbs_scene_advise(scene, volume, 1, NULL, NULL, &advice);
+    f->mean_depth = advice.mean_depth;
+    f->ms_to_ss = advice.ms_to_ss;
+    f->albedo = mean3(scene->albedo);
+    f->g = scene->g;
+    f->active_voxels = (double)volume->coord_count;
+    float ilo[3], ihi[3];
+    vdbs_volume_support_box(volume, ilo, ihi);
+    double box_voxels = 1.0, extent_voxels = 0.0;
+    for (int a = 0; a < 3; ++a) {
+        box_voxels *= fmax((double)ihi[a] - ilo[a], 1.0);
+        extent_voxels = fmax(extent_voxels, (double)ihi[a] - ilo[a]);
+    }
+    f->active_fraction = fmin(f->active_voxels / box_voxels, 1.0);
+    /* The mean depth is along straight rays across the volume: per voxel of its extent. */
+    f->voxel_mfp = extent_voxels > 0.0 ? f->mean_depth / extent_voxels : 0.0;
+
+    vdbs_lights_desc desc = {0};
+    desc.sky_ordinates = PLAN_SKY_ORDINATES;
+    vdbs_light_table table;
+    vdbs_status st = vdbs_lights_build(volume, scene, &desc, &table, err);
+    if (st != VDBS_OK)
+        return st;
+    double lo[3], hi[3];
+    vdbs_volume_support_bounds(volume, lo, hi);
+    double power[VDBS_MAX_LIGHTS] = {0}, sky = 0.0, env_weight = 0.0, total = 0.0;
+    int direct = 0;
+    for (int i = 0; i < scene->light_count; ++i) {
+        const vdbs_light *l = &scene->lights[i];
+        if (l->type == VDBS_LIGHT_ENV) {
+            env_weight += mean3(l->color) * (l->env_map ? l->env_scale : 1.0);
+            continue;
+        }
+        const vdbs_direct_light *d = &table.direct[direct++];
+        power[i] = d->type == VDBS_LIGHT_SUN ? mean3(d->color) * projected_area(lo, hi, d->world)
+                                             : point_power(lo, hi, d->world, mean3(d->color));
+    }
+    double sum_l = 0.0, sum_l2 = 0.0, sum_w = 0.0;
+    for (int k = 0; k < table.ordinate_count; ++k) {
+        const vdbs_sky_ordinate *o = &table.ordinates[k];
+        const double l = mean3(o->radiance);
+        sky += l * o->weight * projected_area(lo, hi, o->world);
+        sum_l += l * o->weight;
+        sum_l2 += l * l * o->weight;
+        sum_w += o->weight;
+    }
+    if (sum_w > 0.0 && sum_l > 0.0) {
+        const double m = sum_l / sum_w;
+        f->sky_variation = sqrt(fmax(sum_l2 / sum_w - m * m, 0.0)) / m;
+    }
+    vdbs_lights_free(&table);
+    /* The sky's power goes to the env lights by their colour (and scale). */
+    for (int i = 0; i < scene->light_count; ++i) {
+        const vdbs_light *l = &scene->lights[i];
+        if (l->type == VDBS_LIGHT_ENV && env_weight > 0.0)
+            power[i] = sky * mean3(l->color) * (l->env_map ? l->env_scale : 1.0) / env_weight;
+        total += power[i];
+    }
+    f->light_count = scene->light_count;
+    for (int i = 0; i < scene->light_count; ++i) {
+        f->light_share[i] = total > 0.0 ? power[i] / total : 0.0;
+        if (scene->lights[i].type == VDBS_LIGHT_ENV)
+            f->sky_share += f->light_share[i];
+        else if (scene->lights[i].type == VDBS_LIGHT_POINT)
+            f->point_share += f->light_share[i];
+    }
+    return VDBS_OK;
+}
+
+/* Squared distance in the planner's feature space: a decade of optical depth, of
+ * 1 - albedo, of active voxels counts as two units; g by 0.3; light shares by 0.3. */
+static double distance2(const vdbs_plan_features *f, const plan_scene *s)
+{
+    const double d[6] = {
+        2.0 * log10(fmax(f->mean_depth, 1e-3) / fmax(s->mean_depth, 1e-3)),
+        2.0 * log10(fmax(1.0 - f->albedo, 1e-3) / fmax(1.0 - s->albedo, 1e-3)),
+        (f->g - s->g) / 0.3,
+        (f->sky_share - s->sky_share) / 0.3,
+        (f->point_share - s->point_share) / 0.3,
+        1.0 * log10(fmax(f->active_voxels, 1.0) / fmax(s->active_voxels, 1.0)),
+    };
+    double sum = 0.0;
+    for (int i = 0; i < 6; ++i)
+        sum += d[i] * d[i];
+    return sum;
+}
+
+static const plan_scene *scene_named(const char *name)
+{
+    for (size_t i = 0; plan_scenes[i].name; ++i)
+        if (strcmp(plan_scenes[i].name, name) == 0)
+            return &plan_scenes[i];
+    return NULL;
+}
+
+/* Kernel regression over the calibration scenes that measured (method, quality): the
+ * weighted mean of log error plus its weighted spread and the far margin; seconds per
+ * active voxel likewise (mean only). 0 when no scene measured it. */
+static int predict(const vdbs_plan_features *f, const char *method, int quality, double *error,
+                   double *seconds)
+{
+    double w_sum = 0.0, e1 = 0.0, e2 = 0.0, t1 = 0.0;
+    for (size_t i = 0; plan_measures[i].scene; ++i) {
+        const plan_measure *m = &plan_measures[i];
+        const plan_scene *s = scene_named(m->scene);
+        if (!s || m->quality != quality || strcmp(m->method, method) != 0 || !(m->error > 0.0))
+            continue;
+        const double w = exp(-0.5 * distance2(f, s));
+        const double le = log(m->error);
+        w_sum += w;
+        e1 += w * le;
+        e2 += w * le * le;
+        t1 += w * log(m->seconds / fmax(s->active_voxels, 1.0));
+    }
+    if (!(w_sum > 1e-12))
+        return 0;
+    const double mean = e1 / w_sum, spread = sqrt(fmax(e2 / w_sum - mean * mean, 0.0));
+    *error = exp(mean + spread + PLAN_FAR_MARGIN * fmax(0.0, 1.0 - w_sum));
+    *seconds = exp(t1 / w_sum) * fmax(f->active_voxels, 1.0);
+    return 1;
+}
+
+vdbs_status vdbs_plan_make(const vdbs_plan_features *f, double tolerance, vdbs_plan *plan,
+                           vdbs_error *err)
+{
+    memset(plan, 0, sizeof *plan);
+    if (!(tolerance > 0.0 && tolerance < 1.0))
+        return vdbs_error_set(err, VDBS_ERR_INPUT, "--tolerance: expected 0 < E < 1, got %g",
+                              tolerance);
+    plan->tolerance = tolerance;
+    double best_d = INFINITY;
+    for (size_t i = 0; plan_scenes[i].name; ++i) {
+        plan->calibration_scenes++;
+        const double d = distance2(f, &plan_scenes[i]);
+        if (d < best_d) {
+            best_d = d;
+            snprintf(plan->nearest, sizeof plan->nearest, "%s", plan_scenes[i].name);
+        }
+    }
+    /* Lights too weak to matter, never all of them. */
+    int kept = f->light_count;
+    for (int i = 0; i < f->light_count; ++i)
+        if (f->light_share[i] < PLAN_SKIP_FRACTION * tolerance && kept > 1) {
+            plan->skip[i] = 1;
+            plan->skipped++;
+            plan->skipped_share += f->light_share[i];
+            --kept;
+        }
+    for (int k = 0;; ++k) {
+        const vdbs_solver *s = vdbs_solver_at(k);
+        if (!s)
+            break;
+        for (int q = 0; q < VDBS_QUALITY_COUNT; ++q) {
+            vdbs_plan_candidate c = {s->name, q, 0.0, 0.0};
+            if (plan->candidate_count == VDBS_PLAN_MAX_CANDIDATES ||
+                !predict(f, s->name, q, &c.error, &c.seconds))
+                continue;
+            c.error += plan->skipped_share; /* what the left-out lights would have added */
+            plan->candidates[plan->candidate_count++] = c;
+        }
+    }
+    /* Without a table (a build before any calibration) nothing is reachable. */
+    const vdbs_plan_candidate none = {"svd", 0, INFINITY, 0.0};
+    const vdbs_plan_candidate *best = plan->candidate_count ? NULL : &none, *cheapest = NULL;
+    for (int i = 0; i < plan->candidate_count; ++i) {
+        const vdbs_plan_candidate *c = &plan->candidates[i];
+        if (!best || c->error < best->error)
+            best = c;
+        if (c->error <= tolerance && (!cheapest || c->seconds < cheapest->seconds))
+            cheapest = c;
+    }
+    plan->reachable = cheapest != NULL;
+    plan->chosen = cheapest ? *cheapest : *best;
+    return VDBS_OK;
+}
+
+vdbs_status vdbs_plan_apply(const vdbs_plan *plan, vdbs_scene *scene, vdbs_error *err)
+{
+    int count;
+    const vdbs_quality *q = vdbs_quality_list(&count);
+    vdbs_status st = vdbs_scene_set_method(scene, "--method auto", plan->chosen.method, err);
+    if (st == VDBS_OK)
+        st = vdbs_scene_set_quality(scene, "--method auto", q[plan->chosen.quality].name, err);
+    if (st != VDBS_OK || plan->skipped == 0)
+        return st;
+    vdbs_scene *kept = malloc(sizeof *kept);
+    if (!kept)
+        return vdbs_error_set(err, VDBS_ERR_NOMEM, "out of memory");
+    *kept = *scene;
+    /* The kept lights in order; an env map keeps its path. */
+    vdbs_scene_clear_lights(kept);
+    for (int i = 0; i < scene->light_count; ++i)
+        if (!plan->skip[i]) {
+            vdbs_light l = scene->lights[i];
+            const char *file = vdbs_light_env_file(scene, &scene->lights[i]);
+            l.env_map = 0;
+            kept->lights[kept->light_count] = l;
+            if (file && (st = vdbs_light_set_env_file(kept, &kept->lights[kept->light_count], file,
+                                                      err)) != VDBS_OK) {
+                free(kept);
+                return st;
+            }
+            kept->light_count++;
+        }
+    *scene = *kept;
+    free(kept);
+    return VDBS_OK;
+}
+
+char *vdbs_plan_json(const vdbs_plan *plan, const vdbs_plan_features *f)
+{
+    int count;
+    const vdbs_quality *q = vdbs_quality_list(&count);
+    cJSON *o = cJSON_CreateObject();
+    cJSON_AddNumberToObject(o, "tolerance", plan->tolerance);
+    cJSON_AddBoolToObject(o, "reachable", plan->reachable);
+    cJSON_AddStringToObject(o, "method", plan->chosen.method);
+    cJSON_AddStringToObject(o, "quality", q[plan->chosen.quality].name);
+    cJSON_AddNumberToObject(o, "predicted_error", plan->chosen.error);
+    cJSON_AddNumberToObject(o, "predicted_seconds", plan->chosen.seconds);
+    cJSON *skip = cJSON_AddArrayToObject(o, "skipped_lights");
+    for (int i = 0; i < f->light_count; ++i)
+        if (plan->skip[i])
+            cJSON_AddItemToArray(skip, cJSON_CreateNumber(i));
+    cJSON_AddStringToObject(o, "nearest_calibration_scene", plan->nearest);
+    cJSON_AddNumberToObject(o, "calibration_scenes", plan->calibration_scenes);
+    cJSON *feat = cJSON_AddObjectToObject(o, "features");
+    cJSON_AddNumberToObject(feat, "mean_depth", f->mean_depth);
+    cJSON_AddNumberToObject(feat, "albedo", f->albedo);
+    cJSON_AddNumberToObject(feat, "g", f->g);
+    cJSON_AddNumberToObject(feat, "ms_to_ss", f->ms_to_ss);
+    cJSON_AddNumberToObject(feat, "active_voxels", f->active_voxels);
+    cJSON_AddNumberToObject(feat, "active_fraction", f->active_fraction);
+    cJSON_AddNumberToObject(feat, "voxel_mfp", f->voxel_mfp);
+    cJSON_AddNumberToObject(feat, "sky_share", f->sky_share);
+    cJSON_AddNumberToObject(feat, "point_share", f->point_share);
+    cJSON_AddNumberToObject(feat, "sky_variation", f->sky_variation);
+    cJSON_AddItemToObject(feat, "light_share",
+                          cJSON_CreateDoubleArray(f->light_share, f->light_count));
+    cJSON *cands = cJSON_AddArrayToObject(o, "candidates");
+    for (int i = 0; i < plan->candidate_count; ++i) {
+        const vdbs_plan_candidate *c = &plan->candidates[i];
+        cJSON *e = cJSON_CreateObject();
+        cJSON_AddStringToObject(e, "method", c->method);
+        cJSON_AddStringToObject(e, "quality", q[c->quality].name);
+        cJSON_AddNumberToObject(e, "predicted_error", c->error);
+        cJSON_AddNumberToObject(e, "predicted_seconds", c->seconds);
+        cJSON_AddItemToArray(cands, e);
+    }
+    char *text = cJSON_PrintUnformatted(o);
+    cJSON_Delete(o);
+    return text;
+}
