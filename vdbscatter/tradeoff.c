@@ -622,7 +622,20 @@ vdbs_status vdbs_tradeoff_run(const vdbs_tradeoff_desc *d, vdbs_tradeoff_report 
         quality_count += (qualities >> q) & 1u;
     if (qualities >> VDBS_QUALITY_COUNT)
         return vdbs_error_set(err, VDBS_ERR_INTERNAL, "qualities: a level past ultra");
-    vdbs_status st = make_dir(d->dir, err);
+    /* The input and scene before any folder is made: a bad file leaves nothing behind. */
+    vdbs_render_desc check = {0};
+    check.input = j.input;
+    check.scene = d->scene;
+    check.mode = VDBS_RENDER_REFERENCE;
+    check.camera = d->camera;
+    check.width = j.width;
+    check.height = j.height;
+    vdbs_render_input opened;
+    vdbs_status st = vdbs_render_open(&check, &opened, err);
+    if (st != VDBS_OK)
+        return st;
+    vdbs_render_input_free(&opened);
+    st = make_dir(d->dir, err);
     char images[VDBS_PATH_MAX];
     job_path(&j, images, sizeof images, "images");
     if (st == VDBS_OK)
