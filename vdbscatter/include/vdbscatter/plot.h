@@ -35,7 +35,7 @@ typedef struct vdbs_plot_series {
 } vdbs_plot_series;
 
 typedef struct vdbs_plot_desc {
-    int width, height; /* 0: 800 x 560 */
+    int width, height;                   /* 0: 800 x 560 */
     const char *title, *xlabel, *ylabel; /* NULL: none; the y label sits above the frame */
     int log_x, log_y;                    /* nonzero: logarithmic axis */
     /* Axis ranges; both 0: automatic over the usable points, widened to whole decades on a
