@@ -848,17 +848,18 @@ vdbs_status vdbs_plot_render(const vdbs_plot_desc *desc, vdbs_image *image, vdbs
     fill_rect(&all, 0, 0, p->width - 1, p->height - 1, hex_colour(COLOUR_BACKGROUND));
     draw_grid(&all, p);
 
-    /* Data: the front under every line, lines under every disc, labels on top. */
     canvas data = all;
     data.x0 = p->lay.left - CLIP_MARGIN;
     data.y0 = p->lay.top - CLIP_MARGIN;
     data.x1 = p->lay.right + CLIP_MARGIN;
     data.y1 = p->lay.bottom + CLIP_MARGIN;
-    for (int s = 0; s < d->series_count; ++s)
-        if (d->series[s].style == VDBS_PLOT_FRONT)
-            draw_series_line(&data, p, &d->series[s], series_colour(d, s));
+    /* Data: lines, then the front over them (where it runs along a method's line it stays
+     * visible), then every disc, labels on top. */
     for (int s = 0; s < d->series_count; ++s)
         if (d->series[s].style != VDBS_PLOT_FRONT)
+            draw_series_line(&data, p, &d->series[s], series_colour(d, s));
+    for (int s = 0; s < d->series_count; ++s)
+        if (d->series[s].style == VDBS_PLOT_FRONT)
             draw_series_line(&data, p, &d->series[s], series_colour(d, s));
     for (int s = 0; s < d->series_count; ++s)
         draw_series_points(&data, p, &d->series[s], series_colour(d, s));

@@ -14,7 +14,7 @@ extern "C" {
 typedef enum vdbs_plot_style {
     VDBS_PLOT_LINE_POINTS = 0, /* points (filled discs) joined by lines; auto colour: palette */
     VDBS_PLOT_DASHED,          /* dashed line, small discs; auto colour: grey */
-    VDBS_PLOT_FRONT            /* thick line under every other series, no discs; auto: near-black */
+    VDBS_PLOT_FRONT            /* thick line over other lines, under discs; auto: near-black */
 } vdbs_plot_style;
 
 typedef enum vdbs_plot_legend {
