@@ -5,6 +5,7 @@
  * (tmp/plot_tradeoff.png). */
 #include "testutil.h"
 
+#include <float.h>
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -376,6 +377,51 @@ static void test_unusable_values(void **state)
     vdbs_image_free(&im);
 }
 
+/* Extremes never crash: decades from 1e-320 to 1e308, points far outside explicit ranges,
+ * linear spans that overflow. The chart still comes out with its frame. */
+static void test_extremes(void **state)
+{
+    (void)state;
+    const double x[5] = {5e-324, 1e-300, 1.0, 1e300, DBL_MAX};
+    const double y[5] = {DBL_MAX, 1e200, 1.0, 1e-200, 5e-324};
+    const char *const labels[5] = {"a", "b", "c", "d", "e"};
+    vdbs_plot_series s[2] = {{0}};
+    s[0].name = "wide";
+    s[0].x = x;
+    s[0].y = y;
+    s[0].labels = labels;
+    s[0].count = 5;
+    s[1] = s[0];
+    s[1].style = VDBS_PLOT_DASHED;
+    vdbs_plot_desc d = {0};
+    d.log_x = d.log_y = 1;
+    d.series = s;
+    d.series_count = 2;
+    for (int pass = 0; pass < 4; ++pass) {
+        if (pass == 1) { /* explicit ranges: every point but (1, 1) far outside */
+            d.x_min = d.y_min = 0.5;
+            d.x_max = d.y_max = 2.0;
+        } else if (pass == 2) { /* linear: spans of 2 DBL_MAX */
+            d.log_x = d.log_y = 0;
+            d.x_min = d.x_max = d.y_min = d.y_max = 0.0;
+        } else if (pass == 3) {
+            d.x_min = d.y_min = 0.5;
+            d.x_max = d.y_max = 2.0;
+        }
+        vdbs_image im;
+        vdbs_plot_layout l;
+        render_ok(&d, &im, &l);
+        assert_true(is_dark(&im, l.left, (l.top + l.bottom) / 2));
+        assert_true(is_dark(&im, (l.left + l.right) / 2 + 3, l.bottom));
+        if (pass == 1 || pass == 3) { /* the one point inside, at the middle */
+            int px, py;
+            expect_pixel(&l, 1.0, 1.0, &px, &py);
+            assert_true(is_rgb(&im, px, py, 0x7F7F7Fu)); /* the dashed series, drawn last */
+        }
+        vdbs_image_free(&im);
+    }
+}
+
 static void expect_error(const vdbs_plot_desc *d, vdbs_status want, const char *words)
 {
     vdbs_image im;
@@ -558,6 +604,7 @@ int main(void)
         cmocka_unit_test(test_points_and_axes),
         cmocka_unit_test(test_auto_range),
         cmocka_unit_test(test_unusable_values),
+        cmocka_unit_test(test_extremes),
         cmocka_unit_test(test_errors),
         cmocka_unit_test(test_png_round_trip),
         cmocka_unit_test(test_tradeoff_chart),

@@ -671,6 +671,18 @@ static colour label_colour(const vdbs_plot_desc *d, int s)
     return rgb_colour(rgb);
 }
 
+/* The pixel of a usable point, or 0 for one so far out (explicit ranges) that it would
+ * not fit an int: nothing of its disc or label could show anyway. */
+static int point_pixel(const plan *p, double x, double y, int *px, int *py)
+{
+    double u, v;
+    if (!vdbs_plot_map(&p->lay, x, y, &u, &v) || fabs(u) > 1e6 || fabs(v) > 1e6)
+        return 0;
+    *px = (int)floor(u + 0.5);
+    *py = (int)floor(v + 0.5);
+    return 1;
+}
+
 static void draw_series_line(const canvas *cv, const plan *p, const vdbs_plot_series *se,
                              colour col)
 {
@@ -702,9 +714,9 @@ static void draw_series_points(const canvas *cv, const plan *p, const vdbs_plot_
     if (se->style == VDBS_PLOT_FRONT)
         return;
     for (int i = 0; i < se->count; ++i) {
-        double px, py;
-        if (vdbs_plot_map(&p->lay, se->x[i], se->y[i], &px, &py))
-            marker(cv, se->style, (int)floor(px + 0.5), (int)floor(py + 0.5), col);
+        int x, y;
+        if (point_pixel(p, se->x[i], se->y[i], &x, &y))
+            marker(cv, se->style, x, y, col);
     }
 }
 
@@ -714,11 +726,12 @@ static void draw_point_labels(const canvas *cv, const plan *p, const vdbs_plot_s
     if (!se->labels)
         return;
     for (int i = 0; i < se->count; ++i) {
-        double px, py;
-        if (!se->labels[i] || !*se->labels[i] ||
-            !vdbs_plot_map(&p->lay, se->x[i], se->y[i], &px, &py))
+        int x, y;
+        if (!se->labels[i] || !*se->labels[i] || !point_pixel(p, se->x[i], se->y[i], &x, &y))
             continue;
-        const int x = (int)floor(px + 0.5), y = (int)floor(py + 0.5);
+        if (x < p->lay.left - CLIP_MARGIN || x > p->lay.right + CLIP_MARGIN ||
+            y < p->lay.top - CLIP_MARGIN || y > p->lay.bottom + CLIP_MARGIN)
+            continue; /* its disc is clipped away: no label out in the margins */
         const int w = vdbs_plot_text_width(se->labels[i], 1);
         int tx = x + MARKER + 3, ty = y - MARKER - VDBS_PLOT_GLYPH_H + 1;
         if (tx + w > p->lay.right - 2)
