@@ -67,13 +67,13 @@ int vdbs_plot_map(const vdbs_plot_layout *layout, double x, double y, double *px
 /* Draws the chart into a new image (vdbs_image_alloc; free with vdbs_image_free) of linear
  * floats that vdbs_image_write turns, at exposure 0, into exactly the chart's sRGB colours.
  * A point is used when both its values are usable (see vdbs_plot_map); unusable points are
- * skipped and lines join the usable ones. With no usable point at all (or no series) the
- * chart is drawn empty over x and y in [1, 10] (log) or [0, 1] (linear), with the legend,
- * and the result is VDBS_OK: the caller decides whether an empty chart is an error. Point
+ * skipped and lines join the usable ones in the order given. With no usable point at all (or no
+ * series) the chart is drawn empty over x and y in [1, 10] (log) or [0, 1] (linear), with the
+ * legend, and the result is VDBS_OK: the caller decides whether an empty chart is an error. Point
  * labels may overlap each other; nothing moves them apart.
- * Errors: VDBS_ERR_INTERNAL for a NULL desc or image, a negative count or a series without
- * x or y; VDBS_ERR_INPUT for a size outside 160 x 120 .. 8192 x 8192 or too small for the
- * labels, or an explicit range that is empty (or not positive on a log axis). */
+ * Errors: VDBS_ERR_INTERNAL for a NULL desc or image, a negative count, a series without
+ * x or y or of an unknown style; VDBS_ERR_INPUT for a size outside 160 x 120 .. 8192 x 8192 or too
+ * small for the labels, or an explicit range that is empty (or not positive on a log axis). */
 vdbs_status vdbs_plot_render(const vdbs_plot_desc *desc, vdbs_image *image, vdbs_error *err);
 
 /* vdbs_plot_render to a PNG (or any vdbs_image_write extension) at path. */
