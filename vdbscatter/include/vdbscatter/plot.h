@@ -14,7 +14,7 @@ extern "C" {
 typedef enum vdbs_plot_style {
     VDBS_PLOT_LINE_POINTS = 0, /* points (filled discs) joined by lines; auto colour: palette */
     VDBS_PLOT_DASHED,          /* dashed line, small discs; auto colour: grey */
-    VDBS_PLOT_FRONT            /* thick line under every other series, no discs; auto: near-black */
+    VDBS_PLOT_FRONT            /* thick line over other lines, under discs; auto: near-black */
 } vdbs_plot_style;
 
 typedef enum vdbs_plot_legend {
@@ -35,7 +35,7 @@ typedef struct vdbs_plot_series {
 } vdbs_plot_series;
 
 typedef struct vdbs_plot_desc {
-    int width, height; /* 0: 800 x 560 */
+    int width, height;                   /* 0: 800 x 560 */
     const char *title, *xlabel, *ylabel; /* NULL: none; the y label sits above the frame */
     int log_x, log_y;                    /* nonzero: logarithmic axis */
     /* Axis ranges; both 0: automatic over the usable points, widened to whole decades on a
@@ -67,13 +67,13 @@ int vdbs_plot_map(const vdbs_plot_layout *layout, double x, double y, double *px
 /* Draws the chart into a new image (vdbs_image_alloc; free with vdbs_image_free) of linear
  * floats that vdbs_image_write turns, at exposure 0, into exactly the chart's sRGB colours.
  * A point is used when both its values are usable (see vdbs_plot_map); unusable points are
- * skipped and lines join the usable ones. With no usable point at all (or no series) the
- * chart is drawn empty over x and y in [1, 10] (log) or [0, 1] (linear), with the legend,
- * and the result is VDBS_OK: the caller decides whether an empty chart is an error. Point
+ * skipped and lines join the usable ones in the order given. With no usable point at all (or no
+ * series) the chart is drawn empty over x and y in [1, 10] (log) or [0, 1] (linear), with the
+ * legend, and the result is VDBS_OK: the caller decides whether an empty chart is an error. Point
  * labels may overlap each other; nothing moves them apart.
- * Errors: VDBS_ERR_INTERNAL for a NULL desc or image, a negative count or a series without
- * x or y; VDBS_ERR_INPUT for a size outside 160 x 120 .. 8192 x 8192 or too small for the
- * labels, or an explicit range that is empty (or not positive on a log axis). */
+ * Errors: VDBS_ERR_INTERNAL for a NULL desc or image, a negative count, a series without
+ * x or y or of an unknown style; VDBS_ERR_INPUT for a size outside 160 x 120 .. 8192 x 8192 or too
+ * small for the labels, or an explicit range that is empty (or not positive on a log axis). */
 vdbs_status vdbs_plot_render(const vdbs_plot_desc *desc, vdbs_image *image, vdbs_error *err);
 
 /* vdbs_plot_render to a PNG (or any vdbs_image_write extension) at path. */
