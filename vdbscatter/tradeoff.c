@@ -504,7 +504,9 @@ static vdbs_status write_plot(const vdbs_tradeoff_report *rep, const char *input
     int count = 0;
     for (int i = 0; i < n; ++i) {
         x[i] = row_seconds(&rep->rows[i]);
-        y[i] = rep->rows[i].relrmse;
+        /* An error below the reference's noise (0 once the noise is removed) is drawn at
+         * its standard error, so that it stays on the log axis. */
+        y[i] = fmax(rep->rows[i].relrmse, rep->rows[i].relrmse_se);
         labels[i] = rep->rows[i].quality;
         if (i == 0 || strcmp(rep->rows[i].method, rep->rows[i - 1].method) != 0) {
             series[count].name = rep->rows[i].method;
