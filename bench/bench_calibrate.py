@@ -81,14 +81,16 @@ def main():
     ap.add_argument("--ref-noise", default="0.01")
     ap.add_argument("--ref-time", default="240")
     ap.add_argument("--qualities", default="low,medium,high")
+    ap.add_argument("--out", default="", help="the gathered JSON (default "
+                    "bench/tradeoff/SET.json); re-read before each write, so that runs in "
+                    "parallel on other scenes add to it")
     ap.add_argument("--cache", default=os.path.join("/tmp", "vdbscatter-calibration"),
                     help="where the tradeoff folders (references, images) live between runs")
     args = ap.parse_args()
     exe = os.path.join(args.build, "vdbscatter")
     table = CALIBRATION if args.set == "calibration" else VALIDATION
     names = args.scenes.split(",") if args.scenes else list(table)
-    out_json = os.path.join(HERE, "tradeoff", f"{args.set}.json")
-    gathered = json.load(open(out_json)) if os.path.exists(out_json) else {}
+    out_json = args.out or os.path.join(HERE, "tradeoff", f"{args.set}.json")
     skipped = []
     for name in names:
         scene, vdb, what = table[name]
@@ -112,6 +114,7 @@ def main():
         for f in ("tradeoff.md", "tradeoff.csv", "tradeoff.png"):
             if os.path.exists(os.path.join(work, f)):
                 shutil.copy(os.path.join(work, f), keep)
+        gathered = json.load(open(out_json)) if os.path.exists(out_json) else {}
         gathered[name] = {"what": what, "scene": os.path.relpath(scene, ROOT),
                           "volume": os.path.basename(vdb) if vdb else None,
                           "size": args.size, "tradeoff": rep,

@@ -31,6 +31,9 @@ COMMANDS = [
      "device."),
     ("sample", ["sample"],
      "Writes a procedural sample volume, or the test environment map."),
+    ("tradeoff", ["tradeoff"],
+     "Every method's error against time on your scene and view, against a cached "
+     "Monte-Carlo reference (docs/tradeoff.md)."),
     ("phase-svd", ["phase-svd"],
      "The factorisation error of the discrete HG phase matrix per number of terms "
      "(docs/methods/svd.md)."),

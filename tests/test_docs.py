@@ -18,7 +18,7 @@ TMP = os.environ.get("VDBSCATTER_TMP", tempfile.gettempdir())
 
 README = os.path.join(ROOT, "README.md")
 CLI_MD = os.path.join(ROOT, "docs", "cli.md")
-COMMANDS = ["bake", "render", "compare", "info", "sample", "phase-svd"]
+COMMANDS = ["bake", "render", "compare", "info", "sample", "tradeoff", "phase-svd"]
 FLAG = re.compile(r"(?<![\w-])(--[a-z0-9][a-z0-9-]*|-o|-q)(?![\w-])")
 
 
