@@ -37,7 +37,8 @@ typedef struct vdbs_plan_candidate {
     const char *method;
     int quality;    /* level, quality.h */
     double error;   /* predicted image relative RMSE */
-    double seconds; /* predicted bake seconds on the C path */
+    double seconds; /* predicted solve seconds on the C path: the solver entry's cost hint
+                       times the active voxels */
 } vdbs_plan_candidate;
 
 #define VDBS_PLAN_MAX_CANDIDATES 32
