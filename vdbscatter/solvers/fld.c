@@ -39,7 +39,7 @@
 void vdbs_fld_quality(const char *quality, vdbs_fld_preset *preset)
 {
     static const vdbs_fld_preset presets[] = {
-        {1.0, 12, 1e-4}, {2.0, 16, 1e-5}, {4.0, 24, 1e-6}, {8.0, 32, 1e-7}};
+        {1.0, 12, 1e-4}, {1.0, 12, 1e-5}, {1.0, 12, 1e-6}, {1.0, 12, 1e-7}};
     *preset = presets[vdbs_quality_level(quality)];
 }
 

@@ -18,9 +18,9 @@ static const vdbs_solver_option options[] = {
                  .syntax = "N",
                  .min = 2,
                  .max = FLD_MAX_RESOLUTION,
-                 .help = "FLD: cells across the largest extent (default: 1/2/4/8\n"
-                         "per transport free path per quality, at least\n"
-                         "12/16/24/32, never finer than the voxels)"},
+                 .help = "FLD: cells across the largest extent (default: one per\n"
+                         "transport free path at every quality, at least 12, never\n"
+                         "finer than the voxels: finer grids measured worse)"},
     [OPT_LIMITER] = {.key = "fld_limiter",
                      .flag = "--fld-limiter",
                      .kind = VDBS_OPTION_CHOICE,

@@ -32,8 +32,8 @@ static const vdbs_solver_option options[] = {
                        .min = 1,
                        .max = VDBS_MAX_SKY_DIRECTIONS,
                        .help = "POP: propagation grids for the sky (importance-sampled;\n"
-                               "default 8/16/32/64 per quality)",
-                       .preset = {8, 16, 32, 64}},
+                               "default 8 at every quality: more measured worse)",
+                       .preset = {8, 8, 8, 8}},
     [OPT_ITERATIONS] = {.key = "pop_iterations",
                         .flag = "--pop-iterations",
                         .syntax = "N",

@@ -53,8 +53,10 @@ typedef struct vdbs_fld_desc {
  * transport free path 1 / sigma_tr (the mean over voxels with density) across the largest
  * extent, at least min_resolution, never finer than the voxels. */
 typedef struct vdbs_fld_preset {
-    double cells_per_path; /* low 1, medium 2, high 4, ultra 8 */
-    int min_resolution;    /* 12 / 16 / 24 / 32 */
+    /* 1 and 12 at every quality: finer grids converge to FLD's own diffusion bias and
+     * measured worse (docs/planner.md, "Ladders"); the ladder spends on S1 instead */
+    double cells_per_path;
+    int min_resolution;
     double tolerance;      /* 1e-4 / 1e-5 / 1e-6 / 1e-7 */
 } vdbs_fld_preset;
 

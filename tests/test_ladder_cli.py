@@ -1,0 +1,57 @@
+#!/usr/bin/python3
+"""Quality ladders that never get worse, the reduced check: on the bundled cloud and smoke,
+every method at low and medium against a Monte-Carlo reference (`vdbscatter tradeoff`, 48x36,
+fixed seeds): the error at medium is at most the error at low plus two of the estimates'
+standard errors (docs/planner.md has the whole calibration set)."""
+import json
+import os
+import shutil
+import subprocess
+import tempfile
+import unittest
+
+EXE = os.environ["VDBSCATTER"]
+SAMPLES = os.environ["VDBSCATTER_SAMPLES_DIR"]
+
+
+def run(*args):
+    p = subprocess.run([EXE, *map(str, args)], capture_output=True, text=True, timeout=1800)
+    if p.returncode != 0:
+        raise AssertionError(f"{args}: exit {p.returncode}, stderr: {p.stderr}")
+    return p
+
+
+class Ladder(unittest.TestCase):
+    def setUp(self):
+        self.tmp = tempfile.mkdtemp(prefix="vdbscatter-test-", dir=os.environ.get("VDBSCATTER_TMP"))
+
+    def tearDown(self):
+        shutil.rmtree(self.tmp, ignore_errors=True)
+
+    def check(self, scene):
+        rep = json.loads(run("tradeoff", "--scene", os.path.join(SAMPLES, scene + ".json"), "-o",
+                             os.path.join(self.tmp, scene), "--qualities", "low,medium",
+                             "--size", "48x36", "--ref-noise", "0.02", "--backend", "cpu",
+                             "--json", "-q").stdout)
+        rows = {(r["method"], r["quality"]): r for r in rep["rows"]}
+        methods = sorted({m for m, _ in rows})
+        self.assertGreaterEqual(len(methods), 4, methods)
+        worse = []
+        for m in methods:
+            lo, me = rows[(m, "low")], rows[(m, "medium")]
+            bound = lo["relrmse"] + 2.0 * (lo["relrmse_se"] ** 2 + me["relrmse_se"] ** 2) ** 0.5
+            print(f"{scene} {m}: low {lo['relrmse']:.4f} +- {lo['relrmse_se']:.4f}, medium "
+                  f"{me['relrmse']:.4f} +- {me['relrmse_se']:.4f}")
+            if me["relrmse"] > bound:
+                worse.append(f"{m} {me['relrmse']:.4f} > {bound:.4f}")
+        self.assertEqual(worse, [], f"{scene}: medium is worse than low")
+
+    def test_cloud(self):
+        self.check("cloud")
+
+    def test_smoke(self):
+        self.check("smoke")
+
+
+if __name__ == "__main__":
+    unittest.main()
