@@ -118,8 +118,7 @@ static vdbs_status solve(const vdbs_bake_options *o, const vdbs_solver *solver,
                          stored_lights *stored, vdbs_bake_report *report, vdbs_error *err)
 {
     vdbs_lights_desc lights_desc = {0};
-    lights_desc.sky_ordinates =
-        o->scene->sky_directions > 0 ? o->scene->sky_directions : quality->sky_directions;
+    lights_desc.sky_ordinates = vdbs_solver_sky_directions(solver, o->scene, quality);
     vdbs_light_table lights;
     vdbs_status st = vdbs_lights_build(volume, o->scene, &lights_desc, &lights, err);
     if (st == VDBS_OK && stored)
@@ -274,7 +273,7 @@ static vdbs_status check_request(bake_job *j, vdbs_error *err)
     j->quality = vdbs_quality_find(scene->quality);
     if (!j->quality)
         return vdbs_error_set(err, VDBS_ERR_INPUT, "unknown quality '%s'", scene->quality);
-    j->sky = scene->sky_directions > 0 ? scene->sky_directions : j->quality->sky_directions;
+    j->sky = vdbs_solver_sky_directions(j->solver, scene, j->quality);
     for (int i = 0; i < scene->light_count; ++i)
         if (scene->lights[i].type == VDBS_LIGHT_SUN && scene->lights[i].angular_diameter_deg > 0)
             warn(o, "%s",
@@ -337,7 +336,7 @@ static vdbs_status plan(bake_job *j, vdbs_bake_report *report, vdbs_error *err)
         return vdbs_error_set(err, VDBS_ERR_NOMEM, "out of memory");
     j->solver = vdbs_solver_find(j->scene->method);
     j->quality = q;
-    j->sky = j->scene->sky_directions > 0 ? j->scene->sky_directions : q->sky_directions;
+    j->sky = vdbs_solver_sky_directions(j->solver, j->scene, q);
     return VDBS_OK;
 }
 

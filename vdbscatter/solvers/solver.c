@@ -290,3 +290,14 @@ void vdbs_solver_report_json(const vdbs_solver *solver, const vdbs_scene *scene,
             cJSON_AddNumberToObject(block, o->report_key, vdbs_scene_solver_value(scene, o->key));
     }
 }
+
+int vdbs_solver_sky_directions(const vdbs_solver *solver, const vdbs_scene *scene,
+                               const vdbs_quality *quality)
+{
+    if (scene->sky_directions > 0)
+        return scene->sky_directions;
+    const int level = vdbs_quality_level(quality->name);
+    if (solver && solver->sky_directions[level] > 0)
+        return solver->sky_directions[level];
+    return quality->sky_directions;
+}

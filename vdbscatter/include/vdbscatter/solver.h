@@ -108,7 +108,15 @@ typedef struct vdbs_solver {
      * at each quality, measured on the bundled cloud (bench/defaults.md); the same
      * order of magnitude on other scenes, no more. */
     double cost[VDBS_QUALITY_COUNT];
+    /* The sky quadrature of S1 at each quality; 0: the quality's (quality.h). A method whose
+     * error rises with a finer sky (its bias no longer cancels) stops its ladder here. */
+    int sky_directions[VDBS_QUALITY_COUNT];
 } vdbs_solver;
+
+/* The sky directions of a bake: the scene's when set, else the solver's at the quality,
+ * else the quality's. */
+int vdbs_solver_sky_directions(const vdbs_solver *solver, const vdbs_scene *scene,
+                               const vdbs_quality *quality);
 
 /* The solver of a method name, or NULL if none is implemented under that name. */
 const vdbs_solver *vdbs_solver_find(const char *name);
