@@ -118,7 +118,7 @@ def main():
         gathered[name] = {"what": what, "scene": os.path.relpath(scene, ROOT),
                           "volume": os.path.basename(vdb) if vdb else None,
                           "size": args.size, "tradeoff": rep,
-                          "features": plan.get("features") if plan else None,
+                          "features": plan["plan"]["features"] if plan else None,
                           "seconds": time.monotonic() - start}
         json.dump(gathered, open(out_json, "w"), indent=1)
         print(f"{name}: {len(rep['rows'])} runs, reference {rep['reference']['spp']} spp "
