@@ -2,15 +2,17 @@
  * shared by C and GLSL: the parameter, table and state layouts of one transport sweep and the
  * sweep of one cell. Include after vs_common.h and vs_phase.h. Host side: vdbscatter/solvers/svd.c.
  *
- * The grid has n0 x n1 x n2 cubic cells of world side h (cell (i, j, k) is item
- * (k n1 + j) n0 + i). D directions w_d with solid angles dw_d, sorted by octant, are swept
- * octant by octant: a direction's upwind neighbours are the same for its whole octant, so the
- * octant's cells are visited plane by plane in the sweep order (i' + j' + k' = s with i' the
- * index counted from the octant's upwind side), every step one plane, each item one column
- * (i', j'). The step scheme on a cube: the outflow faces carry the cell's value, so
- *   L = (eta h + sum_a mu_a L_in,a) / (sigma_t h + sum_a mu_a),   mu_a = |w_d,a|,
- * and per cell and direction, power in (eta h^3 + inflow) = collisions (sigma_t L h^3) +
- * outflow: conservative by construction, and the tallies of that balance come out per cell.
+ * The grid has n0 x n1 x n2 box cells of world sides h_x, h_y, h_z (cell (i, j, k) is item
+ * (k n1 + j) n0 + i): cubic for most volumes, shorter along a thin layer's thickness. D directions
+ * w_d with solid angles dw_d, sorted by octant, are swept octant by octant: a direction's upwind
+ * neighbours are the same for its whole octant, so the octant's cells are visited plane by plane in
+ * the sweep order (i' + j' + k' = s with i' the index counted from the octant's upwind side), every
+ * step one plane, each item one column (i', j'). The step scheme on a box: the outflow faces carry
+ * the cell's value, so with r_a = h / h_a (h the largest side; 1 on a cube, which keeps the cubic
+ * case's arithmetic) L = (eta h + sum_a r_a mu_a L_in,a) / (sigma_t h + sum_a r_a mu_a),   mu_a =
+ * |w_d,a|, and per cell and direction, power in (eta V + inflow) = collisions (sigma_t L V) +
+ * outflow (V = h_x h_y h_z, face a's area V / h_a): conservative by construction, and the tallies
+ * of that balance come out per cell.
  *
  * The emission eta (power per volume and steradian) toward w_d is
  *   sum over direct lights l of E_l p_l(w_d)    (the first scattering of a sun's or point's
@@ -30,7 +32,7 @@
 
 /* Parameter words (`svd_params`: uints, floats as their bits). */
 #define VS_SVD_OFF_N 0             /* 3: cells along x, y, z */
-#define VS_SVD_OFF_H 3             /* float: world side of a cell */
+#define VS_SVD_OFF_H 3             /* float: the largest world side of a cell */
 #define VS_SVD_OFF_TERMS 4         /* N: factored terms (source and state moments per cell) */
 #define VS_SVD_OFF_LIGHTS 5        /* direct lights (suns and points) */
 #define VS_SVD_OFF_G 6             /* float: g* of the truncated HG the direct lights scatter by */
@@ -43,7 +45,8 @@
 #define VS_SVD_OFF_STATE_PLANES 25 /* word offset of the two planes in flight */
 #define VS_SVD_OFF_TABLE_V 26      /* word offset of v (D x N) in `svd_tables` */
 #define VS_SVD_OFF_TABLE_LIGHTS 27 /* word offset of the light records in `svd_tables` */
-#define VS_SVD_PARAM_WORDS 28
+#define VS_SVD_OFF_SIDE 28         /* 3 floats: world side of a cell along x, y, z */
+#define VS_SVD_PARAM_WORDS 31
 
 /* `svd_tables` (floats): D direction records from word 0, then v, then the lights. */
 #define VS_SVD_DIR_W 0      /* 3: unit direction of travel */
@@ -138,6 +141,9 @@ struct vs_svd_cell {
     int v_at, light_at; /* word offsets in svd_tables */
     int record;         /* word offset of the cell's record in the state */
     float h, g, volume, area;
+    pnanovdb_vec3_t side;   /* world sides along x, y, z */
+    pnanovdb_vec3_t ratio;  /* h / side: the faces' weights in the step (1 on a cube) */
+    pnanovdb_vec3_t faces;  /* face areas along x, y, z over area (1 on a cube) */
     pnanovdb_vec3_t centre; /* world */
     pnanovdb_vec3_t st;     /* sigma_t* per channel */
 };
@@ -157,17 +163,23 @@ VS_FUNC vs_svd_cell vs_svd_cell_of(VS_DATA_PARAM(vs_uint, svd_params)
     c.record = VS_INT(svd_params[VS_SVD_OFF_STATE_OUT]) + at.cell * VS_SVD_OUT_WORDS;
     c.h = vs_svd_param_float(VS_DATA_ARG(svd_params) VS_SVD_OFF_H);
     c.g = vs_svd_param_float(VS_DATA_ARG(svd_params) VS_SVD_OFF_G);
-    c.volume = c.h * c.h * c.h;
+    c.side = vs_vec3(vs_svd_param_float(VS_DATA_ARG(svd_params) VS_SVD_OFF_SIDE),
+                     vs_svd_param_float(VS_DATA_ARG(svd_params) VS_SVD_OFF_SIDE + 1),
+                     vs_svd_param_float(VS_DATA_ARG(svd_params) VS_SVD_OFF_SIDE + 2));
+    c.ratio = vs_vec3(c.h / c.side.x, c.h / c.side.y, c.h / c.side.z);
+    c.volume = c.side.x * c.side.y * c.side.z;
     c.area = c.h * c.h;
+    c.faces = vs_vec3(c.side.y * c.side.z / c.area, c.side.x * c.side.z / c.area,
+                      c.side.x * c.side.y / c.area);
     int i = at.cell % c.n0;
     int j = (at.cell / c.n0) % c.n1;
     int k = at.cell / (c.n0 * c.n1);
     c.centre = vs_vec3(vs_svd_param_float(VS_DATA_ARG(svd_params) VS_SVD_OFF_ORIGIN) +
-                           (VS_FLOAT(i) + 0.5f) * c.h,
+                           (VS_FLOAT(i) + 0.5f) * c.side.x,
                        vs_svd_param_float(VS_DATA_ARG(svd_params) VS_SVD_OFF_ORIGIN + 1) +
-                           (VS_FLOAT(j) + 0.5f) * c.h,
+                           (VS_FLOAT(j) + 0.5f) * c.side.y,
                        vs_svd_param_float(VS_DATA_ARG(svd_params) VS_SVD_OFF_ORIGIN + 2) +
-                           (VS_FLOAT(k) + 0.5f) * c.h);
+                           (VS_FLOAT(k) + 0.5f) * c.side.z);
     float sigma = svd_sigma[at.cell];
     c.st = vs_vec3(sigma * vs_svd_param_float(VS_DATA_ARG(svd_params) VS_SVD_OFF_EXTINCT),
                    sigma * vs_svd_param_float(VS_DATA_ARG(svd_params) VS_SVD_OFF_EXTINCT + 1),
@@ -215,9 +227,9 @@ VS_FUNC pnanovdb_vec3_t vs_svd_load3(VS_OUT_PARAM(float, svd_state) int at)
 VS_FUNC pnanovdb_vec3_t vs_svd_upwind(VS_OUT_PARAM(float, svd_state) vs_svd_at at, vs_svd_cell c,
                                       int slot, pnanovdb_vec3_t q, pnanovdb_vec3_t w)
 {
-    float mx = vs_abs(w.x);
-    float my = vs_abs(w.y);
-    float mz = vs_abs(w.z);
+    float mx = vs_abs(w.x) * c.ratio.x;
+    float my = vs_abs(w.y) * c.ratio.y;
+    float mz = vs_abs(w.z) * c.ratio.z;
     pnanovdb_vec3_t ax = vs_vec3(0.0f, 0.0f, 0.0f);
     pnanovdb_vec3_t ay = ax;
     pnanovdb_vec3_t az = ax;
@@ -286,9 +298,9 @@ VS_FUNC void vs_svd_direction(VS_DATA_PARAM(float, svd_tables) VS_DATA_PARAM(flo
                 PNANOVDB_DEREF(t).fz.z + l.z * w.z * dw);
     PNANOVDB_DEREF(t).emitted += (q.x + q.y + q.z) * dw * c.volume;
     PNANOVDB_DEREF(t).collided += (c.st.x * l.x + c.st.y * l.y + c.st.z * l.z) * dw * c.volume;
-    float faces = (at.ip == c.n0 - 1 ? vs_abs(w.x) : 0.0f) +
-                  (at.jp == c.n1 - 1 ? vs_abs(w.y) : 0.0f) +
-                  (at.kp == c.n2 - 1 ? vs_abs(w.z) : 0.0f);
+    float faces = (at.ip == c.n0 - 1 ? vs_abs(w.x) * c.faces.x : 0.0f) +
+                  (at.jp == c.n1 - 1 ? vs_abs(w.y) * c.faces.y : 0.0f) +
+                  (at.kp == c.n2 - 1 ? vs_abs(w.z) * c.faces.z : 0.0f);
     PNANOVDB_DEREF(t).leaked += faces * (l.x + l.y + l.z) * dw * c.area;
 }
 

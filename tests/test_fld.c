@@ -106,7 +106,8 @@ static void test_energy_balance(void **state)
     double *phi = malloc(sizeof *phi * 3 * E_CELLS);
     assert_true(sigma && source && mono && phi);
     energy_medium(sigma, source);
-    vdbs_fld_grid grid = {{E_N0, E_N1, E_N2}, 0.25, sigma, {0.99, 0.9, 0.7}, 0.6, source, NULL};
+    vdbs_fld_grid grid = {
+        {E_N0, E_N1, E_N2}, {0.25, 0.25, 0.25}, sigma, {0.99, 0.9, 0.7}, 0.6, source, NULL};
     vdbs_fld_desc desc = {0};
     desc.tolerance = 1e-8;
     vdbs_fld_stats stats;
@@ -194,7 +195,8 @@ static void test_first_moment_shift(void **state)
         for (int a = 0; a < 3; ++a)
             moment[9 * centre + 3 * a + ch] = g * d[a];
     }
-    vdbs_fld_grid grid = {{N, N, N}, 1.0, sigma, {albedo, albedo, albedo}, g, source, moment};
+    vdbs_fld_grid grid = {{N, N, N}, {1.0, 1.0, 1.0}, sigma, {albedo, albedo, albedo},
+                          g,         source,          moment};
     vdbs_fld_desc desc = {0};
     desc.limiter_off = 1;
     desc.tolerance = 1e-10;
@@ -280,7 +282,8 @@ static void point_source(double h, double albedo, double lattice_bound, double c
     const int64_t centre = cell_of(n, mid, mid, mid);
     for (int ch = 0; ch < 3; ++ch)
         source[3 * centre + ch] = power / (h * h * h);
-    vdbs_fld_grid grid = {{G_N, G_N, G_N}, h, sigma, {albedo, albedo, albedo}, 0.0, source, NULL};
+    vdbs_fld_grid grid = {{G_N, G_N, G_N}, {h, h, h}, sigma, {albedo, albedo, albedo}, 0.0,
+                          source,          NULL};
     vdbs_fld_desc desc = {0};
     desc.limiter_off = 1;
     desc.tolerance = 1e-9;
@@ -380,7 +383,8 @@ static void test_limiter_empty_space(void **state)
                 for (int ch = 0; ch < 3; ++ch)
                     source[3 * c + ch] = core ? 2.0 + ch : 0.0;
             }
-    vdbs_fld_grid grid = {{B_N, B_N, B_N}, 0.5, sigma, {0.99, 0.9, 0.7}, 0.6, source, NULL};
+    vdbs_fld_grid grid = {
+        {B_N, B_N, B_N}, {0.5, 0.5, 0.5}, sigma, {0.99, 0.9, 0.7}, 0.6, source, NULL};
     vdbs_fld_desc desc = {0};
     desc.tolerance = 1e-8;
     vdbs_fld_stats stats;
@@ -415,7 +419,7 @@ static void reference_solve(const vdbs_fld_grid *grid, int ch, double *phi)
     const int *n = grid->n;
     const int64_t cells = (int64_t)n[0] * n[1] * n[2];
     const int64_t stride[3] = {1, n[0], (int64_t)n[0] * n[1]};
-    const double h = grid->h;
+    const double h = grid->h[0]; /* cubic */
     double *diag = malloc(sizeof *diag * cells), *up = malloc(sizeof *up * 3 * cells);
     double *r = malloc(sizeof *r * cells), *z = malloc(sizeof *z * cells);
     double *p = malloc(sizeof *p * cells), *ap = malloc(sizeof *ap * cells);
@@ -518,7 +522,7 @@ static void test_absorption_fine_cells(void **state)
             for (int i = 8; i < 12; ++i)
                 for (int ch = 0; ch < 3; ++ch)
                     source[3 * cell_of(n, i, j, k) + ch] = 1.0;
-    vdbs_fld_grid grid = {{F_N, F_N, F_N}, h,   sigma, {albedo[0], albedo[1], albedo[2]}, g,
+    vdbs_fld_grid grid = {{F_N, F_N, F_N}, {h, h, h}, sigma, {albedo[0], albedo[1], albedo[2]}, g,
                           source,          NULL};
     vdbs_fld_desc desc = {0};
     desc.limiter_off = 1;
@@ -575,7 +579,8 @@ static int iterations_at(int n, int runner_cells)
                 for (int ch = 0; ch < 3; ++ch)
                     source[3 * c + ch] = inside ? 1.0 : 0.0;
             }
-    vdbs_fld_grid grid = {{n, n, n}, 1.0 / n, sigma, {0.99, 0.99, 0.99}, 0.0, source, NULL};
+    vdbs_fld_grid grid = {
+        {n, n, n}, {1.0 / n, 1.0 / n, 1.0 / n}, sigma, {0.99, 0.99, 0.99}, 0.0, source, NULL};
     vdbs_fld_desc desc = {0};
     desc.limiter_off = 1;
     desc.tolerance = 1e-8;

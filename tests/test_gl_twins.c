@@ -694,8 +694,9 @@ static void fld_solve_scenario_make(fld_solve_scenario *s)
         for (int ch = 0; ch < 3; ++ch)
             s->source[3 * c + ch] = box ? 1.0 + 0.3 * ch + 0.1 * ((c + ch) % 5) : 0.0;
     }
+    /* Box cells (a side per axis): the host's per-axis couplings on both paths. */
     vdbs_fld_grid grid = {{FLD_SOLVE_N0, FLD_SOLVE_N1, FLD_SOLVE_N2},
-                          0.3,
+                          {0.3, 0.2, 0.45},
                           s->sigma,
                           {0.99, 0.9, 0.7},
                           0.6,
@@ -862,7 +863,7 @@ static void svd_scenario_make(svd_scenario *s, int iterations, int chunk)
     s->lights[0] = (vdbs_svd_light){0, {0.48, -0.8, 0.36}};
     s->lights[1] = (vdbs_svd_light){1, {-0.3, 0.25, 1.7}};
     s->grid = (vdbs_svd_grid){.n = {SVD_N0, SVD_N1, SVD_N2},
-                              .h = 0.15,
+                              .h = {0.15, 0.1, 0.2}, /* box cells: a side per axis */
                               .origin = {0.1, -0.2, 0.3},
                               .sigma_t = s->sigma,
                               .albedo = {0.95, 0.9, 0.6},

@@ -130,7 +130,7 @@ static void test_upsample_kernels(void **state)
     vdbs_volume volume;
     load_cloud(&scene, &volume);
     vdbs_coarse_frame f;
-    vdbs_coarse_world_frame(&volume, 12, &f);
+    vdbs_coarse_world_frame(&volume, 12, 1, &f);
     const int64_t cells = vdbs_coarse_cells(&f);
     vdbs_medium_box box;
     vdbs_error err;
@@ -201,7 +201,7 @@ static void test_upsample_linear(void **state)
     vdbs_volume volume;
     test_sample_volume("cube", 48, 1, &volume);
     vdbs_coarse_frame f;
-    vdbs_coarse_world_frame(&volume, 8, &f);
+    vdbs_coarse_world_frame(&volume, 8, 1, &f);
     const int64_t cells = vdbs_coarse_cells(&f);
     vdbs_medium_box box;
     vdbs_error err;

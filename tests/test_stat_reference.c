@@ -5,6 +5,7 @@
  * noise falling as 1/sqrt(spp); bit-identical images whatever the thread count; rounds
  * under a time limit; HG sampling against its CDF; finite, non-negative results at the
  * numerical extremes of docs/design.md. */
+#include "planeparallel.h"
 #include "testutil.h"
 
 #include <math.h>
@@ -26,325 +27,7 @@
 
 #define PI 3.14159265358979323846
 
-/* ---- adding-doubling for a plane-parallel homogeneous slab under a normal beam ----
- *
- * Under a normal beam the radiance field is azimuthally symmetric, so only the azimuth
- * average of the phase function matters. Directions are NQ Gauss-Legendre cosines per
- * hemisphere; the azimuth-averaged HG (numerical azimuth integral, no Legendre series, so
- * g = 0.9 needs no delta-M) is renormalised per row so that the quadrature conserves
- * energy. A layer of thickness tau / 2^27 starts in exact single scattering; doubling
- * it 27 times gives the slab's reflection and transmission of the beam (fluxes good to
- * about 1e-6: fewer doublings leave multiple scattering out of the thin layer, more
- * lose digits to rounding; 64 and 160 directions agree to 1e-6 for g = 0.9). In optical depth a
- * plane-parallel slab with constant albedo and g depends only on its total thickness, so
- * the voxelised slab's half-voxel ramps do not change the answer. */
-#define NQ 64
-
-static double hg_naive(double g, double mu)
-{
-    double d = 1.0 + g * g - 2.0 * g * mu;
-    return (1.0 - g * g) / (4.0 * PI * d * sqrt(d));
-}
-
-/* Azimuth average of HG between directions of cosines a and b to the slab normal. */
-static double hg_azimuth(double g, double a, double b)
-{
-    const int m = 720;
-    double sa = sqrt(fmax(0.0, 1.0 - a * a)), sb = sqrt(fmax(0.0, 1.0 - b * b)), sum = 0.0;
-    for (int k = 0; k < m; ++k)
-        sum += hg_naive(g, a * b + sa * sb * cos(2.0 * PI * k / m));
-    return sum / m;
-}
-
-static void matmul(const double *a, const double *b, double *out)
-{
-    for (int i = 0; i < NQ; ++i)
-        for (int j = 0; j < NQ; ++j) {
-            double s = 0.0;
-            for (int k = 0; k < NQ; ++k)
-                s += a[i * NQ + k] * b[k * NQ + j];
-            out[i * NQ + j] = s;
-        }
-}
-
-static void matvec(const double *a, const double *v, double *out)
-{
-    for (int i = 0; i < NQ; ++i) {
-        double s = 0.0;
-        for (int k = 0; k < NQ; ++k)
-            s += a[i * NQ + k] * v[k];
-        out[i] = s;
-    }
-}
-
-/* Inverse of a (NQ x NQ) by Gauss-Jordan elimination with partial pivoting. */
-static void matinv(const double *a, double *inv)
-{
-    static double m[NQ * 2 * NQ];
-    for (int i = 0; i < NQ; ++i)
-        for (int j = 0; j < 2 * NQ; ++j)
-            m[i * 2 * NQ + j] = j < NQ ? a[i * NQ + j] : (j - NQ == i);
-    for (int c = 0; c < NQ; ++c) {
-        int p = c;
-        for (int r = c + 1; r < NQ; ++r)
-            if (fabs(m[r * 2 * NQ + c]) > fabs(m[p * 2 * NQ + c]))
-                p = r;
-        for (int j = 0; j < 2 * NQ; ++j) {
-            double t = m[c * 2 * NQ + j];
-            m[c * 2 * NQ + j] = m[p * 2 * NQ + j];
-            m[p * 2 * NQ + j] = t;
-        }
-        double d = m[c * 2 * NQ + c];
-        for (int j = 0; j < 2 * NQ; ++j)
-            m[c * 2 * NQ + j] /= d;
-        for (int r = 0; r < NQ; ++r) {
-            if (r == c)
-                continue;
-            double f = m[r * 2 * NQ + c];
-            if (f != 0.0)
-                for (int j = 0; j < 2 * NQ; ++j)
-                    m[r * 2 * NQ + j] -= f * m[c * 2 * NQ + j];
-        }
-    }
-    for (int i = 0; i < NQ; ++i)
-        for (int j = 0; j < NQ; ++j)
-            inv[i * NQ + j] = m[i * 2 * NQ + NQ + j];
-}
-
-/* Thin-layer single-scattering transmission factor from cosine mj into cosine mi,
- * mj / (mi - mj) (exp(-delta / mi) - exp(-delta / mj)), without the cancellation of the
- * difference of two exponentials near 1 (delta is about 1e-8): for the extra directions of
- * adding_doubling_dirs, which may lie arbitrarily close to a node. */
-static double thin_transmission(double delta, double mi, double mj)
-{
-    double d = mi - mj;
-    if (fabs(d) <= 1e-12 * mi)
-        return delta / mi * exp(-delta / mi);
-    return mj / d * exp(-delta / mj) * expm1(delta * d / (mi * mj));
-}
-
-/* Fractions of a normal beam of irradiance 1 reflected and transmitted (direct
- * included) by a slab; r_rad and t_rad (NULL or NQ values) receive the diffusely
- * reflected and transmitted radiance at the cosines of test_gauss_legendre(NQ, 0, 1).
- *
- * n_extra further cosines mu_extra (any values in (0, 1]) ride along as directions of
- * quadrature weight zero: each keeps a row of the layer's reflection and transmission
- * from the nodes into it, its beam reflection and transmission and its direct attenuation
- * exp(-tau_layer / mu), doubled with the nodes. A zero-weight direction does not feed back
- * into the nodal field, so this is the solver's own answer in that direction (the nodal
- * field integrated along it through every layer), not an interpolation; its phase row is
- * normalised the way Sinkhorn normalises a node's row (row scale 1 / its row sum), so that
- * at a node it gives that node's radiance. r_extra and t_extra (NULL or n_extra values)
- * receive the diffusely reflected and transmitted radiance along mu_extra. */
-static void adding_doubling_dirs(double tau, double albedo, double g, double *refl, double *trans,
-                                 double *r_rad, double *t_rad, int n_extra, const double *mu_extra,
-                                 double *r_extra, double *t_extra)
-{
-    const int doublings = 27;
-    double mu[NQ], wq[NQ];
-    test_gauss_legendre(NQ, 0.0, 1.0, mu, wq);
-    size_t bytes = sizeof(double) * NQ * NQ;
-    double *pf = malloc(bytes), *pb = malloc(bytes), *r = malloc(bytes), *t = malloc(bytes);
-    double *q = malloc(bytes), *tmp = malloc(bytes), *tmp2 = malloc(bytes), *tq = malloc(bytes);
-    double r0[NQ], t0[NQ];
-
-    /* Azimuth-averaged phase into the same hemisphere (pf) and the other one (pb),
-     * times the solid-angle weight 2 pi w_j, scaled symmetrically (p_ij d_i d_j, a few
-     * Sinkhorn steps) so that rows and columns both sum to 1: the quadrature then
-     * conserves energy exactly. */
-    double scale[NQ];
-    for (int i = 0; i < NQ; ++i) {
-        scale[i] = 1.0;
-        for (int j = 0; j < NQ; ++j) {
-            pf[i * NQ + j] = hg_azimuth(g, mu[i], mu[j]);
-            pb[i * NQ + j] = hg_azimuth(g, mu[i], -mu[j]);
-        }
-    }
-    for (int it = 0; it < 200; ++it) {
-        double worst = 0.0;
-        for (int i = 0; i < NQ; ++i) {
-            double sum = 0.0;
-            for (int j = 0; j < NQ; ++j)
-                sum += 2.0 * PI * wq[j] * scale[i] * scale[j] * (pf[i * NQ + j] + pb[i * NQ + j]);
-            worst = fmax(worst, fabs(sum - 1.0));
-            scale[i] /= sqrt(sum);
-        }
-        if (worst < 1e-15)
-            break;
-    }
-    for (int i = 0; i < NQ; ++i)
-        for (int j = 0; j < NQ; ++j) {
-            double f = 2.0 * PI * wq[j] * scale[i] * scale[j];
-            pf[i * NQ + j] *= f;
-            pb[i * NQ + j] *= f;
-        }
-    double beam_sum = 0.0;
-    for (int i = 0; i < NQ; ++i)
-        beam_sum += 2.0 * PI * wq[i] * (hg_naive(g, mu[i]) + hg_naive(g, -mu[i]));
-
-    /* Exact single scattering in the thin layer: light entering along mu_j and leaving
-     * along mu_i after one scattering at depth x is weighted exp(-x/mu_j) exp(-y/mu_i)
-     * / mu_i with y = x (reflection) or delta - x (transmission). */
-    double delta = ldexp(tau, -doublings);
-    for (int i = 0; i < NQ; ++i) {
-        for (int j = 0; j <= NQ; ++j) {
-            double mj = j < NQ ? mu[j] : 1.0, mi = mu[i];
-            double ref = mj / (mi + mj) * -expm1(-delta * (1.0 / mi + 1.0 / mj));
-            double tra = fabs(mi - mj) > 1e-9 * mi
-                             ? mj / (mi - mj) * (exp(-delta / mi) - exp(-delta / mj))
-                             : delta / mi * exp(-delta / mi);
-            if (j < NQ) {
-                r[i * NQ + j] = albedo * pb[i * NQ + j] * ref;
-                t[i * NQ + j] = albedo * pf[i * NQ + j] * tra;
-            } else {
-                r0[i] = albedo * hg_naive(g, -mi) / beam_sum * ref;
-                t0[i] = albedo * hg_naive(g, mi) / beam_sum * tra;
-            }
-        }
-        t[i * NQ + i] += exp(-delta / mu[i]);
-    }
-    double e0 = exp(-delta);
-
-    /* Extra directions: rows xr (reflection from node j into mu_extra[m]) and xt
-     * (diffuse transmission), beam terms xr0, xt0 and direct attenuation xe. */
-    double *xr = NULL, *xt = NULL, *xr0 = NULL, *xt0 = NULL, *xe = NULL, *qt = NULL, *rqt = NULL;
-    if (n_extra > 0) {
-        xr = malloc(sizeof(double) * NQ * n_extra);
-        xt = malloc(sizeof(double) * NQ * n_extra);
-        xr0 = malloc(sizeof(double) * n_extra);
-        xt0 = malloc(sizeof(double) * n_extra);
-        xe = malloc(sizeof(double) * n_extra);
-        qt = malloc(bytes);
-        rqt = malloc(bytes);
-        for (int m = 0; m < n_extra; ++m) {
-            double mi = mu_extra[m], rowf[NQ], rowb[NQ], sum = 0.0;
-            for (int j = 0; j < NQ; ++j) {
-                rowf[j] = 2.0 * PI * wq[j] * scale[j] * hg_azimuth(g, mi, mu[j]);
-                rowb[j] = 2.0 * PI * wq[j] * scale[j] * hg_azimuth(g, mi, -mu[j]);
-                sum += rowf[j] + rowb[j];
-            }
-            for (int j = 0; j < NQ; ++j) {
-                double ref = mu[j] / (mi + mu[j]) * -expm1(-delta * (1.0 / mi + 1.0 / mu[j]));
-                xr[m * NQ + j] = albedo * rowb[j] / sum * ref;
-                xt[m * NQ + j] = albedo * rowf[j] / sum * thin_transmission(delta, mi, mu[j]);
-            }
-            xr0[m] = albedo * hg_naive(g, -mi) / beam_sum * (1.0 / (mi + 1.0)) *
-                     -expm1(-delta * (1.0 / mi + 1.0));
-            xt0[m] = albedo * hg_naive(g, mi) / beam_sum * thin_transmission(delta, mi, 1.0);
-            xe[m] = exp(-delta / mi);
-        }
-    }
-
-    for (int n = 0; n < doublings; ++n) {
-        matmul(r, r, tmp);
-        for (int i = 0; i < NQ * NQ; ++i)
-            tmp[i] = (i % (NQ + 1) == 0 ? 1.0 : 0.0) - tmp[i];
-        matinv(tmp, q);
-        /* Beam: D = Q (t0 + e0 R r0) down and U = R D + e0 r0 up at the interface. */
-        double v[NQ], dn[NQ], up[NQ], a[NQ], b[NQ];
-        matvec(r, r0, v);
-        for (int i = 0; i < NQ; ++i)
-            v[i] = t0[i] + e0 * v[i];
-        matvec(q, v, dn);
-        matvec(r, dn, up);
-        for (int i = 0; i < NQ; ++i)
-            up[i] += e0 * r0[i];
-        /* Extra directions, from the layer before this doubling (two copies A on top of
-         * B): out of the top, R* + (T* R + e* R*) Q T; out of the bottom, T* Q T +
-         * e* (T* + R* R Q T); the beam's likewise with the interface fields dn and up. */
-        if (n_extra > 0) {
-            matmul(q, t, qt);
-            matmul(r, qt, rqt);
-        }
-        for (int m = 0; m < n_extra; ++m) {
-            double *rr = xr + m * NQ, *tt = xt + m * NQ, em = xe[m];
-            double av[NQ], nr[NQ], nt[NQ];
-            double r_dn = 0.0, r_up = 0.0, t_dn = 0.0, t_up = 0.0;
-            for (int i = 0; i < NQ; ++i) {
-                r_dn += rr[i] * dn[i];
-                r_up += rr[i] * up[i];
-                t_dn += tt[i] * dn[i];
-                t_up += tt[i] * up[i];
-            }
-            for (int j = 0; j < NQ; ++j) {
-                double s = em * rr[j];
-                for (int k = 0; k < NQ; ++k)
-                    s += tt[k] * r[k * NQ + j];
-                av[j] = s;
-            }
-            for (int j = 0; j < NQ; ++j) {
-                double sr = rr[j], st = em * tt[j], sq = 0.0;
-                for (int k = 0; k < NQ; ++k) {
-                    sr += av[k] * qt[k * NQ + j];
-                    st += em * rr[k] * rqt[k * NQ + j];
-                    sq += tt[k] * qt[k * NQ + j];
-                }
-                nr[j] = sr;
-                nt[j] = st + sq;
-            }
-            double nr0 = xr0[m] + t_up + em * (r_dn + e0 * xr0[m]);
-            double nt0 = t_dn + e0 * xt0[m] + em * (xt0[m] + r_up);
-            memcpy(rr, nr, sizeof nr);
-            memcpy(tt, nt, sizeof nt);
-            xr0[m] = nr0;
-            xt0[m] = nt0;
-            xe[m] = em * em;
-        }
-        matvec(t, up, a);
-        matvec(t, dn, b);
-        for (int i = 0; i < NQ; ++i) {
-            r0[i] += a[i];
-            t0[i] = b[i] + e0 * t0[i];
-        }
-        e0 *= e0;
-        /* Diffuse: R' = R + T Q R T, T' = T Q T. */
-        matmul(t, q, tq);
-        matmul(r, t, tmp);
-        matmul(tq, tmp, tmp2);
-        for (int i = 0; i < NQ * NQ; ++i)
-            r[i] += tmp2[i];
-        matmul(tq, t, tmp);
-        memcpy(t, tmp, bytes);
-    }
-    double fr = 0.0, ft = 0.0;
-    for (int i = 0; i < NQ; ++i) {
-        fr += 2.0 * PI * wq[i] * mu[i] * r0[i];
-        ft += 2.0 * PI * wq[i] * mu[i] * t0[i];
-    }
-    *refl = fr;
-    *trans = e0 + ft;
-    if (r_rad)
-        memcpy(r_rad, r0, sizeof r0);
-    if (t_rad)
-        memcpy(t_rad, t0, sizeof t0);
-    for (int m = 0; m < n_extra; ++m) {
-        if (r_extra)
-            r_extra[m] = xr0[m];
-        if (t_extra)
-            t_extra[m] = xt0[m];
-    }
-    free(xr);
-    free(xt);
-    free(xr0);
-    free(xt0);
-    free(xe);
-    free(qt);
-    free(rqt);
-    free(pf);
-    free(pb);
-    free(r);
-    free(t);
-    free(q);
-    free(tmp);
-    free(tmp2);
-    free(tq);
-}
-
-static void adding_doubling(double tau, double albedo, double g, double *refl, double *trans,
-                            double *r_rad, double *t_rad)
-{
-    adding_doubling_dirs(tau, albedo, g, refl, trans, r_rad, t_rad, 0, NULL, NULL, NULL);
-}
+#define NQ PP_NQ
 
 /* ---- volumes and scenes ---- */
 
@@ -492,7 +175,7 @@ static void test_slab(void **state)
             for (int c = 0; c < 2; ++c) {
                 double tau = taus[a], albedo = albedos[b], g = gs[c];
                 double r_ad, t_ad;
-                adding_doubling(tau, albedo, g, &r_ad, &t_ad, NULL, NULL);
+                pp_adding_doubling(tau, albedo, g, &r_ad, &t_ad, NULL, NULL);
                 vdbs_scene scene;
                 medium(&scene, tau, albedo, g);
                 add_sun(&scene, 0.0, -1.0, 0.0, 1.0);
@@ -535,7 +218,7 @@ static void image_mean(const vdbs_image *image, double *mean, double *se)
 
 static double hg_phase(double g, double mu)
 {
-    return hg_naive(g, mu);
+    return pp_hg(g, mu);
 }
 
 /* Radiance leaving the slab of test_slab in a direction of cosine mu to its normal,
@@ -559,7 +242,7 @@ static void test_slab_radiance(void **state)
     for (int k = 0; k < 2; ++k) {
         double g = gs[k];
         double r_flux, t_flux, r_rad[NQ], t_rad[NQ];
-        adding_doubling(tau, albedo, g, &r_flux, &t_flux, r_rad, t_rad);
+        pp_adding_doubling(tau, albedo, g, &r_flux, &t_flux, r_rad, t_rad);
         /* Single scattering of a normal beam of irradiance 1 (cosine mu0 = 1). */
         double r1 = albedo * hg_phase(g, -mu) / (1.0 + mu) * -expm1(-tau * (1.0 + 1.0 / mu));
         double t1 = albedo * hg_phase(g, mu) * (exp(-tau) - exp(-tau / mu)) / (1.0 - mu);
@@ -632,7 +315,7 @@ static void test_slab_radiance_angles(void **state)
             x_mu[3 + i] = mu_q[nodes[i]];
         for (int i = 0; i < NG; ++i)
             x_mu[5 + i] = mu_g[i];
-        adding_doubling_dirs(tau, albedo, g, &r_flux, &t_flux, r_rad, t_rad, NX, x_mu, x_r, x_t);
+        pp_adding_doubling_dirs(tau, albedo, g, &r_flux, &t_flux, r_rad, t_rad, NX, x_mu, x_r, x_t);
         for (int i = 0; i < 2; ++i) {
             int k = nodes[i];
             print_message("extra direction at node mu %.6f: R %.9g (node %.9g), T %.9g (node "
@@ -656,7 +339,7 @@ static void test_slab_radiance_angles(void **state)
             print_message("adding-doubling at mu %.1f: R %.7f T %.7f\n", mus[i], x_r[i], x_t[i]);
 
         const double a1 = 1e-4;
-        adding_doubling_dirs(tau, a1, g, &r_flux, &t_flux, NULL, NULL, 3, mus, x_r, x_t);
+        pp_adding_doubling_dirs(tau, a1, g, &r_flux, &t_flux, NULL, NULL, 3, mus, x_r, x_t);
         for (int i = 0; i < 3; ++i) {
             double mu = mus[i];
             double r1 = a1 * hg_phase(g, -mu) / (1.0 + mu) * -expm1(-tau * (1.0 + 1.0 / mu));
@@ -705,8 +388,8 @@ static void test_slab_radiance_angles(void **state)
         }
     double *pix_r = malloc(sizeof(double) * 6 * npix), *pix_t = malloc(sizeof(double) * 6 * npix);
     double r_flux, t_flux;
-    adding_doubling_dirs(tau, albedo, g, &r_flux, &t_flux, NULL, NULL, 6 * npix, pix_mu, pix_r,
-                         pix_t);
+    pp_adding_doubling_dirs(tau, albedo, g, &r_flux, &t_flux, NULL, NULL, 6 * npix, pix_mu, pix_r,
+                            pix_t);
 
     uint64_t seed = 700;
     double total = 0.0;
@@ -995,15 +678,15 @@ static void test_adding_doubling_checks(void **state)
     /* The independent solver itself: no scattering gives exp(-tau); albedo 1 conserves
      * energy; a weakly scattering slab reflects its single-scattering closed form. */
     double r, t;
-    adding_doubling(2.0, 0.0, 0.5, &r, &t, NULL, NULL);
+    pp_adding_doubling(2.0, 0.0, 0.5, &r, &t, NULL, NULL);
     assert_true(fabs(t - exp(-2.0)) < 1e-9 && fabs(r) < 1e-12);
-    adding_doubling(1.0, 1.0, 0.9, &r, &t, NULL, NULL);
+    pp_adding_doubling(1.0, 1.0, 0.9, &r, &t, NULL, NULL);
     assert_true(fabs(r + t - 1.0) < 1e-5);
-    adding_doubling(4.0, 1.0, 0.0, &r, &t, NULL, NULL);
+    pp_adding_doubling(4.0, 1.0, 0.0, &r, &t, NULL, NULL);
     assert_true(fabs(r + t - 1.0) < 1e-5);
     for (int k = 0; k < 2; ++k) {
         double tau = k ? 4.0 : 1.0, r1 = single_reflection(tau, 1e-4);
-        adding_doubling(tau, 1e-4, 0.0, &r, &t, NULL, NULL);
+        pp_adding_doubling(tau, 1e-4, 0.0, &r, &t, NULL, NULL);
         print_message("tau %g: single-scattering R %.9g, adding-doubling %.9g\n", tau, r1, r);
         assert_true(fabs(r / r1 - 1.0) < 1e-3);
     }

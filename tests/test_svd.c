@@ -76,7 +76,7 @@ static void heterogeneous(problem *p, int n, int directions, int terms, double g
     p->lights[0] = (vdbs_svd_light){0, {0.48, -0.8, 0.36}};
     p->lights[1] = (vdbs_svd_light){1, {-0.3, 0.25, 1.2}};
     p->grid = (vdbs_svd_grid){.n = {n, n, n},
-                              .h = h,
+                              .h = {h, h, h},
                               .sigma_t = p->sigma,
                               .albedo = {albedo, albedo * 0.8, albedo * 0.5},
                               .phase = &p->pm,
@@ -239,7 +239,7 @@ static void test_infinite_medium(void **state)
             }
         }
         const vdbs_svd_grid g0 = {.n = {n, n, n},
-                                  .h = h,
+                                  .h = {h, h, h},
                                   .sigma_t = p.sigma,
                                   .albedo = {albedo, albedo, albedo},
                                   .phase = &p.pm,

@@ -23,6 +23,7 @@ void vdbs_coarse_fit(const double corners[8][3], const double axis[3][3], double
 {
     memcpy(f->axis, axis, sizeof f->axis);
     f->h = h;
+    f->side[0] = f->side[1] = f->side[2] = h;
     double lo[3] = {HUGE_VAL, HUGE_VAL, HUGE_VAL}, hi[3] = {-HUGE_VAL, -HUGE_VAL, -HUGE_VAL};
     for (int c = 0; c < 8; ++c)
         for (int a = 0; a < 3; ++a) {
@@ -41,7 +42,8 @@ void vdbs_coarse_fit(const double corners[8][3], const double axis[3][3], double
     }
 }
 
-int vdbs_coarse_world_frame(const vdbs_volume *volume, int resolution, vdbs_coarse_frame *f)
+int vdbs_coarse_world_frame(const vdbs_volume *volume, int resolution, int min_across,
+                            vdbs_coarse_frame *f)
 {
     double corners[8][3];
     vdbs_volume_support_corners(volume, corners);
@@ -52,7 +54,44 @@ int vdbs_coarse_world_frame(const vdbs_volume *volume, int resolution, vdbs_coar
     if (resolution < 1)
         resolution = 1;
     const double world_axes[3][3] = {{1, 0, 0}, {0, 1, 0}, {0, 0, 1}};
-    vdbs_coarse_fit(corners, world_axes, extent / resolution, f);
+    const double h = extent / resolution;
+    vdbs_coarse_fit(corners, world_axes, h, f);
+    if (min_across <= 1)
+        return resolution;
+    /* Short axes: min_across cells across their own extent, no finer than a voxel, fewer
+     * where the cube's cell count would be exceeded (the same count for every short axis). */
+    int want[3];
+    double length[3];
+    for (int a = 0; a < 3; ++a) {
+        double lo = HUGE_VAL, hi = -HUGE_VAL;
+        for (int c = 0; c < 8; ++c) {
+            lo = fmin(lo, corners[c][a]);
+            hi = fmax(hi, corners[c][a]);
+        }
+        length[a] = hi - lo;
+        const int voxels = (int)ceil(length[a] / volume->mean_voxel_size - 1e-9);
+        want[a] = f->n[a];
+        if (f->n[a] < min_across && length[a] > 0.0)
+            want[a] = min_across < voxels ? min_across : (voxels > f->n[a] ? voxels : f->n[a]);
+    }
+    const double cap = (double)resolution * resolution * resolution;
+    for (int across = min_across; across > 1; --across) {
+        int n[3];
+        for (int a = 0; a < 3; ++a)
+            n[a] = want[a] > f->n[a] ? (want[a] < across ? want[a] : across) : f->n[a];
+        for (int a = 0; a < 3; ++a)
+            n[a] = n[a] > f->n[a] ? n[a] : f->n[a];
+        if ((double)n[0] * n[1] * n[2] > cap)
+            continue;
+        for (int a = 0; a < 3; ++a)
+            if (n[a] > f->n[a]) {
+                /* The short axis's cells span its extent exactly from the box's low side
+                 * (the fitted origin along a world axis). */
+                f->n[a] = n[a];
+                f->side[a] = length[a] / n[a];
+            }
+        break;
+    }
     return resolution;
 }
 
@@ -61,11 +100,23 @@ int64_t vdbs_coarse_cells(const vdbs_coarse_frame *f)
     return (int64_t)f->n[0] * f->n[1] * f->n[2];
 }
 
+double vdbs_coarse_cell_volume(const vdbs_coarse_frame *f)
+{
+    return f->side[0] * f->side[1] * f->side[2];
+}
+
 void vdbs_coarse_point(const vdbs_coarse_frame *f, const double x[3], double world[3])
 {
+    if (f->side[0] == f->h && f->side[1] == f->h && f->side[2] == f->h) {
+        /* Cubic: as before anisotropic cells, to the bit. */
+        for (int k = 0; k < 3; ++k)
+            world[k] = f->origin[k] +
+                       f->h * (x[0] * f->axis[0][k] + x[1] * f->axis[1][k] + x[2] * f->axis[2][k]);
+        return;
+    }
     for (int k = 0; k < 3; ++k)
-        world[k] = f->origin[k] +
-                   f->h * (x[0] * f->axis[0][k] + x[1] * f->axis[1][k] + x[2] * f->axis[2][k]);
+        world[k] = f->origin[k] + x[0] * f->side[0] * f->axis[0][k] +
+                   x[1] * f->side[1] * f->axis[1][k] + x[2] * f->side[2] * f->axis[2][k];
 }
 
 void vdbs_coarse_cell_centre(const vdbs_coarse_frame *f, int64_t c, double world[3])
@@ -82,7 +133,7 @@ static void coarse_trilinear(const vdbs_coarse_frame *f, const double p[3], int 
 {
     double rel[3] = {p[0] - f->origin[0], p[1] - f->origin[1], p[2] - f->origin[2]};
     for (int a = 0; a < 3; ++a) {
-        double x = dot3(rel, f->axis[a]) / f->h - 0.5;
+        double x = dot3(rel, f->axis[a]) / f->side[a] - 0.5;
         double fl = floor(x);
         i0[a] = (int)fl;
         frac[a] = x - fl;
@@ -309,8 +360,8 @@ vdbs_status vdbs_coarse_upsample(const vdbs_coarse_frame *f, const double *value
             int at[3][4], taps[3];
             double aw[3][4];
             for (int a = 0; a < 3; ++a)
-                taps[a] =
-                    axis_taps(taps_kernel, dot3(rel, f->axis[a]) / f->h, f->n[a], at[a], aw[a]);
+                taps[a] = axis_taps(taps_kernel, dot3(rel, f->axis[a]) / f->side[a], f->n[a], at[a],
+                                    aw[a]);
             double out[VDBS_COARSE_WIDTH] = {0}, wsum = 0.0;
             for (int k = 0; k < taps[2]; ++k)
                 for (int j = 0; j < taps[1]; ++j)

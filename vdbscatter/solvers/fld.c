@@ -173,7 +173,7 @@ static void gradient(const vdbs_fld_grid *g, const double *phi, int64_t c, int c
         int lo = at[a] > 0, hi = at[a] + 1 < g->n[a];
         double up = phi[3 * (c + (hi ? stride[a] : 0)) + ch];
         double down = phi[3 * (c - (lo ? stride[a] : 0)) + ch];
-        grad[a] = lo + hi ? (up - down) / ((lo + hi) * g->h) : 0.0;
+        grad[a] = lo + hi ? (up - down) / ((lo + hi) * g->h[a]) : 0.0;
     }
 }
 
@@ -346,13 +346,13 @@ static void levels_renew(fld_system *sys)
     }
 }
 
-/* The coefficients of every channel from D: couplings by the harmonic mean of the two cells'
- * D over h^2; a boundary face leaks phi 2 D / (h + 4 D) per area (Marshak: no light enters).
+/* The coefficients of every channel from D: couplings along axis a by the harmonic mean of the
+ * two cells' D over h_a^2 (face area over volume times distance); a boundary face leaks
+ * phi 2 D / (h_a + 4 D) per area (Marshak: no light enters), area over volume 1 / h_a.
  * Also the smoother's diagonal of the first level (double, from the float coefficients). */
 static void build_coef(fld_system *sys)
 {
     const vdbs_fld_grid *g = sys->grid;
-    const double h = g->h;
     const int64_t stride[3] = {1, g->n[0], (int64_t)g->n[0] * g->n[1]};
     const int k_axis[3] = {VS_FLD_COEF_X, VS_FLD_COEF_Y, VS_FLD_COEF_Z};
 #pragma omp parallel for schedule(static)
@@ -362,6 +362,7 @@ static void build_coef(fld_system *sys)
         for (int ch = 0; ch < 3; ++ch) {
             double di = sys->d[3 * c + ch], leak = 0.0;
             for (int a = 0; a < 3; ++a) {
+                const double h = g->h[a];
                 double up = 0.0;
                 if (at[a] + 1 < g->n[a]) {
                     double dj = sys->d[3 * (c + stride[a]) + ch];
@@ -421,7 +422,6 @@ static void source_rhs(const fld_system *sys, int ch, double *b, double *boundar
     const vdbs_fld_grid *g = sys->grid;
     const int64_t stride[3] = {1, g->n[0], (int64_t)g->n[0] * g->n[1]};
     const int k_axis[3] = {VS_FLD_COEF_X, VS_FLD_COEF_Y, VS_FLD_COEF_Z};
-    const double h = g->h;
     double out = 0.0;
     for (int64_t c = 0; c < sys->cells; ++c)
         b[c] = g->source[3 * c + ch];
@@ -430,6 +430,7 @@ static void source_rhs(const fld_system *sys, int ch, double *b, double *boundar
         cell_at(g, c, at);
         const double d = sys->d[3 * c + ch];
         for (int a = 0; a < 3; ++a) {
+            const double h = g->h[a];
             const double m = g->moment[9 * c + 3 * a + ch];
             if (at[a] + 1 < g->n[a]) {
                 const double d_face = (double)sys->coef[coef_at(c, ch, k_axis[a])] * h * h;
@@ -673,7 +674,7 @@ static void cell_flux(const fld_system *sys, const double *phi, double *flux)
 static void tally(const fld_system *sys, const double *phi, double boundary, vdbs_fld_stats *stats)
 {
     const vdbs_fld_grid *g = sys->grid;
-    const double volume = g->h * g->h * g->h;
+    const double volume = g->h[0] * g->h[1] * g->h[2];
     double source = 0.0, absorbed = 0.0, leaked = boundary * volume;
     for (int64_t c = 0; c < sys->cells; ++c)
         for (int ch = 0; ch < 3; ++ch) {
@@ -709,12 +710,12 @@ vdbs_status vdbs_fld_solve_grid(vdbs_runner *runner, const vdbs_fld_grid *grid,
     sys.runner_cells = d.runner_cells;
     sys.cancel = d.cancel;
     sys.cells = (int64_t)grid->n[0] * grid->n[1] * grid->n[2];
-    const int largest = grid->n[0] > grid->n[1]
-                            ? (grid->n[0] > grid->n[2] ? grid->n[0] : grid->n[2])
-                            : (grid->n[1] > grid->n[2] ? grid->n[1] : grid->n[2]);
-    sys.d_max = largest * grid->h / 3.0;
+    double largest = 0.0;
+    for (int a = 0; a < 3; ++a)
+        largest = fmax(largest, grid->n[a] * grid->h[a]);
+    sys.d_max = largest / 3.0;
     stats->cells = sys.cells;
-    stats->cell_side = grid->h;
+    stats->cell_side = fmax(grid->h[0], fmax(grid->h[1], grid->h[2]));
     const size_t n3 = 3 * (size_t)sys.cells;
     sys.d = malloc(sizeof *sys.d * n3);
     sys.diag = malloc(sizeof *sys.diag * n3);
@@ -797,7 +798,7 @@ static void gather_source(const vdbs_solve *s, const vdbs_coarse_frame *f, const
     const vdbs_volume *volume = s->volume;
     pnanovdb_buf_t buf = pnanovdb_make_buf(volume->nano, volume->nano_size / 4);
     pnanovdb_readaccessor_t acc = vs_density_accessor(buf);
-    const double scale = vdbs_volume_voxel_volume(volume) / (f->h * f->h * f->h);
+    const double scale = vdbs_volume_voxel_volume(volume) / vdbs_coarse_cell_volume(f);
     for (size_t n = 0; n < volume->coord_count; ++n) {
         const int32_t *c = volume->coords + 3 * n;
         double density = vs_density_voxel(buf, &acc, vs_coord(c[0], c[1], c[2]));
@@ -842,13 +843,15 @@ vdbs_status vdbs_fld_solve(const vdbs_solve *s, const vdbs_fld_desc *desc, vdbs_
         d.resolution = (int)fmin(fmax(across, (double)preset.min_resolution), 1e6);
     }
     vdbs_coarse_frame f;
-    d.resolution = vdbs_coarse_world_frame(s->volume, d.resolution, &f);
-    const double h = f.h;
+    d.resolution = vdbs_coarse_world_frame(s->volume, d.resolution,
+                                           d.across > 0 ? d.across : VDBS_COARSE_MIN_ACROSS, &f);
     const int64_t cells = vdbs_coarse_cells(&f);
     stats->resolution = d.resolution;
     double t0 = vdbs_now();
     vdbs_medium_box box;
-    int block = (int)floor(h / s->volume->mean_voxel_size);
+    /* The medium box-filtered at the shortest side: a thin axis keeps its profile. */
+    int block =
+        (int)floor(fmin(f.side[0], fmin(f.side[1], f.side[2])) / s->volume->mean_voxel_size);
     vdbs_status st = vdbs_medium_box_build(s->volume, block < 1 ? 1 : block, &box, err);
     if (st != VDBS_OK)
         return st;
@@ -866,7 +869,7 @@ vdbs_status vdbs_fld_solve(const vdbs_solve *s, const vdbs_fld_desc *desc, vdbs_
         gather_source(s, &f, d.s1_flux, source, moment);
         stats->seconds_source = vdbs_now() - t0;
         vdbs_fld_grid grid = {{f.n[0], f.n[1], f.n[2]},
-                              h,
+                              {f.side[0], f.side[1], f.side[2]},
                               sigma,
                               {s->scene->albedo[0], s->scene->albedo[1], s->scene->albedo[2]},
                               s->scene->g,

@@ -10,7 +10,7 @@ static const char *const on_off[] = {"on", "off", NULL};
 
 #define FLD_MAX_RESOLUTION 1024
 
-enum { OPT_RES, OPT_LIMITER, OPT_L1, OPT_P1 };
+enum { OPT_RES, OPT_ACROSS, OPT_LIMITER, OPT_L1, OPT_P1 };
 
 static const vdbs_solver_option options[] = {
     [OPT_RES] = {.key = "fld_res",
@@ -21,6 +21,13 @@ static const vdbs_solver_option options[] = {
                  .help = "FLD: cells across the largest extent (default: one per\n"
                          "transport free path at every quality, at least 12, never\n"
                          "finer than the voxels: finer grids measured worse)"},
+    [OPT_ACROSS] = {.key = "fld_across",
+                    .flag = "--fld-across",
+                    .syntax = "N",
+                    .min = 1,
+                    .max = FLD_MAX_RESOLUTION,
+                    .help = "FLD: cells at least across every axis, shorter cells along a\n"
+                            "thin one (default 8; 1: cubic cells)"},
     [OPT_LIMITER] = {.key = "fld_limiter",
                      .flag = "--fld-limiter",
                      .kind = VDBS_OPTION_CHOICE,
@@ -68,6 +75,7 @@ static vdbs_status run_fld(const vdbs_solve *s, void *stats, vdbs_error *err)
     if (st == VDBS_OK) {
         vdbs_fld_desc desc = {0};
         desc.resolution = option_int(s->scene, OPT_RES);
+        desc.across = option_int(s->scene, OPT_ACROSS);
         desc.limiter_off = option_int(s->scene, OPT_LIMITER);
         desc.write_l1 = !option_int(s->scene, OPT_L1);
         desc.s1_flux = flux;

@@ -187,7 +187,10 @@ static vdbs_status layout_build(const vdbs_svd_grid *g, int chunk, svd_layout *l
         put_float(p, VS_SVD_OFF_ORIGIN + a, g->origin[a]);
         put_float(p, VS_SVD_OFF_EXTINCT + a, 1.0 - pm->f * g->albedo[a]);
     }
-    put_float(p, VS_SVD_OFF_H, g->h);
+    const double largest = fmax(g->h[0], fmax(g->h[1], g->h[2]));
+    put_float(p, VS_SVD_OFF_H, largest);
+    for (int a = 0; a < 3; ++a)
+        put_float(p, VS_SVD_OFF_SIDE + a, g->h[a]);
     p[VS_SVD_OFF_TERMS] = (uint32_t)N;
     p[VS_SVD_OFF_LIGHTS] = (uint32_t)g->light_count;
     put_float(p, VS_SVD_OFF_G, pm->g_scaled);
@@ -237,7 +240,7 @@ static void stats_begin(const vdbs_svd_grid *grid, vdbs_svd_stats *stats)
     stats->directions = pm->d;
     stats->terms = grid->terms;
     stats->cells = (int64_t)grid->n[0] * grid->n[1] * grid->n[2];
-    stats->cell_side = grid->h;
+    stats->cell_side = fmax(grid->h[0], fmax(grid->h[1], grid->h[2]));
     stats->delta_m_f = pm->f;
     stats->g_scaled = pm->g_scaled;
     stats->factor_rmse = vdbs_phasemat_rmse(pm, grid->terms);
@@ -486,7 +489,7 @@ void vdbs_svd_light_depth(void *user, int light, const float *depth)
             }
         }
     }
-    const double scale = vdbs_volume_voxel_volume(volume) / (r->f.h * r->f.h * r->f.h);
+    const double scale = vdbs_volume_voxel_volume(volume) / vdbs_coarse_cell_volume(&r->f);
     memset(r->acc, 0, sizeof *r->acc * 3 * (size_t)r->cells);
     for (int64_t n = 0; n < count; ++n) {
         if (!(r->density[n] > 0.0f))
@@ -550,7 +553,7 @@ static void moments_from_voxels(const vdbs_volume *volume, const vdbs_coarse_fra
         vdbs_volume_voxel_point(volume, n, w);
         int at[3], inside = 1;
         for (int a = 0; a < 3; ++a) {
-            at[a] = (int)floor((w[a] - f->origin[a]) / f->h);
+            at[a] = (int)floor((w[a] - f->origin[a]) / f->side[a]);
             inside &= at[a] >= 0 && at[a] < f->n[a];
         }
         if (!inside)
@@ -646,13 +649,16 @@ vdbs_status vdbs_svd_begin(const vdbs_solve *s, const vdbs_svd_desc *desc, vdbs_
     }
     r->terms = d.terms > 0 ? (d.terms < r->pm.d ? d.terms : r->pm.d)
                            : vdbs_svd_terms_for(&r->pm, preset.tolerance);
-    r->stats.resolution = vdbs_coarse_world_frame(
-        s->volume, d.resolution > 0 ? d.resolution : preset.resolution, &r->f);
+    r->stats.resolution =
+        vdbs_coarse_world_frame(s->volume, d.resolution > 0 ? d.resolution : preset.resolution,
+                                d.across > 0 ? d.across : VDBS_COARSE_MIN_ACROSS, &r->f);
     r->cells = vdbs_coarse_cells(&r->f);
     const int64_t cells = r->cells;
     const size_t voxels = s->volume->coord_count ? s->volume->coord_count : 1;
     const int L = s->lights->direct_count;
-    int block = (int)floor(r->f.h / s->volume->mean_voxel_size);
+    /* The medium box-filtered at the shortest side: a thin axis keeps its profile. */
+    int block = (int)floor(fmin(r->f.side[0], fmin(r->f.side[1], r->f.side[2])) /
+                           s->volume->mean_voxel_size);
     st = vdbs_medium_box_build(s->volume, block < 1 ? 1 : block, &r->box, err);
     if (st != VDBS_OK) {
         vdbs_svd_end(r);
@@ -711,7 +717,7 @@ vdbs_status vdbs_svd_finish(vdbs_svd_run *r, vdbs_svd_stats *stats, vdbs_error *
     r->stats.seconds_source = vdbs_now() - r->t0;
     if (st == VDBS_OK) {
         vdbs_svd_grid grid = {{r->f.n[0], r->f.n[1], r->f.n[2]},
-                              r->f.h,
+                              {r->f.side[0], r->f.side[1], r->f.side[2]},
                               {r->f.origin[0], r->f.origin[1], r->f.origin[2]},
                               r->sigma,
                               {s->scene->albedo[0], s->scene->albedo[1], s->scene->albedo[2]},

@@ -12,7 +12,7 @@
 #define SVD_MAX_RESOLUTION 512
 #define SVD_MAX_ITERATIONS 100000
 
-enum { OPT_DIRECTIONS, OPT_TERMS, OPT_RES, OPT_ITERATIONS, OPT_RESIDUAL };
+enum { OPT_DIRECTIONS, OPT_TERMS, OPT_RES, OPT_ACROSS, OPT_ITERATIONS, OPT_RESIDUAL };
 
 /* The presets are svd.c's vdbs_svd_quality (test_svd checks). */
 static const vdbs_solver_option options[] = {
@@ -37,6 +37,13 @@ static const vdbs_solver_option options[] = {
                  .max = SVD_MAX_RESOLUTION,
                  .help = "SVD: cells across the largest extent (default 16/24/32/32)",
                  .preset = {16, 24, 32, 32}},
+    [OPT_ACROSS] = {.key = "svd_across",
+                    .flag = "--svd-across",
+                    .syntax = "N",
+                    .min = 1,
+                    .max = SVD_MAX_RESOLUTION,
+                    .help = "SVD: cells at least across every axis, shorter cells along a\n"
+                            "thin one (default 8; 1: cubic cells)"},
     [OPT_ITERATIONS] = {.key = "svd_iterations",
                         .flag = "--svd-iterations",
                         .syntax = "N",
@@ -176,6 +183,7 @@ static vdbs_status run_svd(const vdbs_solve *s, void *stats, vdbs_error *err)
     desc.directions = (int)option(s->scene, OPT_DIRECTIONS);
     desc.terms = (int)option(s->scene, OPT_TERMS);
     desc.resolution = (int)option(s->scene, OPT_RES);
+    desc.across = (int)option(s->scene, OPT_ACROSS);
     desc.residual = option(s->scene, OPT_RESIDUAL);
     desc.max_iterations = (int)option(s->scene, OPT_ITERATIONS);
     desc.warm = s->warm ? &((const svd_state *)s->warm)->moments : NULL;

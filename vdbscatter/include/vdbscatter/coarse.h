@@ -1,7 +1,8 @@
 /* Coarse world-space grids that the multiple-scattering solvers work on (POP's directional
- * and merged grids, later FLD's), and the way back to the output voxels: frames of cubic
- * cells at any orientation over the support box, the medium sampled per cell, energy-keeping
- * splats between frames and joint bilateral upsampling (Elek et al. Sec. 4.4). */
+ * and merged grids, FLD's and the discrete ordinates'), and the way back to the output voxels:
+ * frames of box cells (cubic for POP) at any orientation over the support box, the medium sampled
+ * per cell, energy-keeping splats between frames and joint bilateral upsampling (Elek et al.
+ * Sec. 4.4). */
 #ifndef VDBSCATTER_COARSE_H
 #define VDBSCATTER_COARSE_H
 
@@ -15,23 +16,35 @@
 extern "C" {
 #endif
 
-/* Cell (i, j, k) is the cube of side h whose first corner is origin + i h axis[0] +
- * j h axis[1] + k h axis[2]; item (k n1 + j) n0 + i. */
+/* Cell (i, j, k) is the box whose first corner is origin + i side[0] axis[0] +
+ * j side[1] axis[1] + k side[2] axis[2]; item (k n1 + j) n0 + i. */
 typedef struct vdbs_coarse_frame {
     double origin[3];
     double axis[3][3]; /* orthonormal */
-    double h;
+    double side[3];    /* the cells' side along each axis: all h in a cubic frame */
+    double h;          /* the largest side (a cubic frame's side: POP's frames are cubic) */
     int n[3];
 } vdbs_coarse_frame;
 
 /* The frame with the given axes spanning the box with these corners in cells of side h. */
 void vdbs_coarse_fit(const double corners[8][3], const double axis[3][3], double h,
                      vdbs_coarse_frame *f);
-/* The world-aligned frame of cubic cells over the volume's support box with `resolution`
- * cells across its extent (vdbs_volume_support_extent), never finer than one mean voxel
- * length; returns the resolution used (FLD's and the discrete ordinates' grids). */
-int vdbs_coarse_world_frame(const vdbs_volume *volume, int resolution, vdbs_coarse_frame *f);
+/* Cells across each axis that vdbs_coarse_world_frame gives an axis at least (when the
+ * voxels allow and the cap leaves room): measured on a thin slab (docs/design.md "Solver
+ * grids"). */
+#define VDBS_COARSE_MIN_ACROSS 8
+/* The world-aligned frame over the volume's support box with `resolution` cells of side
+ * h = extent / resolution across its extent (vdbs_volume_support_extent), never finer than one
+ * mean voxel length; returns the resolution used (FLD's and the discrete ordinates' grids).
+ * An axis whose extent is under min_across cells of h gets min_across cells of its own,
+ * shorter side (never shorter than a mean voxel), so that a thin layer is resolved through
+ * its thickness; the frame never has more than resolution^3 cells for it (the cube's count):
+ * at that cap the short axes get the most cells that fit. min_across <= 1: cubic cells. */
+int vdbs_coarse_world_frame(const vdbs_volume *volume, int resolution, int min_across,
+                            vdbs_coarse_frame *f);
 int64_t vdbs_coarse_cells(const vdbs_coarse_frame *f);
+/* The world volume of one cell. */
+double vdbs_coarse_cell_volume(const vdbs_coarse_frame *f);
 /* World point at grid coordinates x (in cells from the origin); a cell's centre. */
 void vdbs_coarse_point(const vdbs_coarse_frame *f, const double x[3], double world[3]);
 void vdbs_coarse_cell_centre(const vdbs_coarse_frame *f, int64_t c, double world[3]);

@@ -30,6 +30,9 @@ typedef struct vdbs_fld_desc {
     int resolution;       /* cells across the largest extent (--fld-res); default: from the
                              medium per the quality (vdbs_fld_preset); never finer than the
                              voxels */
+    int across;           /* cells at least across every axis (--fld-across; coarse.h's
+                             vdbs_coarse_world_frame); default VDBS_COARSE_MIN_ACROSS, 1: cubic
+                             cells */
     int limiter_off;      /* 1: classic diffusion, D = 1 / (3 sigma_tr); with the limiter or
                              without, D is capped at (the grid's largest extent) / 3, the D of a
                              medium one transport mean free path across the grid (empty cells) */
@@ -63,10 +66,11 @@ typedef struct vdbs_fld_preset {
 /* The preset of a quality name (medium's for an unknown one). */
 void vdbs_fld_quality(const char *quality, vdbs_fld_preset *preset);
 
-/* A medium on a grid of n[0] x n[1] x n[2] cells of side h (item (k n1 + j) n0 + i). */
+/* A medium on a grid of n[0] x n[1] x n[2] box cells of sides h[0], h[1], h[2] along x, y, z
+ * (item (k n1 + j) n0 + i). */
 typedef struct vdbs_fld_grid {
     int n[3];
-    double h;
+    double h[3];
     const float *sigma_t; /* per cell */
     double albedo[3];
     double g;

@@ -37,6 +37,9 @@ typedef struct vdbs_svd_desc {
                            RMSE is within the quality's tolerance */
     int resolution;     /* cells across the support box's extent (--svd-res); default: the
                            quality's; never finer than the voxels */
+    int across;         /* cells at least across every axis (--svd-across; coarse.h's
+                           vdbs_coarse_world_frame); default VDBS_COARSE_MIN_ACROSS, 1: cubic
+                           cells */
     double residual;    /* stop once the relative change of the fluence per iteration is at
                            most this (--residual); default: the quality's */
     int max_iterations; /* the cap (--svd-iterations); default 2000 */
@@ -91,11 +94,11 @@ typedef struct vdbs_svd_light {
     double vec[3];
 } vdbs_svd_light;
 
-/* One problem on a grid of n[0] x n[1] x n[2] cubic cells of side h from `origin` (world),
- * item (k n1 + j) n0 + i. */
+/* One problem on a grid of n[0] x n[1] x n[2] box cells of sides h[0], h[1], h[2] along x, y,
+ * z from `origin` (world), item (k n1 + j) n0 + i. */
 typedef struct vdbs_svd_grid {
     int n[3];
-    double h;
+    double h[3];
     double origin[3];
     const float *sigma_t; /* per cell (the unscaled medium) */
     double albedo[3];
