@@ -83,11 +83,22 @@ static void add_light(const vdbs_volume *volume, const vdbs_light_table *lights,
                       double *flux)
 {
     const int64_t count = (int64_t)volume->coord_count;
+    /* Only a point light's arrival depends on the point: a sun's and an ordinate's once. */
+    const int varies =
+        light < lights->direct_count && lights->direct[light].type == VDBS_LIGHT_POINT;
+    double color0[3], travel0[3];
+    const double origin[3] = {0.0, 0.0, 0.0};
+    vdbs_lights_arrival(lights, light, origin, color0, travel0);
 #pragma omp parallel for schedule(static)
     for (int64_t n = 0; n < count; ++n) {
         double world[3], color[3], travel[3];
-        vdbs_volume_voxel_point(volume, (size_t)n, world);
-        vdbs_lights_arrival(lights, light, world, color, travel);
+        if (varies) {
+            vdbs_volume_voxel_point(volume, (size_t)n, world);
+            vdbs_lights_arrival(lights, light, world, color, travel);
+        } else {
+            memcpy(color, color0, sizeof color);
+            memcpy(travel, travel0, sizeof travel);
+        }
         const double weight = exp(-(double)depth[n]);
         double phase = 0.0;
         if (view) {
@@ -107,6 +118,75 @@ static void add_light(const vdbs_volume *volume, const vdbs_light_table *lights,
                 flux[9 * n + 3 * a + ch] += color[ch] * weight * travel[a];
         }
     }
+}
+
+/* Adds one set's grid stats to a sum. */
+static void grid_stats_add(vdbs_light_grid_stats *sum, const vdbs_light_grid_stats *g)
+{
+    sum->cells += g->cells;
+    sum->columns += g->columns;
+    sum->columns_empty += g->columns_empty;
+    sum->stored += g->stored;
+    sum->seconds_sweep += g->seconds_sweep;
+    if (g->spacing_min > 0.0)
+        sum->spacing_min =
+            sum->spacing_min > 0.0 ? fmin(sum->spacing_min, g->spacing_min) : g->spacing_min;
+    sum->spacing_max = fmax(sum->spacing_max, g->spacing_max);
+}
+
+static vdbs_s1_kind light_kind(const vdbs_light_table *lights, int light)
+{
+    if (light >= lights->direct_count)
+        return VDBS_S1_SKY;
+    return lights->direct[light].type == VDBS_LIGHT_POINT ? VDBS_S1_POINT : VDBS_S1_SUN;
+}
+
+/* Light grids waiting for one lookup pass together (vdbs_light_grids_add_transmitted). */
+typedef struct fold_batch {
+    double *color;          /* 3 per set: its arrival; one allocation, NULL: no batches */
+    vdbs_light_grids *sets; /* room for every light */
+    int *light;             /* the light of each set */
+    int count;
+    size_t words;
+} fold_batch;
+
+/* Words of light grids a batch holds at most before its lookup pass. */
+#define FOLD_WORDS ((size_t)1 << 26)
+
+static void batch_add(fold_batch *b, const vdbs_light_table *lights, int light,
+                      const vdbs_light_grids *set)
+{
+    const double origin[3] = {0.0, 0.0, 0.0};
+    double travel[3];
+    vdbs_lights_arrival(lights, light, origin, b->color + 3 * b->count, travel);
+    b->light[b->count] = light;
+    b->sets[b->count++] = *set;
+    b->words += set->word_count;
+}
+
+/* The batch's lookup pass into fluence; its time is shared among its lights' kinds. */
+static void batch_flush(fold_batch *b, const vdbs_volume *volume, const vdbs_light_table *lights,
+                        double *fluence, vdbs_s1_stats *stats)
+{
+    if (b->count == 0)
+        return;
+    double t0 = omp_get_wtime();
+    vdbs_light_grids_add_transmitted(volume, b->sets, b->color, b->count, fluence);
+    double share = (omp_get_wtime() - t0) / b->count;
+    for (int i = 0; i < b->count; ++i) {
+        stats->seconds_lookup += share;
+        stats->kinds[light_kind(lights, b->light[i])].seconds_lookup += share;
+        vdbs_light_grids_free(&b->sets[i]);
+    }
+    b->count = 0;
+    b->words = 0;
+}
+
+static void batch_free(fold_batch *b)
+{
+    for (int i = 0; i < b->count; ++i)
+        vdbs_light_grids_free(&b->sets[i]);
+    free(b->color);
 }
 
 vdbs_status vdbs_single_scatter_grids(vdbs_runner *runner, const vdbs_volume *volume,
@@ -149,6 +229,18 @@ vdbs_status vdbs_single_scatter_grids_out(vdbs_runner *runner, const vdbs_volume
     }
     vdbs_status st = VDBS_OK;
     const int total = lights->direct_count + lights->ordinate_count;
+    /* On the C path, when nothing per light is asked for, the lights that arrive alike
+     * everywhere (suns, sky ordinates) are looked up in batches, one pass over the voxels per
+     * batch: with 64 sky ordinates, accumulating light by light cost as much as the lookups
+     * (bench/s1.md). */
+    fold_batch batch = {0};
+    if (vdbs_runner_backend(runner) == VDBS_BACKEND_CPU && !out->light_depth && !view && !flux)
+        batch.color = calloc((size_t)total,
+                             3 * sizeof *batch.color + sizeof *batch.sets + sizeof *batch.light);
+    if (batch.color) {
+        batch.sets = (vdbs_light_grids *)(batch.color + 3 * total);
+        batch.light = (int *)(batch.sets + total);
+    }
     for (int d = 0; d < total && st == VDBS_OK; ++d) {
         if (vdbs_progress_cancelled(progress)) {
             st = vdbs_error_cancelled(err);
@@ -161,22 +253,34 @@ vdbs_status vdbs_single_scatter_grids_out(vdbs_runner *runner, const vdbs_volume
         double t0 = omp_get_wtime();
         if (out->light_grid)
             st = out->light_grid(out->light_user, d, &set, err);
-        if (st == VDBS_OK)
-            st = vdbs_light_grids_lookup_voxels(runner, volume, &set, 0, depth, err);
-        if (st == VDBS_OK)
-            add_light(volume, lights, d, depth, scene->g, wo, fluence, view, flux);
-        if (st == VDBS_OK && out->light_depth)
-            out->light_depth(out->light_user, d, depth);
-        stats->seconds_lookup += omp_get_wtime() - t0;
-        stats->grids.cells += set.stats.cells;
-        stats->grids.columns += set.stats.columns;
-        stats->grids.columns_empty += set.stats.columns_empty;
-        stats->grids.stored += set.stats.stored;
-        stats->grids.seconds_sweep += set.stats.seconds_sweep;
-        vdbs_light_grids_free(&set);
+        vdbs_s1_kind_stats *kind = &stats->kinds[light_kind(lights, d)];
+        grid_stats_add(&stats->grids, &set.stats);
+        kind->lights += 1;
+        grid_stats_add(&kind->grids, &set.stats);
+        if (st == VDBS_OK && batch.sets && light_kind(lights, d) != VDBS_S1_POINT) {
+            batch_add(&batch, lights, d, &set);
+            stats->seconds_lookup += omp_get_wtime() - t0;
+            kind->seconds_lookup += omp_get_wtime() - t0;
+            if (batch.words > FOLD_WORDS)
+                batch_flush(&batch, volume, lights, fluence, stats);
+        } else {
+            if (st == VDBS_OK)
+                st = vdbs_light_grids_lookup_voxels(runner, volume, &set, 0, depth, err);
+            if (st == VDBS_OK)
+                add_light(volume, lights, d, depth, scene->g, wo, fluence, view, flux);
+            if (st == VDBS_OK && out->light_depth)
+                out->light_depth(out->light_user, d, depth);
+            double lookup = omp_get_wtime() - t0;
+            stats->seconds_lookup += lookup;
+            kind->seconds_lookup += lookup;
+            vdbs_light_grids_free(&set);
+        }
         if (progress)
             vdbs_progress_update(progress, (uint64_t)n * (uint64_t)(d + 1) / (uint64_t)total);
     }
+    if (st == VDBS_OK)
+        batch_flush(&batch, volume, lights, fluence, stats);
+    batch_free(&batch);
     for (size_t v = 0; st == VDBS_OK && v < 3 * n; ++v) {
         if (radiance)
             radiance[v] = (float)(fluence[v] * VDBS_INV_4PI);

@@ -43,11 +43,25 @@ extern "C" {
  * march on the bundled samples and the Disney cloud (tests/test_lightgrid.c). */
 #define VDBS_LIGHT_GRID_DEFAULT_OVERSAMPLE 2
 
+/* Sky ordinates' grids are sized to their share of the light (docs/design.md "Light grids",
+ * bench/s1.md): an ordinate carrying the share s of the light arriving at the volume (its
+ * radiance times its solid angle, against every light's) is spaced
+ * VDBS_LIGHT_GRID_SKY_K (s / VDBS_LIGHT_GRID_SKY_SHARE)^(-1/2) smallest voxel lengths apart
+ * across and along, no finer than the sun's spacing and no coarser than
+ * VDBS_LIGHT_GRID_SKY_MAX voxels: its interpolation error weighs in proportion to its share. */
+#define VDBS_LIGHT_GRID_SKY_K 1.0
+#define VDBS_LIGHT_GRID_SKY_SHARE 0.01
+#define VDBS_LIGHT_GRID_SKY_MAX 4.0
+
 /* Zero-initialise; 0 means the default. */
 typedef struct vdbs_light_grid_desc {
     int oversample; /* samples per smallest voxel length; default 2 */
     int bilinear;   /* 1: bilinear across the columns of directional grids (a quarter of the
                        memory traffic of the default Catmull-Rom; the render's choice) */
+    /* Sky ordinates' spacing in smallest voxel lengths (across and along their columns);
+     * 0: by their share of the light (the rule above); negative: the suns' (the oversample's,
+     * which suns and point lights always keep). */
+    double sky_spacing;
 } vdbs_light_grid_desc;
 
 /* What building a set cost and holds. */
@@ -57,6 +71,8 @@ typedef struct vdbs_light_grid_stats {
     int64_t columns_empty; /* columns that met no density: swept, nothing stored */
     int64_t stored;        /* depth samples stored */
     double seconds_sweep;  /* wall time of the sweeps (packing included) */
+    /* The directional grids' spacings (world; 0 without one), smallest and largest. */
+    double spacing_min, spacing_max;
 } vdbs_light_grid_stats;
 
 typedef struct vdbs_light_grids {
@@ -87,6 +103,12 @@ float vdbs_light_grids_depth(const vdbs_light_grids *grids, int grid, const doub
 vdbs_status vdbs_light_grids_lookup_voxels(vdbs_runner *runner, const vdbs_volume *volume,
                                            const vdbs_light_grids *grids, int grid, float *depth,
                                            vdbs_error *err);
+
+/* C path: adds color[3 s + ch] exp(-depth) to sum[3 v + ch] for every output voxel v and
+ * set s of sets[0, count), depth the lookup of the set's grid 0: many lights' lookups in
+ * one pass over the voxels. */
+void vdbs_light_grids_add_transmitted(const vdbs_volume *volume, const vdbs_light_grids *sets,
+                                      const double *color, int count, double *sum);
 
 /* On the GPU, whether the set fits one storage buffer (VDBS_ERR_GPU naming --s1-oversample,
  * --quality and --backend cpu if not); always VDBS_OK on the C path. */
