@@ -420,7 +420,8 @@ static double light_share(const vdbs_volume *volume, const vdbs_light_table *lig
     return total > 0.0 ? own / total : 1.0;
 }
 
-/* Sky ordinate l's spacing (world): desc's, or by its share of the light (lightgrid.h). */
+/* Sky ordinate l's spacing (world): desc's, or by the sky's share of the light
+ * (lightgrid.h). */
 static double sky_spacing(const vdbs_volume *volume, const vdbs_light_table *lights, int l,
                           double h, const vdbs_light_grid_desc *desc)
 {
@@ -429,9 +430,8 @@ static double sky_spacing(const vdbs_volume *volume, const vdbs_light_table *lig
         return h;
     if (desc && desc->sky_spacing > 0.0)
         return voxel * desc->sky_spacing;
-    double share = light_share(volume, lights, l);
-    double s = share > 0.0 ? VDBS_LIGHT_GRID_SKY_K / sqrt(share / VDBS_LIGHT_GRID_SKY_SHARE)
-                           : VDBS_LIGHT_GRID_SKY_MAX;
+    double share = light_share(volume, lights, l) * lights->ordinate_count;
+    double s = share > 0.0 ? sqrt(VDBS_LIGHT_GRID_SKY_SHARE / share) : VDBS_LIGHT_GRID_SKY_MAX;
     return fmax(h, voxel * fmin(s, VDBS_LIGHT_GRID_SKY_MAX));
 }
 

@@ -43,14 +43,16 @@ extern "C" {
  * march on the bundled samples and the Disney cloud (tests/test_lightgrid.c). */
 #define VDBS_LIGHT_GRID_DEFAULT_OVERSAMPLE 2
 
-/* Sky ordinates' grids are sized to their share of the light (docs/design.md "Light grids",
- * bench/s1.md): an ordinate carrying the share s of the light arriving at the volume (its
- * radiance times its solid angle, against every light's) is spaced
- * VDBS_LIGHT_GRID_SKY_K (s / VDBS_LIGHT_GRID_SKY_SHARE)^(-1/2) smallest voxel lengths apart
- * across and along, no finer than the sun's spacing and no coarser than
- * VDBS_LIGHT_GRID_SKY_MAX voxels: its interpolation error weighs in proportion to its share. */
-#define VDBS_LIGHT_GRID_SKY_K 1.0
-#define VDBS_LIGHT_GRID_SKY_SHARE 0.01
+/* Sky ordinates' grids are sized to the sky's share of the light (docs/design.md "Light
+ * grids", bench/s1.md): with s an ordinate's share of the light arriving at the volume (its
+ * radiance times its solid angle, against every light's) times the number of ordinates (the
+ * sky's share, were every ordinate like it), its grid is spaced
+ * sqrt(VDBS_LIGHT_GRID_SKY_SHARE / s) smallest voxel lengths apart across and along its
+ * columns, no finer than the suns' and no coarser than VDBS_LIGHT_GRID_SKY_MAX voxels. The
+ * ordinates' interpolation errors add up rather than average out (measured: they grow as the
+ * spacing squared times the sky's share), so the sky keeps the suns' spacing where it
+ * carries most of the light; the constant keeps what coarsening adds under about 0.1%. */
+#define VDBS_LIGHT_GRID_SKY_SHARE 0.12
 #define VDBS_LIGHT_GRID_SKY_MAX 4.0
 
 /* Zero-initialise; 0 means the default. */
