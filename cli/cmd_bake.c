@@ -57,7 +57,8 @@ static const char help[] =
     "  --backend auto|cpu|gpu   auto: a hardware GPU if EGL finds one, else the C "
     "path\n" CLI_S1_HELP
     "  --s1-sky-spacing S       sky directions' light-grid spacing in smallest voxel\n"
-    "                           lengths (default: by each one's share of the light, 1 to 4)\n"
+    "                           lengths (default: by the sky's share of the light, from\n"
+    "                           the suns' spacing up to 4; docs/design.md)\n"
     "  --from-levelset          convert a level set to a fog volume instead of refusing it\n"
     "  --half                   store grids as half floats (values clamped to 65504)\n"
     "  --store lights|none      lights (default): also store the optical depth toward every\n"

@@ -231,8 +231,8 @@ vdbs_status vdbs_single_scatter_grids_out(vdbs_runner *runner, const vdbs_volume
     const int total = lights->direct_count + lights->ordinate_count;
     /* On the C path, when nothing per light is asked for, the lights that arrive alike
      * everywhere (suns, sky ordinates) are looked up in batches, one pass over the voxels per
-     * batch: with 64 sky ordinates, accumulating light by light cost as much as the lookups
-     * (bench/s1.md). */
+     * batch: accumulating light by light cost more than half of what the lookups did
+     * (docs/design.md "Light grids"). */
     fold_batch batch = {0};
     if (vdbs_runner_backend(runner) == VDBS_BACKEND_CPU && !out->light_depth && !view && !flux)
         batch.color = calloc((size_t)total,
