@@ -1,19 +1,19 @@
 #!/usr/bin/python3
-"""S1 cost with light grids sized to the light (lightgrid.h: sky ordinates spaced by their
-share), C path, side by side in one run:
+"""S1 cost with light grids sized to the light (lightgrid.h: sky ordinates spaced by the sky's
+share of the light), C path, side by side in one run:
 
-1. the Disney cloud (wdas_cloud_sixteenth, density scale 0.2, a sun and a 64-direction
-   constant sky: --quality medium, --method single): the exact march (--s1 march), then light
-   grids with the sky at the suns' spacing (1 voxel, the sizing before), at fixed coarser
-   spacings, and at the default rule; time of the solve (from the bake's --json), its sweep and
-   lookup, and the relative RMSE of the radiance grid against the march's over voxels above
-   1e-3 of the maximum; also the sky alone (no sun) per spacing: the error the rule is
-   fitted to;
+1. the Disney cloud (wdas_cloud_sixteenth, density scale 0.2, a sun of 1 and a 64-direction
+   constant sky 0.2,0.3,0.5: --quality medium, oversample 1, --method single --store none):
+   the exact march (--s1 march), then light grids: a `--before` build (the sizing and the
+   batched lookups absent), the sky at fixed spacings (--s1-sky-spacing, voxels) and the
+   default rule; time of the solve (from the bake's --json), its sweep and lookup, and the
+   relative RMSE of the radiance grid (S1) against the march's over voxels above 1e-3 of the
+   maximum; the same with the sky at a tenth (--sky-alone: also the sky without the sun);
 2. the largest volume of the data folder (by active voxels, `vdbscatter info`): S1 time with
    the default grids; the march on a sun and 4 sky directions, scaled to 65 lights by its
    time per light (the march is linear in the lights).
 
-usage: bench/bench_s1.py BUILD_DIR [--out bench/s1.md] [--data DIR]"""
+usage: bench/bench_s1.py BUILD_DIR [--out bench/s1.md] [--data DIR] [--before EXE]"""
 import argparse
 import os
 import tempfile

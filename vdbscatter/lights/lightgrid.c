@@ -793,23 +793,3 @@ vdbs_status vdbs_light_grids_lookup_voxels(vdbs_runner *runner, const vdbs_volum
     desc.total_units = 1;
     return vdbs_kernel_run(runner, &desc, NULL, err);
 }
-
-void vdbs_light_grids_add_transmitted(const vdbs_volume *volume, const vdbs_light_grids *sets,
-                                      const double *color, int count, double *sum)
-{
-    const int64_t voxels = (int64_t)volume->coord_count;
-#pragma omp parallel for schedule(static, 1024)
-    for (int64_t n = 0; n < voxels; ++n) {
-        const int32_t *c = volume->coords + 3 * n;
-        pnanovdb_vec3_t p = vs_vec3((float)c[0], (float)c[1], (float)c[2]);
-        double add[3] = {0.0, 0.0, 0.0};
-        for (int s = 0; s < count; ++s) {
-            double t =
-                exp(-(double)vs_lgrid_depth((const vs_vec4 *)sets[s].medium, sets[s].words, 0, p));
-            for (int ch = 0; ch < 3; ++ch)
-                add[ch] += color[3 * s + ch] * t;
-        }
-        for (int ch = 0; ch < 3; ++ch)
-            sum[3 * n + ch] += add[ch];
-    }
-}

@@ -141,54 +141,6 @@ static vdbs_s1_kind light_kind(const vdbs_light_table *lights, int light)
     return lights->direct[light].type == VDBS_LIGHT_POINT ? VDBS_S1_POINT : VDBS_S1_SUN;
 }
 
-/* Light grids waiting for one lookup pass together (vdbs_light_grids_add_transmitted). */
-typedef struct fold_batch {
-    double *color;          /* 3 per set: its arrival; one allocation, NULL: no batches */
-    vdbs_light_grids *sets; /* room for every light */
-    int *light;             /* the light of each set */
-    int count;
-    size_t words;
-} fold_batch;
-
-/* Words of light grids a batch holds at most before its lookup pass. */
-#define FOLD_WORDS ((size_t)1 << 26)
-
-static void batch_add(fold_batch *b, const vdbs_light_table *lights, int light,
-                      const vdbs_light_grids *set)
-{
-    const double origin[3] = {0.0, 0.0, 0.0};
-    double travel[3];
-    vdbs_lights_arrival(lights, light, origin, b->color + 3 * b->count, travel);
-    b->light[b->count] = light;
-    b->sets[b->count++] = *set;
-    b->words += set->word_count;
-}
-
-/* The batch's lookup pass into fluence; its time is shared among its lights' kinds. */
-static void batch_flush(fold_batch *b, const vdbs_volume *volume, const vdbs_light_table *lights,
-                        double *fluence, vdbs_s1_stats *stats)
-{
-    if (b->count == 0)
-        return;
-    double t0 = omp_get_wtime();
-    vdbs_light_grids_add_transmitted(volume, b->sets, b->color, b->count, fluence);
-    double share = (omp_get_wtime() - t0) / b->count;
-    for (int i = 0; i < b->count; ++i) {
-        stats->seconds_lookup += share;
-        stats->kinds[light_kind(lights, b->light[i])].seconds_lookup += share;
-        vdbs_light_grids_free(&b->sets[i]);
-    }
-    b->count = 0;
-    b->words = 0;
-}
-
-static void batch_free(fold_batch *b)
-{
-    for (int i = 0; i < b->count; ++i)
-        vdbs_light_grids_free(&b->sets[i]);
-    free(b->color);
-}
-
 vdbs_status vdbs_single_scatter_grids(vdbs_runner *runner, const vdbs_volume *volume,
                                       const vdbs_scene *scene, const vdbs_light_table *lights,
                                       const vdbs_light_grid_desc *grids, float *radiance,
@@ -229,18 +181,6 @@ vdbs_status vdbs_single_scatter_grids_out(vdbs_runner *runner, const vdbs_volume
     }
     vdbs_status st = VDBS_OK;
     const int total = lights->direct_count + lights->ordinate_count;
-    /* On the C path, when nothing per light is asked for, the lights that arrive alike
-     * everywhere (suns, sky ordinates) are looked up in batches, one pass over the voxels per
-     * batch: accumulating light by light cost more than half of what the lookups did
-     * (docs/design.md "Light grids"). */
-    fold_batch batch = {0};
-    if (vdbs_runner_backend(runner) == VDBS_BACKEND_CPU && !out->light_depth && !view && !flux)
-        batch.color = calloc((size_t)total,
-                             3 * sizeof *batch.color + sizeof *batch.sets + sizeof *batch.light);
-    if (batch.color) {
-        batch.sets = (vdbs_light_grids *)(batch.color + 3 * total);
-        batch.light = (int *)(batch.sets + total);
-    }
     for (int d = 0; d < total && st == VDBS_OK; ++d) {
         if (vdbs_progress_cancelled(progress)) {
             st = vdbs_error_cancelled(err);
@@ -257,30 +197,19 @@ vdbs_status vdbs_single_scatter_grids_out(vdbs_runner *runner, const vdbs_volume
         grid_stats_add(&stats->grids, &set.stats);
         kind->lights += 1;
         grid_stats_add(&kind->grids, &set.stats);
-        if (st == VDBS_OK && batch.sets && light_kind(lights, d) != VDBS_S1_POINT) {
-            batch_add(&batch, lights, d, &set);
-            stats->seconds_lookup += omp_get_wtime() - t0;
-            kind->seconds_lookup += omp_get_wtime() - t0;
-            if (batch.words > FOLD_WORDS)
-                batch_flush(&batch, volume, lights, fluence, stats);
-        } else {
-            if (st == VDBS_OK)
-                st = vdbs_light_grids_lookup_voxels(runner, volume, &set, 0, depth, err);
-            if (st == VDBS_OK)
-                add_light(volume, lights, d, depth, scene->g, wo, fluence, view, flux);
-            if (st == VDBS_OK && out->light_depth)
-                out->light_depth(out->light_user, d, depth);
-            double lookup = omp_get_wtime() - t0;
-            stats->seconds_lookup += lookup;
-            kind->seconds_lookup += lookup;
-            vdbs_light_grids_free(&set);
-        }
+        if (st == VDBS_OK)
+            st = vdbs_light_grids_lookup_voxels(runner, volume, &set, 0, depth, err);
+        if (st == VDBS_OK)
+            add_light(volume, lights, d, depth, scene->g, wo, fluence, view, flux);
+        if (st == VDBS_OK && out->light_depth)
+            out->light_depth(out->light_user, d, depth);
+        double lookup = omp_get_wtime() - t0;
+        stats->seconds_lookup += lookup;
+        kind->seconds_lookup += lookup;
+        vdbs_light_grids_free(&set);
         if (progress)
             vdbs_progress_update(progress, (uint64_t)n * (uint64_t)(d + 1) / (uint64_t)total);
     }
-    if (st == VDBS_OK)
-        batch_flush(&batch, volume, lights, fluence, stats);
-    batch_free(&batch);
     for (size_t v = 0; st == VDBS_OK && v < 3 * n; ++v) {
         if (radiance)
             radiance[v] = (float)(fluence[v] * VDBS_INV_4PI);

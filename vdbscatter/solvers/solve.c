@@ -29,8 +29,7 @@ vdbs_status vdbs_solve_s1(const vdbs_solve *s, float *flux, vdbs_s1_light_fn lig
 {
     keep_depths keep = {s, light_depth, light_user};
     if (s->light_depths) {
-        /* NULL when the solver asks for none: the S1 pass may then batch its lookups. */
-        light_depth = light_depth ? pass_depth : NULL;
+        light_depth = pass_depth;
         light_user = &keep;
     }
     vdbs_s1_outputs out = {s->radiance, s->radiance_view, flux,

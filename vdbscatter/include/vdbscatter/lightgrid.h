@@ -106,12 +106,6 @@ vdbs_status vdbs_light_grids_lookup_voxels(vdbs_runner *runner, const vdbs_volum
                                            const vdbs_light_grids *grids, int grid, float *depth,
                                            vdbs_error *err);
 
-/* C path: adds color[3 s + ch] exp(-depth) to sum[3 v + ch] for every output voxel v and
- * set s of sets[0, count), depth the lookup of the set's grid 0: many lights' lookups in
- * one pass over the voxels. */
-void vdbs_light_grids_add_transmitted(const vdbs_volume *volume, const vdbs_light_grids *sets,
-                                      const double *color, int count, double *sum);
-
 /* On the GPU, whether the set fits one storage buffer (VDBS_ERR_GPU naming --s1-oversample,
  * --quality and --backend cpu if not); always VDBS_OK on the C path. */
 vdbs_status vdbs_light_grids_fit(vdbs_runner *runner, const vdbs_light_grids *grids,
