@@ -549,7 +549,7 @@ static void run_scene(const scene_def *def, const options *o, vdbs_runner *runne
             memset(ms, 0, 3 * n * sizeof(float));
             for (int a = 0; a < 3; ++a)
                 memset(l1[a], 0, 3 * n * sizeof(float));
-            vdbs_light_grid_desc grids = {0, 0};
+            vdbs_light_grid_desc grids = {0, 0, 0.0};
             vdbs_s1_stats s1_stats;
             memset(&s1_stats, 0, sizeof s1_stats);
             union {

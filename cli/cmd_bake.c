@@ -64,6 +64,9 @@ static const char help[] =
     "                           Vec3f, plus FILE.nvdb.json holding the metadata)\n"
     "  --backend auto|cpu|gpu   auto: a hardware GPU if EGL finds one, else the C "
     "path\n" CLI_S1_HELP
+    "  --s1-sky-spacing S       sky directions' light-grid spacing in smallest voxel\n"
+    "                           lengths (default: by the sky's share of the light, from\n"
+    "                           the suns' spacing up to 4; docs/design.md)\n"
     "  --from-levelset          convert a level set to a fog volume instead of refusing it\n"
     "  --half                   store grids as half floats (values clamped to 65504)\n"
     "  --store lights|none      lights (default): also store the optical depth toward every\n"
@@ -78,7 +81,7 @@ static const cli_option own_options[] = {
     CLI_COMMON_OPTIONS,          {"--from-levelset", CLI_FLAG}, {"--half", CLI_FLAG},
     {"--report", CLI_VALUE},     {"--method", CLI_VALUE},       {"--keep-state", CLI_FLAG},
     {"--warm-start", CLI_VALUE}, {"--camera", CLI_VALUE},       {"--store", CLI_VALUE},
-    {"--tolerance", CLI_VALUE},  {"--dry-run", CLI_FLAG},
+    {"--tolerance", CLI_VALUE},  {"--dry-run", CLI_FLAG},       {"--s1-sky-spacing", CLI_VALUE},
 };
 
 /* bake's options, then every solver's own flags from the solver table. */
@@ -89,6 +92,30 @@ static const cli_option *bake_options(void)
     memcpy(all, own_options, sizeof own_options);
     cli_solver_flags_add(all, own, CLI_MAX_OPTIONS);
     return all;
+}
+
+/* The light grids' sizes and times per kind of light (those with lights). */
+static cJSON *kinds_json(const vdbs_s1_kind_stats kinds[VDBS_S1_KINDS])
+{
+    static const char *names[VDBS_S1_KINDS] = {"sun", "point", "sky"};
+    cJSON *a = cJSON_CreateArray();
+    for (int k = 0; k < VDBS_S1_KINDS; ++k) {
+        const vdbs_s1_kind_stats *s = &kinds[k];
+        if (s->lights == 0)
+            continue;
+        cJSON *o = cJSON_CreateObject();
+        cJSON_AddStringToObject(o, "kind", names[k]);
+        cJSON_AddNumberToObject(o, "lights", s->lights);
+        cJSON_AddNumberToObject(o, "spacing_min", s->grids.spacing_min);
+        cJSON_AddNumberToObject(o, "spacing_max", s->grids.spacing_max);
+        cJSON_AddNumberToObject(o, "cells", (double)s->grids.cells);
+        cJSON_AddNumberToObject(o, "columns", (double)s->grids.columns);
+        cJSON_AddNumberToObject(o, "samples_stored", (double)s->grids.stored);
+        cJSON_AddNumberToObject(o, "seconds_sweep", s->grids.seconds_sweep);
+        cJSON_AddNumberToObject(o, "seconds_lookup", s->seconds_lookup);
+        cJSON_AddItemToArray(a, o);
+    }
+    return a;
 }
 
 static cJSON *report_json(const char *input, const char *output, const vdbs_scene *scene,
@@ -120,6 +147,7 @@ static cJSON *report_json(const char *input, const char *output, const vdbs_scen
         cJSON_AddNumberToObject(t, "s1_sweep", r->s1_grids.seconds_sweep);
         cJSON_AddNumberToObject(t, "s1_lookup", r->seconds_s1_lookup);
         cli_json_light_grids(j, &r->s1_grids);
+        cJSON_AddItemToObject(j, "s1_grids_per_kind", kinds_json(r->s1_kinds));
     }
     const vdbs_solver *solver = vdbs_solver_find(scene->method);
     if (solver)
@@ -291,6 +319,13 @@ int cmd_bake(int argc, char **argv)
     int quiet = cli_flag(&args, "-q");
     if ((st = cli_s1_options(&args, &o.s1_march, &o.s1_oversample, &err)) != VDBS_OK)
         return cli_fail("bake", st, err.message);
+    const char *sky_spacing = cli_value(&args, "--s1-sky-spacing");
+    if (sky_spacing) {
+        if ((st = cli_number("--s1-sky-spacing", sky_spacing, &o.s1_sky_spacing, &err)) != VDBS_OK)
+            return cli_fail("bake", st, err.message);
+        if (!(o.s1_sky_spacing > 0.0 && o.s1_sky_spacing <= 64.0))
+            return cli_fail("bake", 2, "--s1-sky-spacing: expected a number in (0, 64]");
+    }
     o.from_levelset = cli_flag(&args, "--from-levelset");
     o.half = cli_flag(&args, "--half");
     const char *store = cli_value(&args, "--store");

@@ -45,8 +45,10 @@ static void make_block(const int dims[3], const double m[3][4], vdbs_volume *vol
     assert_int_equal(vdbs_volume_from_density(density, volume, &err), VDBS_OK);
 }
 
-/* S1 radiance by grids (oversample > 0) or by the exact march (oversample 0). */
-static float *solve(const vdbs_volume *volume, const vdbs_scene *scene, int sky, int oversample)
+/* S1 radiance by grids (oversample > 0) or by the exact march (oversample 0); sky grids at
+ * the suns' spacing (the oversample's) unless sky_spacing says otherwise (lightgrid.h). */
+static float *solve_stats(const vdbs_volume *volume, const vdbs_scene *scene, int sky,
+                          int oversample, double sky_spacing, vdbs_s1_stats *stats)
 {
     float *radiance = calloc(3 * (volume->coord_count ? volume->coord_count : 1), sizeof(float));
     vdbs_error err;
@@ -54,16 +56,21 @@ static float *solve(const vdbs_volume *volume, const vdbs_scene *scene, int sky,
     vdbs_light_table lights;
     if (vdbs_lights_build(volume, scene, &ld, &lights, &err) != VDBS_OK)
         fail_msg("%s", err.message);
-    vdbs_light_grid_desc gd = {oversample, 0};
+    vdbs_light_grid_desc gd = {oversample, 0, sky_spacing};
     vdbs_runner *runner = test_runner(VDBS_BACKEND_CPU);
     vdbs_status st =
         oversample > 0 ? vdbs_single_scatter_grids(runner, volume, scene, &lights, &gd, radiance,
-                                                   NULL, NULL, &err)
+                                                   stats, NULL, &err)
                        : vdbs_single_scatter(runner, volume, scene, &lights, radiance, NULL, &err);
     if (st != VDBS_OK)
         fail_msg("%s", err.message);
     vdbs_lights_free(&lights);
     return radiance;
+}
+
+static float *solve(const vdbs_volume *volume, const vdbs_scene *scene, int sky, int oversample)
+{
+    return solve_stats(volume, scene, sky, oversample, -1.0, NULL);
 }
 
 static void sun_scene(vdbs_scene *scene, double sigma_t, const double dir[3])
@@ -398,6 +405,65 @@ static void test_agreement_disney_cloud(void **state)
     vdbs_volume_free(&volume);
 }
 
+/* Sky grids sized by the sky's share of the light (the default rule, lightgrid.h) on the
+ * bundled cloud sample (samples/cloud.json: density 20, a sun of 3 and a 64-direction sky) at
+ * the default oversampling: with samples/cloud.json's sky (59% of the light) the sky keeps the
+ * sun's spacing and S1 is within 0.5% of the march; with a sky a tenth as bright (13%) its
+ * grids are coarser (a sixth of the cells) and add at most 0.15% to the error. */
+static void test_sky_sizing_cloud_sample(void **state)
+{
+    (void)state;
+    vdbs_volume volume;
+    vdbs_error err;
+    vdbio_read_options read = {0};
+    if (vdbs_volume_load(VDBS_TEST_SAMPLES_DIR "/cloud.vdb", &read, &volume, &err) != VDBS_OK)
+        fail_msg("%s", err.message);
+    for (int dim = 0; dim < 2; ++dim) {
+        vdbs_scene scene;
+        vdbs_scene_init(&scene);
+        scene.density_scale = 20.0;
+        scene.light_count = 2;
+        scene.lights[0].type = VDBS_LIGHT_SUN;
+        const double dir[3] = {0.3, -1.0, 0.2}, sun[3] = {3.0, 2.9, 2.7};
+        const double sky[3] = {0.2, 0.3, 0.5}, f = dim ? 0.1 : 1.0;
+        memcpy(scene.lights[0].direction, dir, sizeof dir);
+        memcpy(scene.lights[0].color, sun, sizeof sun);
+        scene.lights[1].type = VDBS_LIGHT_ENV;
+        for (int c = 0; c < 3; ++c)
+            scene.lights[1].color[c] = f * sky[c];
+        assert_int_equal(vdbs_scene_validate(&scene, &err), VDBS_OK);
+        size_t n = 3 * volume.coord_count;
+        float *exact = solve(&volume, &scene, 64, 0);
+        vdbs_s1_stats stats, same;
+        float *sized =
+            solve_stats(&volume, &scene, 64, VDBS_LIGHT_GRID_DEFAULT_OVERSAMPLE, 0.0, &stats);
+        float *fine =
+            solve_stats(&volume, &scene, 64, VDBS_LIGHT_GRID_DEFAULT_OVERSAMPLE, -1.0, &same);
+        double e = relrmse(sized, exact, n), e_fine = relrmse(fine, exact, n);
+        const vdbs_s1_kind_stats *su = &stats.kinds[VDBS_S1_SUN], *k = &stats.kinds[VDBS_S1_SKY];
+        print_message("cloud sample, sun + 64 sky x %g: sky spacing %.3g to %.3g (sun %.3g), "
+                      "%lld cells (%lld at the sun's), relative RMSE %.3e (%.3e at the sun's)\n",
+                      f, k->grids.spacing_min, k->grids.spacing_max, su->grids.spacing_min,
+                      (long long)stats.grids.cells, (long long)same.grids.cells, e, e_fine);
+        assert_int_equal(su->lights, 1);
+        assert_int_equal(k->lights, 64);
+        assert_int_equal(stats.kinds[VDBS_S1_POINT].lights, 0);
+        if (dim) {
+            /* The sun's own error is 0.49% here: the sizing adds at most 0.15% (lightgrid.h). */
+            assert_true(k->grids.spacing_min > 1.5 * su->grids.spacing_max);
+            assert_true(stats.grids.cells * 3 < same.grids.cells);
+            assert_true(e <= e_fine + 0.0015);
+        } else {
+            assert_true(k->grids.spacing_max == su->grids.spacing_max);
+            assert_true(e <= 0.005);
+        }
+        free(exact);
+        free(sized);
+        free(fine);
+    }
+    vdbs_volume_free(&volume);
+}
+
 /* The rotated, non-uniform block of test_single.c: samples no longer on voxel centres. */
 static void test_agreement_rotated(void **state)
 {
@@ -517,7 +583,7 @@ int main(void)
         cmocka_unit_test(test_point_light_radial), cmocka_unit_test(test_s1_flux),
         cmocka_unit_test(test_agreement_samples),  cmocka_unit_test(test_agreement_disney_cloud),
         cmocka_unit_test(test_agreement_rotated),  cmocka_unit_test(test_extremes),
-        cmocka_unit_test(test_sparse_columns),
+        cmocka_unit_test(test_sparse_columns),     cmocka_unit_test(test_sky_sizing_cloud_sample),
     };
     return cmocka_run_group_tests(tests, NULL, teardown);
 }

@@ -66,6 +66,29 @@ class FromGrids(Base):
                 self.render(lit, "relit.exr", "--relight")
                 self.assertLessEqual(self.relrmse("stored.exr", "relit.exr"), 0.01)
 
+    def test_coarse_sky_grids_render_as_baked(self):
+        """A sky dim enough (13% of the light) that its grids are coarser than the sun's
+        (lightgrid.h): the stored sky depths carry their own spacing and render as relit."""
+        with open(sample("cloud.json")) as f:
+            scene = json.load(f)
+        scene["volume"]["file"] = sample("cloud.vdb")
+        for light in scene["lights"]:
+            if light["type"] == "env":
+                light["color"] = [0.02, 0.03, 0.05]
+        dim = self.path("dim.json")
+        with open(dim, "w") as f:
+            json.dump(scene, f)
+        lit = self.path("dim.vdb")
+        p = run("bake", sample("cloud.vdb"), "--scene", dim, "--quality", "low", "--method", "single",
+                "--s1-oversample", "2", "-o", lit, "-q", "--json", check=0)
+        kinds = {k["kind"]: k for k in json.loads(p.stdout)["s1_grids_per_kind"]}
+        self.assertEqual((kinds["sun"]["lights"], kinds["sky"]["lights"]), (1, 16))
+        self.assertGreater(kinds["sky"]["spacing_min"], 1.5 * kinds["sun"]["spacing_max"])
+        self.assertLess(kinds["sky"]["cells"], kinds["sun"]["cells"] * 16 / 3)
+        self.render(lit, "stored.exr")
+        self.render(lit, "relit.exr", "--relight", "--s1-oversample", "2")
+        self.assertLessEqual(self.relrmse("stored.exr", "relit.exr"), 0.01)
+
     def test_store_none_renders_the_old_way(self):
         lit = self.bake("cloud", "--method", "single", "--store", "none")
         j = self.render(lit, "old.exr")

@@ -147,7 +147,7 @@ static vdbs_status solve(const vdbs_bake_options *o, const vdbs_solver *solver,
     s->lights = &lights;
     s->quality = quality;
     vdbs_light_grid_desc grids = {o->s1_oversample > 0 ? o->s1_oversample : quality->s1_oversample,
-                                  0};
+                                  0, o->s1_sky_spacing};
     s->s1_grids = o->s1_march ? NULL : &grids;
     s->progress = &progress;
     vdbs_s1_stats stats;
@@ -176,6 +176,7 @@ static vdbs_status solve(const vdbs_bake_options *o, const vdbs_solver *solver,
     }
     report->s1_grids = stats.grids;
     report->seconds_s1_lookup = stats.seconds_lookup;
+    memcpy(report->s1_kinds, stats.kinds, sizeof report->s1_kinds);
     if (st == VDBS_OK)
         vdbs_progress_end(&progress);
     vdbs_runner_destroy(runner);

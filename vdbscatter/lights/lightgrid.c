@@ -134,8 +134,8 @@ static vdbs_status mark_live_columns(const vdbs_volume *volume, grid_plan *g, vd
     return VDBS_OK;
 }
 
-static vdbs_status plan_directional(const vdbs_volume *volume, const double travel[3], int F,
-                                    grid_plan *g, vdbs_error *err)
+static vdbs_status plan_directional(const vdbs_volume *volume, const double travel[3],
+                                    double spacing, grid_plan *g, vdbs_error *err)
 {
     double len = sqrt(dot3(travel, travel));
     if (!(len > 0.0) || !isfinite(len))
@@ -145,7 +145,7 @@ static vdbs_status plan_directional(const vdbs_volume *volume, const double trav
         axes[2][a] = travel[a] / len;
     vdbs_ortho_basis(axes[2], axes[0], axes[1]);
     g->kind = VS_LGRID_DIRECTIONAL;
-    g->spacing = min_voxel_length(volume) / F;
+    g->spacing = spacing;
     /* The corners in the frame, relative to the box's lowest corner (a voxel centre), so that
      * aligned samples fall on voxel centres. */
     double corners[8][3];
@@ -401,22 +401,60 @@ void vdbs_light_grids_free(vdbs_light_grids *grids)
     memset(grids, 0, sizeof *grids);
 }
 
+/* The share of the light arriving at the volume's centre that light l carries (colours
+ * summed over the channels; a point light's at the centre's distance). */
+static double light_share(const vdbs_volume *volume, const vdbs_light_table *lights, int l)
+{
+    double corners[8][3], centre[3];
+    vdbs_volume_support_corners(volume, corners);
+    for (int a = 0; a < 3; ++a)
+        centre[a] = 0.5 * (corners[0][a] + corners[7][a]);
+    double total = 0.0, own = 0.0;
+    for (int k = 0; k < lights->direct_count + lights->ordinate_count; ++k) {
+        double color[3], travel[3];
+        vdbs_lights_arrival(lights, k, centre, color, travel);
+        double p = fabs(color[0]) + fabs(color[1]) + fabs(color[2]);
+        total += p;
+        own += k == l ? p : 0.0;
+    }
+    return total > 0.0 ? own / total : 1.0;
+}
+
+/* Sky ordinate l's spacing (world): desc's, or by the sky's share of the light
+ * (lightgrid.h). */
+static double sky_spacing(const vdbs_volume *volume, const vdbs_light_table *lights, int l,
+                          double h, const vdbs_light_grid_desc *desc)
+{
+    double voxel = min_voxel_length(volume);
+    if (desc && desc->sky_spacing < 0.0)
+        return h;
+    if (desc && desc->sky_spacing > 0.0)
+        return voxel * desc->sky_spacing;
+    double share = light_share(volume, lights, l) * lights->ordinate_count;
+    double s = share > 0.0 ? sqrt(VDBS_LIGHT_GRID_SKY_SHARE / share) : VDBS_LIGHT_GRID_SKY_MAX;
+    return fmax(h, voxel * fmin(s, VDBS_LIGHT_GRID_SKY_MAX));
+}
+
 /* One plan per light of [first, first + count): a point light's grid is radial, a sun's or
  * sky ordinate's directional (sky light travels away from its sky). */
 static vdbs_status plan_grids(const vdbs_volume *volume, const vdbs_light_table *lights, int first,
-                              int count, int F, grid_plan *plans, vdbs_error *err)
+                              int count, const vdbs_light_grid_desc *desc, grid_plan *plans,
+                              vdbs_error *err)
 {
+    const int F = oversample_of(desc);
+    const double h = min_voxel_length(volume) / F;
     vdbs_status st = VDBS_OK;
     for (int g = 0; g < count && st == VDBS_OK; ++g) {
         int l = first + g;
         if (l < lights->direct_count && lights->direct[l].type == VDBS_LIGHT_POINT) {
             st = plan_radial(volume, lights->direct[l].world, F, &plans[g], err);
         } else if (l < lights->direct_count) {
-            st = plan_directional(volume, lights->direct[l].world, F, &plans[g], err);
+            st = plan_directional(volume, lights->direct[l].world, h, &plans[g], err);
         } else {
             const double *w = lights->ordinates[l - lights->direct_count].world;
             double travel[3] = {-w[0], -w[1], -w[2]}; /* sky light travels away from its sky */
-            st = plan_directional(volume, travel, F, &plans[g], err);
+            st = plan_directional(volume, travel, sky_spacing(volume, lights, l, h, desc),
+                                  &plans[g], err);
         }
     }
     return st;
@@ -462,6 +500,11 @@ static vdbs_status layout_grids(const grid_plan *plans, int count, grid_layout *
         at += VS_LGRID_COLUMN_WORDS * plans[g].n[0] * plans[g].n[1];
         stats->columns += plans[g].n[0] * plans[g].n[1];
         stats->cells += plans[g].n[0] * plans[g].n[1] * plans[g].n[2];
+        if (plans[g].kind == VS_LGRID_DIRECTIONAL) {
+            double h = plans[g].spacing;
+            stats->spacing_min = stats->spacing_min > 0.0 ? fmin(stats->spacing_min, h) : h;
+            stats->spacing_max = fmax(stats->spacing_max, h);
+        }
     }
     lay->depth_at = at;
     if (lay->depth_at > MAX_WORDS)
@@ -555,7 +598,7 @@ vdbs_status vdbs_light_grids_build(vdbs_runner *runner, const vdbs_volume *volum
     grid_layout lay = {0};
     uint32_t *words = NULL;
     depth_store store = {NULL, 0, 0};
-    vdbs_status st = plan_grids(volume, lights, first, count, oversample_of(desc), plans, err);
+    vdbs_status st = plan_grids(volume, lights, first, count, desc, plans, err);
     if (st == VDBS_OK)
         st = layout_grids(plans, count, &lay, &out->stats, err);
     if (st == VDBS_OK)

@@ -404,7 +404,7 @@ static vdbs_status session_scene(vdbs_march_session *s, const vdbs_scene *scene,
         if (options->stats)
             memset(&options->stats->grids, 0, sizeof options->stats->grids);
     } else if (!options->s1_march) {
-        vdbs_light_grid_desc gd = {options->s1_oversample, 1};
+        vdbs_light_grid_desc gd = {options->s1_oversample, 1, 0.0};
         st = vdbs_light_grids_build(s->runner, s->volume, scene, &s->lights, 0,
                                     s->lights.direct_count + s->lights.ordinate_count, &gd,
                                     &s->light_grids, err);

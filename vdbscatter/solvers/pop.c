@@ -628,6 +628,9 @@ vdbs_status vdbs_pop_solve(const vdbs_solve *s, const vdbs_pop_desc *desc, vdbs_
     vdbs_light_grid_desc fine_desc = {0};
     if (s->s1_grids)
         fine_desc = *s->s1_grids;
+    /* The propagation starts from these sweeps: the sky keeps the suns' spacing (the sizing
+     * by share was measured for S1 alone). */
+    fine_desc.sky_spacing = -1.0;
     st = setup_grids(&r, points, err);
     if (st == VDBS_OK)
         st = build_lights(&r, err);

@@ -83,11 +83,22 @@ static void add_light(const vdbs_volume *volume, const vdbs_light_table *lights,
                       double *flux)
 {
     const int64_t count = (int64_t)volume->coord_count;
+    /* Only a point light's arrival depends on the point: a sun's and an ordinate's once. */
+    const int varies =
+        light < lights->direct_count && lights->direct[light].type == VDBS_LIGHT_POINT;
+    double color0[3], travel0[3];
+    const double origin[3] = {0.0, 0.0, 0.0};
+    vdbs_lights_arrival(lights, light, origin, color0, travel0);
 #pragma omp parallel for schedule(static)
     for (int64_t n = 0; n < count; ++n) {
         double world[3], color[3], travel[3];
-        vdbs_volume_voxel_point(volume, (size_t)n, world);
-        vdbs_lights_arrival(lights, light, world, color, travel);
+        if (varies) {
+            vdbs_volume_voxel_point(volume, (size_t)n, world);
+            vdbs_lights_arrival(lights, light, world, color, travel);
+        } else {
+            memcpy(color, color0, sizeof color);
+            memcpy(travel, travel0, sizeof travel);
+        }
         const double weight = exp(-(double)depth[n]);
         double phase = 0.0;
         if (view) {
@@ -107,6 +118,27 @@ static void add_light(const vdbs_volume *volume, const vdbs_light_table *lights,
                 flux[9 * n + 3 * a + ch] += color[ch] * weight * travel[a];
         }
     }
+}
+
+/* Adds one set's grid stats to a sum. */
+static void grid_stats_add(vdbs_light_grid_stats *sum, const vdbs_light_grid_stats *g)
+{
+    sum->cells += g->cells;
+    sum->columns += g->columns;
+    sum->columns_empty += g->columns_empty;
+    sum->stored += g->stored;
+    sum->seconds_sweep += g->seconds_sweep;
+    if (g->spacing_min > 0.0)
+        sum->spacing_min =
+            sum->spacing_min > 0.0 ? fmin(sum->spacing_min, g->spacing_min) : g->spacing_min;
+    sum->spacing_max = fmax(sum->spacing_max, g->spacing_max);
+}
+
+static vdbs_s1_kind light_kind(const vdbs_light_table *lights, int light)
+{
+    if (light >= lights->direct_count)
+        return VDBS_S1_SKY;
+    return lights->direct[light].type == VDBS_LIGHT_POINT ? VDBS_S1_POINT : VDBS_S1_SUN;
 }
 
 vdbs_status vdbs_single_scatter_grids(vdbs_runner *runner, const vdbs_volume *volume,
@@ -161,18 +193,19 @@ vdbs_status vdbs_single_scatter_grids_out(vdbs_runner *runner, const vdbs_volume
         double t0 = omp_get_wtime();
         if (out->light_grid)
             st = out->light_grid(out->light_user, d, &set, err);
+        vdbs_s1_kind_stats *kind = &stats->kinds[light_kind(lights, d)];
+        grid_stats_add(&stats->grids, &set.stats);
+        kind->lights += 1;
+        grid_stats_add(&kind->grids, &set.stats);
         if (st == VDBS_OK)
             st = vdbs_light_grids_lookup_voxels(runner, volume, &set, 0, depth, err);
         if (st == VDBS_OK)
             add_light(volume, lights, d, depth, scene->g, wo, fluence, view, flux);
         if (st == VDBS_OK && out->light_depth)
             out->light_depth(out->light_user, d, depth);
-        stats->seconds_lookup += omp_get_wtime() - t0;
-        stats->grids.cells += set.stats.cells;
-        stats->grids.columns += set.stats.columns;
-        stats->grids.columns_empty += set.stats.columns_empty;
-        stats->grids.stored += set.stats.stored;
-        stats->grids.seconds_sweep += set.stats.seconds_sweep;
+        double lookup = omp_get_wtime() - t0;
+        stats->seconds_lookup += lookup;
+        kind->seconds_lookup += lookup;
         vdbs_light_grids_free(&set);
         if (progress)
             vdbs_progress_update(progress, (uint64_t)n * (uint64_t)(d + 1) / (uint64_t)total);

@@ -8,6 +8,7 @@
 #include "vdbscatter/plan.h"
 #include "vdbscatter/runner.h"
 #include "vdbscatter/scene.h"
+#include "vdbscatter/single.h"
 #include "vdbscatter/solver.h"
 #include "vdbscatter/status.h"
 #include "vdbscatter/volume.h"
@@ -28,9 +29,10 @@ typedef struct vdbs_bake_options {
     const char *output;      /* lit VDB */
     const vdbs_scene *scene; /* validated (lights may be none: an input error) */
     vdbs_backend backend;
-    int s1_march;      /* single scattering by the exact march per voxel and light instead of
-                          light grids (lightgrid.h; the default) */
-    int s1_oversample; /* light-grid samples per smallest voxel; 0 = the default */
+    int s1_march;          /* single scattering by the exact march per voxel and light instead of
+                              light grids (lightgrid.h; the default) */
+    int s1_oversample;     /* light-grid samples per smallest voxel; 0 = the default */
+    double s1_sky_spacing; /* sky ordinates' light-grid spacing (lightgrid.h sky_spacing) */
     int from_levelset;
     int half;
     vdbs_bake_store store;
@@ -68,6 +70,7 @@ typedef struct vdbs_bake_report {
     /* Light grids (grid only): sizes summed over the lights, and the time of each stage. */
     vdbs_light_grid_stats s1_grids;
     double seconds_s1_lookup;
+    vdbs_s1_kind_stats s1_kinds[VDBS_S1_KINDS]; /* the same per kind of light */
     /* The solver's report block (its vdbs_solver.stats_size bytes: vdbs_pop_stats,
      * vdbs_fld_stats, vdbs_svd_stats ...), read through vdbs_bake_report_stats. */
     union {

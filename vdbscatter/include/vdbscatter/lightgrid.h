@@ -43,11 +43,27 @@ extern "C" {
  * march on the bundled samples and the Disney cloud (tests/test_lightgrid.c). */
 #define VDBS_LIGHT_GRID_DEFAULT_OVERSAMPLE 2
 
+/* Sky ordinates' grids are sized to the sky's share of the light (docs/design.md "Light
+ * grids", bench/s1.md): with s an ordinate's share of the light arriving at the volume (its
+ * radiance times its solid angle, against every light's) times the number of ordinates (the
+ * sky's share, were every ordinate like it), its grid is spaced
+ * sqrt(VDBS_LIGHT_GRID_SKY_SHARE / s) smallest voxel lengths apart across and along its
+ * columns, no finer than the suns' and no coarser than VDBS_LIGHT_GRID_SKY_MAX voxels. The
+ * ordinates' interpolation errors add up rather than average out (measured: they grow as the
+ * spacing squared times the sky's share), so the sky keeps the suns' spacing where it
+ * carries most of the light; the constant keeps what coarsening adds under about 0.1%. */
+#define VDBS_LIGHT_GRID_SKY_SHARE 0.12
+#define VDBS_LIGHT_GRID_SKY_MAX 4.0
+
 /* Zero-initialise; 0 means the default. */
 typedef struct vdbs_light_grid_desc {
     int oversample; /* samples per smallest voxel length; default 2 */
     int bilinear;   /* 1: bilinear across the columns of directional grids (a quarter of the
                        memory traffic of the default Catmull-Rom; the render's choice) */
+    /* Sky ordinates' spacing in smallest voxel lengths (across and along their columns);
+     * 0: by their share of the light (the rule above); negative: the suns' (the oversample's,
+     * which suns and point lights always keep). */
+    double sky_spacing;
 } vdbs_light_grid_desc;
 
 /* What building a set cost and holds. */
@@ -57,6 +73,8 @@ typedef struct vdbs_light_grid_stats {
     int64_t columns_empty; /* columns that met no density: swept, nothing stored */
     int64_t stored;        /* depth samples stored */
     double seconds_sweep;  /* wall time of the sweeps (packing included) */
+    /* The directional grids' spacings (world; 0 without one), smallest and largest. */
+    double spacing_min, spacing_max;
 } vdbs_light_grid_stats;
 
 typedef struct vdbs_light_grids {

@@ -23,10 +23,21 @@ vdbs_status vdbs_single_scatter(vdbs_runner *runner, const vdbs_volume *volume,
                                 const vdbs_scene *scene, const vdbs_light_table *lights,
                                 float *radiance, vdbs_progress *progress, vdbs_error *err);
 
+/* Kinds of light, as the S1 stats split them. */
+typedef enum vdbs_s1_kind { VDBS_S1_SUN, VDBS_S1_POINT, VDBS_S1_SKY, VDBS_S1_KINDS } vdbs_s1_kind;
+
+/* What one kind of light's grids cost. */
+typedef struct vdbs_s1_kind_stats {
+    int lights;
+    vdbs_light_grid_stats grids; /* summed over them (spacings: smallest and largest) */
+    double seconds_lookup;
+} vdbs_s1_kind_stats;
+
 /* What S1 from light grids cost. */
 typedef struct vdbs_s1_stats {
     vdbs_light_grid_stats grids; /* summed over the lights */
     double seconds_lookup;       /* lookups and accumulation */
+    vdbs_s1_kind_stats kinds[VDBS_S1_KINDS];
 } vdbs_s1_stats;
 
 /* The same S1 from light grids (lightgrid.h): a directional grid per sun and sky ordinate
