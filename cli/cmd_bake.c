@@ -237,7 +237,7 @@ static int print_plan(const cli_args *args, const vdbs_bake_report *report)
            "share %.2f, point share %.2f\n",
            f->mean_depth, f->albedo, f->g, f->ms_to_ss, f->active_voxels, f->sky_share,
            f->point_share);
-    printf("%-8s %-8s %12s %12s\n", "method", "quality", "pred. error", "pred. bake s");
+    printf("%-8s %-8s %12s %12s\n", "method", "quality", "pred. error", "cost hint s");
     int count;
     const vdbs_quality *q = vdbs_quality_list(&count);
     for (int i = 0; i < p->candidate_count; ++i) {
@@ -251,13 +251,13 @@ static int print_plan(const cli_args *args, const vdbs_bake_report *report)
         if (p->skip[i])
             printf("light %d left out: %.2g of the power\n", i, f->light_share[i]);
     if (p->reachable)
-        printf("plan: --method %s --quality %s, predicted error %.3g (tolerance %g), about "
-               "%.1f s\n",
+        printf("plan: --method %s --quality %s, predicted error %.3g (tolerance %g), cost "
+               "hint %.1f s\n",
                p->chosen.method, q[p->chosen.quality].name, p->chosen.error, p->tolerance,
                p->chosen.seconds);
     else
         printf("tolerance %g is out of reach: the best predicted is %.3g (--method %s "
-               "--quality %s, about %.1f s)\n",
+               "--quality %s, cost hint %.1f s)\n",
                p->tolerance, p->chosen.error, p->chosen.method, q[p->chosen.quality].name,
                p->chosen.seconds);
     cJSON_Delete(plan);
@@ -361,11 +361,9 @@ int cmd_bake(int argc, char **argv)
 
     if (o.dry_run)
         return print_plan(&args, &report);
-    if (report.planned) { /* the report names what the plan chose */
-        snprintf(scene.method, sizeof scene.method, "%s", report.plan.chosen.method);
-        snprintf(scene.quality, sizeof scene.quality, "%s",
-                 vdbs_quality_list(&(int){0})[report.plan.chosen.quality].name);
-    }
+    /* The report's scene is the one baked: the plan's method, quality and lights. */
+    if (report.planned && (st = vdbs_plan_apply(&report.plan, &scene, &err)) != VDBS_OK)
+        return cli_fail("bake", st, err.message);
     double target_depth = scene.density_target_depth;
     scene.density_scale = report.density_scale; /* as resolved (auto:TAU) */
     scene.density_target_depth = 0.0;

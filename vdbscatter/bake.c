@@ -327,7 +327,7 @@ static vdbs_status plan(bake_job *j, vdbs_bake_report *report, vdbs_error *err)
     if (!p->reachable && !o->dry_run)
         return vdbs_error_set(err, VDBS_ERR_INPUT,
                               "--tolerance %g is out of reach on this scene: the best predicted "
-                              "is %.3g (--method %s --quality %s, about %.0f s); raise "
+                              "is %.3g (--method %s --quality %s, cost hint %.0f s); raise "
                               "--tolerance or choose a method",
                               o->tolerance, p->chosen.error, p->chosen.method, q->name,
                               p->chosen.seconds);

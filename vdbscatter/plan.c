@@ -144,15 +144,16 @@ vdbs_status vdbs_plan_measure(const vdbs_scene *scene, const vdbs_volume *volume
 }
 
 /* Squared distance in the planner's feature space: a decade of optical depth, of
- * 1 - albedo, of active voxels counts as two units; g by 0.3; light shares by 0.3. */
+ * 1 - albedo counts as two units, of active voxels as one; g by 0.3; light shares by 0.15
+ * (the cloud under a sun and sky and under a sky alone differ 3x in error). */
 static double distance2(const vdbs_plan_features *f, const plan_scene *s)
 {
     const double d[6] = {
         2.0 * log10(fmax(f->mean_depth, 1e-3) / fmax(s->mean_depth, 1e-3)),
         2.0 * log10(fmax(1.0 - f->albedo, 1e-3) / fmax(1.0 - s->albedo, 1e-3)),
         (f->g - s->g) / 0.3,
-        (f->sky_share - s->sky_share) / 0.3,
-        (f->point_share - s->point_share) / 0.3,
+        (f->sky_share - s->sky_share) / 0.15,
+        (f->point_share - s->point_share) / 0.15,
         1.0 * log10(fmax(f->active_voxels, 1.0) / fmax(s->active_voxels, 1.0)),
     };
     double sum = 0.0;
