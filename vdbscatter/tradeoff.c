@@ -450,7 +450,8 @@ static vdbs_status write_markdown(const vdbs_tradeoff_report *rep, const char *i
     if (!f)
         return vdbs_error_set(err, VDBS_ERR_IO, "%s: cannot write: %s", rep->markdown,
                               strerror(errno));
-    fprintf(f, "# Trade-off: %s at %dx%d\n\n", input, rep->width, rep->height);
+    const char *base = strrchr(input, '/');
+    fprintf(f, "# Trade-off: %s at %dx%d\n\n", base ? base + 1 : input, rep->width, rep->height);
     fprintf(f,
             "Error: image relative RMSE against a Monte-Carlo reference of %d spp (relative "
             "noise %.4f, %.1f s%s), its noise removed; +- one standard error. Seconds: bake + "
