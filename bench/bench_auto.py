@@ -8,29 +8,16 @@ right (no method and quality measured within E), and its time against the cheape
 method and quality that met E. Writes bench/tradeoff/auto.md.
 
 usage: bench/bench_auto.py BUILD"""
-import json
 import os
-import subprocess
 import sys
+
+from benchlib import dry_run_plan, gathered_sets
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 ROOT = os.path.dirname(HERE)
 DATA = os.environ.get("VDBSCATTER_DATA_DIR",
                       os.path.join(os.path.dirname(ROOT), "shared", "data"))
 TOLERANCES = [0.3, 0.15, 0.08, 0.04]
-
-
-def plan(exe, entry, e):
-    inp = []
-    if entry["volume"]:
-        path = os.path.join(DATA, entry["volume"])
-        inp = [path if os.path.exists(path) else os.path.join(ROOT, "samples", entry["volume"])]
-    p = subprocess.run([exe, "bake", *inp, "--scene", os.path.join(ROOT, entry["scene"]), "-o",
-                        "/tmp/bench-auto.vdb", "--method", "auto", "--tolerance", str(e),
-                        "--dry-run", "--json", "-q"], capture_output=True, text=True)
-    if p.returncode != 0:
-        sys.exit(p.stderr)
-    return json.loads(p.stdout)["plan"]
 
 
 def main():
@@ -42,18 +29,15 @@ def main():
              "plan against the cheapest fixed method and quality that met E (both measured "
              "in the calibration run, two shared cores: ratios are rough).", ""]
     summary = {"met": 0, "runs": 0, "ratio_ok": 0, "ratio_runs": 0}
-    for kind in ("calibration", "validation"):
-        path = os.path.join(HERE, "tradeoff", f"{kind}.json")
-        if not os.path.exists(path):
-            continue
+    for kind, gathered in gathered_sets(HERE):
         lines += [f"## {kind.capitalize()} scenes", "",
                   "| scene | E | plan | its error | met | cheapest that met E | time ratio |",
                   "|---|---|---|---|---|---|---|"]
-        for name, entry in sorted(json.load(open(path)).items()):
+        for name, entry in sorted(gathered.items()):
             rows = {(r["method"], r["quality"]): r for r in entry["tradeoff"]["rows"]}
             secs = {k: r["bake_s"] + r["render_s"] for k, r in rows.items()}
             for e in TOLERANCES:
-                p = plan(exe, entry, e)
+                p = dry_run_plan(exe, ROOT, DATA, entry, e)
                 met = [k for k, r in rows.items() if r["relrmse"] <= e]
                 cheapest = min(met, key=lambda k: secs[k]) if met else None
                 ch = f"{cheapest[0]} {cheapest[1]} ({secs[cheapest]:.1f} s)" if cheapest else "none"

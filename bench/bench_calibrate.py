@@ -18,8 +18,9 @@ import json
 import os
 import shutil
 import subprocess
-import sys
 import time
+
+from benchlib import dry_run_plan, gathered_sets
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 ROOT = os.path.dirname(HERE)
@@ -81,14 +82,11 @@ def summary():
              "`validation.json` hold everything, and `scripts/gen_plan_table.py` compiles "
              "the calibration set (only) into the planner's table. Timings in those files "
              "come from two shared cores and are rough.", ""]
-    for kind in ("calibration", "validation"):
-        path = os.path.join(HERE, "tradeoff", f"{kind}.json")
-        if not os.path.exists(path):
-            continue
+    for kind, gathered in gathered_sets(HERE):
         lines += [f"## {kind.capitalize()}", "",
                   "| scene | what | reference spp / noise | single | pop | fld | svd |",
                   "|---|---|---|---|---|---|---|"]
-        for name, e in sorted(json.load(open(path)).items()):
+        for name, e in sorted(gathered.items()):
             rows = {(r["method"], r["quality"]): r["relrmse"] for r in e["tradeoff"]["rows"]}
             ref = e["tradeoff"]["reference"]
             cells = []
@@ -137,12 +135,9 @@ def main():
         rep = run([exe, "tradeoff", *inp, "--scene", scene, "-o", work, "--size", args.size,
                    "--ref-noise", args.ref_noise, "--ref-time", args.ref_time,
                    "--qualities", args.qualities, "--json", "-q"])
-        plan = None
-        try:
-            plan = run([exe, "bake", *inp, "--scene", scene, "-o", os.path.join(work, "p.vdb"),
-                        "--method", "auto", "--tolerance", "0.1", "--dry-run", "--json", "-q"])
-        except RuntimeError as e:  # a build without the planner
-            print(f"{name}: no features: {e}", file=sys.stderr)
+        entry = {"scene": os.path.relpath(scene, ROOT),
+                 "volume": os.path.basename(vdb) if vdb else None}
+        features = dry_run_plan(exe, ROOT, DATA, entry, 0.1)["features"]
         keep = os.path.join(HERE, "tradeoff", name)
         os.makedirs(keep, exist_ok=True)
         for f in ("tradeoff.md", "tradeoff.csv", "tradeoff.png"):
@@ -152,7 +147,7 @@ def main():
         gathered[name] = {"what": what, "scene": os.path.relpath(scene, ROOT),
                           "volume": os.path.basename(vdb) if vdb else None,
                           "size": args.size, "tradeoff": rep,
-                          "features": plan["plan"]["features"] if plan else None,
+                          "features": features,
                           "seconds": time.monotonic() - start}
         json.dump(gathered, open(out_json, "w"), indent=1)
         print(f"{name}: {len(rep['rows'])} runs, reference {rep['reference']['spp']} spp "

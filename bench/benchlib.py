@@ -64,3 +64,24 @@ def save_plot(path, draw, xlabel, ylabel, title):
     ax.legend(fontsize=7)
     fig.tight_layout()
     fig.savefig(path, dpi=110)
+
+
+def gathered_sets(here):
+    """(kind, {scene: entry}) for the calibration and validation sets bench_calibrate.py
+    gathered under here/tradeoff, those that exist."""
+    for kind in ("calibration", "validation"):
+        path = os.path.join(here, "tradeoff", f"{kind}.json")
+        if os.path.exists(path):
+            with open(path) as f:
+                yield kind, json.load(f)
+
+
+def dry_run_plan(exe, root, data, entry, tolerance):
+    """`bake --method auto --tolerance T --dry-run --json` of a gathered scene: its plan."""
+    inp = []
+    if entry["volume"]:
+        path = os.path.join(data, entry["volume"])
+        inp = [path if os.path.exists(path) else os.path.join(root, "samples", entry["volume"])]
+    return run_json([exe, "bake", *inp, "--scene", os.path.join(root, entry["scene"]), "-o",
+                     "/tmp/vdbscatter-dry-run.vdb", "--method", "auto", "--tolerance",
+                     str(tolerance), "--dry-run", "--json", "-q"])["plan"]

@@ -8,28 +8,17 @@ usage: scripts/gen_plan_table.py [BUILD]   (BUILD: a build whose `bake --method 
        --dry-run --json` measures the features of scenes that were gathered without them)"""
 import json
 import os
-import subprocess
 import sys
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 SOURCE = os.path.join(ROOT, "bench", "tradeoff", "calibration.json")
 TARGET = os.path.join(ROOT, "vdbscatter", "plan_table.h")
 QUALITY = {"low": 0, "medium": 1, "high": 2, "ultra": 3}
+sys.path.insert(0, os.path.join(ROOT, "bench"))
+from benchlib import dry_run_plan  # noqa: E402
+
 DATA = os.environ.get("VDBSCATTER_DATA_DIR", os.path.join(os.path.dirname(ROOT), "shared", "data"))
 
-
-def features_of(build, scene, volume):
-    inp = []
-    if volume:
-        path = os.path.join(DATA, volume)
-        inp = [path if os.path.exists(path) else os.path.join(ROOT, "samples", volume)]
-    p = subprocess.run([os.path.join(build, "vdbscatter"), "bake", *inp, "--scene",
-                        os.path.join(ROOT, scene), "-o", "/tmp/gen-plan-table.vdb", "--method",
-                        "auto", "--tolerance", "0.1", "--dry-run", "--json", "-q"],
-                       capture_output=True, text=True)
-    if p.returncode != 0:
-        sys.exit(f"{scene}: {p.stderr}")
-    return json.loads(p.stdout)["plan"]["features"]
 
 # An error below the reference's noise (0 once the noise is removed) enters the table at its
 # standard error: the planner works in log error.
@@ -45,7 +34,8 @@ def main():
         if f is None:
             if not build:
                 sys.exit(f"{name}: no features in {SOURCE}: give a BUILD to measure them")
-            f = entry["features"] = features_of(build, entry["scene"], entry["volume"])
+            f = entry["features"] = dry_run_plan(os.path.join(build, "vdbscatter"), ROOT, DATA,
+                                                 entry, 0.1)["features"]
         scenes.append(
             f'    {{.name = "{name}", .mean_depth = {f["mean_depth"]:.6g}, '
             f'.albedo = {f["albedo"]:.6g}, .g = {f["g"]:.6g},\n'
