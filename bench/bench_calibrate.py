@@ -17,10 +17,9 @@ import argparse
 import json
 import os
 import shutil
-import subprocess
 import time
 
-from benchlib import dry_run_plan, gathered_sets
+from benchlib import dry_run_plan, gathered_sets, run_json
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 ROOT = os.path.dirname(HERE)
@@ -63,13 +62,6 @@ VALIDATION = {
     "vpt_box": (os.path.join(SCENES, "vpt_box.json"), os.path.join(DATA, "vpt_box.vdb"),
                 "homogeneous box with tiles, depth 5, sun + sky, g -0.2, albedo 0.7"),
 }
-
-
-def run(cmd):
-    p = subprocess.run(cmd, capture_output=True, text=True)
-    if p.returncode != 0:
-        raise RuntimeError(f"{' '.join(cmd)}: exit {p.returncode}: {p.stderr.strip()}")
-    return json.loads(p.stdout)
 
 
 def summary():
@@ -132,7 +124,7 @@ def main():
         inp = [vdb] if vdb else []
         work = os.path.join(args.cache, name)
         start = time.monotonic()
-        rep = run([exe, "tradeoff", *inp, "--scene", scene, "-o", work, "--size", args.size,
+        rep = run_json([exe, "tradeoff", *inp, "--scene", scene, "-o", work, "--size", args.size,
                    "--ref-noise", args.ref_noise, "--ref-time", args.ref_time,
                    "--qualities", args.qualities, "--json", "-q"])
         entry = {"scene": os.path.relpath(scene, ROOT),

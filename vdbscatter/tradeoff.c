@@ -54,27 +54,30 @@ double vdbs_peak_memory_mib(void)
     return kib < 0.0 ? -1.0 : kib / 1024.0;
 }
 
-void vdbs_tradeoff_error(const float *a, const float *b, const float *b_se, long long n,
-                         double *relrmse, double *relrmse_se)
+void vdbs_tradeoff_measure(const float *a, const float *b, const float *b_se, long long n,
+                           vdbs_tradeoff_metrics *m)
 {
-    double sum_d2 = 0.0, sum_b2 = 0.0, sum_se2 = 0.0, var = 0.0;
+    double sum_d2 = 0.0, sum_b2 = 0.0, sum_se2 = 0.0, var = 0.0, sum_a = 0.0, sum_b = 0.0;
     for (long long i = 0; i < n; ++i) {
         const double d = (double)a[i] - b[i], se = b_se ? b_se[i] : 0.0;
         sum_d2 += d * d;
         sum_b2 += (double)b[i] * b[i];
         sum_se2 += se * se;
         var += 4.0 * d * d * se * se + 2.0 * se * se * se * se;
+        sum_a += a[i];
+        sum_b += b[i];
     }
+    m->mean_ratio = sum_b > 0.0 ? sum_a / sum_b : 0.0;
     const double mse = fmax(sum_d2 - sum_se2, 0.0);
     if (!(sum_b2 > 0.0)) {
-        *relrmse = sum_d2 > 0.0 ? INFINITY : 0.0;
-        *relrmse_se = 0.0;
+        m->relrmse = sum_d2 > 0.0 ? INFINITY : 0.0;
+        m->relrmse_se = 0.0;
         return;
     }
-    *relrmse = sqrt(mse / sum_b2);
+    m->relrmse = sqrt(mse / sum_b2);
     /* d sqrt(m) = dm / (2 sqrt(m)); near 0 the error is at most sqrt of the mse's spread. */
     const double sd_mse = sqrt(var);
-    *relrmse_se = mse > sd_mse ? sd_mse / (2.0 * sqrt(mse * sum_b2)) : sqrt(sd_mse / sum_b2);
+    m->relrmse_se = mse > sd_mse ? sd_mse / (2.0 * sqrt(mse * sum_b2)) : sqrt(sd_mse / sum_b2);
 }
 
 /* ---- the reference, cached under a key of everything that makes it ---- */
@@ -184,11 +187,12 @@ static vdbs_status curve_point(tradeoff_job *j, const char *path, int spp, doubl
         return st;
     vdbs_tradeoff_report *rep = j->report;
     vdbs_tradeoff_curve_point *p = &rep->curve[rep->curve_count++];
-    double se;
+    vdbs_tradeoff_metrics m;
+    vdbs_tradeoff_measure(im.rgb, j->reference.rgb, j->reference.se, 3ll * j->width * j->height,
+                          &m);
     p->spp = spp;
     p->seconds = seconds;
-    vdbs_tradeoff_error(im.rgb, j->reference.rgb, j->reference.se, 3ll * j->width * j->height,
-                        &p->relrmse, &se);
+    p->relrmse = m.relrmse;
     vdbs_image_free(&im);
     return VDBS_OK;
 }
@@ -375,15 +379,12 @@ static vdbs_status run_row(tradeoff_job *j, const char *method, int quality, vdb
     row->peak_mib = vdbs_peak_memory_mib();
     vdbs_image im = {0};
     if (st == VDBS_OK && (st = vdbs_image_read(image, &im, err)) == VDBS_OK) {
-        const long long n = 3ll * j->width * j->height;
-        vdbs_tradeoff_error(im.rgb, j->reference.rgb, j->reference.se, n, &row->relrmse,
-                            &row->relrmse_se);
-        double sa = 0.0, sb = 0.0;
-        for (long long i = 0; i < n; ++i) {
-            sa += im.rgb[i];
-            sb += j->reference.rgb[i];
-        }
-        row->mean_ratio = sb > 0.0 ? sa / sb : 0.0;
+        vdbs_tradeoff_metrics m;
+        vdbs_tradeoff_measure(im.rgb, j->reference.rgb, j->reference.se, 3ll * j->width * j->height,
+                              &m);
+        row->relrmse = m.relrmse;
+        row->relrmse_se = m.relrmse_se;
+        row->mean_ratio = m.mean_ratio;
     }
     vdbs_image_free(&im);
     return st;

@@ -90,12 +90,20 @@ vdbs_status vdbs_tradeoff_run(const vdbs_tradeoff_desc *desc, vdbs_tradeoff_repo
                               vdbs_error *err);
 void vdbs_tradeoff_report_free(vdbs_tradeoff_report *report);
 
-/* Relative RMSE of image a against a noisy reference b with per-pixel standard errors b_se
- * (n values each), with the reference's noise removed from the mean square error, and that
- * estimate's standard error: mse = mean((a-b)^2) - mean(b_se^2) (at least 0), its variance
- * from the cross term 4 (a-b)^2 se^2 and the noise's own 2 se^4. */
-void vdbs_tradeoff_error(const float *a, const float *b, const float *b_se, long long n,
-                         double *relrmse, double *relrmse_se);
+/* Image a against a noisy reference b with per-pixel standard errors b_se (NULL: exact). */
+typedef struct vdbs_tradeoff_metrics {
+    /* Relative RMSE with the reference's noise removed from the mean square error:
+     * mse = mean((a-b)^2) - mean(b_se^2) (at least 0) */
+    double relrmse;
+    /* that estimate's standard error, its variance from the cross term 4 (a-b)^2 se^2 and
+     * the noise's own 2 se^4 */
+    double relrmse_se;
+    double mean_ratio; /* sum(a) / sum(b); 0 when sum(b) is not positive */
+} vdbs_tradeoff_metrics;
+
+/* The metrics of n values each, in one pass. */
+void vdbs_tradeoff_measure(const float *a, const float *b, const float *b_se, long long n,
+                           vdbs_tradeoff_metrics *metrics);
 
 /* The process's peak resident memory: reset it (Linux: /proc/self/clear_refs), read it in
  * MiB (-1 where the system does not say). */
