@@ -61,7 +61,7 @@
 #define VS_SVD_OCTANTS 8
 
 /* The state (floats) the sweeps write, in place: N x 3 new moments per cell from word 0
- * ((cell N + k) 3 + channel), a record per cell at OFF_STATE_OUT, the planes after. */
+ * (vs_svd_moment_at), a record per cell at OFF_STATE_OUT, the planes after. */
 #define VS_SVD_OUT_FLUENCE 0  /* 3: sum_d L_d dw_d */
 #define VS_SVD_OUT_FLUX 3     /* 9: sum_d L_d w_d dw_d, x, y, z components of R, G, B */
 #define VS_SVD_OUT_SOURCE 12  /* emitted power eta h^3 dw summed over directions and channels */
@@ -69,6 +69,13 @@
 #define VS_SVD_OUT_LEAK 14    /* power out through the grid's boundary faces */
 #define VS_SVD_OUT_CLAMPED 15 /* emitted power lost to the clamp at 0 */
 #define VS_SVD_OUT_WORDS 16
+
+/* The word of term k, channel ch of a cell's moments (the state's and the source's): a cell's
+ * terms lie contiguous per channel, so that a direction's sums over them run in SIMD lanes. */
+VS_FUNC int vs_svd_moment_at(int cell, int terms, int k, int ch)
+{
+    return (cell * 3 + ch) * terms + k;
+}
 
 VS_FUNC float vs_svd_param_float(VS_DATA_PARAM(vs_uint, svd_params) int at)
 {
@@ -187,12 +194,38 @@ VS_FUNC vs_svd_cell vs_svd_cell_of(VS_DATA_PARAM(vs_uint, svd_params)
     return c;
 }
 
+/* Partial sums of vs_svd_dot. */
+#define VS_SVD_LANES 8
+
+/* sum_t v_t s_t over `terms` v from svd_tables[v_at] and s from svd_source[s_at], as
+ * VS_SVD_LANES interleaved partial sums added up in a fixed order: SIMD lanes on the C path,
+ * and the same roundings in GLSL, so that the two paths stay bit-identical. */
+VS_FUNC_HOT float vs_svd_dot(VS_DATA_PARAM(float, svd_tables)
+                                 VS_DATA_PARAM(float, svd_source) int v_at,
+                             int s_at, int terms)
+{
+    VS_PRECISE float lane[VS_SVD_LANES];
+    for (int j = 0; j < VS_SVD_LANES; ++j)
+        lane[j] = 0.0f;
+    int full = terms - terms % VS_SVD_LANES;
+    for (int t = 0; t < full; t += VS_SVD_LANES) {
+        VS_SIMD
+        for (int j = 0; j < VS_SVD_LANES; ++j)
+            lane[j] += svd_tables[v_at + t + j] * svd_source[s_at + t + j];
+    }
+    for (int j = 0; full + j < terms; ++j)
+        lane[j] += svd_tables[v_at + full + j] * svd_source[s_at + full + j];
+    VS_PRECISE float low = (lane[0] + lane[4]) + (lane[1] + lane[5]);
+    VS_PRECISE float high = (lane[2] + lane[6]) + (lane[3] + lane[7]);
+    return low + high;
+}
+
 /* The emission toward w (direction d) at the cell, per channel, before the clamp: the direct
  * lights' first scattering and the factored phase's source moments. */
-VS_FUNC pnanovdb_vec3_t vs_svd_emission(VS_DATA_PARAM(float, svd_tables)
-                                            VS_DATA_PARAM(float, svd_direct)
-                                                VS_DATA_PARAM(float, svd_source) vs_svd_cell c,
-                                        int cell, pnanovdb_vec3_t w, int d)
+VS_FUNC_HOT pnanovdb_vec3_t vs_svd_emission(VS_DATA_PARAM(float, svd_tables)
+                                                VS_DATA_PARAM(float, svd_direct)
+                                                    VS_DATA_PARAM(float, svd_source) vs_svd_cell c,
+                                            int cell, pnanovdb_vec3_t w, int d)
 {
     VS_PRECISE float q0 = 0.0f;
     VS_PRECISE float q1 = 0.0f;
@@ -207,13 +240,11 @@ VS_FUNC pnanovdb_vec3_t vs_svd_emission(VS_DATA_PARAM(float, svd_tables)
         q2 += svd_direct[e + 2] * p;
     }
     int vrow = c.v_at + d * c.terms;
-    int src = cell * c.terms * 3;
-    for (int t = 0; t < c.terms; ++t) {
-        float v = svd_tables[vrow + t];
-        q0 += v * svd_source[src + 3 * t];
-        q1 += v * svd_source[src + 3 * t + 1];
-        q2 += v * svd_source[src + 3 * t + 2];
-    }
+    int s0 = vs_svd_moment_at(cell, c.terms, 0, 0);
+    q0 += vs_svd_dot(VS_DATA_ARG(svd_tables) VS_DATA_ARG(svd_source) vrow, s0, c.terms);
+    q1 += vs_svd_dot(VS_DATA_ARG(svd_tables) VS_DATA_ARG(svd_source) vrow, s0 + c.terms, c.terms);
+    q2 +=
+        vs_svd_dot(VS_DATA_ARG(svd_tables) VS_DATA_ARG(svd_source) vrow, s0 + 2 * c.terms, c.terms);
     return vs_vec3(q0, q1, q2);
 }
 
@@ -224,8 +255,9 @@ VS_FUNC pnanovdb_vec3_t vs_svd_load3(VS_OUT_PARAM(float, svd_state) int at)
 
 /* The cell's radiance toward w from its emission q (clamped) and the upwind inflow: the
  * column before along each axis on the previous plane, 0 at the grid's inflow faces (vacuum). */
-VS_FUNC pnanovdb_vec3_t vs_svd_upwind(VS_OUT_PARAM(float, svd_state) vs_svd_at at, vs_svd_cell c,
-                                      int slot, pnanovdb_vec3_t q, pnanovdb_vec3_t w)
+VS_FUNC_HOT pnanovdb_vec3_t vs_svd_upwind(VS_OUT_PARAM(float, svd_state) vs_svd_at at,
+                                          vs_svd_cell c, int slot, pnanovdb_vec3_t q,
+                                          pnanovdb_vec3_t w)
 {
     float mx = vs_abs(w.x) * c.ratio.x;
     float my = vs_abs(w.y) * c.ratio.y;
@@ -256,10 +288,10 @@ PNANOVDB_STRUCT_TYPEDEF(vs_svd_tally)
 /* Direction d of the step for the cell: its emission (a truncated factorisation can emit
  * negative light: clamped, and what that cost counted), its radiance onto this step's plane,
  * its share of the new moments and of the tallies. */
-VS_FUNC void vs_svd_direction(VS_DATA_PARAM(float, svd_tables) VS_DATA_PARAM(float, svd_direct)
-                                  VS_DATA_PARAM(float, svd_source) VS_OUT_PARAM(float, svd_state)
-                                      vs_svd_at at,
-                              vs_svd_cell c, int d, PNANOVDB_INOUT(vs_svd_tally) t)
+VS_FUNC_HOT void vs_svd_direction(VS_DATA_PARAM(float, svd_tables) VS_DATA_PARAM(float, svd_direct)
+                                      VS_DATA_PARAM(float, svd_source)
+                                          VS_OUT_PARAM(float, svd_state) vs_svd_at at,
+                                  vs_svd_cell c, int d, PNANOVDB_INOUT(vs_svd_tally) t)
 {
     int rec = d * VS_SVD_DIR_WORDS;
     pnanovdb_vec3_t w = vs_vec3(svd_tables[rec + VS_SVD_DIR_W], svd_tables[rec + VS_SVD_DIR_W + 1],
@@ -277,12 +309,15 @@ VS_FUNC void vs_svd_direction(VS_DATA_PARAM(float, svd_tables) VS_DATA_PARAM(flo
     svd_state[put + 1] = l.y;
     svd_state[put + 2] = l.z;
     int vrow = c.v_at + d * c.terms;
+    int m0 = vs_svd_moment_at(at.cell, c.terms, 0, 0);
+    int m1 = m0 + c.terms;
+    int m2 = m1 + c.terms;
+    VS_SIMD
     for (int k = 0; k < c.terms; ++k) {
         float v = svd_tables[vrow + k];
-        int m = (at.cell * c.terms + k) * 3;
-        svd_state[m] += v * l.x;
-        svd_state[m + 1] += v * l.y;
-        svd_state[m + 2] += v * l.z;
+        svd_state[m0 + k] += v * l.x;
+        svd_state[m1 + k] += v * l.y;
+        svd_state[m2 + k] += v * l.z;
     }
     PNANOVDB_DEREF(t).fluence =
         vs_vec3(PNANOVDB_DEREF(t).fluence.x + l.x * dw, PNANOVDB_DEREF(t).fluence.y + l.y * dw,
@@ -327,11 +362,11 @@ VS_FUNC void vs_svd_tally_store(VS_OUT_PARAM(float, svd_state) int record, vs_sv
 
 /* Step `step` of a sweep for column `item`: the one cell of the column on the step's plane,
  * for the step's chunk of its octant's directions. */
-VS_FUNC void vs_svd_sweep(VS_DATA_PARAM(vs_uint, svd_params) VS_DATA_PARAM(float, svd_tables)
-                              VS_DATA_PARAM(float, svd_sigma) VS_DATA_PARAM(float, svd_direct)
-                                  VS_DATA_PARAM(float, svd_source)
-                                      VS_OUT_PARAM(float, svd_state) int item,
-                          int step)
+VS_FUNC_HOT void vs_svd_sweep(VS_DATA_PARAM(vs_uint, svd_params) VS_DATA_PARAM(float, svd_tables)
+                                  VS_DATA_PARAM(float, svd_sigma) VS_DATA_PARAM(float, svd_direct)
+                                      VS_DATA_PARAM(float, svd_source)
+                                          VS_OUT_PARAM(float, svd_state) int item,
+                              int step)
 {
     vs_svd_at at = vs_svd_locate(VS_DATA_ARG(svd_params) item, step);
     if (at.first >= at.end)

@@ -14,6 +14,13 @@
 #include "vdbscatter/phasemat.h"
 #include "vdbscatter/svd.h"
 
+#define PNANOVDB_C
+#include <nanovdb/PNanoVDB.h>
+
+#include "vs_common.h"
+#include "vs_phase.h"
+#include "vs_svd.h"
+
 static const double PI = 3.14159265358979323846;
 
 static int teardown(void **state)
@@ -70,7 +77,7 @@ static void heterogeneous(problem *p, int n, int directions, int terms, double g
             p->direct[6 * c + v] = (float)(test_uniform(&rng_state) * p->sigma[c]);
         for (int k = 0; k < terms; ++k)
             for (int ch = 0; ch < 3; ++ch)
-                p->sky[(c * terms + k) * 3 + ch] =
+                p->sky[vs_svd_moment_at((int)c, terms, k, ch)] =
                     (float)(0.2 * (test_uniform(&rng_state) - 0.3) * p->sigma[c]);
     }
     p->lights[0] = (vdbs_svd_light){0, {0.48, -0.8, 0.36}};
@@ -169,7 +176,7 @@ static void test_phase_normalisation(void **state)
                     for (int d = 0; d < p.pm.d; ++d)
                         m += p.pm.eigvec[(size_t)d * p.pm.d + k] *
                              test_radiance(c, ch, p.pm.dirs + 3 * d);
-                    warm[(c * cases[i].terms + k) * 3 + ch] = (float)m;
+                    warm[vs_svd_moment_at((int)c, cases[i].terms, k, ch)] = (float)m;
                 }
         p.grid.warm = warm;
         vdbs_svd_desc desc = {0};
@@ -235,7 +242,7 @@ static void test_infinite_medium(void **state)
                 for (int d = 0; d < p.pm.d; ++d)
                     s += p.pm.eigvec[(size_t)d * p.pm.d + k] * q / (4.0 * PI);
                 for (int ch = 0; ch < 3; ++ch)
-                    p.sky[(c * N + k) * 3 + ch] = (float)s;
+                    p.sky[vs_svd_moment_at((int)c, N, k, ch)] = (float)s;
             }
         }
         const vdbs_svd_grid g0 = {.n = {n, n, n},

@@ -96,8 +96,8 @@ typedef struct svd_kernel {
     const float *tables, *sigma, *direct, *source;
 } svd_kernel;
 
-static double svd_step(void *user, int step, const void *state_in, void *state_out, uint64_t begin,
-                       uint64_t end)
+VS_CPU_CLONES static double svd_step(void *user, int step, const void *state_in, void *state_out,
+                                     uint64_t begin, uint64_t end)
 {
     (void)state_in; /* in place: the same buffer */
     const svd_kernel *k = user;
@@ -225,7 +225,7 @@ static void next_source(const vdbs_svd_grid *g, const float *moments, float *sou
     for (int64_t c = 0; c < cells; ++c)
         for (int k = 0; k < N; ++k)
             for (int ch = 0; ch < 3; ++ch) {
-                size_t at = ((size_t)c * N + k) * 3 + ch;
+                size_t at = (size_t)vs_svd_moment_at((int)c, N, k, ch);
                 double s = g->sky ? g->sky[at] : 0.0;
                 if (moments)
                     s += g->phase->eigval[k] * keep * g->albedo[ch] * g->sigma_t[c] * moments[at];
@@ -532,7 +532,7 @@ void vdbs_svd_light_depth(void *user, int light, const float *depth)
             continue;
         for (int k = 0; k < terms; ++k)
             for (int ch = 0; ch < 3; ++ch)
-                r->sky[((size_t)c * terms + k) * 3 + ch] += (float)(a[ch] * r->project[k]);
+                r->sky[vs_svd_moment_at((int)c, terms, k, ch)] += (float)(a[ch] * r->project[k]);
     }
 }
 
@@ -562,7 +562,7 @@ static void moments_from_voxels(const vdbs_volume *volume, const vdbs_coarse_fra
         ++count[cell];
         for (int k = 0; k < terms; ++k)
             for (int ch = 0; ch < 3; ++ch)
-                sum[(cell * terms + k) * 3 + ch] += voxels[k][3 * n + ch];
+                sum[vs_svd_moment_at((int)cell, terms, k, ch)] += voxels[k][3 * n + ch];
     }
     for (int64_t c = 0; c < cells; ++c)
         for (int v = 0; v < terms * 3; ++v)
@@ -588,7 +588,7 @@ static void moments_to_voxels(const vdbs_volume *volume, const vdbs_coarse_frame
                 vdbs_coarse_sample(f, moments, 3 * terms, w, v);
             for (int k = 0; k < terms; ++k)
                 for (int ch = 0; ch < 3; ++ch)
-                    voxels[k][3 * n + ch] = v ? (float)v[3 * k + ch] : 0.0f;
+                    voxels[k][3 * n + ch] = v ? (float)v[vs_svd_moment_at(0, terms, k, ch)] : 0.0f;
         }
         free(v);
     }

@@ -109,9 +109,11 @@ typedef struct vdbs_svd_grid {
     const float *direct; /* per cell and light, 3 channels: the power per volume its
                             unscattered light scatters there in the scaled problem, divided by
                             the discrete normalisation sum_d HG(g*, travel . w_d) dw_d */
-    const float *sky;    /* per cell, N x 3: the sky's first scattering projected on the v_k
-                            (power per volume and steradian), or NULL */
-    const float *warm;   /* per cell, N x 3: the radiance moments to start from, or NULL */
+    const float *sky;    /* per cell, N x 3 (laid out by vs_svd_moment_at, shaders/vs_svd.h):
+                            the sky's first scattering projected on the v_k (power per volume
+                            and steradian), or NULL */
+    const float *warm;   /* per cell, N x 3 the same way: the radiance moments to start from,
+                            or NULL */
 } vdbs_svd_grid;
 
 typedef struct vdbs_svd_stats {
@@ -136,7 +138,8 @@ typedef struct vdbs_svd_stats {
 
 /* Source iteration on the grid: fluence (3 per cell, sum_d L_d dw_d), flux (9 per cell, the
  * x, y, z components of R, G, B of sum_d L_d w_d dw_d) and the final radiance moments (N x 3
- * per cell) out, each may be NULL. stats may be NULL. Errors: out of memory, the runner's. */
+ * per cell, as `sky`) out, each may be NULL. stats may be NULL. Errors: out of memory, the
+ * runner's. */
 vdbs_status vdbs_svd_solve_grid(vdbs_runner *runner, const vdbs_svd_grid *grid,
                                 const vdbs_svd_desc *desc, double *fluence, double *flux,
                                 float *moments, vdbs_svd_stats *stats, vdbs_error *err);
