@@ -56,9 +56,14 @@ static const char help[] =
     "  --size WxH               image size (default: the scene camera's, else 640x480)\n"
     "\n"
     "reference mode:\n"
-    "  --spp N                  samples per pixel (default 64; per round with --time)\n"
+    "  --spp N                  samples per pixel (default 64; per round with --time,\n"
+    "                           the first round with --tolerance)\n"
     "  --time SECONDS           render rounds of --spp samples (default 4) until the time\n"
     "                           is spent\n"
+    "  --tolerance E            render rounds until the image's relative noise (the\n"
+    "                           image relative RMSE it carries) is at most E, each sized\n"
+    "                           by the noise so far (default --spp 16); with --time, stop\n"
+    "                           at whichever comes first; --json reports the noise\n"
     "  --max-bounces K          scattering events per path (default 1000)\n"
     "  --seed S                 random seed (default 1); the same seed gives the same image\n"
     "  --env-nee on|off         next-event estimation toward an env map, combined with HG\n"
@@ -77,10 +82,11 @@ static const char help[] =
     "  -q                       no progress, summary or warnings\n";
 
 static const cli_option options[] = {
-    CLI_COMMON_OPTIONS,       {"--camera", CLI_VALUE},      {"--size", CLI_VALUE},
-    {"--mode", CLI_VALUE},    {"--exposure", CLI_VALUE},    {"--spp", CLI_VALUE},
-    {"--time", CLI_VALUE},    {"--max-bounces", CLI_VALUE}, {"--seed", CLI_VALUE},
-    {"--env-nee", CLI_VALUE}, {"--relight", CLI_FLAG},      {NULL, CLI_FLAG},
+    CLI_COMMON_OPTIONS,    {"--camera", CLI_VALUE},    {"--size", CLI_VALUE},
+    {"--mode", CLI_VALUE}, {"--exposure", CLI_VALUE},  {"--spp", CLI_VALUE},
+    {"--time", CLI_VALUE}, {"--tolerance", CLI_VALUE}, {"--max-bounces", CLI_VALUE},
+    {"--seed", CLI_VALUE}, {"--env-nee", CLI_VALUE},   {"--relight", CLI_FLAG},
+    {NULL, CLI_FLAG},
 };
 
 typedef struct render_args {
@@ -92,7 +98,7 @@ typedef struct render_args {
     vdbs_camera camera; /* present when --camera was given */
     long spp, max_bounces;
     int spp_given;
-    double time_limit;
+    double time_limit, tolerance;
     unsigned long long seed;
     int s1_march, s1_oversample;
     int no_env_nee;
@@ -154,6 +160,15 @@ static vdbs_status parse_args(const cli_args *args, render_args *r, vdbs_error *
         if (!r->spp_given)
             r->spp = 4;
     }
+    if ((v = cli_value(args, "--tolerance"))) {
+        if ((st = cli_number("--tolerance", v, &r->tolerance, err)) != VDBS_OK)
+            return st;
+        if (!(r->tolerance > 0.0 && r->tolerance < 1.0))
+            return vdbs_error_set(err, VDBS_ERR_INPUT,
+                                  "--tolerance: expected a relative noise in (0, 1), got '%s'", v);
+        if (!r->spp_given)
+            r->spp = 16;
+    }
     r->relight = cli_flag(args, "--relight");
     r->max_bounces = 1000;
     if ((v = cli_value(args, "--max-bounces")) &&
@@ -198,6 +213,9 @@ static void print_json(const char *input, const render_args *r, const vdbs_rende
     cJSON_AddNumberToObject(j, "height", rep->height);
     if (r->mode == VDBS_RENDER_REFERENCE) {
         cJSON_AddNumberToObject(j, "spp", rep->spp);
+        cJSON_AddNumberToObject(j, "noise", rep->noise);
+        if (r->tolerance > 0.0)
+            cJSON_AddNumberToObject(j, "tolerance", r->tolerance);
         cJSON_AddNumberToObject(j, "max_bounces", (double)r->max_bounces);
         cJSON_AddNumberToObject(j, "seed", (double)r->seed);
     } else {
@@ -266,9 +284,9 @@ int cmd_render(int argc, char **argv)
     }
     const char *input = args.positional_count ? args.positional[0] : scene->volume_file;
     if (r.mode != VDBS_RENDER_REFERENCE) {
-        static const char *const ref_only[] = {"--spp", "--time", "--max-bounces", "--seed",
-                                               "--env-nee"};
-        for (int i = 0; i < 5; ++i)
+        static const char *const ref_only[] = {"--spp",  "--time",    "--tolerance",
+                                               "--seed", "--env-nee", "--max-bounces"};
+        for (int i = 0; i < 6; ++i)
             if (cli_value(&args, ref_only[i]))
                 warn_line(quiet, "%s applies to --mode reference only; ignored", ref_only[i]);
     }
@@ -289,6 +307,7 @@ int cmd_render(int argc, char **argv)
     desc.exposure = r.exposure;
     desc.spp = (int)r.spp;
     desc.time_limit = r.time_limit;
+    desc.tolerance = r.tolerance;
     desc.max_bounces = (int)r.max_bounces;
     desc.seed = r.seed;
     desc.no_env_nee = r.no_env_nee;
@@ -311,7 +330,7 @@ int cmd_render(int argc, char **argv)
     } else if (!quiet) {
         char detail[96];
         if (r.mode == VDBS_RENDER_REFERENCE)
-            snprintf(detail, sizeof detail, "%d spp", rep.spp);
+            snprintf(detail, sizeof detail, "%d spp, relative noise %.3g", rep.spp, rep.noise);
         else
             snprintf(detail, sizeof detail, "quality %s, S1 %s%s", rep.quality,
                      strcmp(rep.s1, "stored") == 0 ? "from the stored depths" : rep.s1,

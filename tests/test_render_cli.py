@@ -136,7 +136,7 @@ class HelpAndFlags(Base):
         p = run("render", "--help", check=0)
         self.assertIn("usage: vdbscatter render", p.stdout)
         for word in ["--mode", "single", "baked", "reference", "--camera", "--size", "--quality",
-                     "--exposure", "--spp", "--time", "--max-bounces", "--seed", "--backend", "--json",
+                     "--exposure", "--spp", "--time", "--tolerance", "--max-bounces", "--seed", "--backend", "--json",
                      "--s1", "--s1-oversample", "--env-nee", "--sky-directions"]:
             self.assertIn(word, p.stdout)
         self.assertIn("render", run("--help", check=0).stdout)
@@ -160,6 +160,9 @@ class HelpAndFlags(Base):
             (base + ["--backend", "tpu"], "--backend"),
             (base + ["--spp", "0"], "--spp"),
             (base + ["--time", "-1"], "--time"),
+            (base + ["--tolerance", "0"], "--tolerance"),
+            (base + ["--tolerance", "1"], "--tolerance"),
+            (base + ["--tolerance", "5%"], "--tolerance"),
             (base + ["--max-bounces", "0"], "--max-bounces"),
             (base + ["--seed", "-3"], "--seed"),
             (base + ["--quality", "extreme"], "quality"),
@@ -259,6 +262,32 @@ class Images(Base):
         self.assertEqual(j["seed"], 7)
         _, _, channels = exr_size_and_channels(out)
         self.assertEqual(sorted(channels), ["B", "G", "R", "se.B", "se.G", "se.R"])
+
+    def test_reference_to_a_tolerance(self):
+        """--tolerance E renders until the image's relative noise is at most E; that noise is
+        the image's real error: against an independent, four times less noisy render the
+        relative RMSE is sqrt(E_a^2 + E_b^2) up to the noise of its own estimate (over 2304
+        pixel values, a few percent; the bounds leave +-30%). A time cap stops it first."""
+        def render(name, tolerance, seed, *extra):
+            p = run("render", sample("sphere.vdb"), "--scene", sample("sphere.json"), "-o", self.path(name),
+                    "--size", "32x24", "--mode", "reference", "--tolerance", tolerance, "--seed", seed,
+                    "--json", *extra, check=0)
+            return json.loads(p.stdout)
+        a = render("a.exr", 0.04, 3)
+        b = render("b.exr", 0.01, 4)
+        for j, tol in ((a, 0.04), (b, 0.01)):
+            self.assertLessEqual(j["noise"], tol)
+            self.assertGreater(j["noise"], 0.6 * tol)  # the rounds stop near it, not far past
+            self.assertEqual(j["tolerance"], tol)
+        self.assertGreater(b["spp"], 8 * a["spp"])
+        c = json.loads(run("compare", self.path("a.exr"), self.path("b.exr"), "--json", check=0).stdout)
+        expect = (a["noise"] ** 2 + b["noise"] ** 2) ** 0.5
+        self.assertAlmostEqual(c["se_a"], a["noise"], places=6)
+        self.assertGreater(c["relrmse"], 0.7 * expect)
+        self.assertLess(c["relrmse"], 1.3 * expect)
+        capped = render("c.exr", 0.0005, 5, "--time", "1")
+        self.assertGreater(capped["noise"], 0.0005)
+        self.assertLess(capped["seconds"]["render"], 3.0)
 
 
 class LitInput(Base):

@@ -166,18 +166,6 @@ static vdbs_status render_reference(const tradeoff_job *j, const char *path, int
     return st;
 }
 
-/* sqrt(mean se^2) / sqrt(mean L^2) of an image with se. */
-static double image_noise(const vdbs_image *im)
-{
-    double s2 = 0.0, l2 = 0.0;
-    const long long n = 3ll * im->width * im->height;
-    for (long long i = 0; im->se && i < n; ++i) {
-        s2 += (double)im->se[i] * im->se[i];
-        l2 += (double)im->rgb[i] * im->rgb[i];
-    }
-    return l2 > 0.0 ? sqrt(s2 / l2) : 0.0;
-}
-
 static vdbs_status curve_point(tradeoff_job *j, const char *path, int spp, double seconds,
                                vdbs_error *err)
 {
@@ -242,7 +230,7 @@ static int reference_from_cache(tradeoff_job *j, const char *image, const char *
     if (ok) {
         rep->reference_spp = cJSON_GetNumberValue(cJSON_GetObjectItem(o, "spp"));
         rep->reference_seconds = cJSON_GetNumberValue(cJSON_GetObjectItem(o, "seconds"));
-        rep->reference_noise = image_noise(&j->reference);
+        rep->reference_noise = vdbs_image_noise(&j->reference);
         const cJSON *c = cJSON_GetObjectItem(o, "curve"), *p;
         cJSON_ArrayForEach(p, c)
         {
@@ -291,7 +279,7 @@ static vdbs_status make_reference(tradeoff_job *j, vdbs_progress *progress, vdbs
     vdbs_image pilot = {0};
     if ((st = vdbs_image_read(pilot_path, &pilot, err)) != VDBS_OK)
         return st;
-    const double pilot_noise = image_noise(&pilot);
+    const double pilot_noise = vdbs_image_noise(&pilot);
     vdbs_image_free(&pilot);
     double spp = PILOT_SPP * (pilot_noise / target) * (pilot_noise / target);
     const double per_spp = pilot_s / PILOT_SPP;
@@ -306,7 +294,7 @@ static vdbs_status make_reference(tradeoff_job *j, vdbs_progress *progress, vdbs
                                err)) != VDBS_OK ||
         (st = vdbs_image_read(image, &j->reference, err)) != VDBS_OK)
         return st;
-    rep->reference_noise = image_noise(&j->reference);
+    rep->reference_noise = vdbs_image_noise(&j->reference);
     for (int spp_k = 1;
          spp_k * 4 <= rep->reference_spp && rep->curve_count < VDBS_TRADEOFF_MAX_CURVE;
          spp_k *= 4) {

@@ -313,6 +313,17 @@ vdbs_status vdbs_image_kind_of(const char *path, vdbs_image_kind *kind, vdbs_err
     return VDBS_OK;
 }
 
+double vdbs_image_noise(const vdbs_image *image)
+{
+    double s2 = 0.0, l2 = 0.0;
+    const long long n = 3ll * image->width * image->height;
+    for (long long i = 0; image->se && i < n; ++i) {
+        s2 += (double)image->se[i] * image->se[i];
+        l2 += (double)image->rgb[i] * image->rgb[i];
+    }
+    return l2 > 0.0 ? sqrt(s2 / l2) : 0.0;
+}
+
 vdbs_status vdbs_image_read(const char *path, vdbs_image *image, vdbs_error *err)
 {
     memset(image, 0, sizeof *image);

@@ -506,7 +506,7 @@ static void render_round(const ref_ctx *ctx, const vdbs_camera_frame *frame,
             if (vdbs_progress_cancelled(progress))
                 continue; /* an OpenMP loop cannot break */
             render_pixel(ctx, &tr, frame, options->seed, p, n_old, round_spp, acc, image);
-            if (progress && options->time_limit <= 0.0) {
+            if (progress && options->time_limit <= 0.0 && options->tolerance <= 0.0) {
                 int64_t now_done;
 #pragma omp atomic capture
                 now_done = ++*done;
@@ -542,6 +542,25 @@ static int next_round(const vdbs_reference_options *options, double started, dou
     return (int)next;
 }
 
+/* With a tolerance, after `taken` samples per pixel: 0 once the image's noise is within it,
+ * else the next round's samples per pixel, what the noise so far says the tolerance needs
+ * (noise falls as 1 / sqrt(samples)), at most 4 times those taken: the first rounds' noise is
+ * itself a rough estimate. */
+static int tolerance_round(const vdbs_reference_options *options, const vdbs_image *image,
+                           int64_t taken)
+{
+    const double noise = vdbs_image_noise(image);
+    if (!(noise > options->tolerance))
+        return 0;
+    const double ratio = noise / options->tolerance;
+    if (options->progress)
+        vdbs_progress_update(options->progress,
+                             (uint64_t)((double)options->progress->total / (ratio * ratio)));
+    double need = ceil((double)taken * (ratio * ratio - 1.0));
+    need = fmin(fmax(need, (double)options->spp), 4.0 * (double)taken);
+    return taken + need > INT_MAX ? 0 : (int)need;
+}
+
 vdbs_status vdbs_reference_render(const vdbs_volume *volume, const vdbs_scene *scene,
                                   const vdbs_camera_frame *frame,
                                   const vdbs_reference_options *options, vdbs_image *image,
@@ -568,7 +587,7 @@ vdbs_status vdbs_reference_render(const vdbs_volume *volume, const vdbs_scene *s
     /* Rounds under a time limit keep each pixel's mean and sum of squared deviations in
      * double (the float image would round them between rounds). */
     double *acc = NULL;
-    if (options->time_limit > 0.0) {
+    if (options->time_limit > 0.0 || options->tolerance > 0.0) {
         acc = malloc(sizeof *acc * 6 * (size_t)pixels);
         if (!acc) {
             ctx_free(&ctx);
@@ -584,6 +603,19 @@ vdbs_status vdbs_reference_render(const vdbs_volume *volume, const vdbs_scene *s
             return vdbs_error_cancelled(err);
         }
         taken += round_spp;
+        if (options->tolerance > 0.0) {
+            int next = tolerance_round(options, image, taken);
+            if (next > 0 && options->time_limit > 0.0) {
+                /* As many of those as fit in the time left at the last round's pace. */
+                const double now = vdbs_now(), per_spp = (now - round_started) / round_spp;
+                const double fits = floor((options->time_limit - (now - started)) / per_spp);
+                next = fits < 1.0 ? 0 : (int)fmin((double)next, fits);
+            }
+            if (next == 0)
+                break;
+            round_spp = next;
+            continue;
+        }
         if (!(options->time_limit > 0.0))
             break;
         round_spp = next_round(options, started, round_started, round_spp, taken);

@@ -222,8 +222,9 @@ static vdbs_status render_image(const vdbs_render_desc *d, vdbs_render_mode mode
     vdbs_status st;
     if (mode == VDBS_RENDER_REFERENCE) {
         vdbs_reference_options ro = {0};
-        ro.spp = d->spp > 0 ? d->spp : d->time_limit > 0.0 ? 4 : 64;
+        ro.spp = d->spp > 0 ? d->spp : d->tolerance > 0.0 ? 16 : d->time_limit > 0.0 ? 4 : 64;
         ro.time_limit = d->time_limit;
+        ro.tolerance = d->tolerance;
         ro.max_bounces = d->max_bounces > 0 ? d->max_bounces : 1000;
         ro.seed = d->seed;
         ro.no_env_nee = d->no_env_nee;
@@ -234,6 +235,7 @@ static vdbs_status render_image(const vdbs_render_desc *d, vdbs_render_mode mode
         vdbs_progress_begin(&progress, d->progress, "render (reference)",
                             pixels * (uint64_t)ro.spp);
         st = vdbs_reference_render(volume, scene, frame, &ro, image, &report->spp, err);
+        report->noise = vdbs_image_noise(image);
     } else {
         vdbs_runner_desc rd = {.backend = d->backend};
         vdbs_runner *runner = NULL;

@@ -31,6 +31,10 @@ vdbs_status vdbs_image_write_cancel(const char *path, const vdbs_image *image, d
  * foreign file, no R, G, B or Y channels. */
 vdbs_status vdbs_image_read(const char *path, vdbs_image *image, vdbs_error *err);
 
+/* A Monte-Carlo image's relative noise, sqrt(mean se^2) / sqrt(mean rgb^2) over pixels and
+ * channels: 0 without se or for a black image. */
+double vdbs_image_noise(const vdbs_image *image);
+
 typedef enum vdbs_image_kind {
     VDBS_IMAGE_UNKNOWN = 0,
     VDBS_IMAGE_EXR,

@@ -40,12 +40,16 @@ typedef struct vdbs_reference_options {
     double time_limit; /* seconds; > 0: render rounds of spp samples (doubled while a round
                           takes under 1/50 of the limit) as long as the next one fits in
                           the time left (at least one round) */
+    double tolerance;  /* > 0: rounds (the first of spp samples) until the image's relative
+                          noise (vdbs_image_noise) is at most this, each round sized by the
+                          noise so far; with time_limit too, whichever comes first */
     int max_bounces;   /* scattering events per path (>= 1); 1 = single scattering only */
     uint64_t seed;
     int no_env_nee;          /* 1: an env map is found by HG sampling alone, without next-event
                                 estimation toward it (the benchmark's comparison) */
     vdbs_progress *progress; /* may be NULL; updated with the finished fraction (of the
-                                pixels, or of time_limit) times progress->total */
+                                pixels, of time_limit, or of the samples tolerance needs)
+                                times progress->total */
 } vdbs_reference_options;
 
 /* Renders the image seen by `frame` through pixel centres: rgb = mean radiance of the

@@ -84,8 +84,10 @@ typedef struct vdbs_render_desc {
      * Sms as baked. */
     int relight;
     /* reference mode */
-    int spp;           /* default 64 (4 with time_limit) */
+    int spp;           /* default 64 (4 with time_limit, 16 with tolerance) */
     double time_limit; /* seconds; 0 = one round of spp */
+    double tolerance;  /* > 0: rounds until the relative noise is at most this
+                          (vdbs_reference_options.tolerance) */
     int max_bounces;   /* default 1000 */
     uint64_t seed;     /* 0 is a seed like any other */
     int no_env_nee;    /* vdbs_reference_options.no_env_nee */
@@ -105,7 +107,8 @@ typedef struct vdbs_render_report {
     char grid[256];
     char quality[32];
     int width, height;
-    int spp; /* samples per pixel taken (1 for the march) */
+    int spp;      /* samples per pixel taken (1 for the march) */
+    double noise; /* reference: the image's relative noise (vdbs_image_noise); else 0 */
     int sky_directions;
     float step_voxels;
     vdbs_camera camera;  /* as used */
