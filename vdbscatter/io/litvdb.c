@@ -164,15 +164,29 @@ static vdbs_status load_depths(const vdbio_lit *lit, const double index_to_world
         return vdbs_error_set(err, VDBS_ERR_NOMEM, "out of memory for %d depth grids", n);
     out->depth_count = n;
     out->depth_direct = direct;
+    /* The grids convert side by side (a sky of 256 ordinates has as many; the file's grids are
+     * only read here); the first failing grid in order is the one reported. */
+    vdbs_status first = VDBS_OK;
+    int first_at = n;
+#pragma omp parallel for schedule(dynamic, 1)
     for (int i = 0; i < n; ++i) {
         vdbs_lit_depth *d = &out->depth[i];
-        vdbs_lit_depth_name(i, direct, name, sizeof name);
+        char grid_name[32];
+        vdbs_error grid_err;
+        vdbs_lit_depth_name(i, direct, grid_name, sizeof grid_name);
         vdbs_status st =
-            load_grid(lit, name, 0, index_to_world, &d->grid, &d->size, d->to_grid, err);
-        if (st != VDBS_OK)
-            return st;
+            load_grid(lit, grid_name, 0, index_to_world, &d->grid, &d->size, d->to_grid, &grid_err);
+        if (st != VDBS_OK) {
+#pragma omp critical(vdbs_lit_depth_error)
+            if (i < first_at) {
+                first_at = i;
+                first = st;
+                if (err)
+                    *err = grid_err;
+            }
+        }
     }
-    return load_layouts(lit, out, err);
+    return first != VDBS_OK ? first : load_layouts(lit, out, err);
 }
 
 vdbs_status vdbs_lit_grids_load(const vdbio_lit *lit, const double index_to_world[3][4], int depths,
