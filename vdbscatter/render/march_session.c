@@ -134,16 +134,22 @@ vdbs_status vdbs_render_buffer(const vdbs_volume *volume, const vdbs_lit_grids *
         free(offsets);
         return vdbs_error_set(err, VDBS_ERR_NOMEM, "out of memory for %zu bytes of grids", total);
     }
-    memset(b, 0, (total + 31u) / 32u * 32u);
+    /* Each byte written once: the grids, and zeros only in the gaps between them (a buffer
+     * of 256 sky depths is tens of MB). */
+    const size_t padded = (total + 31u) / 32u * 32u;
     memcpy(b, volume->nano, volume->nano_size);
+    size_t end = volume->nano_size;
     const uint32_t *src[4] = {grids->ms, grids->l1x, grids->l1y, grids->l1z};
     const size_t sizes[4] = {grids->ms_size, grids->l1x_size, grids->l1y_size, grids->l1z_size};
     for (int i = 0; i < 4 + depths; ++i) {
-        if (i < 4 && src[i])
-            memcpy((char *)b + offsets[i], src[i], sizes[i]);
-        else if (i >= 4)
-            memcpy((char *)b + offsets[i], grids->depth[i - 4].grid, grids->depth[i - 4].size);
+        const void *from = i < 4 ? src[i] : grids->depth[i - 4].grid;
+        const size_t bytes = i < 4 ? (src[i] ? sizes[i] : 0) : grids->depth[i - 4].size;
+        memset((char *)b + end, 0, (size_t)offsets[i] - end);
+        if (bytes)
+            memcpy((char *)b + offsets[i], from, bytes);
+        end = (size_t)offsets[i] + bytes;
     }
+    memset((char *)b + end, 0, padded - end);
     free(offsets);
     *buffer = b;
     *size = total;
