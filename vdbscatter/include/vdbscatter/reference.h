@@ -42,7 +42,8 @@ typedef struct vdbs_reference_options {
                           the time left (at least one round) */
     double tolerance;  /* > 0: rounds (the first of spp samples) until the image's relative
                           noise (vdbs_image_noise) is at most this, each round sized by the
-                          noise so far; with time_limit too, whichever comes first */
+                          noise so far; with time_limit too, whichever comes first. Needs
+                          image->se: without it the noise reads 0 and one round is taken */
     int max_bounces;   /* scattering events per path (>= 1); 1 = single scattering only */
     uint64_t seed;
     int no_env_nee;          /* 1: an env map is found by HG sampling alone, without next-event
