@@ -349,6 +349,28 @@ class LitInput(Base):
                 check=0)
         self.assertEqual(json.loads(p.stdout)["mode"], "single")
 
+    def test_scene_file_of_a_bake_with_sky_directions(self):
+        """A lit VDB baked from a scene file with --sky-directions on top renders with that same
+        file: the file leaves the sky's ordinates to the bake (the image is the one rendered
+        from the lit VDB alone), while a file that sets other ones is refused."""
+        lit = self.bake("--sky-directions", "8")
+        alone, with_file = self.path("alone.exr"), self.path("file.exr")
+        run("render", lit, "-o", alone, "--size", "24x18", "-q", check=0)
+        p = run("render", lit, "--scene", sample("cloud.json"), "-o", with_file, "--size", "24x18",
+                "--json", check=0)
+        self.assertEqual(json.loads(p.stdout)["sky_directions"], 8)
+        self.assertEqual(self.compare(with_file, alone)["relrmse"], 0.0)
+        scene = self.path("scene.json")
+        with open(sample("cloud.json")) as f:
+            text = json.load(f)
+        text["volume"]["file"] = sample("cloud.vdb")
+        text["solver"] = {"sky_directions": 32}
+        with open(scene, "w") as f:
+            json.dump(text, f)
+        p = run("render", lit, "--scene", scene, "-o", self.path("other.exr"), "--size", "24x18")
+        self.assertEqual(p.returncode, 2, p.stderr)
+        self.assertIn("differ", p.stderr)
+
 
 class GpuBackend(Base):
     def test_gpu_matches_cpu(self):

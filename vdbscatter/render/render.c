@@ -180,6 +180,10 @@ static vdbs_status resolve_scene(const vdbs_render_desc *d, const char *input, v
         *scene = *d->scene;
         if (*is_lit && scene->light_count == 0)
             vdbs_scene_copy_lights(scene, baked);
+        /* A file that leaves the sky's ordinates to the quality keeps the baked ones (the bake
+         * may have had --sky-directions on top of this very file). */
+        if (*is_lit && scene->sky_directions == 0)
+            scene->sky_directions = baked->sky_directions;
     }
     if (*is_lit && *mode == VDBS_RENDER_BAKED && !d->relight)
         st = check_unchanged(d, baked, scene, err);
