@@ -79,10 +79,6 @@ static inline float vs_max(float a, float b)
 typedef uint32_t vs_uint;
 /* An output array: a pointer parameter in C, an SSBO in GLSL. */
 #define VS_OUT_PARAM(T, name) T *name,
-/* VS_SIMD: the next loop's trips are independent, so the C path runs them in SIMD lanes
- * (OpenMP's simd: C cannot otherwise be told that the tables, pointers, do not alias); nothing
- * in GLSL, where an invocation is already one lane. A kernel that sums in lanes writes the
- * lanes out itself (vs_svd_dot), so that both paths round alike. */
 /* Before a C-path step function that runs a kernel: it is also built for AVX2, the kernel
  * inlined into each build, and the loader picks the one the CPU runs (GNU ifunc; x86-64). Not
  * under AddressSanitizer, whose checks an ifunc resolver can run before. */
@@ -91,6 +87,10 @@ typedef uint32_t vs_uint;
 #else
 #define VS_CPU_CLONES
 #endif
+/* VS_SIMD: the next loop's trips are independent, so the C path runs them in SIMD lanes
+ * (OpenMP's simd: C cannot otherwise be told that the tables, pointers, do not alias); nothing
+ * in GLSL, where an invocation is already one lane. A kernel that sums in lanes writes the
+ * lanes out itself (vs_svd_dot), so that both paths round alike. */
 #if defined(_OPENMP)
 #define VS_PRAGMA(text) _Pragma(#text)
 #define VS_SIMD VS_PRAGMA(omp simd)
