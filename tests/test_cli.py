@@ -660,10 +660,11 @@ class Fld(Base):
         at --quality low: radiance is the single-scatter bake's S1 plus ms to float rounding,
         ms is non-negative and positive inside the cloud; the report's absorbed + leaked power
         equals the source power to 1e-6 (the last solve runs until the residual's sum is 1e-7
-        of the source's, whatever the quality's tolerance), the source equals sigma_s 4 pi S1
-        summed over the voxels times their volume (the gather keeps it) to 1e-4, and the
-        resolution comes from the medium: the mean sigma_tr = 20 density (1 - 0.99 g) over the
-        voxels with density (2.15 per unit at g 0.85, 13.6 at g 0) times the 1.5-unit extent,
+        of the source's, whatever the quality's tolerance), the source is at least sigma_s 4 pi
+        S1 summed over the voxels times their volume (the point rule, which undercounts the
+        optically thick voxels here; +0.3% measured) and within 2% of it, and the resolution
+        comes from the medium: the mean sigma_tr = 20 density (1 - 0.99 g) over the voxels with
+        density (2.15 per unit at g 0.85, 13.6 at g 0) times the 1.5-unit extent,
         one cell per transport path at low, at least 12 cells: 12 and then 21 at g 0."""
         src = os.path.join(SAMPLES, "cloud.vdb")
         lights = ["--density-scale", "20", "--albedo", "0.99", "--g", "0.85", "--sun",
@@ -684,7 +685,8 @@ class Fld(Base):
         voxel = density.transform.voxelSize()[0] ** 3
         dens = {tuple(i.min): i.value for i in density.citerOnValues() if i.value > 0}
         source = sum(20 * d * 0.99 * 4 * math.pi * sum(s1[k]) for k, d in dens.items())
-        self.assertAlmostEqual(source * voxel, stats["source"], delta=1e-4 * stats["source"])
+        self.assertGreaterEqual(stats["source"], source * voxel * (1 - 1e-4))
+        self.assertLessEqual(stats["source"], source * voxel * 1.02)
         mean_density = sum(dens.values()) / len(dens)
         extent = 48 * density.transform.voxelSize()[0]  # the cloud's index box spans 48 voxels
         for g, cells in ((0.85, 12), (0.0, 21)):
@@ -704,6 +706,34 @@ class Fld(Base):
         self.assertGreater(max(max(abs(x) for x in v) for v in values(fld, "ms_l1y").values()), 0.0)
 
 
+class Collisions(Base):
+    def test_first_collisions_of_a_sun_on_the_cube(self):
+        """The light FLD and SVD start from, a sun at normal incidence on the homogeneous cube
+        sample: every column of voxels stops 1 - exp(-tau) of the sun's irradiance, tau the
+        column's optical depth, so the source is albedo E h^2 sum (1 - exp(-tau)) over the
+        columns (and channels). At tau 50 (2.5 per voxel) to 1e-6: the point rule,
+        sigma_s 4 pi S1 at the voxel centres, gave 0.78 of it (sinh(1.25) / 1.25 too little).
+        At tau 0.5 (thin voxels, the point rule's own ground) to 1e-4."""
+        src = os.path.join(SAMPLES, "cube.vdb")
+        density = vdb.read(src, "density")
+        h = density.transform.voxelSize()[0]
+        columns = {}
+        for i in density.citerOnValues():
+            key = (i.min[0], i.min[2])
+            columns[key] = columns.get(key, 0.0) + i.value
+        thick = max(columns.values())
+        for tau, tolerance in ((50.0, 1e-6), (0.5, 1e-4)):
+            scale = tau / (thick * h)
+            want = 3 * 0.9 * h * h * sum(1 - math.exp(-scale * h * c) for c in columns.values())
+            args = ["--density-scale", str(scale), "--albedo", "0.9", "--g", "0", "--sun",
+                    "0,-1,0", "--quality", "low", "--json"]
+            for method, key in (("fld", "source"), ("svd", "first_power")):
+                _, p = self.bake(src, *args, "--method", method, out=f"{method}.vdb")
+                self.assertEqual(p.returncode, 0, p.stderr)
+                got = json.loads(p.stdout)[method][key]
+                self.assertAlmostEqual(got, want, delta=tolerance * want, msg=f"{method} tau {tau}")
+
+
 class Svd(Base):
     LIGHTS = ["--density-scale", "20", "--albedo", "0.99", "--sun", "0.3,-1,0.2", "--env",
               "0.2,0.3,0.5", "--quality", "low", "--json"]
@@ -713,9 +743,10 @@ class Svd(Base):
         S1 plus ms to float rounding, ms >= 0 and positive inside the cloud; the report gives the
         quality's D = 32 and 16 cells across, every sweep's power balance within 1e-4, and a
         converged residual within the quality's 1e-2. With g 0 (no delta-M) the first sweep
-        emits exactly the light the S1 pass scattered, sigma_s 4 pi S1 summed over the voxels
-        times their volume, to 1e-4; with g 0.85 delta-M moves f into the beam and the report
-        says so."""
+        emits at least sigma_s 4 pi S1 summed over the voxels times their volume (the point
+        rule, which undercounts the optically thick voxels here) and within 2% of it
+        (Collisions has the exact value); with g 0.85 delta-M moves f into the beam and the
+        report says so."""
         src = os.path.join(SAMPLES, "cloud.vdb")
         density = vdb.read(src, "density")
         voxel = density.transform.voxelSize()[0] ** 3
@@ -742,7 +773,8 @@ class Svd(Base):
                 s1 = values(single, "radiance")
                 scattered = voxel * sum(20 * d * 0.99 * 4 * math.pi * sum(s1[k])
                                         for k, d in dens.items())
-                self.assertAlmostEqual(stats["first_power"], scattered, delta=1e-4 * scattered)
+                self.assertGreaterEqual(stats["first_power"], scattered * (1 - 1e-4))
+                self.assertLessEqual(stats["first_power"], scattered * 1.02)
             else:
                 self.assertGreater(stats["delta_m_f"], 0.1)
                 self.assertLess(stats["g_scaled"], 0.85)

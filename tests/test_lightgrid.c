@@ -14,6 +14,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "vdbscatter/collision.h"
 #include "vdbscatter/lightgrid.h"
 #include "vdbscatter/single.h"
 #include "vdbscatter/scene_file.h"
@@ -179,29 +180,39 @@ static void test_block_slanted(void **state)
  * from above (the light enters through the top face, whose ramp integrates to half a voxel),
  * to 2e-3 (from above: at the default oversampling). */
 /* S1 and the unscattered light's net flux (vdbs_s1_outputs) by grids. */
-static void solve_with_flux(const vdbs_volume *volume, const vdbs_scene *scene, float *radiance,
-                            float *flux)
+/* Every light's first collisions summed by the S1 pass's per-light callback (collision.h),
+ * with S1 itself in radiance. */
+static void collide(const vdbs_volume *volume, const vdbs_scene *scene, float *radiance,
+                    double *total, double *flux)
 {
     vdbs_error err;
     vdbs_lights_desc ld = {0};
     vdbs_light_table lights;
     if (vdbs_lights_build(volume, scene, &ld, &lights, &err) != VDBS_OK)
         fail_msg("%s", err.message);
-    vdbs_s1_outputs out = {radiance, NULL, flux, NULL, NULL, NULL};
+    vdbs_collision_sum sum;
+    if (vdbs_collision_sum_init(&sum, volume, &lights, scene->density_scale, 1, &err) != VDBS_OK)
+        fail_msg("%s", err.message);
+    vdbs_s1_outputs out = {radiance, NULL, vdbs_collision_sum_light, &sum, NULL};
     if (vdbs_single_scatter_grids_out(test_runner(VDBS_BACKEND_CPU), volume, scene, &lights, NULL,
                                       &out, NULL, NULL, &err) != VDBS_OK)
         fail_msg("%s", err.message);
+    memcpy(total, sum.total, sizeof *total * 3 * volume->coord_count);
+    memcpy(flux, sum.flux, sizeof *flux * 9 * volume->coord_count);
+    vdbs_collision_sum_free(&sum);
     vdbs_lights_free(&lights);
 }
 
-/* The flux output: a sun's is 4 pi S1 times its direction of travel, a point light's 4 pi S1
- * times the unit vector away from the light, and both lights together the sum (to float
- * rounding, 1e-5 of 4 pi S1). */
-static void test_s1_flux(void **state)
+/* The first collisions' sums on a block 1.5 optically thick a voxel (the faces' average for
+ * the sun, collision.c): a sun's flux is its collisions C times its direction of travel, a
+ * point light's C times the unit vector away from the light, and both lights together the
+ * sums (1e-7: the travel is kept as float). A point light keeps the point rule, sigma_t 4 pi S1
+ * (float S1: 1e-5). */
+static void test_collision_flux(void **state)
 {
     (void)state;
     const int n = 16, dims[3] = {n, n, n};
-    const double h = 0.1;
+    const double h = 0.1, sigma = 15.0;
     double m[3][4] = {{h, 0, 0, 0}, {0, h, 0, 0}, {0, 0, h, 0}};
     vdbs_volume volume;
     make_block(dims, m, &volume);
@@ -209,9 +220,9 @@ static void test_s1_flux(void **state)
     const double light_at[3] = {0.75, 0.82, 0.71};
     vdbs_scene sun, point, both;
     const double dir[3] = {0.3, -1.0, 0.2};
-    sun_scene(&sun, 3.0, dir);
+    sun_scene(&sun, sigma, dir);
     vdbs_scene_init(&point);
-    point.density_scale = 3.0;
+    point.density_scale = sigma;
     point.light_count = 1;
     point.lights[0].type = VDBS_LIGHT_POINT;
     for (int a = 0; a < 3; ++a) {
@@ -220,15 +231,17 @@ static void test_s1_flux(void **state)
     }
     both = sun;
     both.lights[both.light_count++] = point.lights[0];
-    float *rad[3], *flux[3];
+    float *rad[3];
+    double *total[3], *flux[3];
     const vdbs_scene *scenes[3] = {&sun, &point, &both};
     for (int k = 0; k < 3; ++k) {
         rad[k] = calloc(3 * count, sizeof(float));
-        flux[k] = calloc(9 * count, sizeof(float));
-        solve_with_flux(&volume, scenes[k], rad[k], flux[k]);
+        total[k] = calloc(3 * count, sizeof(double));
+        flux[k] = calloc(9 * count, sizeof(double));
+        collide(&volume, scenes[k], rad[k], total[k], flux[k]);
     }
     const double *d = sun.lights[0].direction; /* unit after validate */
-    double worst = 0.0;
+    double worst = 0.0, worst_point = 0.0;
     int checked = 0;
     for (size_t v = 0; v < count; ++v) {
         const int32_t *c = volume.coords + 3 * v;
@@ -238,25 +251,31 @@ static void test_s1_flux(void **state)
             r += away[a] * away[a];
         }
         r = sqrt(r);
-        if (r < h)
-            continue; /* the clamp of 1/r^2 and the light's own voxel */
-        for (int ch = 0; ch < 3; ++ch)
-            for (int a = 0; a < 3; ++a) {
+        const int inside = c[0] >= 0 && c[0] < n && c[1] >= 0 && c[1] < n && c[2] >= 0 && c[2] < n;
+        for (int ch = 0; ch < 3; ++ch) {
+            const size_t j = 3 * v + (size_t)ch;
+            const double scale = fmax(total[0][j] + total[1][j], 1e-30);
+            worst = fmax(worst, fabs(total[2][j] - total[0][j] - total[1][j]) / scale);
+            const double want = inside ? sigma * 4.0 * PI * rad[1][j] : 0.0;
+            worst_point = fmax(worst_point, fabs(total[1][j] - want) / fmax(want, 1e-30));
+            for (int a = 0; r >= h && a < 3; ++a) {
                 const size_t i = 9 * v + 3 * (size_t)a + (size_t)ch;
-                const double s_sun = 4.0 * PI * rad[0][3 * v + ch];
-                const double s_point = 4.0 * PI * rad[1][3 * v + ch];
-                const double scale = fmax(s_sun + s_point, 1e-30);
-                worst = fmax(worst, fabs(flux[0][i] - s_sun * d[a]) / scale);
-                worst = fmax(worst, fabs(flux[1][i] - s_point * away[a] / r) / scale);
+                worst = fmax(worst, fabs(flux[0][i] - total[0][j] * d[a]) / scale);
+                worst = fmax(worst, fabs(flux[1][i] - total[1][j] * away[a] / r) / scale);
                 worst = fmax(worst, fabs(flux[2][i] - flux[0][i] - flux[1][i]) / scale);
             }
+        }
         ++checked;
     }
-    print_message("S1 flux: %d voxels, worst %.2e of 4 pi S1\n", checked, worst);
+    print_message("collisions: %d voxels, sums worst %.2e, point light against sigma_t 4 pi S1 "
+                  "%.2e\n",
+                  checked, worst, worst_point);
     assert_true(checked > 4000);
-    assert_true(worst <= 1e-5);
+    assert_true(worst <= 1e-7);
+    assert_true(worst_point <= 1e-5);
     for (int k = 0; k < 3; ++k) {
         free(rad[k]);
+        free(total[k]);
         free(flux[k]);
     }
     vdbs_volume_free(&volume);
@@ -580,7 +599,7 @@ int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_block_axis),         cmocka_unit_test(test_block_slanted),
-        cmocka_unit_test(test_point_light_radial), cmocka_unit_test(test_s1_flux),
+        cmocka_unit_test(test_point_light_radial), cmocka_unit_test(test_collision_flux),
         cmocka_unit_test(test_agreement_samples),  cmocka_unit_test(test_agreement_disney_cloud),
         cmocka_unit_test(test_agreement_rotated),  cmocka_unit_test(test_extremes),
         cmocka_unit_test(test_sparse_columns),     cmocka_unit_test(test_sky_sizing_cloud_sample),

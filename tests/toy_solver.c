@@ -35,7 +35,7 @@ static vdbs_status run_toy(const vdbs_solve *s, void *stats, vdbs_error *err)
 {
     const float factor =
         (float)vdbs_solver_option_value(s->scene, &options[OPT_FACTOR], s->quality);
-    vdbs_status st = vdbs_solve_s1(s, NULL, NULL, NULL, err);
+    vdbs_status st = vdbs_solve_s1(s, NULL, NULL, err);
     for (size_t i = 0; st == VDBS_OK && i < 3 * s->volume->coord_count; ++i) {
         s->radiance[i] *= factor;
         if (s->radiance_view)

@@ -789,31 +789,29 @@ vdbs_status vdbs_fld_solve_grid(vdbs_runner *runner, const vdbs_fld_grid *grid,
 
 /* ---- the bake ---- */
 
-/* Q per cell: every voxel's first-scattered power, sigma_s 4 pi S1 times its volume, splatted
- * into the cells (trilinear, renormalised: the total is kept) over the cell volume; with the
- * S1 pass's net flux F1 also the first moment g sigma_s F1 (9 per cell) the same way. */
-static void gather_source(const vdbs_solve *s, const vdbs_coarse_frame *f, const float *s1_flux,
-                          double *source, double *moment)
+/* Q per cell: every voxel's first-scattered power, albedo times its first collisions
+ * (averaged over the voxel, collision.h) times its volume, splatted into the cells
+ * (trilinear, renormalised: the total is kept) over the cell volume; with the collisions' flux
+ * also the first moment g albedo F1 (9 per cell) the same way. */
+static void gather_source(const vdbs_solve *s, const vdbs_coarse_frame *f, const double *collisions,
+                          const double *collision_flux, double *source, double *moment)
 {
     const vdbs_volume *volume = s->volume;
-    pnanovdb_buf_t buf = pnanovdb_make_buf(volume->nano, volume->nano_size / 4);
-    pnanovdb_readaccessor_t acc = vs_density_accessor(buf);
     const double scale = vdbs_volume_voxel_volume(volume) / vdbs_coarse_cell_volume(f);
     for (size_t n = 0; n < volume->coord_count; ++n) {
-        const int32_t *c = volume->coords + 3 * n;
-        double density = vs_density_voxel(buf, &acc, vs_coord(c[0], c[1], c[2]));
-        if (!(density > 0.0))
+        const double *c = collisions + 3 * n;
+        if (!(c[0] > 0.0 || c[1] > 0.0 || c[2] > 0.0))
             continue;
         double q[12], w[3];
         for (int ch = 0; ch < 3; ++ch) {
-            const double sigma_s = s->scene->density_scale * density * s->scene->albedo[ch];
-            q[ch] = sigma_s * 4.0 * VDBS_PI * (double)s->radiance[3 * n + ch];
-            for (int a = 0; s1_flux && a < 3; ++a)
-                q[3 + 3 * a + ch] = s->scene->g * sigma_s * (double)s1_flux[9 * n + 3 * a + ch];
+            const double albedo = s->scene->albedo[ch];
+            q[ch] = albedo * c[ch];
+            for (int a = 0; collision_flux && a < 3; ++a)
+                q[3 + 3 * a + ch] = s->scene->g * albedo * collision_flux[9 * n + 3 * a + ch];
         }
         vdbs_volume_voxel_point(volume, n, w);
         vdbs_coarse_splat(f, source, 3, w, q, scale);
-        if (s1_flux)
+        if (collision_flux)
             vdbs_coarse_splat(f, moment, 9, w, q + 3, scale);
     }
 }
@@ -859,14 +857,15 @@ vdbs_status vdbs_fld_solve(const vdbs_solve *s, const vdbs_fld_desc *desc, vdbs_
     double *source = calloc(3 * (size_t)cells, sizeof *source);
     double *phi = calloc(3 * (size_t)cells, sizeof *phi);
     double *flux = d.write_l1 ? calloc(9 * (size_t)cells, sizeof *flux) : NULL;
-    double *moment = d.s1_flux ? calloc(9 * (size_t)cells, sizeof *moment) : NULL;
+    double *moment = d.collision_flux ? calloc(9 * (size_t)cells, sizeof *moment) : NULL;
     double *values = calloc(VDBS_COARSE_WIDTH * (size_t)cells, sizeof *values);
-    if (!sigma || !source || !phi || (d.write_l1 && !flux) || (d.s1_flux && !moment) || !values)
+    if (!sigma || !source || !phi || (d.write_l1 && !flux) || (d.collision_flux && !moment) ||
+        !values)
         st = vdbs_error_set(err, VDBS_ERR_NOMEM, "out of memory for FLD's %lld cells",
                             (long long)cells);
     if (st == VDBS_OK) {
         vdbs_coarse_sigma(&f, s->volume, &box, s->scene->density_scale, sigma);
-        gather_source(s, &f, d.s1_flux, source, moment);
+        gather_source(s, &f, d.collisions, d.collision_flux, source, moment);
         stats->seconds_source = vdbs_now() - t0;
         vdbs_fld_grid grid = {{f.n[0], f.n[1], f.n[2]},
                               {f.side[0], f.side[1], f.side[2]},

@@ -3,6 +3,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 
+#include "vdbscatter/collision.h"
 #include "vdbscatter/fld.h"
 #include "vdbscatter/solver.h"
 
@@ -59,29 +60,27 @@ static int option_int(const vdbs_scene *scene, int i)
     return (int)vdbs_scene_solver_value(scene, options[i].key);
 }
 
-/* Exact S1 (with the unscattered light's flux for the first-moment source unless g = 0 or
- * --fld-p1 off), then flux-limited diffusion of the first-scattered light. */
+/* Exact S1, every light's first collisions (with their flux for the first-moment source
+ * unless g = 0 or --fld-p1 off), then flux-limited diffusion of the first-scattered light. */
 static vdbs_status run_fld(const vdbs_solve *s, void *stats, vdbs_error *err)
 {
-    float *flux = NULL;
-    if (s->scene->g != 0.0 && !option_int(s->scene, OPT_P1) && s->volume->coord_count > 0) {
-        flux = malloc(sizeof *flux * 9 * s->volume->coord_count);
-        if (!flux)
-            return vdbs_error_set(err, VDBS_ERR_NOMEM,
-                                  "out of memory for the S1 flux of %zu voxels",
-                                  s->volume->coord_count);
-    }
-    vdbs_status st = vdbs_solve_s1(s, flux, NULL, NULL, err);
+    const int p1 = s->scene->g != 0.0 && !option_int(s->scene, OPT_P1);
+    vdbs_collision_sum sum;
+    vdbs_status st =
+        vdbs_collision_sum_init(&sum, s->volume, s->lights, s->scene->density_scale, p1, err);
+    if (st == VDBS_OK)
+        st = vdbs_solve_s1(s, vdbs_collision_sum_light, &sum, err);
     if (st == VDBS_OK) {
         vdbs_fld_desc desc = {0};
         desc.resolution = option_int(s->scene, OPT_RES);
         desc.across = option_int(s->scene, OPT_ACROSS);
         desc.limiter_off = option_int(s->scene, OPT_LIMITER);
         desc.write_l1 = !option_int(s->scene, OPT_L1);
-        desc.s1_flux = flux;
+        desc.collisions = sum.total;
+        desc.collision_flux = sum.flux;
         st = vdbs_fld_solve(s, &desc, stats, err);
     }
-    free(flux);
+    vdbs_collision_sum_free(&sum);
     return st;
 }
 

@@ -86,7 +86,7 @@ static int option_int(const vdbs_scene *scene, int i)
 /* Exact S1, then POP's multiple scattering from suns, skies and points. */
 static vdbs_status run_pop(const vdbs_solve *s, void *stats, vdbs_error *err)
 {
-    vdbs_status st = vdbs_solve_s1(s, NULL, NULL, NULL, err);
+    vdbs_status st = vdbs_solve_s1(s, NULL, NULL, err);
     if (st != VDBS_OK)
         return st;
     vdbs_pop_desc desc = {0};

@@ -76,11 +76,9 @@ vdbs_status vdbs_single_scatter(vdbs_runner *runner, const vdbs_volume *volume,
 }
 
 /* Adds light `light`'s colour * exp(-depth) at every output voxel (vdbs_lights_arrival) to
- * its fluence, with view directions wo the same times the phase toward wo to view, and with
- * flux the same times the direction of travel. */
+ * its fluence, and with view directions wo the same times the phase toward wo to view. */
 static void add_light(const vdbs_volume *volume, const vdbs_light_table *lights, int light,
-                      const float *depth, double g, const float *wo, double *fluence, double *view,
-                      double *flux)
+                      const float *depth, double g, const float *wo, double *fluence, double *view)
 {
     const int64_t count = (int64_t)volume->coord_count;
     /* Only a point light's arrival depends on the point: a sun's and an ordinate's once. */
@@ -114,8 +112,6 @@ static void add_light(const vdbs_volume *volume, const vdbs_light_table *lights,
             fluence[3 * n + ch] += color[ch] * weight;
             if (view)
                 view[3 * n + ch] += color[ch] * weight * phase;
-            for (int a = 0; flux && a < 3; ++a)
-                flux[9 * n + 3 * a + ch] += color[ch] * weight * travel[a];
         }
     }
 }
@@ -147,7 +143,7 @@ vdbs_status vdbs_single_scatter_grids(vdbs_runner *runner, const vdbs_volume *vo
                                       vdbs_s1_stats *stats, vdbs_progress *progress,
                                       vdbs_error *err)
 {
-    vdbs_s1_outputs out = {radiance, NULL, NULL, NULL, NULL, NULL};
+    vdbs_s1_outputs out = {radiance, NULL, NULL, NULL, NULL};
     return vdbs_single_scatter_grids_out(runner, volume, scene, lights, grids, &out, stats,
                                          progress, err);
 }
@@ -169,13 +165,11 @@ vdbs_status vdbs_single_scatter_grids_out(vdbs_runner *runner, const vdbs_volume
     double *fluence = calloc(3 * n, sizeof *fluence);
     float *depth = malloc(n * sizeof *depth);
     double *view = radiance_view ? calloc(3 * n, sizeof *view) : NULL;
-    double *flux = out->flux ? calloc(9 * n, sizeof *flux) : NULL;
     float *wo = radiance_view ? vdbs_view_directions(volume, scene->camera.position) : NULL;
-    if (!fluence || !depth || (radiance_view && (!view || !wo)) || (out->flux && !flux)) {
+    if (!fluence || !depth || (radiance_view && (!view || !wo))) {
         free(fluence);
         free(depth);
         free(view);
-        free(flux);
         free(wo);
         return vdbs_error_set(err, VDBS_ERR_NOMEM, "out of memory for %zu voxels", n);
     }
@@ -200,7 +194,7 @@ vdbs_status vdbs_single_scatter_grids_out(vdbs_runner *runner, const vdbs_volume
         if (st == VDBS_OK)
             st = vdbs_light_grids_lookup_voxels(runner, volume, &set, 0, depth, err);
         if (st == VDBS_OK)
-            add_light(volume, lights, d, depth, scene->g, wo, fluence, view, flux);
+            add_light(volume, lights, d, depth, scene->g, wo, fluence, view);
         if (st == VDBS_OK && out->light_depth)
             out->light_depth(out->light_user, d, depth);
         double lookup = omp_get_wtime() - t0;
@@ -216,10 +210,7 @@ vdbs_status vdbs_single_scatter_grids_out(vdbs_runner *runner, const vdbs_volume
         if (radiance_view)
             radiance_view[v] = (float)view[v];
     }
-    for (size_t v = 0; st == VDBS_OK && flux && v < 9 * n; ++v)
-        out->flux[v] = (float)flux[v];
     free(fluence);
-    free(flux);
     free(depth);
     free(view);
     free(wo);

@@ -6,7 +6,7 @@
 static vdbs_status run_single(const vdbs_solve *s, void *stats, vdbs_error *err)
 {
     (void)stats;
-    return vdbs_solve_s1(s, NULL, NULL, NULL, err);
+    return vdbs_solve_s1(s, NULL, NULL, err);
 }
 
 const vdbs_solver vdbs_solver_single = {

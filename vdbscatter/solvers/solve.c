@@ -24,16 +24,16 @@ static vdbs_status keep_grid(void *user, int light, const vdbs_light_grids *grid
     return vdbs_light_grids_samples(grid, 0, &k->solve->light_depths[light], err);
 }
 
-vdbs_status vdbs_solve_s1(const vdbs_solve *s, float *flux, vdbs_s1_light_fn light_depth,
-                          void *light_user, vdbs_error *err)
+vdbs_status vdbs_solve_s1(const vdbs_solve *s, vdbs_s1_light_fn light_depth, void *light_user,
+                          vdbs_error *err)
 {
     keep_depths keep = {s, light_depth, light_user};
     if (s->light_depths) {
         light_depth = pass_depth;
         light_user = &keep;
     }
-    vdbs_s1_outputs out = {s->radiance, s->radiance_view, flux,
-                           light_depth, light_user,       s->light_depths ? keep_grid : NULL};
+    vdbs_s1_outputs out = {s->radiance, s->radiance_view, light_depth, light_user,
+                           s->light_depths ? keep_grid : NULL};
     vdbs_status st;
     if (s->s1_grids) {
         st = vdbs_single_scatter_grids_out(s->runner, s->volume, s->scene, s->lights, s->s1_grids,
@@ -42,9 +42,9 @@ vdbs_status vdbs_solve_s1(const vdbs_solve *s, float *flux, vdbs_s1_light_fn lig
     }
     st = vdbs_single_scatter(s->runner, s->volume, s->scene, s->lights, s->radiance, s->progress,
                              err);
-    if (st != VDBS_OK || (!s->radiance_view && !flux && !light_depth))
+    if (st != VDBS_OK || (!s->radiance_view && !light_depth))
         return st;
-    /* The march has no per-light output: S1 toward the camera, the flux and the lights' depths
+    /* The march has no per-light output: S1 toward the camera and the lights' depths
      * come from light grids at their default oversampling (a second S1 pass; docs/lit-vdb.md
      * "radiance_view"). */
     vdbs_light_grid_desc grids = {0};

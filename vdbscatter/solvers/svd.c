@@ -7,6 +7,7 @@
 
 #include "base/vdbs_math.h"
 #include "vdbscatter/coarse.h"
+#include "vdbscatter/collision.h"
 #include "vdbscatter/lightgrid.h"
 #include "vdbscatter/medium.h"
 #include "vdbscatter/progress.h"
@@ -447,7 +448,9 @@ struct vdbs_svd_run {
     float *sigma, *direct, *sky, *warm, *moments;
     vdbs_svd_light *lights;
     float *density;  /* per output voxel */
-    double *scatter; /* 3 per output voxel: one light's sigma_s* E T* */
+    double *scatter; /* 3 per output voxel: one light's sigma_s* E T*, the voxel's average */
+    double *beam;    /* VDBS_COLLISION_SCRATCH per output voxel: vdbs_first_collisions' */
+    vdbs_voxel_faces faces;
     double *acc;     /* 3 per cell: the same splatted */
     double *project; /* N: a sky ordinate's emission projected on the v_k */
     double *phase;   /* D: a sky ordinate's HG toward every direction */
@@ -456,13 +459,14 @@ struct vdbs_svd_run {
 
 /* One light's first scattering in the scaled problem, from the optical depth toward it at
  * every output voxel (the S1 pass's light grids, vdbs_s1_outputs.light_depth): per voxel
- * sigma_s* E T*, T* = exp(-(1 - f albedo) tau), times its volume, splatted into the cells
- * (vdbs_coarse_splat keeps the total); a direct light keeps it per cell over its discrete
- * normalisation (vs_svd.h), a sky ordinate's emission is projected on the v_k. With delta-M
- * the scaled beam also carries the light scattered only into the forward peak, E (T* - T):
- * it has scattered, so it is Sms's (docs/design.md), and it goes into ms and ms_l1 at the voxels
- * themselves, a collimated beam along the light's travel (vdbs_svd_finish adds ms to
- * radiance). */
+ * sigma_s* E T*, T* = exp(-(1 - f albedo) tau), averaged over the voxel (vdbs_first_collisions:
+ * the point value at the centre undercounts optically thick voxels), times its volume,
+ * splatted into the cells (vdbs_coarse_splat keeps the total); a direct light keeps it per
+ * cell over its discrete normalisation (vs_svd.h), a sky ordinate's emission is projected on
+ * the v_k. With delta-M the scaled beam also carries the light scattered only into the
+ * forward peak, E (T* - T): it has scattered, so it is Sms's (docs/design.md), and it goes
+ * into ms and ms_l1 at the voxels themselves, a collimated beam along the light's travel
+ * (vdbs_svd_finish adds ms to radiance). */
 void vdbs_svd_light_depth(void *user, int light, const float *depth)
 {
     vdbs_svd_run *r = user;
@@ -471,17 +475,25 @@ void vdbs_svd_light_depth(void *user, int light, const float *depth)
     const vdbs_phasemat *pm = &r->pm;
     const double l1 = 3.0 * s->scene->g * VDBS_INV_4PI;
     const int64_t count = (int64_t)volume->coord_count;
+    /* sigma_s* = (1 - f) albedo sigma_t = (1 - f) albedo / k sigma_t*, k = 1 - f albedo. */
+    double k[3], share[3];
+    for (int ch = 0; ch < 3; ++ch) {
+        const double albedo = s->scene->albedo[ch];
+        k[ch] = 1.0 - pm->f * albedo;
+        share[ch] = k[ch] > 0.0 ? (1.0 - pm->f) * albedo / k[ch] : 0.0;
+    }
+    vdbs_first_collisions(volume, &r->faces, s->lights, light, depth, s->scene->density_scale, k,
+                          r->beam, r->scatter, NULL);
 #pragma omp parallel for schedule(static)
     for (int64_t n = 0; n < count; ++n) {
-        double w[3], color[3], travel[3];
-        vdbs_volume_voxel_point(volume, (size_t)n, w);
-        vdbs_lights_arrival(s->lights, light, w, color, travel);
-        const double sigma_t = s->scene->density_scale * r->density[n];
-        for (int ch = 0; ch < 3; ++ch) {
-            const double albedo = s->scene->albedo[ch];
-            const double scaled = exp(-(1.0 - pm->f * albedo) * (double)depth[n]);
-            r->scatter[3 * n + ch] = (1.0 - pm->f) * albedo * sigma_t * color[ch] * scaled;
-            if (pm->f > 0.0) {
+        for (int ch = 0; ch < 3; ++ch)
+            r->scatter[3 * n + ch] *= share[ch];
+        if (pm->f > 0.0) {
+            double w[3], color[3], travel[3];
+            vdbs_volume_voxel_point(volume, (size_t)n, w);
+            vdbs_lights_arrival(s->lights, light, w, color, travel);
+            for (int ch = 0; ch < 3; ++ch) {
+                const double scaled = exp(-k[ch] * (double)depth[n]);
                 const double peak = color[ch] * (scaled - exp(-(double)depth[n]));
                 s->ms[3 * n + ch] += (float)(peak * VDBS_INV_4PI);
                 for (int ax = 0; ax < 3; ++ax)
@@ -492,11 +504,12 @@ void vdbs_svd_light_depth(void *user, int light, const float *depth)
     const double scale = vdbs_volume_voxel_volume(volume) / vdbs_coarse_cell_volume(&r->f);
     memset(r->acc, 0, sizeof *r->acc * 3 * (size_t)r->cells);
     for (int64_t n = 0; n < count; ++n) {
-        if (!(r->density[n] > 0.0f))
+        const double *q = r->scatter + 3 * n;
+        if (!(q[0] > 0.0 || q[1] > 0.0 || q[2] > 0.0))
             continue;
         double w[3];
         vdbs_volume_voxel_point(volume, (size_t)n, w);
-        vdbs_coarse_splat(&r->f, r->acc, 3, w, r->scatter + 3 * n, scale);
+        vdbs_coarse_splat(&r->f, r->acc, 3, w, q, scale);
     }
     const vdbs_light_table *lt = s->lights;
     const int L = lt->direct_count, terms = r->terms;
@@ -608,6 +621,8 @@ void vdbs_svd_end(vdbs_svd_run *r)
     free(r->lights);
     free(r->density);
     free(r->scatter);
+    free(r->beam);
+    vdbs_voxel_faces_free(&r->faces);
     free(r->acc);
     free(r->project);
     free(r->phase);
@@ -673,6 +688,7 @@ vdbs_status vdbs_svd_begin(const vdbs_solve *s, const vdbs_svd_desc *desc, vdbs_
     r->lights = calloc((size_t)(L > 0 ? L : 1), sizeof *r->lights);
     r->density = malloc(sizeof *r->density * voxels);
     r->scatter = malloc(sizeof *r->scatter * 3 * voxels);
+    r->beam = malloc(sizeof *r->beam * VDBS_COLLISION_SCRATCH * voxels);
     r->acc = malloc(sizeof *r->acc * 3 * (size_t)cells);
     r->project = malloc(sizeof *r->project * (size_t)r->terms);
     r->phase = malloc(sizeof *r->phase * (size_t)r->pm.d);
@@ -680,12 +696,17 @@ vdbs_status vdbs_svd_begin(const vdbs_solve *s, const vdbs_svd_desc *desc, vdbs_
     r->flux = calloc(9 * (size_t)cells, sizeof *r->flux);
     r->values = calloc(VDBS_COARSE_WIDTH * (size_t)cells, sizeof *r->values);
     if (!r->sigma || !r->direct || !r->sky || (d.warm && !r->warm) || (d.keep && !r->moments) ||
-        !r->lights || !r->density || !r->scatter || !r->acc || !r->project || !r->phase ||
-        !r->fluence || !r->flux || !r->values) {
+        !r->lights || !r->density || !r->scatter || !r->beam || !r->acc || !r->project ||
+        !r->phase || !r->fluence || !r->flux || !r->values) {
         vdbs_svd_end(r);
         return vdbs_error_set(err, VDBS_ERR_NOMEM,
                               "out of memory for the discrete ordinates' %lld cells x %d terms",
                               (long long)cells, r->terms);
+    }
+    st = vdbs_voxel_faces_build(s->volume, &r->faces, err);
+    if (st != VDBS_OK) {
+        vdbs_svd_end(r);
+        return st;
     }
     vdbs_coarse_sigma(&r->f, s->volume, &r->box, s->scene->density_scale, r->sigma);
     for (int l = 0; l < L; ++l) {

@@ -192,7 +192,7 @@ static vdbs_status run_svd(const vdbs_solve *s, void *stats, vdbs_error *err)
     vdbs_svd_run *run = NULL;
     vdbs_status st = vdbs_svd_begin(s, &desc, &run, err);
     if (st == VDBS_OK)
-        st = vdbs_solve_s1(s, NULL, vdbs_svd_light_depth, run, err);
+        st = vdbs_solve_s1(s, vdbs_svd_light_depth, run, err);
     if (st == VDBS_OK)
         st = vdbs_svd_finish(run, stats, err);
     vdbs_svd_end(run);

@@ -27,27 +27,30 @@ extern "C" {
 
 /* Zero-initialise; 0 means the default. */
 typedef struct vdbs_fld_desc {
-    int resolution;       /* cells across the largest extent (--fld-res); default: from the
-                             medium per the quality (vdbs_fld_preset); never finer than the
-                             voxels */
-    int across;           /* cells at least across every axis (--fld-across; coarse.h's
-                             vdbs_coarse_world_frame); default VDBS_COARSE_MIN_ACROSS, 1: cubic
-                             cells */
-    int limiter_off;      /* 1: classic diffusion, D = 1 / (3 sigma_tr); with the limiter or
-                             without, D is capped at (the grid's largest extent) / 3, the D of a
-                             medium one transport mean free path across the grid (empty cells) */
-    int max_updates;      /* solves with the limiter updated in between; default 6 */
-    double tolerance;     /* relative residual |b - A phi| / |b| of every solve; default: the
-                             quality's */
-    int write_l1;         /* 1: ms_l1 from the flux, (3 g / 4 pi) F (vdbs_fld_solve_grid); the
-                             bake sets it unless --fld-l1 off (bench/fld.md measures both) */
-    int runner_cells;     /* multigrid levels with fewer cells apply the operator in a host loop
-                             (the same vs_fld.h text): a dispatch costs more than their work;
-                             default 4096, 1: every level through the runner (the twin test) */
-    const float *s1_flux; /* the bake's: the S1 pass's net flux of the unscattered light
-                             (vdbs_s1_outputs.flux, 9 per output voxel), from which the
-                             first-moment source g sigma_s F1 comes; NULL: an isotropic
-                             source (--fld-p1 off, or g = 0) */
+    int resolution;   /* cells across the largest extent (--fld-res); default: from the
+                         medium per the quality (vdbs_fld_preset); never finer than the
+                         voxels */
+    int across;       /* cells at least across every axis (--fld-across; coarse.h's
+                         vdbs_coarse_world_frame); default VDBS_COARSE_MIN_ACROSS, 1: cubic
+                         cells */
+    int limiter_off;  /* 1: classic diffusion, D = 1 / (3 sigma_tr); with the limiter or
+                         without, D is capped at (the grid's largest extent) / 3, the D of a
+                         medium one transport mean free path across the grid (empty cells) */
+    int max_updates;  /* solves with the limiter updated in between; default 6 */
+    double tolerance; /* relative residual |b - A phi| / |b| of every solve; default: the
+                         quality's */
+    int write_l1;     /* 1: ms_l1 from the flux, (3 g / 4 pi) F (vdbs_fld_solve_grid); the
+                         bake sets it unless --fld-l1 off (bench/fld.md measures both) */
+    int runner_cells; /* multigrid levels with fewer cells apply the operator in a host loop
+                         (the same vs_fld.h text): a dispatch costs more than their work;
+                         default 4096, 1: every level through the runner (the twin test) */
+    /* The bake's first collisions (collision.h's sums over the lights, per output voxel):
+     * `collisions` 3 per voxel, the cube average of sigma_t E T, from which the source
+     * albedo collisions comes; `collision_flux` 9 per voxel, the same times each light's
+     * travel, from which the first-moment source g albedo collision_flux comes (NULL: an
+     * isotropic source, --fld-p1 off or g = 0). */
+    const double *collisions;
+    const double *collision_flux;
     const vdbs_cancel *cancel; /* polled every CG iteration: VDBS_ERR_CANCELLED once set;
                                   NULL: never (the bake's is its progress's) */
 } vdbs_fld_desc;
@@ -60,7 +63,7 @@ typedef struct vdbs_fld_preset {
      * measured worse (docs/planner.md, "Ladders"); the ladder spends on S1 instead */
     double cells_per_path;
     int min_resolution;
-    double tolerance;      /* 1e-4 / 1e-5 / 1e-6 / 1e-7 */
+    double tolerance; /* 1e-4 / 1e-5 / 1e-6 / 1e-7 */
 } vdbs_fld_preset;
 
 /* The preset of a quality name (medium's for an unknown one). */

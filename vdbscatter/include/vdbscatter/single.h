@@ -65,8 +65,6 @@ typedef struct vdbs_s1_outputs {
     float *radiance_view; /* S1 toward the scene's camera (camera_radiance.h; the scene must have
                              one): per light its fluence times HG(g) between its direction of travel
                              and wo */
-    float *flux;          /* 9 per voxel: the unscattered light's net flux, its x, y, z
-                             components of R, G, B (what FLD's first-moment source needs) */
     /* For solvers that need each light's own unscattered light (the discrete ordinates' first
      * scattering); NULL: none. */
     vdbs_s1_light_fn light_depth;

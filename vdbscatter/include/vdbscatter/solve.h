@@ -45,12 +45,11 @@ typedef struct vdbs_solve {
     /* (ms and ms_l1 alias one array when the solver's writes_ms is 0) */
 } vdbs_solve;
 
-/* The S1 every solver starts from: into radiance (and toward the camera), with `flux` (9
- * floats per output voxel, or NULL) the unscattered light's net flux and with light_depth
- * every light's optical depth (vdbs_s1_outputs). From light grids, or by the exact march
- * (then a second, light-grid pass gives the outputs the march has none of). */
-vdbs_status vdbs_solve_s1(const vdbs_solve *solve, float *flux, vdbs_s1_light_fn light_depth,
-                          void *light_user, vdbs_error *err);
+/* The S1 every solver starts from: into radiance (and toward the camera), and with
+ * light_depth every light's optical depth (vdbs_s1_outputs). From light grids, or by the exact
+ * march (then a second, light-grid pass gives the outputs the march has none of). */
+vdbs_status vdbs_solve_s1(const vdbs_solve *solve, vdbs_s1_light_fn light_depth, void *light_user,
+                          vdbs_error *err);
 
 #ifdef __cplusplus
 }
