@@ -180,8 +180,16 @@ void vdbs_first_collisions(const vdbs_volume *volume, const vdbs_voxel_faces *fa
         const double *at = scratch + VDBS_COLLISION_SCRATCH * n;
         const int32_t *nb = faces->neighbour + 6 * n;
         for (int ch = 0; ch < 3; ++ch) {
+            const double sigma = k[ch] * density_scale;
+            const double centre = sigma * (double)faces->density[n] * at[6 + ch] * at[ch];
+            const double x = sigma * (double)faces->density_near[n] * side;
+            const double w =
+                point_light
+                    ? 0.0
+                    : fmin(fmax((x - COLLISION_THIN) / (COLLISION_THICK - COLLISION_THIN), 0.0),
+                           1.0);
             double fall = 0.0;
-            for (int a = 0; a < 3; ++a) {
+            for (int a = 0; w > 0.0 && a < 3; ++a) {
                 const double t = at[3 + a];
                 if (t == 0.0)
                     continue;
@@ -191,16 +199,7 @@ void vdbs_first_collisions(const vdbs_volume *volume, const vdbs_voxel_faces *fa
                 const double *v = scratch + VDBS_COLLISION_SCRATCH * (down >= 0 ? down : n);
                 fall += fabs(t) * (sqrt(at[ch] * u[ch]) - sqrt(at[ch] * v[ch]));
             }
-            const double beam = at[6 + ch] * at[ch];
             const double in = at[6 + ch] * fall;
-            const double sigma = k[ch] * density_scale;
-            const double centre = sigma * (double)faces->density[n] * beam;
-            const double x = sigma * (double)faces->density_near[n] * side;
-            const double w =
-                point_light
-                    ? 0.0
-                    : fmin(fmax((x - COLLISION_THIN) / (COLLISION_THICK - COLLISION_THIN), 0.0),
-                           1.0);
             rate[3 * n + ch] = (1.0 - w) * centre + w * (in > 0.0 ? in : 0.0);
         }
     }
