@@ -447,7 +447,6 @@ struct vdbs_svd_run {
     vdbs_medium_box box;
     float *sigma, *direct, *sky, *warm, *moments;
     vdbs_svd_light *lights;
-    float *density;  /* per output voxel */
     double *scatter; /* 3 per output voxel: one light's sigma_s* E T*, the voxel's average */
     double *beam;    /* VDBS_COLLISION_SCRATCH per output voxel: vdbs_first_collisions' */
     vdbs_voxel_faces faces;
@@ -619,7 +618,6 @@ void vdbs_svd_end(vdbs_svd_run *r)
     free(r->warm);
     free(r->moments);
     free(r->lights);
-    free(r->density);
     free(r->scatter);
     free(r->beam);
     vdbs_voxel_faces_free(&r->faces);
@@ -686,7 +684,6 @@ vdbs_status vdbs_svd_begin(const vdbs_solve *s, const vdbs_svd_desc *desc, vdbs_
     r->warm = d.warm ? malloc(sizeof *r->warm * moment_floats) : NULL;
     r->moments = d.keep ? malloc(sizeof *r->moments * moment_floats) : NULL;
     r->lights = calloc((size_t)(L > 0 ? L : 1), sizeof *r->lights);
-    r->density = malloc(sizeof *r->density * voxels);
     r->scatter = malloc(sizeof *r->scatter * 3 * voxels);
     r->beam = malloc(sizeof *r->beam * VDBS_COLLISION_SCRATCH * voxels);
     r->acc = malloc(sizeof *r->acc * 3 * (size_t)cells);
@@ -696,8 +693,8 @@ vdbs_status vdbs_svd_begin(const vdbs_solve *s, const vdbs_svd_desc *desc, vdbs_
     r->flux = calloc(9 * (size_t)cells, sizeof *r->flux);
     r->values = calloc(VDBS_COARSE_WIDTH * (size_t)cells, sizeof *r->values);
     if (!r->sigma || !r->direct || !r->sky || (d.warm && !r->warm) || (d.keep && !r->moments) ||
-        !r->lights || !r->density || !r->scatter || !r->beam || !r->acc || !r->project ||
-        !r->phase || !r->fluence || !r->flux || !r->values) {
+        !r->lights || !r->scatter || !r->beam || !r->acc || !r->project || !r->phase ||
+        !r->fluence || !r->flux || !r->values) {
         vdbs_svd_end(r);
         return vdbs_error_set(err, VDBS_ERR_NOMEM,
                               "out of memory for the discrete ordinates' %lld cells x %d terms",
@@ -713,12 +710,6 @@ vdbs_status vdbs_svd_begin(const vdbs_solve *s, const vdbs_svd_desc *desc, vdbs_
         const vdbs_direct_light *dl = &s->lights->direct[l];
         r->lights[l].point = dl->type == VDBS_LIGHT_POINT;
         memcpy(r->lights[l].vec, dl->world, sizeof r->lights[l].vec);
-    }
-    pnanovdb_buf_t buf = pnanovdb_make_buf(s->volume->nano, s->volume->nano_size / 4);
-    pnanovdb_readaccessor_t a = vs_density_accessor(buf);
-    for (size_t n = 0; n < s->volume->coord_count; ++n) {
-        const int32_t *c = s->volume->coords + 3 * n;
-        r->density[n] = (float)vs_density_voxel(buf, &a, vs_coord(c[0], c[1], c[2]));
     }
     if (r->warm)
         moments_from_voxels(s->volume, &r->f, r->terms, (const float *const *)d.warm->voxels,
