@@ -64,30 +64,69 @@ VALIDATION = {
 }
 
 
+QUALITIES = ("low", "medium", "high", "ultra")
+METHODS = ("single", "pop", "fld", "svd")
+
+
+def ladder_lines(sets):
+    """The ladders on both sets: per method and step, the scenes where the step measured worse
+    than the step below by more than 2 standard errors, and the median scene's gain."""
+    lines = ["## Ladders", "",
+             "Per method and step: scenes where quality k+1 measured worse than k by more than "
+             "two standard errors (its own and the reference's, the row's `relrmse_se`), and "
+             "the median over the scenes of the error's fall, k to k+1, in those standard "
+             "errors (a step pays for itself above 2).", "",
+             "| method | step | worse by > 2 se | median fall (se) | scenes |",
+             "|---|---|---|---|---|"]
+    for m in METHODS:
+        for lo, hi in zip(QUALITIES, QUALITIES[1:]):
+            worse, falls = [], []
+            for name, e in sets:
+                rows = {(r["method"], r["quality"]): r for r in e["tradeoff"]["rows"]}
+                if (m, lo) not in rows or (m, hi) not in rows:
+                    continue
+                a, b = rows[(m, lo)], rows[(m, hi)]
+                se = max(a["relrmse_se"], b["relrmse_se"], 1e-9)
+                falls.append((a["relrmse"] - b["relrmse"]) / se)
+                if b["relrmse"] > a["relrmse"] + 2 * se:
+                    worse.append(f"{name} ({a['relrmse']:.4f} to {b['relrmse']:.4f})")
+            if falls:
+                falls.sort()
+                n = len(falls)
+                med = falls[n // 2] if n % 2 else 0.5 * (falls[n // 2 - 1] + falls[n // 2])
+                lines.append(f"| {m} | {lo} to {hi} | {', '.join(worse) or 'none'} | "
+                             f"{med:.1f} | {n} |")
+    return lines + [""]
+
+
 def summary():
-    """bench/tradeoff/README.md: each scene's errors per method and quality, both sets."""
+    """bench/tradeoff/README.md: each scene's errors per method and quality, both sets, and
+    the ladders."""
     lines = ["# The calibration set and the held-out scenes", "",
-             "`bench/bench_calibrate.py BUILD [--set validation]` (96x72, qualities low and "
-             "medium, references to a relative noise of 0.01 within 240 s): image relative "
-             "RMSE against the reference, its noise removed, low / medium. Each scene's "
-             "folder has its tradeoff.md, .csv and .png; `calibration.json` and "
+             "`bench/bench_calibrate.py BUILD [--set validation]` (96x72, references to a "
+             "relative noise of 0.01 within 240 s): image relative RMSE against the "
+             "reference, its noise removed, per quality measured (low / medium / high). Each "
+             "scene's folder has its tradeoff.md, .csv and .png; `calibration.json` and "
              "`validation.json` hold everything, and `scripts/gen_plan_table.py` compiles "
              "the calibration set (only) into the planner's table. Timings in those files "
              "come from two shared cores and are rough.", ""]
+    every = []
     for kind, gathered in gathered_sets(HERE):
         lines += [f"## {kind.capitalize()}", "",
                   "| scene | what | reference spp / noise | single | pop | fld | svd |",
                   "|---|---|---|---|---|---|---|"]
         for name, e in sorted(gathered.items()):
+            every.append((name, e))
             rows = {(r["method"], r["quality"]): r["relrmse"] for r in e["tradeoff"]["rows"]}
             ref = e["tradeoff"]["reference"]
             cells = []
-            for m in ("single", "pop", "fld", "svd"):
-                cells.append(" / ".join(f"{rows[(m, q)]:.3f}" for q in ("low", "medium")
+            for m in METHODS:
+                cells.append(" / ".join(f"{rows[(m, q)]:.3f}" for q in QUALITIES
                                         if (m, q) in rows))
             lines.append(f"| {name} | {e['what']} | {ref['spp']} / {ref['noise']:.4f} | " +
                          " | ".join(cells) + " |")
         lines.append("")
+    lines += ladder_lines(every)
     open(os.path.join(HERE, "tradeoff", "README.md"), "w").write("\n".join(lines))
 
 
