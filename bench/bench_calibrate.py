@@ -12,7 +12,7 @@ on volumes from other tools (VDBSCATTER_DATA_DIR, default ../shared/data beside 
 scenes whose file is missing are skipped and listed).
 
 usage: bench/bench_calibrate.py BUILD [--scenes a,b] [--size 96x72] [--ref-noise 0.01]
-       [--ref-time 240] [--set calibration|validation] [--cache DIR]"""
+       [--ref-time 240] [--set calibration|validation] [--cache DIR] [--methods a,b]"""
 import argparse
 import json
 import os
@@ -66,6 +66,26 @@ VALIDATION = {
 
 QUALITIES = ("low", "medium", "high", "ultra")
 METHODS = ("single", "pop", "fld", "svd")
+
+
+def write_csv(path, rep):
+    """tradeoff.csv of merged rows, as `vdbscatter tradeoff` writes it (the Pareto front
+    recomputed over them). Its .md and .png stay those of the last whole run."""
+    rows = rep["rows"]
+    secs = [r["bake_s"] + r["render_s"] for r in rows]
+    with open(path, "w") as f:
+        f.write("method,quality,bake_s,render_s,total_s,peak_mib,relrmse,relrmse_se,mean_ratio,"
+                "pareto\n")
+        for i, r in enumerate(rows):
+            pareto = not any(k != i and secs[k] <= secs[i] and b["relrmse"] <= r["relrmse"] and
+                             (secs[k] < secs[i] or b["relrmse"] < r["relrmse"] or k < i)
+                             for k, b in enumerate(rows))
+            f.write(f"{r['method']},{r['quality']},{r['bake_s']:.4f},{r['render_s']:.4f},"
+                    f"{secs[i]:.4f},{r['peak_mib']:.1f},{r['relrmse']:.6g},"
+                    f"{r['relrmse_se']:.3g},{r['mean_ratio']:.6g},{int(pareto)}\n")
+        for p in rep["reference"]["curve"]:
+            f.write(f"reference,{p['spp']}spp,0,{p['seconds']:.4f},{p['seconds']:.4f},,"
+                    f"{p['relrmse']:.6g},,1,0\n")
 
 
 def ladder_lines(sets):
@@ -139,6 +159,8 @@ def main():
     ap.add_argument("--ref-noise", default="0.01")
     ap.add_argument("--ref-time", default="240")
     ap.add_argument("--qualities", default="low,medium,high")
+    ap.add_argument("--methods", default="", help="rerun only these methods (their rows "
+                    "replace the gathered ones; the others are kept)")
     ap.add_argument("--summary-only", action="store_true",
                     help="rewrite bench/tradeoff/README.md from the gathered JSON")
     ap.add_argument("--out", default="", help="the gathered JSON (default "
@@ -165,16 +187,26 @@ def main():
         start = time.monotonic()
         rep = run_json([exe, "tradeoff", *inp, "--scene", scene, "-o", work, "--size", args.size,
                    "--ref-noise", args.ref_noise, "--ref-time", args.ref_time,
-                   "--qualities", args.qualities, "--json", "-q"])
+                   "--qualities", args.qualities, "--json", "-q",
+                   *(["--methods", args.methods] if args.methods else [])])
         entry = {"scene": os.path.relpath(scene, ROOT),
                  "volume": os.path.basename(vdb) if vdb else None}
         features = dry_run_plan(exe, ROOT, DATA, entry, 0.1)["features"]
         keep = os.path.join(HERE, "tradeoff", name)
         os.makedirs(keep, exist_ok=True)
-        for f in ("tradeoff.md", "tradeoff.csv", "tradeoff.png"):
-            if os.path.exists(os.path.join(work, f)):
-                shutil.copy(os.path.join(work, f), keep)
         gathered = json.load(open(out_json)) if os.path.exists(out_json) else {}
+        if args.methods and name in gathered:
+            # Keep the other methods' rows; the reference is the same (cached under its key).
+            rerun = set(args.methods.split(","))
+            kept = [r for r in gathered[name]["tradeoff"]["rows"] if r["method"] not in rerun]
+            rep["rows"] = sorted(kept + rep["rows"], key=lambda r: (
+                METHODS.index(r["method"]) if r["method"] in METHODS else len(METHODS),
+                QUALITIES.index(r["quality"]) if r["quality"] in QUALITIES else len(QUALITIES)))
+            write_csv(os.path.join(keep, "tradeoff.csv"), rep)
+        else:
+            for f in ("tradeoff.md", "tradeoff.csv", "tradeoff.png"):
+                if os.path.exists(os.path.join(work, f)):
+                    shutil.copy(os.path.join(work, f), keep)
         gathered[name] = {"what": what, "scene": os.path.relpath(scene, ROOT),
                           "volume": os.path.basename(vdb) if vdb else None,
                           "size": args.size, "tradeoff": rep,
