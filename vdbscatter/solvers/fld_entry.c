@@ -122,5 +122,5 @@ const vdbs_solver vdbs_solver_fld = {
     .report = report,
     .report_count = (int)(sizeof report / sizeof report[0]),
     .report_text = report_text,
-    .cost = {168, 338, 1.94e+03, 2.92e+03}, /* bench/cost.md */
+    .cost = {8.03, 23.4, 280, 1.04e+03}, /* bench/cost.md */
 };

@@ -14,5 +14,5 @@ const vdbs_solver vdbs_solver_single = {
     .summary = "exact single scattering only (no multiple scattering)",
     .writes_ms = 0,
     .run = run_single,
-    .cost = {22.3, 108, 436, 4.47e+03}, /* bench/cost.md */
+    .cost = {4.79, 17.4, 256, 1e+03}, /* bench/cost.md */
 };
