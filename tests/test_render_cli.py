@@ -371,6 +371,31 @@ class LitInput(Base):
         self.assertEqual(p.returncode, 2, p.stderr)
         self.assertIn("differ", p.stderr)
 
+    def test_scene_file_with_an_automatic_density_scale(self):
+        """A scene file whose density scale is auto:TAU renders the lit VDB it baked: the same
+        TAU on the same grid is the same medium (the image is the one rendered from the lit VDB
+        alone), while another TAU is refused."""
+        def scene_with(tau):
+            path = self.path(f"auto{tau}.json")
+            with open(sample("cloud.json")) as f:
+                text = json.load(f)
+            text["volume"]["file"] = sample("cloud.vdb")
+            text["volume"]["density_scale"] = f"auto:{tau}"
+            with open(path, "w") as f:
+                json.dump(text, f)
+            return path
+        lit = self.path("lit.vdb")
+        run("bake", "--scene", scene_with(8), "--quality", "low", "-o", lit, "-q", check=0)
+        alone, with_file = self.path("alone.exr"), self.path("file.exr")
+        run("render", lit, "-o", alone, "--size", "24x18", "-q", check=0)
+        run("render", lit, "--scene", scene_with(8), "-o", with_file, "--size", "24x18", "-q",
+            check=0)
+        self.assertEqual(self.compare(with_file, alone)["relrmse"], 0.0)
+        p = run("render", lit, "--scene", scene_with(4), "-o", self.path("other.exr"), "--size",
+                "24x18")
+        self.assertEqual(p.returncode, 2, p.stderr)
+        self.assertIn("differ", p.stderr)
+
 
 class GpuBackend(Base):
     def test_gpu_matches_cpu(self):

@@ -2,6 +2,7 @@
 
 #include "vdbscatter/advice.h"
 
+#include <math.h>
 #include <omp.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -90,10 +91,14 @@ static int same_triple(const double a[3], const double b[3])
 /* Whether two scenes have the same medium and lights (what a lit VDB was baked with). */
 static int same_lighting(const vdbs_scene *a, const vdbs_scene *b)
 {
-    if (a->density_scale != b->density_scale ||
-        a->density_target_depth != b->density_target_depth || !same_triple(a->albedo, b->albedo) ||
-        a->g != b->g || a->light_count != b->light_count ||
-        a->sky_directions != b->sky_directions || strcmp(a->grid, b->grid) != 0)
+    /* A lit VDB's scene holds its resolved scale; a file's auto:TAU is resolved against the
+     * lit VDB's own density once it is loaded, and compared then (vdbs_render_open). */
+    const int same_scale = (b->density_target_depth > 0.0 && a->density_target_depth == 0.0) ||
+                           (a->density_scale == b->density_scale &&
+                            a->density_target_depth == b->density_target_depth);
+    if (!same_scale || !same_triple(a->albedo, b->albedo) || a->g != b->g ||
+        a->light_count != b->light_count || a->sky_directions != b->sky_directions ||
+        strcmp(a->grid, b->grid) != 0)
         return 0;
     for (int i = 0; i < a->light_count; ++i) {
         const vdbs_light *p = &a->lights[i], *q = &b->lights[i];
@@ -140,10 +145,13 @@ static vdbs_status check_unchanged(const vdbs_render_desc *d, const vdbs_scene *
 
 /* Opens the input: a lit VDB brings its baked scene (*is_lit), and the render scene is
  * resolved from it and the caller's. On success *lit is open (the caller closes it). */
+/* *baked_scale: the scale the scene's auto:TAU must resolve to (a scene file on a lit VDB in
+ * baked mode), else 0. */
 static vdbs_status resolve_scene(const vdbs_render_desc *d, const char *input, vdbio_lit **lit,
                                  vdbs_render_mode *mode, int *is_lit, vdbs_scene *scene,
-                                 char baked_method[32], vdbs_error *err)
+                                 char baked_method[32], double *baked_scale, vdbs_error *err)
 {
+    *baked_scale = 0.0;
     vdbs_status st = vdbio_lit_open(input, lit, err);
     if (st != VDBS_OK)
         return st;
@@ -185,8 +193,11 @@ static vdbs_status resolve_scene(const vdbs_render_desc *d, const char *input, v
         if (*is_lit && scene->sky_directions == 0)
             scene->sky_directions = baked->sky_directions;
     }
-    if (*is_lit && *mode == VDBS_RENDER_BAKED && !d->relight)
+    if (*is_lit && *mode == VDBS_RENDER_BAKED && !d->relight) {
         st = check_unchanged(d, baked, scene, err);
+        if (scene->density_target_depth > 0.0)
+            *baked_scale = baked->density_scale;
+    }
     free(baked);
     if (st != VDBS_OK)
         return st;
@@ -307,7 +318,9 @@ vdbs_status vdbs_render_open(const vdbs_render_desc *d, vdbs_render_input *in, v
     if (!in->scene)
         return vdbs_error_set(err, VDBS_ERR_NOMEM, "out of memory for a scene");
     vdbio_lit *lit = NULL;
-    st = resolve_scene(d, input, &lit, &in->mode, &in->is_lit, in->scene, in->baked_method, err);
+    double baked_scale = 0.0;
+    st = resolve_scene(d, input, &lit, &in->mode, &in->is_lit, in->scene, in->baked_method,
+                       &baked_scale, err);
     if (st == VDBS_OK) {
         for (int i = 0; i < in->scene->light_count; ++i)
             if (in->scene->lights[i].type == VDBS_LIGHT_SUN &&
@@ -334,6 +347,14 @@ vdbs_status vdbs_render_open(const vdbs_render_desc *d, vdbs_render_input *in, v
         st = vdbs_volume_load(input, &read, &in->volume, err);
         if (st == VDBS_OK)
             st = vdbs_scene_fit_density(in->scene, &in->volume, err);
+        /* The same grid gives the same scale up to rounding. */
+        if (st == VDBS_OK && baked_scale > 0.0 &&
+            !(fabs(in->scene->density_scale - baked_scale) <= 1e-9 * baked_scale))
+            st = vdbs_error_set(err, VDBS_ERR_INPUT,
+                                "--scene: its density scale (%g) differs from the one the lit "
+                                "VDB was baked with (%g); add --relight to relight it (its "
+                                "multiple scattering stays as baked)",
+                                in->scene->density_scale, baked_scale);
         if (st == VDBS_OK && in->scene->light_count == 0)
             st = vdbs_error_set(err, VDBS_ERR_INPUT,
                                 "no lights: give --sun, --point or --env (or a --scene)");
