@@ -17,6 +17,7 @@ import argparse
 import json
 import os
 import shutil
+import statistics
 import time
 
 from benchlib import dry_run_plan, gathered_sets, run_json
@@ -111,11 +112,8 @@ def ladder_lines(sets):
                 if b["relrmse"] > a["relrmse"] + 2 * se:
                     worse.append(f"{name} ({a['relrmse']:.4f} to {b['relrmse']:.4f})")
             if falls:
-                falls.sort()
-                n = len(falls)
-                med = falls[n // 2] if n % 2 else 0.5 * (falls[n // 2 - 1] + falls[n // 2])
                 lines.append(f"| {m} | {lo} to {hi} | {', '.join(worse) or 'none'} | "
-                             f"{med:.1f} | {n} |")
+                             f"{statistics.median(falls):.1f} | {len(falls)} |")
     return lines + [""]
 
 

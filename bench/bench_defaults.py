@@ -19,7 +19,6 @@ from benchlib import run_json, timed
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 ROOT = os.path.dirname(HERE)
-METHODS = ["single", "pop", "fld", "svd"]
 
 
 def scenes(data, tmp):

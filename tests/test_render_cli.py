@@ -395,6 +395,7 @@ class LitInput(Base):
                 "24x18")
         self.assertEqual(p.returncode, 2, p.stderr)
         self.assertIn("differ", p.stderr)
+        self.assertFalse(os.path.exists(self.path("other.exr")))
 
 
 class GpuBackend(Base):

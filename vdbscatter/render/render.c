@@ -144,8 +144,8 @@ static vdbs_status check_unchanged(const vdbs_render_desc *d, const vdbs_scene *
 }
 
 /* Opens the input: a lit VDB brings its baked scene (*is_lit), and the render scene is
- * resolved from it and the caller's. On success *lit is open (the caller closes it). */
-/* *baked_scale: the scale the scene's auto:TAU must resolve to (a scene file on a lit VDB in
+ * resolved from it and the caller's. On success *lit is open (the caller closes it), and
+ * *baked_scale is the scale the scene's auto:TAU must resolve to (a scene file on a lit VDB in
  * baked mode), else 0. */
 static vdbs_status resolve_scene(const vdbs_render_desc *d, const char *input, vdbio_lit **lit,
                                  vdbs_render_mode *mode, int *is_lit, vdbs_scene *scene,
