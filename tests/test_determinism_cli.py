@@ -1,14 +1,15 @@
 #!/usr/bin/python3
 """Determinism (docs/robustness.md#determinism): a bake's grids are bit-identical whatever
 OMP_NUM_THREADS (1, 2, 8) for every method, on the C path; so are the reference's images for
-one seed and spp, and the procedural samples; and four different bakes run at once on the
-machine's cores give the same grids, and the same metadata apart from the solve time, as each
-run alone. Grids are compared by a digest of every active value (tiles and voxels, with their
-coordinates) per grid, not by file bytes: OpenVDB writes a fresh UUID into every file.
+one seed and spp, the ray-marched renders (from the density and from a lit VDB), and the
+procedural samples; and four different bakes run at once on the machine's cores give the
+same grids, and the same metadata apart from the solve time, as each run alone. Grids are
+compared by a digest of every active value (tiles and voxels, with their coordinates) per
+grid, not by file bytes: OpenVDB writes a fresh UUID into every file.
 
-Every comparison also checks that the digest tells apart what must differ (another albedo,
-another seed), so that a digest blind to the values cannot pass. tests/test_determinism_sweep_cli.py
-(label long) runs the bigger sweep: scenes with skies and point lights, medium quality."""
+The grid digest, the image comparison and the metadata comparison are each shown to tell
+apart what must differ (another albedo, another seed, another bake), so that none can pass
+by being blind. tests/test_determinism_sweep_cli.py (label long) runs the bigger sweep."""
 import hashlib
 import os
 import shutil
@@ -167,6 +168,24 @@ class Determinism(DeterminismCase):
         run(*args, "--seed", "8", "-o", out, threads=2)
         with open(out, "rb") as f:
             self.assertNotEqual(f.read(), images[1])
+
+    def test_march_render_across_thread_counts(self):
+        """--mode single (the ray march with light marches) and --mode baked (a lit VDB): the
+        same image at 1 and 8 threads."""
+        lit = self.path("lit.vdb")
+        run("bake", sample("sphere.vdb"), "--scene", sample("sphere.json"), "--method", "fld",
+            "--backend", "cpu", "-o", lit, "-q")
+        for mode, src in (("single", sample("sphere.vdb")), ("baked", lit)):
+            with self.subTest(mode=mode):
+                images = {}
+                for t in (1, 8):
+                    out = self.path(f"{mode}_t{t}.exr")
+                    extra = ["--scene", sample("sphere.json")] if mode == "single" else []
+                    run("render", src, *extra, "--mode", mode, "--backend", "cpu", "--size",
+                        "48x36", "-q", "-o", out, threads=t)
+                    with open(out, "rb") as f:
+                        images[t] = f.read()
+                self.assertEqual(images[8], images[1], mode)
 
     def test_samples_across_thread_counts(self):
         """`vdbscatter sample`: the procedural volumes do not depend on the threads."""
