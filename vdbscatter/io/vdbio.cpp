@@ -34,6 +34,7 @@
 #include <vector>
 
 #include <fcntl.h>
+#include <sys/file.h>
 #include <sys/stat.h>
 #include <unistd.h>
 
@@ -1162,6 +1163,34 @@ std::vector<NanoHandle> nanovdb_grids(const std::vector<GridBase::Ptr> &all)
     return handles;
 }
 
+/* An exclusive flock on the output's folder while held: two processes writing the same
+ * .nvdb at once would otherwise interleave their two renames and leave one's grids with the
+ * other's sidecar. Advisory (vdbscatter processes only), released by the kernel when the
+ * process dies; best effort: a folder that cannot be locked is written unlocked. */
+class FolderLock
+{
+  public:
+    explicit FolderLock(const char *path)
+    {
+        std::string dir(path);
+        const size_t slash = dir.find_last_of('/');
+        dir = slash == std::string::npos ? "." : (slash == 0 ? "/" : dir.substr(0, slash));
+        fd_ = ::open(dir.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC);
+        while (fd_ >= 0 && flock(fd_, LOCK_EX) != 0 && errno == EINTR) {
+        }
+    }
+    ~FolderLock()
+    {
+        if (fd_ >= 0)
+            close(fd_); /* releases the lock */
+    }
+    FolderLock(const FolderLock &) = delete;
+    FolderLock &operator=(const FolderLock &) = delete;
+
+  private:
+    int fd_ = -1;
+};
+
 /* The .nvdb and its sidecar, each through its own temporary file: both are written and
  * synced before either is renamed, the sidecar first, so that a new .nvdb never appears
  * without its metadata; a cancel or failure before the renames leaves both old files. */
@@ -1180,6 +1209,7 @@ void nvdb_write_atomically(const char *path, const std::vector<NanoHandle> &hand
         });
         if (vdbs_cancelled(cancel))
             fail(VDBS_ERR_CANCELLED, VDBS_CANCELLED_MESSAGE);
+        const FolderLock lock(path);
         rename_into_place(path, side_tmp, side);
         try {
             rename_into_place(path, tmp, path);
