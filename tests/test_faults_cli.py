@@ -40,9 +40,9 @@ VERBOSE = os.environ.get("VDBSCATTER_FAULTS_VERBOSE") == "1"
 NOBODY = 65534
 
 
-def run(*args, check=0, env=None, preexec_fn=None):
+def run(*args, check=0, preexec_fn=None):
     p = subprocess.run([EXE, *map(str, args)], capture_output=True, text=True, timeout=600,
-                       env=env, preexec_fn=preexec_fn)
+                       preexec_fn=preexec_fn)
     if check is not None and p.returncode != check:
         raise AssertionError(f"{args}: exit {p.returncode}, stderr: {p.stderr}")
     return p
@@ -145,11 +145,9 @@ class FaultsCliTest(unittest.TestCase):
             prints.append((g.name, g.activeVoxelCount(), total))
         return sorted(prints), untimed(meta)
 
-    def folder(self, name, mode=None):
+    def folder(self, name):
         path = os.path.join(self.tmp, name)
         os.makedirs(path, exist_ok=True)
-        if mode is not None:
-            os.chmod(path, mode)
         return path
 
     def assert_old_or_new(self, out, ext=".vdb", fresh=False):
@@ -275,16 +273,16 @@ class FaultsCliTest(unittest.TestCase):
         dead, live = dead_pid(), os.getpid()
         # A real killed bake's file, a dead PID's, a live process's, and names that are not
         # this output's temporaries (another output's, not hidden, not a PID).
-        p = run("bake", self.volume, "-o", out, *BAKE, check=None, env=with_fault("mid-write"))
-        self.assertEqual(p.returncode, -signal.SIGKILL)
-        killed = temp_files(folder)
-        self.assertEqual(len(killed), 1)
+        p, err = run_to_fault("mid-write", "bake", self.volume, "-o", out, *BAKE)
+        self.assertEqual(p.returncode, -signal.SIGKILL, err)
+        self.assertEqual(temp_files(folder), [f".out.vdb.tmp.{p.pid}"])
         stale = [f".out.vdb.tmp.{dead}"]
         keep = [f".out.vdb.tmp.{live}", f".other.vdb.tmp.{dead}", f"out.vdb.tmp.{dead}",
                 ".out.vdb.tmp.x1", f".out.vdb.tmp.{dead}.bak", f".xout.vdb.tmp.{dead}"]
         for name in stale + keep:
             write(os.path.join(folder, name), b"x")
         run("bake", self.volume, "-o", out, *BAKE)
+        # The killed bake's file and the dead PID's are gone; the rest stay.
         self.assertEqual(sorted(os.listdir(folder)), sorted(keep + ["out.vdb"]))
         self.assertEqual(self.assert_old_or_new(out, fresh=True), "new")
         # A render to a picture path does the same for its own name only.

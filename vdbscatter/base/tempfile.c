@@ -79,6 +79,20 @@ void vdbs_temp_remove_stale(const char *path)
     free(dir);
 }
 
+void vdbs_temp_sync_folder(const char *path)
+{
+    const char *slash = strrchr(path, '/');
+    char *dir = slash ? strndup(path, slash == path ? 1 : (size_t)(slash - path)) : strdup(".");
+    if (!dir)
+        return;
+    const int fd = open(dir, O_RDONLY | O_DIRECTORY);
+    if (fd >= 0) {
+        (void)fsync(fd);
+        close(fd);
+    }
+    free(dir);
+}
+
 void vdbs_fault_point(const char *point, const char *tmp)
 {
     const char *want = getenv("VDBSCATTER_FAULT");

@@ -55,6 +55,7 @@ static vdbs_status commit_temp(const char *tmp, const char *path, const vdbs_can
         return vdbs_error_set(err, VDBS_ERR_IO, "%s: cannot rename %s into place: %s", path, tmp,
                               strerror(e));
     }
+    vdbs_temp_sync_folder(path);
     return VDBS_OK;
 }
 

@@ -1003,6 +1003,7 @@ void rename_into_place(const char *path, const std::string &tmp, const std::stri
     if (rename(tmp.c_str(), dest.c_str()) != 0)
         fail(VDBS_ERR_IO,
              format("%s: cannot rename %s into place: %s", path, tmp.c_str(), strerror(errno)));
+    vdbs_temp_sync_folder(dest.c_str());
 }
 
 /* Runs body; on any failure (a cancel included) every temporary file is removed, so the old

@@ -19,6 +19,11 @@ char *vdbs_temp_path(const char *path);
  * that cannot be removed stays and is not an error. */
 void vdbs_temp_remove_stale(const char *path);
 
+/* Syncs the folder of path after a rename into it, so that the rename itself survives a
+ * power cut (the file's data was synced before). Best effort: a folder that cannot be
+ * opened or synced is no error (the new file is in place either way). */
+void vdbs_temp_sync_folder(const char *path);
+
 /* Test-only: when the environment variable VDBSCATTER_FAULT equals point ("before-write",
  * "mid-write" or "before-rename"), the process kills itself with SIGKILL here, as a power
  * cut or the OOM killer would. For "mid-write", tmp (written and flushed, not yet synced)
