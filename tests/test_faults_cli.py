@@ -8,8 +8,9 @@ when there was none), or a complete new one; never a partial file.
   a measured bake (some counted from when the temporary file appears);
 - stale temporary files (.NAME.tmp.PID) of dead processes are removed by the next write to
   the same path, a live process's are not, and no other name is touched;
-- a full disk (RLIMIT_FSIZE with SIGXFSZ ignored: writes fail with EFBIG) gives one line
-  and exit 1, for a fresh path and over a previous file;
+- a full disk (a small tmpfs, when root may mount one: ENOSPC; and RLIMIT_FSIZE with
+  SIGXFSZ ignored: EFBIG) gives one line and exit 1, for a fresh path and over a previous
+  file, and no temporary file;
 - two bakes to one path at once leave one complete bake (either one's);
 - as uid 65534 (when run as root): an unreadable input folder and a read-only output folder
   get one line and exit 2; an input deleted during the bake either bakes or fails with one
@@ -291,35 +292,68 @@ class FaultsCliTest(unittest.TestCase):
         run("render", self.volume, "-o", pic, *RENDER)
         self.assertEqual(sorted(os.listdir(folder)), sorted(keep + ["out.vdb", "p.png"]))
 
-    def test_full_disk(self):
-        limit = self.size // 4
+    def check_starved_bake(self, folder, ext, fresh, preexec_fn=None):
+        """A bake into folder that runs out of room: one line and exit 1, no temporary
+        file, and the folder as it was (empty, or the previous file byte for byte)."""
+        out = os.path.join(folder, "out" + ext)
+        if not fresh:
+            write(out, self.previous[ext])
+            if ext == ".nvdb":
+                write(out + ".json", self.previous[".nvdb.json"])
+        p = run("bake", self.volume, "-o", out, *BAKE, check=None, preexec_fn=preexec_fn)
+        self.assertEqual(p.returncode, 1, p.stderr)
+        self.assert_one_line(p.stderr, f"vdbscatter bake: {out}: writing")
+        self.assertEqual(temp_files(folder), [])
+        if fresh:
+            self.assertEqual(os.listdir(folder), [])
+        else:
+            self.assertEqual(read(out), self.previous[ext])
+            if ext == ".nvdb":
+                self.assertEqual(read(out + ".json"), self.previous[".nvdb.json"])
+        return p.stderr
+
+    def test_file_size_limit(self):
+        """RLIMIT_FSIZE with SIGXFSZ ignored: every write past the limit fails (EFBIG)."""
         for ext in (".vdb", ".nvdb"):
             for fresh in (True, False):
                 with self.subTest(ext=ext, fresh=fresh):
-                    folder = self.folder(f"full_{ext[1:]}_{'fresh' if fresh else 'over'}")
-                    out = os.path.join(folder, "out" + ext)
-                    if not fresh:
-                        write(out, self.previous[ext])
-                        if ext == ".nvdb":
-                            write(out + ".json", self.previous[".nvdb.json"])
-                    p = run("bake", self.volume, "-o", out, *BAKE, check=None,
-                            preexec_fn=full_disk(limit))
-                    self.assertEqual(p.returncode, 1, p.stderr)
-                    self.assert_one_line(p.stderr, f"vdbscatter bake: {out}: writing")
-                    self.assertEqual(temp_files(folder), [])
-                    if fresh:
-                        self.assertEqual(os.listdir(folder), [])
-                    else:
-                        self.assertEqual(read(out), self.previous[ext])
-                        if ext == ".nvdb":
-                            self.assertEqual(read(out + ".json"), self.previous[".nvdb.json"])
-        folder = self.folder("full_render")
+                    folder = self.folder(f"limit_{ext[1:]}_{'fresh' if fresh else 'over'}")
+                    err = self.check_starved_bake(folder, ext, fresh, full_disk(self.size // 4))
+                    if ext == ".vdb":
+                        self.assertIn("File too large", err)
+        folder = self.folder("limit_render")
         out = os.path.join(folder, "picture.exr")
         p = run("render", self.volume, "-o", out, *RENDER, check=None,
                 preexec_fn=full_disk(4096))
         self.assertEqual(p.returncode, 1, p.stderr)
         self.assert_one_line(p.stderr, f"vdbscatter render: {out}: writing OpenEXR failed")
         self.assertEqual(os.listdir(folder), [])
+
+    def test_disk_full(self):
+        """A real full disk (ENOSPC): a tmpfs with room for the previous file and a quarter
+        of the new one. Needs root and mount(8)."""
+        if os.geteuid() != 0:
+            self.skipTest("needs root to mount a small tmpfs")
+        mnt = tempfile.mkdtemp(prefix="vdbscatter_full_")
+        self.addCleanup(os.rmdir, mnt)
+        for ext in (".vdb", ".nvdb"):
+            for fresh in (True, False):
+                room = self.size // 4
+                if not fresh:
+                    room += len(self.previous[ext])
+                    if ext == ".nvdb":
+                        room += len(self.previous[".nvdb.json"])
+                m = subprocess.run(["mount", "-t", "tmpfs", "-o", f"size={room}", "tmpfs", mnt],
+                                   capture_output=True, text=True)
+                if m.returncode != 0:
+                    self.skipTest(f"cannot mount a tmpfs here: {m.stderr.strip()}")
+                try:
+                    with self.subTest(ext=ext, fresh=fresh):
+                        err = self.check_starved_bake(mnt, ext, fresh)
+                        if ext == ".vdb":
+                            self.assertIn("No space left on device", err)
+                finally:
+                    subprocess.run(["umount", mnt], check=True)
 
     def test_two_bakes_at_once(self):
         other = ["--method", "single", "--backend", "cpu", "--sun", "0,0,1", "-q"]
