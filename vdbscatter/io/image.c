@@ -5,6 +5,7 @@
 #include "vdbscatter/image.h"
 
 #include "io/exrmap.h"
+#include "vdbscatter/tempfile.h"
 
 #include <errno.h>
 #include <fcntl.h>
@@ -28,23 +29,12 @@ static int has_extension(const char *path, const char *ext)
     return n > m && strcasecmp(path + n - m, ext) == 0;
 }
 
-/* "dir/.name.tmp.PID": hidden, in the destination folder so that rename() is atomic. */
-static char *temp_path_for(const char *path)
-{
-    const char *slash = strrchr(path, '/');
-    size_t dir_len = slash ? (size_t)(slash - path + 1) : 0;
-    size_t n = strlen(path) + 32;
-    char *tmp = malloc(n);
-    if (tmp)
-        snprintf(tmp, n, "%.*s.%s.tmp.%ld", (int)dir_len, path, path + dir_len, (long)getpid());
-    return tmp;
-}
-
 /* Flushes the temporary file to disk and renames it over path; removes it on failure, and on
  * a cancel that came while it was written (the old file at path stays). */
 static vdbs_status commit_temp(const char *tmp, const char *path, const vdbs_cancel *cancel,
                                vdbs_error *err)
 {
+    vdbs_fault_point("mid-write", tmp);
     int fd = open(tmp, O_RDONLY);
     if (fd < 0 || fsync(fd) != 0) {
         int e = errno;
@@ -58,12 +48,14 @@ static vdbs_status commit_temp(const char *tmp, const char *path, const vdbs_can
         unlink(tmp);
         return vdbs_error_cancelled(err);
     }
+    vdbs_fault_point("before-rename", NULL);
     if (rename(tmp, path) != 0) {
         int e = errno;
         unlink(tmp);
         return vdbs_error_set(err, VDBS_ERR_IO, "%s: cannot rename %s into place: %s", path, tmp,
                               strerror(e));
     }
+    vdbs_temp_sync_folder(path);
     return VDBS_OK;
 }
 
@@ -280,9 +272,11 @@ vdbs_status vdbs_image_write_cancel(const char *path, const vdbs_image *image, d
         return vdbs_error_set(err, VDBS_ERR_INPUT, "%s: exposure is not finite", path);
     if (vdbs_cancelled(cancel))
         return vdbs_error_cancelled(err);
-    char *tmp = temp_path_for(path);
+    char *tmp = vdbs_temp_path(path);
     if (!tmp)
         return vdbs_error_set(err, VDBS_ERR_NOMEM, "%s: out of memory", path);
+    vdbs_temp_remove_stale(path);
+    vdbs_fault_point("before-write", NULL);
     vdbs_status st = exr   ? exr_write(path, tmp, image, err)
                      : hdr ? hdr_write(path, tmp, image, err)
                            : png_write(path, tmp, image, exposure_ev, err);

@@ -1,6 +1,7 @@
 /* OpenVDB / NanoVDB bridge (with exrmap.cpp for OpenEXR, the library's only C++).
  * Every entry point catches every exception and turns it into a vdbs_error. */
 #include "vdbscatter/vdbio.h"
+#include "vdbscatter/tempfile.h"
 
 #include <openvdb/openvdb.h>
 #include <openvdb/io/Archive.h>
@@ -33,6 +34,7 @@
 #include <vector>
 
 #include <fcntl.h>
+#include <sys/file.h>
 #include <sys/stat.h>
 #include <unistd.h>
 
@@ -960,17 +962,22 @@ std::string temporary_path(const char *path)
 {
     const std::string out = path;
     const size_t slash = out.rfind('/');
-    const std::string dir = slash == std::string::npos ? "" : out.substr(0, slash + 1);
     const std::string base = slash == std::string::npos ? out : out.substr(slash + 1);
     if (base.empty())
         fail(VDBS_ERR_INPUT, format("%s: output path names a directory", path));
-    return dir + "." + base + ".tmp." + std::to_string(getpid());
+    char *tmp = vdbs_temp_path(path);
+    if (!tmp)
+        throw std::bad_alloc();
+    const std::string out_tmp = tmp;
+    free(tmp);
+    return out_tmp;
 }
 
 /* Writes body's bytes to tmp and syncs them: the data must be on disk before a rename makes
  * it visible. Failures throw; removing tmp is the caller's (with_temporaries). */
 template <typename F> void write_synced(const char *path, const std::string &tmp, F &&body)
 {
+    vdbs_fault_point("before-write", nullptr);
     std::ofstream os(tmp, std::ios::out | std::ios::binary | std::ios::trunc);
     if (!os)
         fail(VDBS_ERR_IO, format("%s: cannot create %s: %s", path, tmp.c_str(), strerror(errno)));
@@ -979,6 +986,7 @@ template <typename F> void write_synced(const char *path, const std::string &tmp
     os.close();
     if (os.fail())
         fail(VDBS_ERR_IO, format("%s: writing %s failed: %s", path, tmp.c_str(), strerror(errno)));
+    vdbs_fault_point("mid-write", tmp.c_str());
     const int fd = ::open(tmp.c_str(), O_RDONLY);
     if (fd < 0 || fsync(fd) != 0) {
         const int e = errno;
@@ -991,9 +999,11 @@ template <typename F> void write_synced(const char *path, const std::string &tmp
 
 void rename_into_place(const char *path, const std::string &tmp, const std::string &dest)
 {
+    vdbs_fault_point("before-rename", nullptr);
     if (rename(tmp.c_str(), dest.c_str()) != 0)
         fail(VDBS_ERR_IO,
              format("%s: cannot rename %s into place: %s", path, tmp.c_str(), strerror(errno)));
+    vdbs_temp_sync_folder(dest.c_str());
 }
 
 /* Runs body; on any failure (a cancel included) every temporary file is removed, so the old
@@ -1029,6 +1039,7 @@ void with_temporaries(const char *path, const std::vector<std::string> &tmps, co
 void write_atomically(const char *path, const std::string &tmp, const openvdb::GridCPtrVec &grids,
                       const openvdb::MetaMap &file_meta, const vdbs_cancel *cancel)
 {
+    vdbs_temp_remove_stale(path);
     with_temporaries(path, {tmp}, "OpenVDB", [&] {
         write_synced(path, tmp, [&](std::ostream &os) { Writer().write_to(os, grids, file_meta); });
         /* The write itself cannot stop midway; a cancel that came during it ends here, before
@@ -1153,6 +1164,34 @@ std::vector<NanoHandle> nanovdb_grids(const std::vector<GridBase::Ptr> &all)
     return handles;
 }
 
+/* An exclusive flock on the output's folder while held: two processes writing the same
+ * .nvdb at once would otherwise interleave their two renames and leave one's grids with the
+ * other's sidecar. Advisory (vdbscatter processes only), released by the kernel when the
+ * process dies; best effort: a folder that cannot be locked is written unlocked. */
+class FolderLock
+{
+  public:
+    explicit FolderLock(const char *path)
+    {
+        std::string dir(path);
+        const size_t slash = dir.find_last_of('/');
+        dir = slash == std::string::npos ? "." : (slash == 0 ? "/" : dir.substr(0, slash));
+        fd_ = ::open(dir.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC);
+        while (fd_ >= 0 && flock(fd_, LOCK_EX) != 0 && errno == EINTR) {
+        }
+    }
+    ~FolderLock()
+    {
+        if (fd_ >= 0)
+            close(fd_); /* releases the lock */
+    }
+    FolderLock(const FolderLock &) = delete;
+    FolderLock &operator=(const FolderLock &) = delete;
+
+  private:
+    int fd_ = -1;
+};
+
 /* The .nvdb and its sidecar, each through its own temporary file: both are written and
  * synced before either is renamed, the sidecar first, so that a new .nvdb never appears
  * without its metadata; a cancel or failure before the renames leaves both old files. */
@@ -1161,6 +1200,8 @@ void nvdb_write_atomically(const char *path, const std::vector<NanoHandle> &hand
 {
     const std::string side = sidecar_path(path);
     const std::string tmp = temporary_path(path), side_tmp = temporary_path(side.c_str());
+    vdbs_temp_remove_stale(path);
+    vdbs_temp_remove_stale(side.c_str());
     with_temporaries(path, {tmp, side_tmp}, "NanoVDB", [&] {
         write_synced(path, side_tmp, [&](std::ostream &os) { os << json; });
         write_synced(path, tmp, [&](std::ostream &os) {
@@ -1169,6 +1210,7 @@ void nvdb_write_atomically(const char *path, const std::vector<NanoHandle> &hand
         });
         if (vdbs_cancelled(cancel))
             fail(VDBS_ERR_CANCELLED, VDBS_CANCELLED_MESSAGE);
+        const FolderLock lock(path);
         rename_into_place(path, side_tmp, side);
         try {
             rename_into_place(path, tmp, path);

@@ -1,0 +1,38 @@
+/* The temporary file every output is written to before it is renamed into place (the VDB,
+ * NanoVDB and image writers share it): its name, the removal of ones that killed processes
+ * left behind, and a test-only fault hook (docs/robustness.md, "Faults while writing"). */
+#ifndef VDBSCATTER_TEMPFILE_H
+#define VDBSCATTER_TEMPFILE_H
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+/* "DIR/.NAME.tmp.PID" for the output "DIR/NAME": hidden, in the output's folder so that the
+ * rename is atomic, and named by the writing process so that a stale one can be recognised.
+ * Returns a malloc'd string, or NULL when out of memory. */
+char *vdbs_temp_path(const char *path);
+
+/* Removes the ".NAME.tmp.PID" files beside path whose process no longer exists (kill(PID, 0)
+ * fails with ESRCH): what a SIGKILL, a crash or a power cut left. A live process's temporary
+ * file, another user's included, is left alone; so is every other name. Best effort: a file
+ * that cannot be removed stays and is not an error. */
+void vdbs_temp_remove_stale(const char *path);
+
+/* Syncs the folder of path after a rename into it, so that the rename itself survives a
+ * power cut (the file's data was synced before). Best effort: a folder that cannot be
+ * opened or synced is no error (the new file is in place either way). */
+void vdbs_temp_sync_folder(const char *path);
+
+/* Test-only: when the environment variable VDBSCATTER_FAULT equals point ("before-write",
+ * "mid-write" or "before-rename"), the process kills itself with SIGKILL here, as a power
+ * cut or the OOM killer would. For "mid-write", tmp (written and flushed, not yet synced)
+ * is first cut to half its length and synced: what a kill in the middle of the write
+ * leaves. Unset, it costs one getenv. */
+void vdbs_fault_point(const char *point, const char *tmp);
+
+#ifdef __cplusplus
+}
+#endif
+
+#endif
