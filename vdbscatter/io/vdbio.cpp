@@ -1468,6 +1468,17 @@ vdbs_status vdbio_check_output(const char *path, const char *input_path, vdbs_er
     return guarded(err, [&] { check_output(path, input_path); });
 }
 
+int64_t vdbio_write_bytes(int64_t leaves, int vec3_grids, int64_t float_samples)
+{
+    // a leaf's values and its masks, plus its share of the internal nodes' tables
+    const int64_t vec3_leaf = (int64_t)sizeof(openvdb::Vec3SGrid::TreeType::LeafNodeType) +
+                              512 * (int64_t)sizeof(openvdb::Vec3s);
+    const int64_t float_leaf =
+        (int64_t)sizeof(FloatGrid::TreeType::LeafNodeType) + 512 * (int64_t)sizeof(float);
+    const int64_t float_leaves = (2 * float_samples + 511) / 512;
+    return leaves * vec3_grids * vec3_leaf + float_leaves * float_leaf;
+}
+
 vdbs_status vdbio_write(const char *path, const char *input_path,
                         const vdbio_write_request *request, vdbs_error *err)
 {

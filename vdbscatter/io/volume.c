@@ -67,6 +67,20 @@ vdbs_status vdbs_volume_load(const char *path, const vdbio_read_options *options
     return vdbs_volume_from_density(density, volume, err);
 }
 
+int64_t vdbs_volume_leaf_count(const vdbs_volume *volume)
+{
+    int64_t count = 0;
+    int32_t last[3] = {0, 0, 0};
+    for (size_t v = 0; v < volume->coord_count; ++v) {
+        int32_t at[3];
+        for (int a = 0; a < 3; ++a)
+            at[a] = volume->coords[3 * v + a] >> 3; /* floor division by 8 */
+        count += v == 0 || at[0] != last[0] || at[1] != last[1] || at[2] != last[2];
+        memcpy(last, at, sizeof last);
+    }
+    return count;
+}
+
 void vdbs_volume_free(vdbs_volume *volume)
 {
     if (!volume)

@@ -623,6 +623,104 @@ vdbs_status vdbs_light_grids_build(vdbs_runner *runner, const vdbs_volume *volum
     return VDBS_OK;
 }
 
+/* Bricks of the support box that hold output voxels (mark_live_columns' bricks), and the
+ * bytes of its brick map. */
+/* Bricks of the support box that hold output voxels (mark_live_columns' bricks, at
+ * multiples of BRICK like the volume's leaves), and the bytes of its brick map. */
+static int64_t occupied_bricks(const vdbs_volume *volume, int64_t *map_bytes)
+{
+    float lo[3], hi[3];
+    vdbs_volume_support_box(volume, lo, hi);
+    *map_bytes = 1;
+    for (int a = 0; a < 3; ++a)
+        *map_bytes *= (int64_t)floor(hi[a] / BRICK) - (int64_t)floor(lo[a] / BRICK) + 1;
+    int64_t count = vdbs_volume_leaf_count(volume);
+    return count < *map_bytes ? count : *map_bytes;
+}
+
+/* The bytes vdbs_light_grids_build holds at its peak for a set of `words` words before the
+ * samples, a sweep tile of `tile` samples over `tile_cols` columns and `samples` stored
+ * samples: the store doubles from 2^16 samples (store_reserve), tile_pack's offsets take 16
+ * bytes a column, and append_depths grows the words by the samples while the store is still
+ * held; mark_live_columns' brick map of `map_bytes` comes and goes before. */
+static int64_t build_peak(int64_t words, int64_t tile, int64_t tile_cols, int64_t samples,
+                          int64_t map_bytes)
+{
+    int64_t capacity = 1 << 16;
+    while (capacity < samples)
+        capacity *= 2;
+    const int64_t word = (int64_t)sizeof(uint32_t);
+    int64_t sweeping = word * (words + tile + capacity) + 16 * tile_cols;
+    int64_t appending = word * (words + samples + capacity);
+    int64_t most = sweeping > appending ? sweeping : appending;
+    return most > map_bytes ? most : map_bytes; /* the brick map lives while planning only */
+}
+
+vdbs_status vdbs_light_grids_estimate(const vdbs_volume *volume, const vdbs_light_table *lights,
+                                      int first, int count, const vdbs_light_grid_desc *desc,
+                                      vdbs_light_grids_memory *out, vdbs_error *err)
+{
+    memset(out, 0, sizeof *out);
+    if (volume->coord_count == 0 || count <= 0)
+        return VDBS_OK;
+    int64_t map_bytes = 0;
+    const int64_t bricks = occupied_bricks(volume, &map_bytes);
+    const double voxel = min_voxel_length(volume);
+    int64_t words = VS_LGRIDS_OFF_HEADERS + (int64_t)count * VS_LGRID_WORDS, tile = 1,
+            tile_cols = 1;
+    int64_t samples = 0, plan_bytes = 0;
+    /* One plan at a time: the live bits of 1025 grids at once would be the estimate's own
+     * peak. */
+    for (int g = 0; g < count; ++g) {
+        grid_plan plan;
+        memset(&plan, 0, sizeof plan);
+        const int64_t words_before = words, plan_before = plan_bytes;
+        vdbs_status st = plan_grids(volume, lights, first + g, 1, desc, &plan, err);
+        if (st != VDBS_OK) {
+            free(plan.radius);
+            free(plan.live);
+            return st;
+        }
+        int64_t columns = plan.n[0] * plan.n[1], live = columns;
+        if (plan.live) {
+            live = 0;
+            for (int64_t w = 0; w < (columns + 31) / 32; ++w)
+                live += __builtin_popcount(plan.live[w]);
+        }
+        /* the layout's words, as layout_grids counts them */
+        int64_t live_words = plan.live ? (columns + 31) / 32 : 0;
+        words += (plan.kind == VS_LGRID_RADIAL ? plan.n[2] : 0) + live_words +
+                 VS_LGRID_COLUMN_WORDS * columns;
+        plan_bytes += (int64_t)sizeof(uint32_t) * live_words +
+                      (int64_t)sizeof(double) * (plan.kind == VS_LGRID_RADIAL ? plan.n[2] : 0);
+        /* Stored: a live column keeps the stretch where its depth changes, at most its n2
+         * samples; together no more than the cells of the occupied bricks (cells of the
+         * grid's spacing; a radial grid's are no smaller than its h). */
+        double h = plan.kind == VS_LGRID_RADIAL ? voxel / oversample_of(desc) : plan.spacing;
+        double in_bricks = (double)bricks * BRICK * BRICK * BRICK * pow(voxel / h, 3.0);
+        double stored = fmin((double)live * (double)plan.n[2], in_bricks);
+        samples += (int64_t)stored;
+        out->columns += columns;
+        out->cells += columns * plan.n[2];
+        if (tile_columns(&plan) * plan.n[2] > tile) {
+            tile = tile_columns(&plan) * plan.n[2];
+            tile_cols = tile_columns(&plan);
+        }
+        /* this grid built on its own (vdbs_light_grids_build with count 1) */
+        int64_t own = build_peak(VS_LGRIDS_OFF_HEADERS + VS_LGRID_WORDS + words - words_before,
+                                 tile_columns(&plan) * plan.n[2], tile_columns(&plan),
+                                 (int64_t)stored, map_bytes) +
+                      plan_bytes - plan_before;
+        out->peak_one = own > out->peak_one ? own : out->peak_one;
+        free(plan.radius);
+        free(plan.live);
+    }
+    out->samples = samples;
+    out->held = (int64_t)sizeof(uint32_t) * (words + samples);
+    out->peak = plan_bytes + build_peak(words, tile, tile_cols, samples, map_bytes);
+    return VDBS_OK;
+}
+
 vdbs_status vdbs_light_grids_fit(vdbs_runner *runner, const vdbs_light_grids *grids,
                                  vdbs_error *err)
 {

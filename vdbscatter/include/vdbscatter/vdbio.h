@@ -178,6 +178,12 @@ vdbs_status vdbio_check_output(const char *path, const char *input_path, vdbs_er
 vdbs_status vdbio_write(const char *path, const char *input_path,
                         const vdbio_write_request *request, vdbs_error *err);
 
+/* What vdbio_write holds at its peak beside the caller's arrays: it builds the OpenVDB tree
+ * of every grid before it writes any (a leaf of 8^3 values is whole once one voxel is on).
+ * `leaves`: the 8^3 leaves the output voxels touch, each in every vec3 grid; float_samples:
+ * the float grids' voxels, whose leaves are taken as half full (column stretches). */
+int64_t vdbio_write_bytes(int64_t leaves, int vec3_grids, int64_t float_samples);
+
 /* A lit VDB opened for reading back (tests, `render --mode baked`): every grid of
  * the file is loaded; lookups go through per-thread cached accessors, so one
  * vdbio_lit may be shared by many threads. With duplicate names the first grid wins. */
