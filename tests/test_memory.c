@@ -146,9 +146,9 @@ static void test_check_message(void **state)
 /* One sun, one point light and 16 sky ordinates on a procedural volume: per light, the
  * estimate against the set built. The layout (headers, radii, live bits, column records) is
  * planned as the build plans it, so the words before the samples agree exactly; the stored
- * samples are estimated, and must come within [1, 2.5] of those stored (measured 1.0-1.9:
- * a column's stretch runs from its first density to its last change, which the occupied
- * bricks' cells bound from above on these clouds). */
+ * samples are estimated from the voxels the grid covers (lightgrid.c), and must come within
+ * [0.8, 1.5] of those stored (measured 1.10-1.23 for the sun and the sky, 0.86-1.28 for the
+ * point light's radial grid, at oversample 1 and 2). */
 static void check_estimate(const char *name, int res)
 {
     vdbs_volume volume;
@@ -196,7 +196,7 @@ static void check_estimate(const char *name, int res)
     }
     print_message("%s %d^3: estimated / stored samples %.2f-%.2f per grid; %lld bytes held\n", name,
                   res, worst_lo, worst_hi, (long long)held);
-    assert_true(worst_lo >= 1.0 && worst_hi <= 2.5);
+    assert_true(worst_lo >= 0.8 && worst_hi <= 1.5);
     vdbs_lights_free(&lights);
     vdbs_volume_free(&volume);
 }
