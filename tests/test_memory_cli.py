@@ -41,6 +41,14 @@ def write_vdb(path, grid, voxel):
     vdb.write(path, grids=[grid])
 
 
+def sanitized():
+    """Whether the binary runs under AddressSanitizer (scripts/test.sh's second pass): its
+    allocator keeps freed memory resident and shadows the rest, so resident sets say nothing
+    of the estimate there, and the bakes take many times longer."""
+    p = subprocess.run(["ldd", EXE], capture_output=True, text=True)
+    return "libasan" in p.stdout
+
+
 def default_limit():
     """75% of MemTotal or of the cgroup's limit where lower (memory.h)."""
     with open("/proc/meminfo") as f:
@@ -125,13 +133,14 @@ class MemoryCliTest(unittest.TestCase):
         unit = line.split("needs ")[1].split()[1]
         self.assertEqual(unit, "GiB", line)
         self.assertGreater(need, 1.0)
-        # The bake builds one grid at a time, but at --s1-oversample 4 one is already over.
-        lit = self.path("blobs.vdb")
+        # The bake builds one grid at a time, but at --s1-oversample 4 one has 42 M columns
+        # (about 530 MiB in all).
+        lit = self.path("blobs_lit.vdb")
         self.assert_refused(
             ["bake", self.blobs, "-o", lit, "--sun", "0.3,-1,0.2", "--method", "single",
-             "--s1-oversample", "4", "--max-memory", "1G", "-q"], lit,
+             "--s1-oversample", "4", "--max-memory", "256M", "-q"], lit,
             ["vdbscatter bake: needs ", "light grids", "--s1-oversample 4",
-             "over the 1.0 GiB limit (--max-memory)", "lower --quality, --s1-oversample"])
+             "over the 256 MiB limit (--max-memory)", "lower --quality, --s1-oversample"])
 
     def test_fog_render_refused(self):
         out = self.path("fog.png")
@@ -142,6 +151,8 @@ class MemoryCliTest(unittest.TestCase):
              "over the 300 MiB limit (--max-memory)"])
 
     def test_fitting_limit_bakes_the_same(self):
+        if sanitized():
+            self.skipTest("the bakes' numbers are the normal pass's to check")
         cloud = os.path.join(SAMPLES, "cloud.json")
         a, b = self.path("limited.vdb"), self.path("unlimited.vdb")
         common = ["--scene", cloud, "--method", "single", "--backend", "cpu", "-q"]
@@ -149,7 +160,7 @@ class MemoryCliTest(unittest.TestCase):
         run("bake", *common, "-o", b, "--max-memory", "none", check=0)
         names = [m["name"] for m in vdb.readAllGridMetadata(a)]
         self.assertEqual(names, [m["name"] for m in vdb.readAllGridMetadata(b)])
-        self.assertIn("sky_depth_0", names)
+        self.assertIn("sky_depth_0000", names)
         for name in names:
             ga, gb = vdb.read(a, name), vdb.read(b, name)
             va = sorted((tuple(i.min), i.value) for i in ga.citerOnValues())
@@ -162,6 +173,8 @@ class MemoryCliTest(unittest.TestCase):
         return m["estimate_bytes"], peak - m["baseline_bytes"]
 
     def test_report_and_estimate_against_peak(self):
+        if sanitized():
+            self.skipTest("resident sets under AddressSanitizer are its allocator's")
         lit, rep = self.path("fog_lit.vdb"), self.path("fog_report.json")
         p = run("bake", self.fog, "-o", lit, "--sun", "0.3,-1,0.2", "--density-scale", "50",
                 "--method", "single", "--backend", "cpu", "--json", "--report", rep, check=0)
