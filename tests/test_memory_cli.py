@@ -2,7 +2,8 @@
 """Bounded memory (--max-memory; docs/robustness.md "Bounded memory") through the command:
 a SIZE that is not one is one line and exit 2 on bake, render and tradeoff; an input whose
 estimate exceeds the limit is refused before the large allocations (two blobs 1.7 km apart,
-whose light grids span the whole box between them, and a dense fog rendered at medium), with
+whose light grids span the whole box between them, at 1 m voxels under a given limit and at
+1 mm under the default one, and a dense fog rendered at medium), with
 the need, the limit and the flags that lower it on one line, exit 2 and no output; a limit
 that fits bakes the very grids no limit does; the --json report (and --report) carries the
 limit, the estimate by part and each stage's peak resident set; and the estimate holds
@@ -73,7 +74,7 @@ class MemoryCliTest(unittest.TestCase):
         # Two 8^3 blobs of 1 m voxels, 1000 voxels apart along each axis (1.7 km): 1024
         # active voxels, a support box of 1008^3.
         blobs = vdb.FloatGrid()
-        block = np.ones((8, 8, 8), dtype=np.float32)
+        block = cls.block = np.ones((8, 8, 8), dtype=np.float32)
         blobs.copyFromArray(block, ijk=(0, 0, 0))
         blobs.copyFromArray(block, ijk=(1000, 1000, 1000))
         cls.blobs = os.path.join(cls.dir, "blobs.vdb")
@@ -133,6 +134,17 @@ class MemoryCliTest(unittest.TestCase):
         unit = line.split("needs ")[1].split()[1]
         self.assertEqual(unit, "GiB", line)
         self.assertGreater(need, 1.0)
+        # At 1 mm voxels the box is 10^6 voxels across: the grid's own column records would
+        # be petabytes, refused at the default limit without planning them.
+        far = vdb.FloatGrid()
+        far.copyFromArray(self.block, ijk=(0, 0, 0))
+        far.copyFromArray(self.block, ijk=(1000000, 1000000, 1000000))
+        far_in = self.path("far.vdb")
+        write_vdb(far_in, far, 0.001)
+        for command, out in (("bake", self.path("far_lit.vdb")), ("render", self.path("far.png"))):
+            self.assert_refused([command, far_in, "-o", out, "--sun", "0.3,-1,0.2"], out,
+                                       [f"vdbscatter {command}: needs ", " PiB (light grids ",
+                                        "limit (75% of this machine's memory)"])
         # The bake builds one grid at a time, but at --s1-oversample 4 one has 42 M columns
         # (about 530 MiB in all).
         lit = self.path("blobs_lit.vdb")

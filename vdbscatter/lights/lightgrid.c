@@ -22,6 +22,9 @@
 /* Samples of one sweep tile: under llvmpipe's 128 MiB storage-buffer limit with room to
  * spare, and a bounded scratch on the C path. */
 #define TILE_SAMPLES ((int64_t)1 << 24)
+/* vdbs_light_grids_estimate plans no grid whose brick map and column records alone exceed
+ * this (1 TiB): it reports that size as the need instead of allocating toward it. */
+#define PLAN_MAX_BYTES 1099511627776.0
 
 static double dot3(const double a[3], const double b[3])
 {
@@ -134,8 +137,10 @@ static vdbs_status mark_live_columns(const vdbs_volume *volume, grid_plan *g, vd
     return VDBS_OK;
 }
 
+/* mark 0: the shape and frame only, no live bits (vdbs_light_grids_estimate sizes them
+ * first). */
 static vdbs_status plan_directional(const vdbs_volume *volume, const double travel[3],
-                                    double spacing, grid_plan *g, vdbs_error *err)
+                                    double spacing, int mark, grid_plan *g, vdbs_error *err)
 {
     double len = sqrt(dot3(travel, travel));
     if (!(len > 0.0) || !isfinite(len))
@@ -190,7 +195,7 @@ static vdbs_status plan_directional(const vdbs_volume *volume, const double trav
         for (int c = 0; c < 3; ++c)
             g->to_grid[r][c] =
                 (axes[r][0] * m[0][c] + axes[r][1] * m[1][c] + axes[r][2] * m[2][c]) / g->spacing;
-    return mark_live_columns(volume, g, err);
+    return mark ? mark_live_columns(volume, g, err) : VDBS_OK;
 }
 
 static vdbs_status plan_radial(const vdbs_volume *volume, const double position[3], int F,
@@ -438,8 +443,8 @@ static double sky_spacing(const vdbs_volume *volume, const vdbs_light_table *lig
 /* One plan per light of [first, first + count): a point light's grid is radial, a sun's or
  * sky ordinate's directional (sky light travels away from its sky). */
 static vdbs_status plan_grids(const vdbs_volume *volume, const vdbs_light_table *lights, int first,
-                              int count, const vdbs_light_grid_desc *desc, grid_plan *plans,
-                              vdbs_error *err)
+                              int count, const vdbs_light_grid_desc *desc, int mark,
+                              grid_plan *plans, vdbs_error *err)
 {
     const int F = oversample_of(desc);
     const double h = min_voxel_length(volume) / F;
@@ -449,11 +454,11 @@ static vdbs_status plan_grids(const vdbs_volume *volume, const vdbs_light_table 
         if (l < lights->direct_count && lights->direct[l].type == VDBS_LIGHT_POINT) {
             st = plan_radial(volume, lights->direct[l].world, F, &plans[g], err);
         } else if (l < lights->direct_count) {
-            st = plan_directional(volume, lights->direct[l].world, h, &plans[g], err);
+            st = plan_directional(volume, lights->direct[l].world, h, mark, &plans[g], err);
         } else {
             const double *w = lights->ordinates[l - lights->direct_count].world;
             double travel[3] = {-w[0], -w[1], -w[2]}; /* sky light travels away from its sky */
-            st = plan_directional(volume, travel, sky_spacing(volume, lights, l, h, desc),
+            st = plan_directional(volume, travel, sky_spacing(volume, lights, l, h, desc), mark,
                                   &plans[g], err);
         }
     }
@@ -598,7 +603,7 @@ vdbs_status vdbs_light_grids_build(vdbs_runner *runner, const vdbs_volume *volum
     grid_layout lay = {0};
     uint32_t *words = NULL;
     depth_store store = {NULL, 0, 0};
-    vdbs_status st = plan_grids(volume, lights, first, count, desc, plans, err);
+    vdbs_status st = plan_grids(volume, lights, first, count, desc, 1, plans, err);
     if (st == VDBS_OK)
         st = layout_grids(plans, count, &lay, &out->stats, err);
     if (st == VDBS_OK)
@@ -680,13 +685,27 @@ vdbs_status vdbs_light_grids_estimate(const vdbs_volume *volume, const vdbs_ligh
         grid_plan plan;
         memset(&plan, 0, sizeof plan);
         const int64_t words_before = words, plan_before = plan_bytes;
-        vdbs_status st = plan_grids(volume, lights, first + g, 1, desc, &plan, err);
+        vdbs_status st = plan_grids(volume, lights, first + g, 1, desc, 0, &plan, err);
+        int64_t columns = plan.n[0] * plan.n[1], live = columns;
+        /* A plan whose own brick map and live bits (or records) are beyond any memory: that
+         * alone is the need, before allocating either. */
+        double records = (double)plan.n[0] * (double)plan.n[1] *
+                         (VS_LGRID_COLUMN_WORDS * sizeof(uint32_t) + 1.0 / 8.0);
+        if (st == VDBS_OK && (double)map_bytes + records > PLAN_MAX_BYTES) {
+            free(plan.radius);
+            out->peak = out->peak_one = out->held =
+                (int64_t)fmin((double)map_bytes + records, (double)INT64_MAX / 4);
+            out->columns = columns;
+            out->cells = (int64_t)fmin((double)columns * (double)plan.n[2], (double)INT64_MAX / 4);
+            return VDBS_OK;
+        }
+        if (st == VDBS_OK && plan.kind == VS_LGRID_DIRECTIONAL)
+            st = mark_live_columns(volume, &plan, err);
         if (st != VDBS_OK) {
             free(plan.radius);
             free(plan.live);
             return st;
         }
-        int64_t columns = plan.n[0] * plan.n[1], live = columns;
         if (plan.live) {
             live = 0;
             for (int64_t w = 0; w < (columns + 31) / 32; ++w)
@@ -706,7 +725,7 @@ vdbs_status vdbs_light_grids_estimate(const vdbs_volume *volume, const vdbs_ligh
         double stored = fmin((double)live * (double)plan.n[2], covered);
         samples += (int64_t)stored;
         out->columns += columns;
-        out->cells += columns * plan.n[2];
+        out->cells += (int64_t)fmin((double)columns * (double)plan.n[2], (double)INT64_MAX / 4);
         if (tile_columns(&plan) * plan.n[2] > tile) {
             tile = tile_columns(&plan) * plan.n[2];
             tile_cols = tile_columns(&plan);

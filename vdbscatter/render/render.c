@@ -425,8 +425,8 @@ static vdbs_status check_memory(const vdbs_render_desc *d, const vdbs_render_inp
     }
     char what[160];
     if (count > 0)
-        snprintf(what, sizeof what, "%d light grids at --quality %s, --s1-oversample %d", count,
-                 in->scene->quality, oversample);
+        snprintf(what, sizeof what, "%d light grid%s at --quality %s, --s1-oversample %d", count,
+                 count == 1 ? "" : "s", in->scene->quality, oversample);
     else
         snprintf(what, sizeof what, "a %dx%d picture", in->camera.width, in->camera.height);
     vdbs_memory_estimate all = *e;
