@@ -409,7 +409,9 @@ static vdbs_status check_memory(bake_job *j, vdbs_bake_report *report, vdbs_erro
         vdbs_single_scatter_grids_bytes(&j->volume, j->scene->camera.present) + lg.peak_one;
     /* write_lit writes radiance, ms and the three l1 grids (shared zeros or not), and the view */
     int vec3 = 5 + (j->scene->camera.present ? 1 : 0);
-    int64_t write = vdbio_write_bytes(vdbs_volume_leaf_count(&j->volume), vec3, stored);
+    int64_t nodes[3];
+    vdbs_volume_node_counts(&j->volume, nodes);
+    int64_t write = vdbio_write_bytes(nodes, vec3, store ? count : 0, stored);
     if (s1 >= write)
         vdbs_memory_add(e, "light grids", s1);
     else
