@@ -144,7 +144,7 @@ class MemoryCliTest(unittest.TestCase):
         for command, out in (("bake", self.path("far_lit.vdb")), ("render", self.path("far.png"))):
             self.assert_refused([command, far_in, "-o", out, "--sun", "0.3,-1,0.2"], out,
                                        [f"vdbscatter {command}: needs ", " PiB (light grids ",
-                                        "limit (75% of this machine's memory)"])
+                                        "limit (default: 75% of this machine's or cgroup's memory)"])
         # The bake builds one grid at a time, but at --s1-oversample 4 one has 42 M columns
         # (about 530 MiB in all).
         lit = self.path("blobs_lit.vdb")

@@ -423,9 +423,9 @@ static vdbs_status check_memory(bake_job *j, vdbs_bake_report *report, vdbs_erro
     vdbs_memory_estimate all = *e;
     vdbs_memory_add(&all, "loaded", report->memory_baseline);
     return vdbs_memory_check(
-        &all, report->memory_limit,
-        o->max_memory > 0 ? "--max-memory" : "75% of this machine's memory", what,
-        store ? "--quality, --s1-oversample, --store none" : "--quality, --s1-oversample", err);
+        &all, report->memory_limit, o->max_memory > 0 ? "--max-memory" : VDBS_MEMORY_DEFAULT_SOURCE,
+        what, store ? "--quality, --s1-oversample, --store none" : "--quality, --s1-oversample",
+        err);
 }
 
 /* Zeroed output arrays; without multiple scattering the four ms grids are one. */

@@ -628,8 +628,6 @@ vdbs_status vdbs_light_grids_build(vdbs_runner *runner, const vdbs_volume *volum
     return VDBS_OK;
 }
 
-/* Bricks of the support box that hold output voxels (mark_live_columns' bricks), and the
- * bytes of its brick map. */
 /* Bricks of the support box that hold output voxels (mark_live_columns' bricks, at
  * multiples of BRICK like the volume's leaves), and the bytes of its brick map. */
 static int64_t occupied_bricks(const vdbs_volume *volume, int64_t *map_bytes)

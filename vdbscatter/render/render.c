@@ -432,9 +432,8 @@ static vdbs_status check_memory(const vdbs_render_desc *d, const vdbs_render_inp
     vdbs_memory_estimate all = *e;
     vdbs_memory_add(&all, "loaded", report->memory_baseline);
     return vdbs_memory_check(&all, report->memory_limit,
-                             d->max_memory > 0 ? "--max-memory" : "75% of this machine's memory",
-                             what, count > 0 ? "--quality, --s1-oversample, --size" : "--size",
-                             err);
+                             d->max_memory > 0 ? "--max-memory" : VDBS_MEMORY_DEFAULT_SOURCE, what,
+                             count > 0 ? "--quality, --s1-oversample, --size" : "--size", err);
 }
 
 vdbs_status vdbs_render(const vdbs_render_desc *d, vdbs_render_report *report, vdbs_error *err)

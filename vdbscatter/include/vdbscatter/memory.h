@@ -18,6 +18,8 @@ extern "C" {
 /* The default limit's share of the machine: of MemTotal, or of the cgroup's limit where
  * lower (the rest is for the system, the viewer and other processes). */
 #define VDBS_MEMORY_DEFAULT_SHARE 0.75
+/* Where a default limit comes from, as the over-limit message says it. */
+#define VDBS_MEMORY_DEFAULT_SOURCE "default: 75% of this machine's or cgroup's memory"
 
 /* "512M", "8G", "8GiB", "1.5G", "4096" (bytes); K, M, G, T are powers of 1024, with an
  * optional "B" or "iB". VDBS_ERR_INPUT naming `flag` for anything else, 0 or over 2^62. */
