@@ -72,8 +72,9 @@ static const char help[] =
     "  --store lights|none      lights (default): also store the optical depth toward every\n"
     "                           light and sky direction, so that renders of the lit VDB\n"
     "                           need no light sweeps (docs/lit-vdb.md); none: radiance and\n"
-    "                           the multiple-scattering grids only\n"
-    "  --report FILE.json       write timings per stage, parameters and output grids\n"
+    "                           the multiple-scattering grids only\n" CLI_MAX_MEMORY_HELP
+    "  --report FILE.json       write timings per stage, parameters, output grids and\n"
+    "                           memory (the estimate and each stage's peak)\n"
     "  --json                   print the report as JSON on stdout\n"
     "  -q                       no progress, summary or warnings\n";
 
@@ -82,6 +83,7 @@ static const cli_option own_options[] = {
     {"--report", CLI_VALUE},     {"--method", CLI_VALUE},       {"--keep-state", CLI_FLAG},
     {"--warm-start", CLI_VALUE}, {"--camera", CLI_VALUE},       {"--store", CLI_VALUE},
     {"--tolerance", CLI_VALUE},  {"--dry-run", CLI_FLAG},       {"--s1-sky-spacing", CLI_VALUE},
+    {"--max-memory", CLI_VALUE},
 };
 
 /* bake's options, then every solver's own flags from the solver table. */
@@ -164,6 +166,10 @@ static cJSON *report_json(const char *input, const char *output, const vdbs_scen
         cJSON_AddItemToArray(names, cJSON_CreateString(name));
     }
     cJSON_AddStringToObject(j, "store", r->stored_direct + r->stored_sky ? "lights" : "none");
+    const char *const stages[] = {"load", "solve", "write"};
+    const int64_t peaks[] = {r->peak_load, r->peak_solve, r->peak_write};
+    cli_json_memory(j, r->memory_limit, r->memory_baseline, &r->memory_estimate, stages, peaks, 3,
+                    r->peak_per_stage);
     if (r->planned) {
         char *plan = vdbs_plan_json(&r->plan, &r->plan_features);
         cJSON *p = plan ? cJSON_Parse(plan) : NULL;
@@ -347,6 +353,8 @@ int cmd_bake(int argc, char **argv)
         if (!(o.tolerance > 0.0 && o.tolerance < 1.0))
             return cli_fail("bake", 2, "--tolerance: expected a relative RMSE 0 < E < 1");
     }
+    if ((st = cli_max_memory(&args, &o.max_memory, &err)) != VDBS_OK)
+        return cli_fail("bake", st, err.message);
     o.keep_state = cli_flag(&args, "--keep-state");
     o.warm_start = cli_value(&args, "--warm-start");
     o.progress = !quiet && isatty(STDERR_FILENO);

@@ -77,16 +77,18 @@ static const char help[] =
     "                           stays as baked\n"
     "  --backend auto|cpu|gpu   single/baked: auto = a hardware GPU if EGL finds one, else\n"
     "                           the C path; reference always runs on the C path\n" CLI_S1_HELP
-    "  --exposure EV            PNG only: scale by 2^EV before the sRGB encoding\n"
-    "  --json                   print a summary as JSON on stdout\n"
+    "  --exposure EV            PNG only: scale by 2^EV before the sRGB "
+    "encoding\n" CLI_MAX_MEMORY_HELP
+    "  --json                   print a summary as JSON on stdout (memory: the estimate\n"
+    "                           and each stage's peak)\n"
     "  -q                       no progress, summary or warnings\n";
 
 static const cli_option options[] = {
-    CLI_COMMON_OPTIONS,    {"--camera", CLI_VALUE},    {"--size", CLI_VALUE},
-    {"--mode", CLI_VALUE}, {"--exposure", CLI_VALUE},  {"--spp", CLI_VALUE},
-    {"--time", CLI_VALUE}, {"--tolerance", CLI_VALUE}, {"--max-bounces", CLI_VALUE},
-    {"--seed", CLI_VALUE}, {"--env-nee", CLI_VALUE},   {"--relight", CLI_FLAG},
-    {NULL, CLI_FLAG},
+    CLI_COMMON_OPTIONS,          {"--camera", CLI_VALUE},    {"--size", CLI_VALUE},
+    {"--mode", CLI_VALUE},       {"--exposure", CLI_VALUE},  {"--spp", CLI_VALUE},
+    {"--time", CLI_VALUE},       {"--tolerance", CLI_VALUE}, {"--max-bounces", CLI_VALUE},
+    {"--seed", CLI_VALUE},       {"--env-nee", CLI_VALUE},   {"--relight", CLI_FLAG},
+    {"--max-memory", CLI_VALUE}, {NULL, CLI_FLAG},
 };
 
 typedef struct render_args {
@@ -245,6 +247,10 @@ static void print_json(const char *input, const render_args *r, const vdbs_rende
         }
         cJSON_AddNumberToObject(t, "march", rep->march_stats.seconds_march);
     }
+    const char *const stages[] = {"load", "render", "write"};
+    const int64_t peaks[] = {rep->peak_load, rep->peak_render, rep->peak_write};
+    cli_json_memory(j, rep->memory_limit, rep->memory_baseline, &rep->memory_estimate, stages,
+                    peaks, 3, rep->peak_per_stage);
     char *text = cJSON_Print(j);
     puts(text);
     free(text);
@@ -292,6 +298,10 @@ int cmd_render(int argc, char **argv)
     }
 
     vdbs_render_desc desc = {0};
+    if ((st = cli_max_memory(&args, &desc.max_memory, &err)) != VDBS_OK) {
+        free(scene);
+        return cli_fail("render", st, err.message);
+    }
     desc.input = input;
     desc.output = r.output;
     desc.scene = scene;

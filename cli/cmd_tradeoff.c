@@ -49,21 +49,34 @@ static const char help[] =
     "\n"
     "other options:\n"
     "  -o, --output DIR         the folder to write (created)\n"
-    "  --backend auto|cpu|gpu   for the bakes and renders (the reference runs on the C path)\n"
+    "  --backend auto|cpu|gpu   for the bakes and renders (the reference runs on the C "
+    "path)\n" CLI_MAX_MEMORY_HELP
+    "                           (each bake and render; one over it stops the run)\n"
     "  --json                   print the table as JSON on stdout\n"
     "  -q                       no progress, summary or warnings\n";
 
 static const cli_option options[] = {
-    {"-o", CLI_VALUE},         {"--output", CLI_VALUE},
-    {"--backend", CLI_VALUE},  {"--json", CLI_FLAG},
-    {"-q", CLI_FLAG},          {"--scene", CLI_VALUE},
-    {"--grid", CLI_VALUE},     {"--density-scale", CLI_VALUE},
-    {"--albedo", CLI_VALUE},   {"--g", CLI_VALUE},
-    {"--sun", CLI_VALUE},      {"--point", CLI_VALUE},
-    {"--env", CLI_VALUE},      {"--camera", CLI_VALUE},
-    {"--methods", CLI_VALUE},  {"--qualities", CLI_VALUE},
-    {"--size", CLI_VALUE},     {"--ref-noise", CLI_VALUE},
-    {"--ref-time", CLI_VALUE}, {"--seed", CLI_VALUE},
+    {"-o", CLI_VALUE},
+    {"--output", CLI_VALUE},
+    {"--backend", CLI_VALUE},
+    {"--json", CLI_FLAG},
+    {"-q", CLI_FLAG},
+    {"--scene", CLI_VALUE},
+    {"--grid", CLI_VALUE},
+    {"--density-scale", CLI_VALUE},
+    {"--albedo", CLI_VALUE},
+    {"--g", CLI_VALUE},
+    {"--sun", CLI_VALUE},
+    {"--point", CLI_VALUE},
+    {"--env", CLI_VALUE},
+    {"--camera", CLI_VALUE},
+    {"--methods", CLI_VALUE},
+    {"--qualities", CLI_VALUE},
+    {"--size", CLI_VALUE},
+    {"--ref-noise", CLI_VALUE},
+    {"--ref-time", CLI_VALUE},
+    {"--seed", CLI_VALUE},
+    {"--max-memory", CLI_VALUE},
     {NULL, CLI_FLAG},
 };
 
@@ -149,7 +162,7 @@ static vdbs_status parse(const cli_args *args, vdbs_tradeoff_desc *d, vdbs_camer
     if ((v = cli_value(args, "--backend")) &&
         (st = vdbs_backend_parse(v, &d->backend, err)) != VDBS_OK)
         return st;
-    return VDBS_OK;
+    return cli_max_memory(args, &d->max_memory, err);
 }
 
 static void print_json(const vdbs_tradeoff_report *rep)

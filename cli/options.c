@@ -453,6 +453,39 @@ vdbs_status cli_s1_options(const cli_args *args, int *march, int *oversample, vd
     return VDBS_OK;
 }
 
+vdbs_status cli_max_memory(const cli_args *args, int64_t *bytes, vdbs_error *err)
+{
+    *bytes = 0;
+    const char *text = cli_value(args, "--max-memory");
+    if (!text)
+        return VDBS_OK;
+    if (strcmp(text, "none") == 0) {
+        *bytes = -1;
+        return VDBS_OK;
+    }
+    return vdbs_memory_parse("--max-memory", text, bytes, err);
+}
+
+void cli_json_memory(cJSON *j, int64_t limit, int64_t baseline,
+                     const vdbs_memory_estimate *estimate, const char *const stages[],
+                     const int64_t peaks[], int stage_count, int per_stage)
+{
+    cJSON *m = cJSON_AddObjectToObject(j, "memory");
+    if (limit > 0)
+        cJSON_AddNumberToObject(m, "limit_bytes", (double)limit);
+    else
+        cJSON_AddNullToObject(m, "limit_bytes");
+    cJSON_AddNumberToObject(m, "baseline_bytes", (double)baseline);
+    cJSON_AddNumberToObject(m, "estimate_bytes", (double)vdbs_memory_total(estimate));
+    cJSON *parts = cJSON_AddObjectToObject(m, "estimate");
+    for (int i = 0; i < estimate->count; ++i)
+        cJSON_AddNumberToObject(parts, estimate->part[i].name, (double)estimate->part[i].bytes);
+    cJSON *peak = cJSON_AddObjectToObject(m, "peak_bytes");
+    for (int i = 0; i < stage_count; ++i)
+        cJSON_AddNumberToObject(peak, stages[i], (double)peaks[i]);
+    cJSON_AddBoolToObject(m, "peak_per_stage", per_stage);
+}
+
 cJSON *cli_json_triple(const double v[3])
 {
     return cJSON_CreateDoubleArray(v, 3);

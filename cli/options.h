@@ -3,6 +3,7 @@
 #define VDBSCATTER_CLI_OPTIONS_H
 
 #include "vdbscatter/lightgrid.h"
+#include "vdbscatter/memory.h"
 #include "vdbscatter/scene.h"
 #include "vdbscatter/status.h"
 
@@ -132,6 +133,21 @@ vdbs_status cli_s1_options(const cli_args *args, int *march, int *oversample, vd
     "                           point; or by the exact march to every light (the oracle)\n"        \
     "  --s1-oversample F        light-grid samples per smallest voxel length (default: the\n"      \
     "                           quality's, 1 at low and medium, 2 at high and ultra)\n"
+
+/* --max-memory SIZE|none (vdbs_memory_parse): *bytes 0 when not given (the default limit),
+ * -1 for none. */
+vdbs_status cli_max_memory(const cli_args *args, int64_t *bytes, vdbs_error *err);
+
+#define CLI_MAX_MEMORY_HELP                                                                        \
+    "  --max-memory SIZE        refuse, before the large allocations, work estimated to need\n"    \
+    "                           more memory than SIZE (512M, 8G, 8GiB, bytes; none: no\n"          \
+    "                           limit; default: 75% of the machine's or the cgroup's)\n"
+
+/* "memory": the limit, the resident set the estimate starts from, the estimate by part and
+ * each stage's peak resident set (bytes), into j. */
+void cli_json_memory(struct cJSON *j, int64_t limit, int64_t baseline,
+                     const vdbs_memory_estimate *estimate, const char *const stages[],
+                     const int64_t peaks[], int stage_count, int per_stage);
 
 /* Prints "vdbscatter CMD: message" on stderr and returns the exit status for status
  * (a vdbs_status or an exit status: 2, VDBS_ERR_INPUT, is a usage error). */

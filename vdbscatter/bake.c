@@ -11,6 +11,7 @@
 #include "vdbscatter/lightgrid.h"
 #include "vdbscatter/lights.h"
 #include "vdbscatter/litvdb.h"
+#include "vdbscatter/memory.h"
 #include "vdbscatter/progress.h"
 #include "vdbscatter/runner.h"
 #include "vdbscatter/scene_file.h"
@@ -356,6 +357,77 @@ static vdbs_status open_state(bake_job *j, vdbs_error *err)
     return st;
 }
 
+/* The output arrays' bytes (alloc_outputs). */
+static int64_t outputs_bytes(const bake_job *j)
+{
+    int64_t n = (int64_t)(j->volume.coord_count ? j->volume.coord_count : 1);
+    int arrays = 2 + (j->solver->writes_ms ? 3 : 0) + (j->scene->camera.present ? 1 : 0);
+    return arrays * 3 * n * (int64_t)sizeof(float);
+}
+
+/* A stored depth sample: its (i, j, k) and value (vdbs_light_grid_samples). */
+#define STORED_SAMPLE_BYTES (3 * (int64_t)sizeof(int32_t) + (int64_t)sizeof(float))
+
+/* --max-memory: the bake's estimate from the sizes each stage allocates, checked before the
+ * outputs and the solve allocate. The solve holds the outputs, the stored depths and the S1
+ * pass (one light grid at a time); the write the outputs, the stored depths and OpenVDB's
+ * trees of them. Solvers' coarse grids are bounded by their resolution, not the volume's,
+ * and are not counted (docs/robustness.md). */
+static vdbs_status check_memory(bake_job *j, vdbs_bake_report *report, vdbs_error *err)
+{
+    const vdbs_bake_options *o = &j->options;
+    report->memory_limit = o->max_memory > 0    ? o->max_memory
+                           : o->max_memory == 0 ? vdbs_memory_default_limit()
+                                                : 0;
+    report->memory_baseline = vdbs_memory_rss();
+    vdbs_memory_estimate *e = &report->memory_estimate;
+    memset(e, 0, sizeof *e);
+    vdbs_lights_desc lights_desc = {0};
+    lights_desc.sky_ordinates = j->sky;
+    vdbs_light_table lights;
+    vdbs_status st = vdbs_lights_build(&j->volume, j->scene, &lights_desc, &lights, err);
+    if (st != VDBS_OK)
+        return st;
+    const int count = lights.direct_count + lights.ordinate_count;
+    const int oversample =
+        report->s1_oversample > 0 ? report->s1_oversample : VDBS_LIGHT_GRID_DEFAULT_OVERSAMPLE;
+    vdbs_light_grid_desc grids = {oversample, 0, o->s1_sky_spacing};
+    /* the march keeps no grid, but its second pass for the camera or the stored depths does
+     * at the default oversample (vdbs_solve_s1) */
+    if (o->s1_march)
+        grids.oversample = VDBS_LIGHT_GRID_DEFAULT_OVERSAMPLE;
+    vdbs_light_grids_memory lg;
+    st = vdbs_light_grids_estimate(&j->volume, &lights, 0, count, &grids, &lg, err);
+    vdbs_lights_free(&lights);
+    if (st != VDBS_OK)
+        return st;
+    const int store = o->store != VDBS_STORE_NONE;
+    const int64_t stored = store ? lg.samples : 0;
+    vdbs_memory_add(e, "outputs", outputs_bytes(j));
+    vdbs_memory_add(e, "stored depths", stored * STORED_SAMPLE_BYTES);
+    int64_t s1 =
+        vdbs_single_scatter_grids_bytes(&j->volume, j->scene->camera.present) + lg.peak_one;
+    /* write_lit writes radiance, ms and the three l1 grids (shared zeros or not), and the view */
+    int vec3 = 5 + (j->scene->camera.present ? 1 : 0);
+    int64_t nodes[3];
+    vdbs_volume_node_counts(&j->volume, nodes);
+    int64_t write = vdbio_write_bytes(nodes, vec3, store ? count : 0, stored);
+    if (s1 >= write)
+        vdbs_memory_add(e, "light grids", s1);
+    else
+        vdbs_memory_add(e, "write", write);
+    char what[160];
+    snprintf(what, sizeof what, "%d light%s at --quality %s, --s1-oversample %d%s", count,
+             count == 1 ? "" : "s", j->scene->quality, grids.oversample,
+             store ? ", --store lights" : "");
+    vdbs_memory_estimate all = *e;
+    vdbs_memory_add(&all, "loaded", report->memory_baseline);
+    return vdbs_memory_check(
+        &all, report->memory_limit, o->max_memory > 0 ? "--max-memory" : VDBS_MEMORY_DEFAULT_SOURCE,
+        what, store ? "--quality, --s1-oversample, --store none" : "--quality, --s1-oversample",
+        err);
+}
+
 /* Zeroed output arrays; without multiple scattering the four ms grids are one. */
 static vdbs_status alloc_outputs(bake_job *j, vdbs_error *err)
 {
@@ -526,6 +598,11 @@ vdbs_status vdbs_bake(const vdbs_bake_options *o, vdbs_bake_report *report, vdbs
     if (st == VDBS_OK) {
         report->seconds_load = vdbs_now() - t_start;
         report_setup(&j, report);
+        st = check_memory(&j, report, err);
+    }
+    if (st == VDBS_OK) {
+        report->peak_load = vdbs_memory_peak();
+        report->peak_per_stage = vdbs_memory_reset_peak();
         st = alloc_outputs(&j, err);
     }
     if (st == VDBS_OK) {
@@ -533,6 +610,8 @@ vdbs_status vdbs_bake(const vdbs_bake_options *o, vdbs_bake_report *report, vdbs
         st = solve(&j.options, j.solver, j.quality, &j.volume, &j.out,
                    o->store == VDBS_STORE_NONE ? NULL : &j.stored, report, err);
         report->seconds_solve = vdbs_now() - t_solve;
+        report->peak_solve = vdbs_memory_peak();
+        report->peak_per_stage &= vdbs_memory_reset_peak();
     }
     if (st == VDBS_OK) {
         for (size_t v = 0; v < j.volume.coord_count; ++v)
@@ -541,6 +620,7 @@ vdbs_status vdbs_bake(const vdbs_bake_options *o, vdbs_bake_report *report, vdbs
         report->stored_direct = j.stored.direct;
         report->stored_sky = j.stored.count - j.stored.direct;
         st = write_lit(&j, report, err);
+        report->peak_write = vdbs_memory_peak();
     }
     if (j.has_volume)
         report->seconds_total = vdbs_now() - t_start;

@@ -160,6 +160,7 @@ static vdbs_status render_reference(const tradeoff_job *j, const char *path, int
     r.warn = j->desc->warn;
     r.warn_user = j->desc->warn_user;
     r.cancel = j->desc->cancel;
+    r.max_memory = j->desc->max_memory;
     vdbs_render_report rep;
     vdbs_status st = vdbs_render(&r, &rep, err);
     *seconds = rep.seconds_render;
@@ -342,6 +343,7 @@ static vdbs_status run_row(tradeoff_job *j, const char *method, int quality, vdb
         b.warn = d->warn;
         b.warn_user = d->warn_user;
         b.cancel = d->cancel;
+        b.max_memory = d->max_memory;
         vdbs_bake_report bake;
         st = vdbs_bake(&b, &bake, err);
         row->seconds_bake = bake.seconds_total;
@@ -358,6 +360,7 @@ static vdbs_status run_row(tradeoff_job *j, const char *method, int quality, vdb
         r.warn = d->warn;
         r.warn_user = d->warn_user;
         r.cancel = d->cancel;
+        r.max_memory = d->max_memory;
         vdbs_render_report rr;
         st = vdbs_render(&r, &rr, err);
         row->seconds_render = rr.seconds_total;

@@ -1510,6 +1510,29 @@ vdbs_status vdbio_check_output(const char *path, const char *input_path, vdbs_er
     return guarded(err, [&] { check_output(path, input_path); });
 }
 
+int64_t vdbio_write_bytes(const int64_t nodes[3], int vec3_grids, int float_grids,
+                          int64_t float_samples)
+{
+    // A node's size holds its child table (InternalNode) or its masks (a leaf, whose values
+    // are allocated beside it).
+    using Vec3Tree = openvdb::Vec3SGrid::TreeType;
+    using Vec3Leaf = Vec3Tree::LeafNodeType;
+    using Vec3Inner = Vec3Tree::RootNodeType::ChildNodeType::ChildNodeType;
+    using Vec3Top = Vec3Tree::RootNodeType::ChildNodeType;
+    using FloatTree = FloatGrid::TreeType;
+    using FloatInner = FloatTree::RootNodeType::ChildNodeType::ChildNodeType;
+    using FloatTop = FloatTree::RootNodeType::ChildNodeType;
+    const int64_t vec3 = nodes[0] * (int64_t)(sizeof(Vec3Leaf) + 512 * sizeof(openvdb::Vec3s)) +
+                         nodes[1] * (int64_t)sizeof(Vec3Inner) +
+                         nodes[2] * (int64_t)sizeof(Vec3Top);
+    const int64_t leaves = (2 * float_samples + 511) / 512;
+    const int64_t inner = float_grids + float_samples / (1 << 20);
+    const int64_t floats =
+        leaves * (int64_t)(sizeof(FloatTree::LeafNodeType) + 512 * sizeof(float)) +
+        inner * (int64_t)sizeof(FloatInner) + float_grids * (int64_t)sizeof(FloatTop);
+    return vec3_grids * vec3 + floats;
+}
+
 vdbs_status vdbio_write(const char *path, const char *input_path,
                         const vdbio_write_request *request, vdbs_error *err)
 {

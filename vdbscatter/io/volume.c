@@ -67,6 +67,30 @@ vdbs_status vdbs_volume_load(const char *path, const vdbio_read_options *options
     return vdbs_volume_from_density(density, volume, err);
 }
 
+void vdbs_volume_node_counts(const vdbs_volume *volume, int64_t counts[3])
+{
+    static const int shift[3] = {3, 7, 12}; /* log2 of a node's side in voxels */
+    for (int level = 0; level < 3; ++level) {
+        int64_t count = 0;
+        int32_t last[3] = {0, 0, 0};
+        for (size_t v = 0; v < volume->coord_count; ++v) {
+            int32_t at[3];
+            for (int a = 0; a < 3; ++a)
+                at[a] = volume->coords[3 * v + a] >> shift[level]; /* floor division */
+            count += v == 0 || at[0] != last[0] || at[1] != last[1] || at[2] != last[2];
+            memcpy(last, at, sizeof last);
+        }
+        counts[level] = count;
+    }
+}
+
+int64_t vdbs_volume_leaf_count(const vdbs_volume *volume)
+{
+    int64_t counts[3];
+    vdbs_volume_node_counts(volume, counts);
+    return counts[0];
+}
+
 void vdbs_volume_free(vdbs_volume *volume)
 {
     if (!volume)

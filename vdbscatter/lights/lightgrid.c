@@ -22,6 +22,9 @@
 /* Samples of one sweep tile: under llvmpipe's 128 MiB storage-buffer limit with room to
  * spare, and a bounded scratch on the C path. */
 #define TILE_SAMPLES ((int64_t)1 << 24)
+/* vdbs_light_grids_estimate plans no grid whose brick map and column records alone exceed
+ * this (1 TiB): it reports that size as the need instead of allocating toward it. */
+#define PLAN_MAX_BYTES 1099511627776.0
 
 static double dot3(const double a[3], const double b[3])
 {
@@ -134,8 +137,10 @@ static vdbs_status mark_live_columns(const vdbs_volume *volume, grid_plan *g, vd
     return VDBS_OK;
 }
 
+/* mark 0: the shape and frame only, no live bits (vdbs_light_grids_estimate sizes them
+ * first). */
 static vdbs_status plan_directional(const vdbs_volume *volume, const double travel[3],
-                                    double spacing, grid_plan *g, vdbs_error *err)
+                                    double spacing, int mark, grid_plan *g, vdbs_error *err)
 {
     double len = sqrt(dot3(travel, travel));
     if (!(len > 0.0) || !isfinite(len))
@@ -190,7 +195,7 @@ static vdbs_status plan_directional(const vdbs_volume *volume, const double trav
         for (int c = 0; c < 3; ++c)
             g->to_grid[r][c] =
                 (axes[r][0] * m[0][c] + axes[r][1] * m[1][c] + axes[r][2] * m[2][c]) / g->spacing;
-    return mark_live_columns(volume, g, err);
+    return mark ? mark_live_columns(volume, g, err) : VDBS_OK;
 }
 
 static vdbs_status plan_radial(const vdbs_volume *volume, const double position[3], int F,
@@ -438,8 +443,8 @@ static double sky_spacing(const vdbs_volume *volume, const vdbs_light_table *lig
 /* One plan per light of [first, first + count): a point light's grid is radial, a sun's or
  * sky ordinate's directional (sky light travels away from its sky). */
 static vdbs_status plan_grids(const vdbs_volume *volume, const vdbs_light_table *lights, int first,
-                              int count, const vdbs_light_grid_desc *desc, grid_plan *plans,
-                              vdbs_error *err)
+                              int count, const vdbs_light_grid_desc *desc, int mark,
+                              grid_plan *plans, vdbs_error *err)
 {
     const int F = oversample_of(desc);
     const double h = min_voxel_length(volume) / F;
@@ -449,11 +454,11 @@ static vdbs_status plan_grids(const vdbs_volume *volume, const vdbs_light_table 
         if (l < lights->direct_count && lights->direct[l].type == VDBS_LIGHT_POINT) {
             st = plan_radial(volume, lights->direct[l].world, F, &plans[g], err);
         } else if (l < lights->direct_count) {
-            st = plan_directional(volume, lights->direct[l].world, h, &plans[g], err);
+            st = plan_directional(volume, lights->direct[l].world, h, mark, &plans[g], err);
         } else {
             const double *w = lights->ordinates[l - lights->direct_count].world;
             double travel[3] = {-w[0], -w[1], -w[2]}; /* sky light travels away from its sky */
-            st = plan_directional(volume, travel, sky_spacing(volume, lights, l, h, desc),
+            st = plan_directional(volume, travel, sky_spacing(volume, lights, l, h, desc), mark,
                                   &plans[g], err);
         }
     }
@@ -598,7 +603,7 @@ vdbs_status vdbs_light_grids_build(vdbs_runner *runner, const vdbs_volume *volum
     grid_layout lay = {0};
     uint32_t *words = NULL;
     depth_store store = {NULL, 0, 0};
-    vdbs_status st = plan_grids(volume, lights, first, count, desc, plans, err);
+    vdbs_status st = plan_grids(volume, lights, first, count, desc, 1, plans, err);
     if (st == VDBS_OK)
         st = layout_grids(plans, count, &lay, &out->stats, err);
     if (st == VDBS_OK)
@@ -620,6 +625,121 @@ vdbs_status vdbs_light_grids_build(vdbs_runner *runner, const vdbs_volume *volum
     out->count = count;
     out->stats.stored = store.count;
     out->stats.seconds_sweep = omp_get_wtime() - t0;
+    return VDBS_OK;
+}
+
+/* Bricks of the support box that hold output voxels (mark_live_columns' bricks, at
+ * multiples of BRICK like the volume's leaves), and the bytes of its brick map. */
+static int64_t occupied_bricks(const vdbs_volume *volume, int64_t *map_bytes)
+{
+    float lo[3], hi[3];
+    vdbs_volume_support_box(volume, lo, hi);
+    *map_bytes = 1;
+    for (int a = 0; a < 3; ++a)
+        *map_bytes *= (int64_t)floor(hi[a] / BRICK) - (int64_t)floor(lo[a] / BRICK) + 1;
+    int64_t count = vdbs_volume_leaf_count(volume);
+    return count < *map_bytes ? count : *map_bytes;
+}
+
+/* The bytes vdbs_light_grids_build holds resident at its peak for a set of `words` words
+ * before the samples, a sweep tile of `tile` samples over `tile_cols` columns and `samples`
+ * stored samples: tile_pack's offsets take 16 bytes a column, and append_depths grows the
+ * words by the samples while the store is still held. The store's capacity beyond its count
+ * (store_reserve doubles it) is never written, so never resident; mark_live_columns' brick
+ * map of `map_bytes` comes and goes before. */
+static int64_t build_peak(int64_t words, int64_t tile, int64_t tile_cols, int64_t samples,
+                          int64_t map_bytes)
+{
+    const int64_t word = (int64_t)sizeof(uint32_t);
+    int64_t sweeping = word * (words + tile + samples) + 16 * tile_cols;
+    int64_t appending = word * (words + 2 * samples);
+    int64_t most = sweeping > appending ? sweeping : appending;
+    return most > map_bytes ? most : map_bytes;
+}
+
+vdbs_status vdbs_light_grids_estimate(const vdbs_volume *volume, const vdbs_light_table *lights,
+                                      int first, int count, const vdbs_light_grid_desc *desc,
+                                      vdbs_light_grids_memory *out, vdbs_error *err)
+{
+    memset(out, 0, sizeof *out);
+    if (volume->coord_count == 0 || count <= 0)
+        return VDBS_OK;
+    int64_t map_bytes = 0;
+    const int64_t bricks = occupied_bricks(volume, &map_bytes);
+    /* The voxels a grid's cells cover: a directional grid's, the output voxels (its stored
+     * stretches hug the density: measured 1.10-1.23 of the stored samples on the procedural
+     * cloud and smoke, tests/test_memory.c); a radial grid's, the occupied bricks' (its cells
+     * near the light are finer than h, so the voxels alone fall short, 0.4; the bricks'
+     * 0.86-1.28). */
+    const double voxels = (double)volume->coord_count;
+    const double in_bricks = (double)bricks * BRICK * BRICK * BRICK;
+    const double voxel = min_voxel_length(volume);
+    int64_t words = VS_LGRIDS_OFF_HEADERS + (int64_t)count * VS_LGRID_WORDS, tile = 1,
+            tile_cols = 1;
+    int64_t samples = 0, plan_bytes = 0;
+    /* One plan at a time: the live bits of 1025 grids at once would be the estimate's own
+     * peak. */
+    for (int g = 0; g < count; ++g) {
+        grid_plan plan;
+        memset(&plan, 0, sizeof plan);
+        const int64_t words_before = words, plan_before = plan_bytes;
+        vdbs_status st = plan_grids(volume, lights, first + g, 1, desc, 0, &plan, err);
+        int64_t columns = plan.n[0] * plan.n[1], live = columns;
+        /* A plan whose own brick map and live bits (or records) are beyond any memory: that
+         * alone is the need, before allocating either. */
+        double records = (double)plan.n[0] * (double)plan.n[1] *
+                         (VS_LGRID_COLUMN_WORDS * sizeof(uint32_t) + 1.0 / 8.0);
+        if (st == VDBS_OK && (double)map_bytes + records > PLAN_MAX_BYTES) {
+            free(plan.radius);
+            out->peak = out->peak_one = out->held =
+                (int64_t)fmin((double)map_bytes + records, (double)INT64_MAX / 4);
+            out->columns = columns;
+            out->cells = (int64_t)fmin((double)columns * (double)plan.n[2], (double)INT64_MAX / 4);
+            return VDBS_OK;
+        }
+        if (st == VDBS_OK && plan.kind == VS_LGRID_DIRECTIONAL)
+            st = mark_live_columns(volume, &plan, err);
+        if (st != VDBS_OK) {
+            free(plan.radius);
+            free(plan.live);
+            return st;
+        }
+        if (plan.live) {
+            live = 0;
+            for (int64_t w = 0; w < (columns + 31) / 32; ++w)
+                live += __builtin_popcount(plan.live[w]);
+        }
+        /* the layout's words, as layout_grids counts them */
+        int64_t live_words = plan.live ? (columns + 31) / 32 : 0;
+        words += (plan.kind == VS_LGRID_RADIAL ? plan.n[2] : 0) + live_words +
+                 VS_LGRID_COLUMN_WORDS * columns;
+        plan_bytes += (int64_t)sizeof(uint32_t) * live_words +
+                      (int64_t)sizeof(double) * (plan.kind == VS_LGRID_RADIAL ? plan.n[2] : 0);
+        /* Stored: a live column keeps the stretch where its depth changes, at most its n2
+         * samples; together about the cells of what the grid covers (above; cells of the
+         * grid's spacing, or a radial grid's h). */
+        double h = plan.kind == VS_LGRID_RADIAL ? voxel / oversample_of(desc) : plan.spacing;
+        double covered = (plan.kind == VS_LGRID_RADIAL ? in_bricks : voxels) * pow(voxel / h, 3.0);
+        double stored = fmin((double)live * (double)plan.n[2], covered);
+        samples += (int64_t)stored;
+        out->columns += columns;
+        out->cells += (int64_t)fmin((double)columns * (double)plan.n[2], (double)INT64_MAX / 4);
+        if (tile_columns(&plan) * plan.n[2] > tile) {
+            tile = tile_columns(&plan) * plan.n[2];
+            tile_cols = tile_columns(&plan);
+        }
+        /* this grid built on its own (vdbs_light_grids_build with count 1) */
+        int64_t own = build_peak(VS_LGRIDS_OFF_HEADERS + VS_LGRID_WORDS + words - words_before,
+                                 tile_columns(&plan) * plan.n[2], tile_columns(&plan),
+                                 (int64_t)stored, map_bytes) +
+                      plan_bytes - plan_before;
+        out->peak_one = own > out->peak_one ? own : out->peak_one;
+        free(plan.radius);
+        free(plan.live);
+    }
+    out->samples = samples;
+    out->held = (int64_t)sizeof(uint32_t) * (words + samples);
+    out->peak = plan_bytes + build_peak(words, tile, tile_cols, samples, map_bytes);
     return VDBS_OK;
 }
 

@@ -344,6 +344,27 @@ static vdbs_status stored_light_grids(vdbs_march_session *s, vdbs_error *err)
     return VDBS_OK;
 }
 
+int64_t vdbs_march_session_bytes(const vdbs_volume *volume, const vdbs_lit_grids *ms,
+                                 int64_t pixels)
+{
+    int64_t bytes = 2 * 3 * (int64_t)sizeof(float) * pixels; /* the gather's `other` and `out` */
+    int depths = ms ? ms->depth_count : 0;
+    if (!vdbs_lit_grids_have_ms(ms) && depths == 0)
+        return bytes; /* the buffer is the volume's own */
+    uint64_t *offsets = malloc(sizeof *offsets * (size_t)(4 + depths));
+    if (!offsets)
+        return bytes;
+    grid_offsets(volume, ms, offsets);
+    int64_t total = (int64_t)offsets[3] + (int64_t)ms->l1z_size;
+    if (depths)
+        total = (int64_t)offsets[3 + depths] + (int64_t)ms->depth[depths - 1].size;
+    free(offsets);
+    int64_t headers = VS_LGRIDS_OFF_HEADERS + (int64_t)depths * VS_LGRID_WORDS;
+    for (int i = 0; i < depths; ++i)
+        headers += ms->depth[i].radial ? ms->depth[i].shells : 0;
+    return bytes + (total + 31) / 32 * 32 + (int64_t)sizeof(uint32_t) * headers;
+}
+
 vdbs_status vdbs_march_session_create(vdbs_runner *runner, const vdbs_volume *volume,
                                       const vdbs_lit_grids *ms, const vdbs_scene *scene,
                                       const vdbs_march_options *options, vdbs_march_session **out,

@@ -9,6 +9,8 @@
 #include <string.h>
 
 #include "vdbscatter/lightgrid.h"
+#include "vdbscatter/lights.h"
+#include "vdbscatter/memory.h"
 #include "vdbscatter/reference.h"
 #include "vdbscatter/quality.h"
 #include "vdbscatter/vdbio.h"
@@ -380,6 +382,60 @@ void vdbs_render_input_free(vdbs_render_input *in)
     memset(in, 0, sizeof *in);
 }
 
+/* --max-memory: the render's estimate from the sizes it allocates, checked once the volume
+ * and the lit grids are loaded, before the light grids (every light's at once) and the
+ * picture. */
+static vdbs_status check_memory(const vdbs_render_desc *d, const vdbs_render_input *in,
+                                vdbs_render_report *report, vdbs_error *err)
+{
+    report->memory_limit = d->max_memory > 0    ? d->max_memory
+                           : d->max_memory == 0 ? vdbs_memory_default_limit()
+                                                : 0;
+    report->memory_baseline = vdbs_memory_rss();
+    vdbs_memory_estimate *e = &report->memory_estimate;
+    memset(e, 0, sizeof *e);
+    const int64_t pixels = (int64_t)in->camera.width * in->camera.height;
+    const int reference = in->mode == VDBS_RENDER_REFERENCE;
+    /* vdbs_image_alloc: rgb, and the standard errors for the reference */
+    vdbs_memory_add(e, "picture", (reference ? 2 : 1) * 3 * (int64_t)sizeof(float) * pixels);
+    int count = 0, oversample = 0;
+    if (!reference) {
+        vdbs_memory_add(e, "render buffers",
+                        vdbs_march_session_bytes(
+                            &in->volume, in->mode == VDBS_RENDER_BAKED ? &in->ms : NULL, pixels));
+        if (!in->stored && !d->s1_march) {
+            vdbs_lights_desc lights_desc = {0};
+            lights_desc.sky_ordinates = in->march.sky_directions;
+            vdbs_light_table lights;
+            vdbs_status st = vdbs_lights_build(&in->volume, in->scene, &lights_desc, &lights, err);
+            if (st != VDBS_OK)
+                return st;
+            count = lights.direct_count + lights.ordinate_count;
+            oversample = d->s1_oversample > 0          ? d->s1_oversample
+                         : in->march.s1_oversample > 0 ? in->march.s1_oversample
+                                                       : VDBS_LIGHT_GRID_DEFAULT_OVERSAMPLE;
+            vdbs_light_grid_desc gd = {oversample, 1, 0.0};
+            vdbs_light_grids_memory lg;
+            st = vdbs_light_grids_estimate(&in->volume, &lights, 0, count, &gd, &lg, err);
+            vdbs_lights_free(&lights);
+            if (st != VDBS_OK)
+                return st;
+            vdbs_memory_add(e, "light grids", lg.peak);
+        }
+    }
+    char what[160];
+    if (count > 0)
+        snprintf(what, sizeof what, "%d light grid%s at --quality %s, --s1-oversample %d", count,
+                 count == 1 ? "" : "s", in->scene->quality, oversample);
+    else
+        snprintf(what, sizeof what, "a %dx%d picture", in->camera.width, in->camera.height);
+    vdbs_memory_estimate all = *e;
+    vdbs_memory_add(&all, "loaded", report->memory_baseline);
+    return vdbs_memory_check(&all, report->memory_limit,
+                             d->max_memory > 0 ? "--max-memory" : VDBS_MEMORY_DEFAULT_SOURCE, what,
+                             count > 0 ? "--quality, --s1-oversample, --size" : "--size", err);
+}
+
 vdbs_status vdbs_render(const vdbs_render_desc *d, vdbs_render_report *report, vdbs_error *err)
 {
     memset(report, 0, sizeof *report);
@@ -396,6 +452,12 @@ vdbs_status vdbs_render(const vdbs_render_desc *d, vdbs_render_report *report, v
     report->mode = vdbs_render_mode_name(in.mode);
     report->camera = in.camera;
     double t_loaded = vdbs_now();
+    if ((st = check_memory(d, &in, report, err)) != VDBS_OK) {
+        vdbs_render_input_free(&in);
+        return st;
+    }
+    report->peak_load = vdbs_memory_peak();
+    report->peak_per_stage = vdbs_memory_reset_peak();
     if (vdbs_cancelled(d->cancel)) {
         vdbs_render_input_free(&in);
         return vdbs_error_cancelled(err);
@@ -413,9 +475,12 @@ vdbs_status vdbs_render(const vdbs_render_desc *d, vdbs_render_report *report, v
         st = render_image(d, in.mode, &in.volume, &in.ms, in.scene, &frame, &in.march, &image,
                           report, err);
     double t_rendered = vdbs_now();
+    report->peak_render = vdbs_memory_peak();
+    report->peak_per_stage &= vdbs_memory_reset_peak();
     if (st == VDBS_OK)
         st = vdbs_image_write_cancel(d->output, &image, d->exposure, d->cancel, err);
     double t_written = vdbs_now();
+    report->peak_write = vdbs_memory_peak();
     /* A cancel after the rename: the new picture stays, the caller still hears of it. */
     if (st == VDBS_OK && vdbs_cancelled(d->cancel))
         st = vdbs_error_cancelled(err);

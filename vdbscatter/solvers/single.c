@@ -148,6 +148,14 @@ vdbs_status vdbs_single_scatter_grids(vdbs_runner *runner, const vdbs_volume *vo
                                          progress, err);
 }
 
+int64_t vdbs_single_scatter_grids_bytes(const vdbs_volume *volume, int camera)
+{
+    /* fluence and depth below; with a camera, view and wo */
+    const int64_t n = (int64_t)volume->coord_count;
+    return n * (3 * (int64_t)sizeof(double) + (int64_t)sizeof(float)) +
+           (camera ? n * (3 * (int64_t)sizeof(double) + 3 * (int64_t)sizeof(float)) : 0);
+}
+
 vdbs_status vdbs_single_scatter_grids_out(vdbs_runner *runner, const vdbs_volume *volume,
                                           const vdbs_scene *scene, const vdbs_light_table *lights,
                                           const vdbs_light_grid_desc *grids,

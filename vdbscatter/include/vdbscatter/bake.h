@@ -5,6 +5,7 @@
 #include "vdbscatter/advice.h"
 #include "vdbscatter/cancel.h"
 #include "vdbscatter/lightgrid.h"
+#include "vdbscatter/memory.h"
 #include "vdbscatter/plan.h"
 #include "vdbscatter/runner.h"
 #include "vdbscatter/scene.h"
@@ -53,6 +54,10 @@ typedef struct vdbs_bake_options {
      * with VDBS_ERR_CANCELLED and leaves no temporary file; the output is the old file, or
      * the complete new one when the flag came after the rename. NULL: never. */
     const vdbs_cancel *cancel;
+    /* Bytes the bake may hold (memory.h): a plan whose estimate, added to what the process
+     * holds once the volume is loaded, exceeds it is VDBS_ERR_INPUT before the solve's
+     * allocations, naming --max-memory. 0: vdbs_memory_default_limit(); < 0: no limit. */
+    int64_t max_memory;
 } vdbs_bake_options;
 
 typedef struct vdbs_bake_report {
@@ -93,6 +98,14 @@ typedef struct vdbs_bake_report {
     int planned;
     vdbs_plan plan;
     vdbs_plan_features plan_features;
+    /* Memory (docs/robustness.md "Bounded memory"): the limit checked (0: none), the resident
+     * set once the volume was loaded, the estimate of what the bake adds to it by part, and
+     * each stage's peak resident set (VmHWM; each stage's own where Linux lets the peak be
+     * reset, peak_per_stage 1, else the process's so far). */
+    int64_t memory_limit, memory_baseline;
+    vdbs_memory_estimate memory_estimate;
+    int64_t peak_load, peak_solve, peak_write;
+    int peak_per_stage;
 } vdbs_bake_report;
 
 vdbs_status vdbs_bake(const vdbs_bake_options *options, vdbs_bake_report *report, vdbs_error *err);

@@ -106,6 +106,21 @@ vdbs_status vdbs_light_grids_lookup_voxels(vdbs_runner *runner, const vdbs_volum
                                            const vdbs_light_grids *grids, int grid, float *depth,
                                            vdbs_error *err);
 
+/* What vdbs_light_grids_build would allocate for the same arguments (bake and render check
+ * it against --max-memory before they build): planned as the build plans, stored samples
+ * estimated (a live column's whole length at most, the occupied bricks' cells at most). */
+typedef struct vdbs_light_grids_memory {
+    int64_t peak;     /* bytes while building the set (words, sweep tile, sample store) */
+    int64_t peak_one; /* the same for the largest grid built on its own (count 1) */
+    int64_t held;     /* bytes of the built set */
+    int64_t samples;  /* depth samples stored (vdbs_light_grids_samples keeps about as many) */
+    int64_t columns, cells;
+} vdbs_light_grids_memory;
+
+vdbs_status vdbs_light_grids_estimate(const vdbs_volume *volume, const vdbs_light_table *lights,
+                                      int first, int count, const vdbs_light_grid_desc *desc,
+                                      vdbs_light_grids_memory *memory, vdbs_error *err);
+
 /* On the GPU, whether the set fits one storage buffer (VDBS_ERR_GPU naming --s1-oversample,
  * --quality and --backend cpu if not); always VDBS_OK on the C path. */
 vdbs_status vdbs_light_grids_fit(vdbs_runner *runner, const vdbs_light_grids *grids,

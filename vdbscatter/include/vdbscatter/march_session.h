@@ -90,6 +90,13 @@ vdbs_status vdbs_render_buffer(const vdbs_volume *volume, const vdbs_lit_grids *
 /* A backdrop distance that means "no surface on this pixel" (shaders' VS_T_INFINITE). */
 #define VDBS_NO_SURFACE 1.0e30f
 
+/* What a march session allocates for a picture of `pixels` beside its light grids
+ * (vdbs_light_grids_estimate, all lights at once): the copy of the grids into one buffer
+ * (vdbs_render_buffer), the stored depths' headers, and the interleaved gather's two
+ * pictures. */
+int64_t vdbs_march_session_bytes(const vdbs_volume *volume, const vdbs_lit_grids *ms,
+                                 int64_t pixels);
+
 /* A render that keeps everything but the camera between pictures (the viewer): the grids,
  * the light table and the light grids are built once, and on the GPU they stay resident.
  * volume and ms must outlive the session. */

@@ -19,6 +19,7 @@
 #include "vdbscatter/runner.h"
 #include "vdbscatter/litvdb.h"
 #include "vdbscatter/march_session.h"
+#include "vdbscatter/memory.h"
 #include "vdbscatter/scene.h"
 #include "vdbscatter/status.h"
 #include "vdbscatter/volume.h"
@@ -98,6 +99,9 @@ typedef struct vdbs_render_desc {
      * with VDBS_ERR_CANCELLED and leaves no temporary image; the old picture stays unless
      * the new one was already renamed into place. NULL: never. */
     const vdbs_cancel *cancel;
+    /* Bytes the render may hold (memory.h; as vdbs_bake_options.max_memory): checked once the
+     * volume is loaded, before the light grids and the picture. 0: the default; < 0: none. */
+    int64_t max_memory;
 } vdbs_render_desc;
 
 typedef struct vdbs_render_report {
@@ -120,6 +124,12 @@ typedef struct vdbs_render_report {
     char s1[8];
     int s1_oversample;
     vdbs_render_stats march_stats;
+    /* As vdbs_bake_report's: the limit, the resident set once loaded, the estimate by part,
+     * the peaks of the load, the render and the write. */
+    int64_t memory_limit, memory_baseline;
+    vdbs_memory_estimate memory_estimate;
+    int64_t peak_load, peak_render, peak_write;
+    int peak_per_stage;
 } vdbs_render_report;
 
 vdbs_status vdbs_render(const vdbs_render_desc *desc, vdbs_render_report *report, vdbs_error *err);

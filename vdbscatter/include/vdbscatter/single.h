@@ -79,6 +79,10 @@ vdbs_status vdbs_single_scatter_grids_out(vdbs_runner *runner, const vdbs_volume
                                           const vdbs_s1_outputs *out, vdbs_s1_stats *stats,
                                           vdbs_progress *progress, vdbs_error *err);
 
+/* What vdbs_single_scatter_grids_out allocates beside its light grids (built one light at a
+ * time; vdbs_light_grids_estimate's peak_one): per-voxel sums, and with a camera the view's. */
+int64_t vdbs_single_scatter_grids_bytes(const vdbs_volume *volume, int camera);
+
 #ifdef __cplusplus
 }
 #endif

@@ -46,6 +46,7 @@ typedef struct vdbs_tradeoff_desc {
     vdbs_warn_fn warn;
     void *warn_user;
     const vdbs_cancel *cancel; /* polled through every bake and render; NULL: never */
+    int64_t max_memory;        /* every bake's and render's (vdbs_bake_options.max_memory) */
 } vdbs_tradeoff_desc;
 
 /* One method at one quality. */

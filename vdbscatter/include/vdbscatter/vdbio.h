@@ -178,6 +178,15 @@ vdbs_status vdbio_check_output(const char *path, const char *input_path, vdbs_er
 vdbs_status vdbio_write(const char *path, const char *input_path,
                         const vdbio_write_request *request, vdbs_error *err);
 
+/* What vdbio_write holds at its peak beside the caller's arrays: it builds the OpenVDB tree
+ * of every grid before it writes any. nodes: the nodes of each level the output voxels touch
+ * (vdbs_volume_node_counts: leaves of 8^3, then 128^3 and 4096^3 internal nodes, whose child
+ * tables are whole once one voxel is on), each in every one of vec3_grids grids;
+ * float_samples: the voxels of float_grids grids of their own (stored depths: half-full
+ * leaves, one top node each and an inner node per 2^20 samples). */
+int64_t vdbio_write_bytes(const int64_t nodes[3], int vec3_grids, int float_grids,
+                          int64_t float_samples);
+
 /* A lit VDB opened for reading back (tests, `render --mode baked`): every grid of
  * the file is loaded; lookups go through per-thread cached accessors, so one
  * vdbio_lit may be shared by many threads. With duplicate names the first grid wins. */

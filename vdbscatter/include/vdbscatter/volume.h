@@ -34,6 +34,13 @@ vdbs_status vdbs_volume_from_density(vdbio_density *density, vdbs_volume *volume
 
 void vdbs_volume_free(vdbs_volume *volume);
 
+/* The 8^3 bricks (OpenVDB's leaves: origins at multiples of 8) that hold output voxels,
+ * counted in the coords' order (leaf by leaf as read; an overcount, never an undercount,
+ * were they not). */
+int64_t vdbs_volume_leaf_count(const vdbs_volume *volume);
+/* The same for OpenVDB's nodes of each level, leaves first: 8^3, 128^3 and 4096^3 voxels. */
+void vdbs_volume_node_counts(const vdbs_volume *volume, int64_t counts[3]);
+
 /* Index-space image of a world-space vector (linear part of the inverse map). */
 void vdbs_volume_index_vector(const vdbs_volume *volume, const double world[3], double index[3]);
 void vdbs_volume_index_point(const vdbs_volume *volume, const double world[3], double index[3]);
