@@ -390,8 +390,7 @@ static double true_residual(const fld_system *sys, int ch, const double *b, cons
     const vdbs_fld_grid *g = sys->grid;
     const int64_t stride[3] = {1, g->n[0], (int64_t)g->n[0] * g->n[1]};
     const int k_axis[3] = {VS_FLD_COEF_X, VS_FLD_COEF_Y, VS_FLD_COEF_Z};
-    double norm = 0.0, total = 0.0;
-#pragma omp parallel for schedule(static) reduction(+ : norm, total)
+#pragma omp parallel for schedule(static)
     for (int64_t c = 0; c < sys->cells; ++c) {
         int at[3];
         cell_at(g, c, at);
@@ -406,6 +405,11 @@ static double true_residual(const fld_system *sys, int ch, const double *b, cons
                      (x[c] - x[c - stride[a]]);
         }
         r[c] = b[c] - y;
+    }
+    /* Summed in cell order, not by an OpenMP reduction (whose order follows the thread count):
+     * the sums decide when CG stops, and so the bits of phi. */
+    double norm = 0.0, total = 0.0;
+    for (int64_t c = 0; c < sys->cells; ++c) {
         norm += r[c] * r[c];
         total += r[c];
     }

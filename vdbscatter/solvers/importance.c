@@ -23,6 +23,10 @@
 #define IMPORTANCE_MEDIUM_CELLS 16
 /* Doubles per scattering cell of the projection: weight, anisotropy, direction, centroid. */
 #define IMPORTANCE_SOURCE_WORDS 8
+/* Chunks of texels whose seeded importance is summed apart and then added in chunk order: an
+ * OpenMP reduction adds in an order set by the threads, and the sum sets the propagation's
+ * tolerance, so the map would depend on the thread count. */
+#define IMPORTANCE_SEED_CHUNKS 256
 
 /* The camera rays' first-scattered importance per frustum cell, as POP lobes: every pixel's
  * ray carries the same importance per image-plane area, loses albedo (T_in - T_out) of it to
@@ -34,34 +38,44 @@ static double seed(const vdbs_radial_frame *f, const vdbs_volume *volume,
     const int n0 = f->n[0], n1 = f->n[1], n2 = f->n[2], sub = IMPORTANCE_SUBRAYS;
     const double albedo = (scene->albedo[0] + scene->albedo[1] + scene->albedo[2]) / 3.0;
     const double step = volume->mean_voxel_size, g = scene->g;
-    double total = 0.0;
-#pragma omp parallel for schedule(dynamic, 4) reduction(+ : total)
-    for (int t = 0; t < n0 * n1; ++t) {
-        for (int p = 0; p < sub * sub; ++p) {
-            double d[3];
-            vdbs_radial_direction(f, t % n0 + (p % sub + 0.5) / sub, t / n0 + (p / sub + 0.5) / sub,
-                                  d);
-            const double weight = 1.0 / (sub * sub);
-            double tau = 0.0, r = f->radius[0], t_prev = 1.0;
-            for (int k = 0; k < n2; ++k) {
-                const double r_end = f->radius[k + 1];
-                while (r < r_end) {
-                    double dr = fmin(step, r_end - r), w[3], idx[3];
-                    for (int a = 0; a < 3; ++a)
-                        w[a] = f->centre[a] + (r + 0.5 * dr) * d[a];
-                    vdbs_volume_index_point(volume, w, idx);
-                    tau += scene->density_scale * vdbs_medium_box_density(box, idx) * dr;
-                    r += dr;
+    const int texels = n0 * n1;
+    double part[IMPORTANCE_SEED_CHUNKS] = {0.0};
+#pragma omp parallel for schedule(dynamic, 1)
+    for (int chunk = 0; chunk < IMPORTANCE_SEED_CHUNKS; ++chunk) {
+        double total = 0.0;
+        const int first = (int)((int64_t)texels * chunk / IMPORTANCE_SEED_CHUNKS);
+        const int end = (int)((int64_t)texels * (chunk + 1) / IMPORTANCE_SEED_CHUNKS);
+        for (int t = first; t < end; ++t) {
+            for (int p = 0; p < sub * sub; ++p) {
+                double d[3];
+                vdbs_radial_direction(f, t % n0 + (p % sub + 0.5) / sub,
+                                      t / n0 + (p / sub + 0.5) / sub, d);
+                const double weight = 1.0 / (sub * sub);
+                double tau = 0.0, r = f->radius[0], t_prev = 1.0;
+                for (int k = 0; k < n2; ++k) {
+                    const double r_end = f->radius[k + 1];
+                    while (r < r_end) {
+                        double dr = fmin(step, r_end - r), w[3], idx[3];
+                        for (int a = 0; a < 3; ++a)
+                            w[a] = f->centre[a] + (r + 0.5 * dr) * d[a];
+                        vdbs_volume_index_point(volume, w, idx);
+                        tau += scene->density_scale * vdbs_medium_box_density(box, idx) * dr;
+                        r += dr;
+                    }
+                    double tr = exp(-tau), lost = albedo * weight * (t_prev - tr);
+                    t_prev = tr;
+                    float *cell = state + ((int64_t)k * n0 * n1 + t) * VS_POP_STATE_WORDS;
+                    for (int ch = 0; ch < 3; ++ch)
+                        cell[VS_POP_STATE_L + ch] += (float)lost;
+                    total += lost;
                 }
-                double tr = exp(-tau), lost = albedo * weight * (t_prev - tr);
-                t_prev = tr;
-                float *cell = state + ((int64_t)k * n0 * n1 + t) * VS_POP_STATE_WORDS;
-                for (int ch = 0; ch < 3; ++ch)
-                    cell[VS_POP_STATE_L + ch] += (float)lost;
-                total += lost;
             }
         }
+        part[chunk] = total;
     }
+    double total = 0.0;
+    for (int chunk = 0; chunk < IMPORTANCE_SEED_CHUNKS; ++chunk)
+        total += part[chunk];
     vdbs_pop_start_lobes(state, vdbs_radial_cells(f), g, 0, f);
     return 3.0 * total;
 }

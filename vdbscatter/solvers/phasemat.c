@@ -1,5 +1,7 @@
+#define _POSIX_C_SOURCE 200809L /* dlopen */
 #include "vdbscatter/phasemat.h"
 
+#include <dlfcn.h>
 #include <lapacke.h>
 #include <math.h>
 #include <stdlib.h>
@@ -11,6 +13,45 @@
 /* Sinkhorn sweeps at most, and the row-sum error that stops them. */
 #define PHASEMAT_BALANCE_SWEEPS 10000
 #define PHASEMAT_BALANCE_TOLERANCE 1e-14
+
+/* OpenBLAS's thread count, where the BLAS under LAPACKE is OpenBLAS (else NULL): found at run
+ * time, so that any BLAS still links. */
+typedef void (*blas_set_threads)(int);
+typedef int (*blas_get_threads)(void);
+
+static void openblas_threads(blas_set_threads *set, blas_get_threads *get)
+{
+    *set = NULL;
+    *get = NULL;
+    void *self = dlopen(NULL, RTLD_LAZY);
+    if (!self)
+        return;
+    void *s = dlsym(self, "openblas_set_num_threads"), *g = dlsym(self, "openblas_get_num_threads");
+    if (s && g) {
+        /* memcpy: ISO C has no cast from an object pointer to a function pointer. */
+        memcpy(set, &s, sizeof *set);
+        memcpy(get, &g, sizeof *get);
+    }
+    dlclose(self);
+}
+
+/* dsyevd on one BLAS thread: threaded OpenBLAS splits its products by the thread count
+ * (OMP_NUM_THREADS), which changes their summation order and so the eigenvectors' last bits,
+ * and with them every SVD bake's grids; one thread makes the factorisation the same whatever
+ * the thread count (docs/robustness.md#determinism). */
+static lapack_int eigensolve(int d, double *vec, double *s)
+{
+    blas_set_threads set;
+    blas_get_threads get;
+    openblas_threads(&set, &get);
+    const int threads = get ? get() : 1;
+    if (set)
+        set(1);
+    lapack_int info = LAPACKE_dsyevd(LAPACK_ROW_MAJOR, 'V', 'U', d, vec, d, s);
+    if (set)
+        set(threads);
+    return info;
+}
 
 static double hg(double g, double mu)
 {
@@ -110,7 +151,7 @@ vdbs_status vdbs_phasemat_build(const vdbs_phasemat_desc *desc, vdbs_phasemat *m
     balance(d, m->p, s, s + d);
     /* dsyevd overwrites its input with the eigenvectors (columns, row-major here). */
     memcpy(vec, m->p, sizeof *vec * n);
-    lapack_int info = LAPACKE_dsyevd(LAPACK_ROW_MAJOR, 'V', 'U', d, vec, d, s);
+    lapack_int info = eigensolve(d, vec, s);
     if (info != 0) {
         st = vdbs_error_set(err, VDBS_ERR_INTERNAL, "the phase matrix's eigensolve failed (%d)",
                             (int)info);

@@ -30,6 +30,11 @@
 #define POP_DEFAULT_RESOLUTION 4
 /* Sub-columns per cell and axis that seed a cell from the fine S1 grid, at most. */
 #define POP_SEED_SUBCOLUMNS 64
+/* Chunks of columns (texels) whose seeded power is summed apart and then added in chunk order:
+ * an OpenMP reduction adds in an order set by the thread count and the dynamic schedule, and
+ * the seeded power sets the propagation's tolerance, so the grids would depend on the
+ * threads. The count is fixed, not the threads'. */
+#define POP_SEED_CHUNKS 256
 
 void vdbs_pop_quality(const char *quality, int *ordinates, double *epsilon_l, int *radial)
 {
@@ -73,6 +78,12 @@ static void run_free(pop_run *r)
     free(r->iso_residual);
 }
 
+/* The first column of seed chunk `chunk` of `columns`. */
+static int seed_chunk_begin(int columns, int chunk)
+{
+    return (int)((int64_t)columns * chunk / POP_SEED_CHUNKS);
+}
+
 /* Seeds the state of one directional grid (light `l` of the POP table): per cell the mean over
  * sub-columns of albedo E (T_in - T_out) from the fine grid, as a lobe of anisotropy a0;
  * returns the seeded sum over cells and channels, and in *beam the same sum of what the beam
@@ -88,38 +99,50 @@ static double seed_grid(const pop_run *r, int l, const vdbs_coarse_frame *f, con
     int sub = (int)ceil(2.0 * f->h / s->volume->mean_voxel_size - 1e-9);
     sub = sub < 1 ? 1 : (sub > POP_SEED_SUBCOLUMNS ? POP_SEED_SUBCOLUMNS : sub);
     const int n0 = f->n[0], n1 = f->n[1], n2 = f->n[2];
-    double total = 0.0, beam_total = 0.0;
-#pragma omp parallel for schedule(dynamic, 4) reduction(+ : total, beam_total)
-    for (int col = 0; col < n0 * n1; ++col) {
-        int i = col % n0, j = col / n0;
-        for (int p = 0; p < sub * sub; ++p) {
-            double x[3] = {i + (p % sub + 0.5) / sub, j + (p / sub + 0.5) / sub, 0.0};
-            double t_prev = 1.0;
-            for (int k = 0; k < n2; ++k) {
+    double part[POP_SEED_CHUNKS][2] = {{0.0}};
+#pragma omp parallel for schedule(dynamic, 1)
+    for (int chunk = 0; chunk < POP_SEED_CHUNKS; ++chunk) {
+        double total = 0.0, beam_total = 0.0;
+        for (int col = seed_chunk_begin(n0 * n1, chunk); col < seed_chunk_begin(n0 * n1, chunk + 1);
+             ++col) {
+            int i = col % n0, j = col / n0;
+            for (int p = 0; p < sub * sub; ++p) {
+                double x[3] = {i + (p % sub + 0.5) / sub, j + (p / sub + 0.5) / sub, 0.0};
+                double t_prev = 1.0;
+                for (int k = 0; k < n2; ++k) {
+                    double w[3], idx[3];
+                    x[2] = k + 1.0;
+                    vdbs_coarse_point(f, x, w);
+                    vdbs_volume_index_point(s->volume, w, idx);
+                    double t = exp(-(double)vdbs_light_grids_depth(&r->fine, l, idx));
+                    double lost = (t_prev - t) / (sub * sub);
+                    t_prev = t;
+                    float *cell = state + ((int64_t)(k * n1 + j) * n0 + i) * VS_POP_STATE_WORDS;
+                    for (int c = 0; c < 3; ++c) {
+                        double v = albedo[c] * e[c] * lost;
+                        cell[VS_POP_STATE_L + c] += (float)v;
+                        total += v;
+                    }
+                }
                 double w[3], idx[3];
-                x[2] = k + 1.0;
+                x[2] = n2 + 4.0;
                 vdbs_coarse_point(f, x, w);
                 vdbs_volume_index_point(s->volume, w, idx);
-                double t = exp(-(double)vdbs_light_grids_depth(&r->fine, l, idx));
-                double lost = (t_prev - t) / (sub * sub);
-                t_prev = t;
-                float *cell = state + ((int64_t)(k * n1 + j) * n0 + i) * VS_POP_STATE_WORDS;
-                for (int c = 0; c < 3; ++c) {
-                    double v = albedo[c] * e[c] * lost;
-                    cell[VS_POP_STATE_L + c] += (float)v;
-                    total += v;
-                }
+                double lost =
+                    -expm1(-(double)vdbs_light_grids_depth(&r->fine, l, idx)) / (sub * sub);
+                for (int c = 0; c < 3; ++c)
+                    beam_total += albedo[c] * e[c] * lost;
             }
-            double w[3], idx[3];
-            x[2] = n2 + 4.0;
-            vdbs_coarse_point(f, x, w);
-            vdbs_volume_index_point(s->volume, w, idx);
-            double lost = -expm1(-(double)vdbs_light_grids_depth(&r->fine, l, idx)) / (sub * sub);
-            for (int c = 0; c < 3; ++c)
-                beam_total += albedo[c] * e[c] * lost;
         }
+        part[chunk][0] = total;
+        part[chunk][1] = beam_total;
     }
-    *beam = beam_total;
+    double total = 0.0;
+    *beam = 0.0;
+    for (int chunk = 0; chunk < POP_SEED_CHUNKS; ++chunk) {
+        total += part[chunk][0];
+        *beam += part[chunk][1];
+    }
     const int64_t cells = vdbs_coarse_cells(f);
     vdbs_pop_start_lobes(state, cells, a0, r->desc.tally_cell, NULL);
     return total;
@@ -285,43 +308,54 @@ static double seed_radial(const pop_run *r, int l, const vdbs_radial_frame *f, d
     /* Sub-rays about two voxels apart where the grid ends. */
     int sub = (int)ceil(r_out * sqrt(f->omega[0]) / (2.0 * s->volume->mean_voxel_size));
     sub = sub < 2 ? 2 : (sub > 16 ? 16 : sub);
-    double total = 0.0, beam_total = 0.0;
-#pragma omp parallel for schedule(dynamic, 4) reduction(+ : total, beam_total)
-    for (int t = 0; t < n0 * n1; ++t) {
-        const int i = t % n0, j = t / n0;
-        double dom_sum = 0.0, d[3];
-        for (int p = 0; p < sub * sub; ++p)
-            dom_sum +=
-                vdbs_radial_direction(f, i + (p % sub + 0.5) / sub, j + (p / sub + 0.5) / sub, d);
-        for (int p = 0; p < sub * sub; ++p) {
-            double dom =
-                vdbs_radial_direction(f, i + (p % sub + 0.5) / sub, j + (p / sub + 0.5) / sub, d);
-            dom *= f->omega[t] / dom_sum;
-            double t_prev = 1.0;
-            for (int k = 0; k <= n2; ++k) {
-                /* k == n2: far beyond the grid, for the beam's whole loss. */
-                double radius = k < n2 ? f->radius[k + 1] : 2.0 * r_out + 1.0, w[3], idx[3];
-                for (int a = 0; a < 3; ++a)
-                    w[a] = f->centre[a] + radius * d[a];
-                vdbs_volume_index_point(s->volume, w, idx);
-                double tr = exp(-(double)vdbs_light_grids_depth(&r->fine, l, idx));
-                if (k == n2) {
-                    for (int c = 0; c < 3; ++c)
-                        beam_total += albedo[c] * dl->color[c] * dom * (1.0 - tr);
-                    break;
-                }
-                double lost = (t_prev - tr) * dom;
-                t_prev = tr;
-                float *cell = state + ((int64_t)k * n0 * n1 + t) * VS_POP_STATE_WORDS;
-                for (int c = 0; c < 3; ++c) {
-                    double v = albedo[c] * dl->color[c] * lost;
-                    cell[VS_POP_STATE_L + c] += (float)v;
-                    total += v;
+    double part[POP_SEED_CHUNKS][2] = {{0.0}};
+#pragma omp parallel for schedule(dynamic, 1)
+    for (int chunk = 0; chunk < POP_SEED_CHUNKS; ++chunk) {
+        double total = 0.0, beam_total = 0.0;
+        for (int t = seed_chunk_begin(n0 * n1, chunk); t < seed_chunk_begin(n0 * n1, chunk + 1);
+             ++t) {
+            const int i = t % n0, j = t / n0;
+            double dom_sum = 0.0, d[3];
+            for (int p = 0; p < sub * sub; ++p)
+                dom_sum += vdbs_radial_direction(f, i + (p % sub + 0.5) / sub,
+                                                 j + (p / sub + 0.5) / sub, d);
+            for (int p = 0; p < sub * sub; ++p) {
+                double dom = vdbs_radial_direction(f, i + (p % sub + 0.5) / sub,
+                                                   j + (p / sub + 0.5) / sub, d);
+                dom *= f->omega[t] / dom_sum;
+                double t_prev = 1.0;
+                for (int k = 0; k <= n2; ++k) {
+                    /* k == n2: far beyond the grid, for the beam's whole loss. */
+                    double radius = k < n2 ? f->radius[k + 1] : 2.0 * r_out + 1.0, w[3], idx[3];
+                    for (int a = 0; a < 3; ++a)
+                        w[a] = f->centre[a] + radius * d[a];
+                    vdbs_volume_index_point(s->volume, w, idx);
+                    double tr = exp(-(double)vdbs_light_grids_depth(&r->fine, l, idx));
+                    if (k == n2) {
+                        for (int c = 0; c < 3; ++c)
+                            beam_total += albedo[c] * dl->color[c] * dom * (1.0 - tr);
+                        break;
+                    }
+                    double lost = (t_prev - tr) * dom;
+                    t_prev = tr;
+                    float *cell = state + ((int64_t)k * n0 * n1 + t) * VS_POP_STATE_WORDS;
+                    for (int c = 0; c < 3; ++c) {
+                        double v = albedo[c] * dl->color[c] * lost;
+                        cell[VS_POP_STATE_L + c] += (float)v;
+                        total += v;
+                    }
                 }
             }
         }
+        part[chunk][0] = total;
+        part[chunk][1] = beam_total;
     }
-    *beam = beam_total;
+    double total = 0.0;
+    *beam = 0.0;
+    for (int chunk = 0; chunk < POP_SEED_CHUNKS; ++chunk) {
+        total += part[chunk][0];
+        *beam += part[chunk][1];
+    }
     vdbs_pop_start_lobes(state, vdbs_radial_cells(f), g, r->desc.tally_cell, f);
     return total;
 }
