@@ -114,9 +114,15 @@ static int two_blobs(int i, int j, int k)
 static void make_volume(int kind, vdbs_volume *volume)
 {
     switch (kind) {
-    case VOL_ONE: make_dense(1, 1, 1, NULL, volume); break;
-    case VOL_CUBE: make_dense(8, 8, 8, NULL, volume); break;
-    case VOL_BLOBS: make_dense(30, 3, 3, two_blobs, volume); break;
+    case VOL_ONE:
+        make_dense(1, 1, 1, NULL, volume);
+        break;
+    case VOL_CUBE:
+        make_dense(8, 8, 8, NULL, volume);
+        break;
+    case VOL_BLOBS:
+        make_dense(30, 3, 3, two_blobs, volume);
+        break;
     default: {
         /* its own voxel side: make_scene sets the density scale per voxel side */
         test_sample_volume("cloud", 16, 1, volume);
@@ -154,8 +160,7 @@ static double env_integral(void)
 {
     double total = 0.0;
     for (int y = 0; y < ENV_H; ++y) {
-        const double omega =
-            2.0 * PI / ENV_W * (cos(y * PI / ENV_H) - cos((y + 1) * PI / ENV_H));
+        const double omega = 2.0 * PI / ENV_W * (cos(y * PI / ENV_H) - cos((y + 1) * PI / ENV_H));
         for (int x = 0; x < ENV_W; ++x)
             total += omega * (x == ENV_HOT_X && y == ENV_HOT_Y ? ENV_HOT : ENV_BASE);
     }
@@ -198,7 +203,9 @@ static void make_scene(vdbs_scene *scene, const vdbs_solver *solver, int light, 
         if (light == LIGHT_POINT_OUT)
             l->position[0] += 0.2, l->position[1] += 2.0 * ext + 0.3, l->position[2] -= 0.1;
         break;
-    case LIGHT_SKY: l->type = VDBS_LIGHT_ENV; break;
+    case LIGHT_SKY:
+        l->type = VDBS_LIGHT_ENV;
+        break;
     default: {
         l->type = VDBS_LIGHT_ENV;
         vdbs_error err;
@@ -242,7 +249,9 @@ static void entering_power(const vdbs_scene *scene, int light, const box *b, dou
         factor = fabs(d[0]) * area[0] + fabs(d[1]) * area[1] + fabs(d[2]) * area[2];
         break;
     }
-    case LIGHT_POINT_IN: factor = 4.0 * PI; break;
+    case LIGHT_POINT_IN:
+        factor = 4.0 * PI;
+        break;
     case LIGHT_POINT_OUT: {
         /* intensity times the solid angle of the box's bounding sphere (>= the box's) */
         double dist = 0.0;
@@ -253,7 +262,9 @@ static void entering_power(const vdbs_scene *scene, int light, const box *b, dou
                                : 4.0 * PI;
         break;
     }
-    case LIGHT_SKY: factor = PI * 2.0 * (area[0] + area[1] + area[2]); break;
+    case LIGHT_SKY:
+        factor = PI * 2.0 * (area[0] + area[1] + area[2]);
+        break;
     default: {
         /* the largest projected area of a box is at most the sum of three face areas;
          * the power is at most that times the integral of the radiance over the sphere */
@@ -378,11 +389,13 @@ static void case_name(const case_desc *c, const vdbs_solver *solver, char *buf, 
              TAUS[c->tau], (int)lround(log2(SCALES[c->scale])));
 }
 
-/* Exact scaling (bit for bit) is asserted for the solvers listed here; the others to
- * LINEAR_TOL relative. Why: see docs/robustness.md "Extremes" (a relative stopping rule,
- * limiter or clamp sees the same ratios at any scale, but float sums in a different order
- * across threads and thresholds against absolute epsilons do not scale exactly). */
-static const char *const EXACT_SCALING[] = {"single", NULL};
+/* Exact scaling (bit for bit) is asserted for the solvers listed here, a solver not listed
+ * to LINEAR_TOL relative. These four are homogeneous of degree one in the lights: their
+ * stopping rules (SVD's and POP's residuals, FLD's CG tolerance) are relative, the limiter and
+ * the clamps compare ratios, their sums run in a fixed order, and a power of two scales a
+ * normal float exactly (docs/robustness.md "Extremes"; measured exact in every case). A
+ * solver with an absolute threshold or epsilon would scale only to rounding. */
+static const char *const EXACT_SCALING[] = {"single", "pop", "fld", "svd", NULL};
 #define LINEAR_TOL 1e-5
 
 static int exact_scaling(const vdbs_solver *solver)
@@ -450,7 +463,8 @@ values_done:;
         double absorbed = 0.0;
         for (size_t v = 0; v < n; ++v) {
             const float d = vdbio_density_value(volume->density, volume->coords + 3 * v);
-            absorbed += d * scene.density_scale * (1.0 - ALBEDOS[c->albedo]) * o.radiance[3 * v + ch];
+            absorbed +=
+                d * scene.density_scale * (1.0 - ALBEDOS[c->albedo]) * o.radiance[3 * v + ch];
         }
         absorbed *= 4.0 * PI * vv;
         const double ratio = absorbed / enter[ch];
@@ -498,8 +512,7 @@ values_done:;
                 finding("%s: %g iterations over the cap %g", name, x, cap);
         }
         if (has_conv && conv != 0.0 && requested > 0.0 && !(res <= requested))
-            finding("%s: reported converged with residual %g > requested %g", name, res,
-                    requested);
+            finding("%s: reported converged with residual %g > requested %g", name, res, requested);
         if (has_conv && conv == 0.0 && cap > 0.0 && x < cap)
             finding("%s: not converged after %g of %g iterations", name, x, cap);
     }
@@ -714,8 +727,8 @@ static void test_reference_corners(void **state)
                               isfinite(image.se[i]) && image.se[i] >= 0.0f))
                             finding("reference: %s, albedo %g, g %g, tau/voxel %g: pixel value "
                                     "%d is %g (se %g)",
-                                    LIGHT_NAMES[light], ALBEDOS[a], GS[g], TAUS[t], i,
-                                    image.rgb[i], image.se[i]);
+                                    LIGHT_NAMES[light], ALBEDOS[a], GS[g], TAUS[t], i, image.rgb[i],
+                                    image.se[i]);
                     ++renders;
                 }
     print_message("reference: %d corner renders\n", renders);
@@ -728,13 +741,15 @@ static void write_table(const char *path)
     FILE *f = fopen(path, "w");
     if (!f)
         fail_msg("cannot write %s", path);
-    fprintf(f, "# Extremes matrix (%s)\n\n"
-               "Written by `VDBSCATTER_EXTREMES_TABLE=PATH build/tests/test_extremes%s` "
-               "(tests/test_extremes.c; docs/robustness.md \"Extremes\"). Quality low, C path.\n\n",
+    fprintf(f,
+            "# Extremes matrix (%s)\n\n"
+            "Written by `VDBSCATTER_EXTREMES_TABLE=PATH build/tests/test_extremes%s` "
+            "(tests/test_extremes.c; docs/robustness.md \"Extremes\"). Quality low, C path.\n\n",
             FULL ? "full" : "slice", FULL ? " full" : "");
-    fprintf(f, "| solver | cases | worst absorbed/entered | worst own balance | "
-               "iterations / cap (worst) | worst scaling error | largest radiance | failing cases |\n"
-               "|---|---:|---:|---:|---:|---:|---:|---:|\n");
+    fprintf(f,
+            "| solver | cases | worst absorbed/entered | worst own balance | "
+            "iterations / cap (worst) | worst scaling error | largest radiance | failing cases |\n"
+            "|---|---:|---:|---:|---:|---:|---:|---:|\n");
     const int solvers = solver_count();
     for (int s = 0; s < solvers; ++s) {
         const row_stats *r = &STATS[s];
@@ -768,8 +783,8 @@ int main(int argc, char **argv)
 {
     FULL = argc > 1 && strcmp(argv[1], "full") == 0;
     const struct CMUnitTest tests[] = {
-        cmocka_unit_test(test_covering_array),   cmocka_unit_test(test_grid),
-        cmocka_unit_test(test_covering_cases),   cmocka_unit_test(test_reference_corners),
+        cmocka_unit_test(test_covering_array), cmocka_unit_test(test_grid),
+        cmocka_unit_test(test_covering_cases), cmocka_unit_test(test_reference_corners),
         cmocka_unit_test(test_verdict),
     };
     int rc = cmocka_run_group_tests(tests, NULL, NULL);
