@@ -11,6 +11,17 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#if defined(__SANITIZE_ADDRESS__)
+#define VDBS_SANITIZED 1
+#elif defined(__has_feature)
+#if __has_feature(address_sanitizer)
+#define VDBS_SANITIZED 1
+#endif
+#endif
+#ifdef VDBS_SANITIZED
+#include <sanitizer/common_interface_defs.h>
+#endif
+
 int vdbs_contain_write(int fd, const void *data, size_t size)
 {
     const char *p = data;
@@ -81,6 +92,17 @@ vdbs_status vdbs_contain_run(const char *path, const char *library,
                               strerror(errno));
     }
     if (pid == 0) {
+        /* A crash must end the child by its signal, whatever handlers the caller (or a
+         * sanitizer) installed, so that the parent sees and names it. */
+        const int fatal[] = {SIGSEGV, SIGBUS, SIGABRT, SIGFPE, SIGILL};
+        for (size_t i = 0; i < sizeof fatal / sizeof *fatal; ++i)
+            signal(fatal[i], SIG_DFL);
+#ifdef VDBS_SANITIZED
+        /* A sanitizer's report in the child (an overflow inside the library) ends the child
+         * like a crash; a death callback of the caller's (libFuzzer's, which would record
+         * the input as a crash of its own) must not run there. */
+        __sanitizer_set_death_callback(NULL);
+#endif
         /* The kernel's OOM killer should pick the child, never the caller. */
         const int adj = open("/proc/self/oom_score_adj", O_WRONLY | O_CLOEXEC);
         if (adj >= 0) {
