@@ -52,7 +52,7 @@ run_one() { # HARNESS
   (cd "$work" && TMPDIR=$work ASAN_OPTIONS=allocator_may_return_null=1:detect_leaks=1 \
     UBSAN_OPTIONS=print_stacktrace=1 \
     "$root/build-fuzz/fuzz/fuzz_$h" "$corpus" "$seeds/$h" -max_total_time="$secs" \
-    -max_len=300000 -timeout=20 -rss_limit_mb=4096 -malloc_limit_mb=65536 \
+    -max_len=300000 -timeout=60 -rss_limit_mb=4096 -malloc_limit_mb=65536 \
     -report_slow_units=1000 -print_final_stats=1 \
     -artifact_prefix="$findings/" >"$root/build-fuzz/fuzz_$h.log" 2>&1) || true
   rm -rf "$work"
