@@ -11,6 +11,7 @@ packages=(
   libglfw3-dev xvfb xauth libpng-dev libstb-dev libopenexr-dev openexr
   liblapacke-dev libopenblas0-pthread libcjson-dev libcmocka-dev
   python3-matplotlib
+  clang libclang-rt-14-dev llvm
 )
 for arg in "$@"; do
   case "$arg" in

@@ -38,3 +38,6 @@ cmake --build build-asan -j "$jobs"
 export UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1
 ASAN_OPTIONS=detect_leaks=1 ctest --test-dir build-asan --output-on-failure -j "$jobs" -L unit -LE "statistical|long"
 ASAN_OPTIONS=detect_leaks=0 ctest --test-dir build-asan --output-on-failure -j "$jobs" -L "gl|cli" -LE "statistical|long|heavy"
+
+# libFuzzer: every harness of fuzz/ for 30 s, two at a time (docs/robustness.md "Fuzzing").
+bash scripts/fuzz.sh 30

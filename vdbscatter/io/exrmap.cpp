@@ -11,6 +11,8 @@
  * one path. */
 #include "io/exrmap.h"
 
+#include "vdbscatter/contain.h"
+
 #include <ImathBox.h>
 #include <ImfArray.h>
 #include <ImfChannelList.h>
@@ -26,6 +28,8 @@
 #include <set>
 #include <string>
 #include <vector>
+
+#include <unistd.h>
 
 namespace
 {
@@ -243,14 +247,85 @@ vdbs_status read_exr(const char *path, vdbs_image *image, bool want_se, vdbs_err
     }
 }
 
+/* read_exr in a contained child (contain.h): a crash inside OpenEXR on a hostile file
+ * becomes an input error. The child writes status, message, then width, height, whether
+ * there are standard errors and the pixels; the parent copies them (one memory copy). */
+struct Job {
+    const char *path;
+    bool want_se;
+};
+
+struct ResultHead {
+    int32_t status;
+    int32_t width, height, with_se;
+    char message[VDBS_ERROR_MAX];
+};
+
+int read_exr_child(int fd, void *user)
+{
+    const Job &job = *static_cast<const Job *>(user);
+    vdbs_image image;
+    vdbs_error e;
+    ResultHead head;
+    std::memset(&head, 0, sizeof head);
+    head.status = read_exr(job.path, &image, job.want_se, &e);
+    if (head.status != VDBS_OK) {
+        std::memcpy(head.message, e.message, sizeof head.message);
+        return vdbs_contain_write(fd, &head, sizeof head) == 0 ? 0 : 3;
+    }
+    head.width = image.width;
+    head.height = image.height;
+    head.with_se = image.se != nullptr;
+    const size_t bytes = (size_t)image.width * (size_t)image.height * 3 * sizeof(float);
+    if (vdbs_contain_write(fd, &head, sizeof head) != 0 ||
+        vdbs_contain_write(fd, image.rgb, bytes) != 0 ||
+        (image.se && vdbs_contain_write(fd, image.se, bytes) != 0))
+        return 3;
+    return 0;
+}
+
+vdbs_status read_exr_contained(const char *path, vdbs_image *image, bool want_se, vdbs_error *err)
+{
+    std::memset(image, 0, sizeof *image);
+    Job job{path, want_se};
+    int fd = -1;
+    vdbs_status st = vdbs_contain_run(path, "OpenEXR", read_exr_child, &job, &fd, err);
+    if (st != VDBS_OK)
+        return st;
+    size_t size = 0;
+    const char *data = static_cast<const char *>(vdbs_contain_map(fd, &size));
+    ResultHead head;
+    if (!data || size < sizeof head) {
+        st = vdbs_error_set(err, VDBS_ERR_INTERNAL, "%s: the OpenEXR reader gave no result", path);
+    } else {
+        std::memcpy(&head, data, sizeof head);
+        head.message[sizeof head.message - 1] = '\0';
+        const size_t bytes = (size_t)head.width * (size_t)head.height * 3 * sizeof(float);
+        if (head.status != VDBS_OK) {
+            st = vdbs_error_set(err, (vdbs_status)head.status, "%s", head.message);
+        } else if (size != sizeof head + bytes * (head.with_se ? 2 : 1)) {
+            st = vdbs_error_set(err, VDBS_ERR_INTERNAL, "%s: the OpenEXR reader's result is short",
+                                path);
+        } else if ((st = vdbs_image_alloc(image, head.width, head.height, head.with_se, err)) ==
+                   VDBS_OK) {
+            std::memcpy(image->rgb, data + sizeof head, bytes);
+            if (head.with_se)
+                std::memcpy(image->se, data + sizeof head + bytes, bytes);
+        }
+    }
+    vdbs_contain_unmap(data, size);
+    close(fd);
+    return st;
+}
+
 } // namespace
 
 extern "C" vdbs_status vdbs_exrmap_read(const char *path, vdbs_image *image, vdbs_error *err)
 {
-    return read_exr(path, image, false, err);
+    return read_exr_contained(path, image, false, err);
 }
 
 extern "C" vdbs_status vdbs_exrimage_read(const char *path, vdbs_image *image, vdbs_error *err)
 {
-    return read_exr(path, image, true, err);
+    return read_exr_contained(path, image, true, err);
 }

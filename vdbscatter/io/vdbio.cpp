@@ -3,10 +3,13 @@
 #include "vdbscatter/vdbio.h"
 #include "vdbscatter/tempfile.h"
 
+#include "vdbscatter/contain.h"
+
 #include <openvdb/openvdb.h>
 #include <openvdb/io/Archive.h>
 #include <openvdb/io/GridDescriptor.h>
 #include <openvdb/io/io.h>
+#include <openvdb/io/Stream.h>
 #include <openvdb/math/Transform.h>
 #include <openvdb/tools/LevelSetUtil.h>
 #include <openvdb/tools/Morphology.h>
@@ -26,6 +29,7 @@
 #include <cstdlib>
 #include <cstring>
 #include <fstream>
+#include <functional>
 #include <map>
 #include <memory>
 #include <mutex>
@@ -1380,6 +1384,220 @@ template <typename Handle> void copy_nanovdb(const Handle &handle, void **buffer
 
 } // namespace
 
+namespace
+{
+
+/* The child's result travels through a memory file (contain.h): status, message,
+ * warnings, then the payload. Grids go as an uncompressed OpenVDB stream that OpenVDB
+ * wrote itself from a tree it had read, so the parent's read of it is trusted and costs
+ * about a memory copy instead of a second decompression of the file. */
+class FdOutBuf : public std::streambuf
+{
+  public:
+    explicit FdOutBuf(int fd) : fd_(fd)
+    {
+        setp(buf_, buf_ + sizeof buf_);
+    }
+    bool ok() const
+    {
+        return ok_;
+    }
+    int sync() override
+    {
+        if (pptr() > pbase() &&
+            vdbs_contain_write(fd_, pbase(), static_cast<size_t>(pptr() - pbase())) != 0)
+            ok_ = false;
+        setp(buf_, buf_ + sizeof buf_);
+        return ok_ ? 0 : -1;
+    }
+    int_type overflow(int_type c) override
+    {
+        if (sync() != 0)
+            return traits_type::eof();
+        if (c != traits_type::eof()) {
+            *pptr() = static_cast<char>(c);
+            pbump(1);
+        }
+        return traits_type::not_eof(c);
+    }
+
+  private:
+    int fd_;
+    bool ok_ = true;
+    char buf_[1 << 16];
+};
+
+class MemInBuf : public std::streambuf
+{
+  public:
+    MemInBuf(const char *data, size_t size)
+    {
+        char *p = const_cast<char *>(data);
+        setg(p, p, p + size);
+    }
+};
+
+/* The message and warnings of the child's run. */
+struct ChildLog {
+    std::vector<std::string> warnings;
+    static void collect(void *user, const char *message)
+    {
+        static_cast<ChildLog *>(user)->warnings.push_back(message ? message : "");
+    }
+};
+
+void put_u64(std::ostream &os, uint64_t v)
+{
+    os.write(reinterpret_cast<const char *>(&v), sizeof v);
+}
+void put_str(std::ostream &os, const std::string &s)
+{
+    put_u64(os, s.size());
+    os.write(s.data(), static_cast<std::streamsize>(s.size()));
+}
+
+/* Reads what the child wrote; the child is our own code, so a short result is a bug. */
+class ChildResult
+{
+  public:
+    ChildResult(int fd) : fd_(fd)
+    {
+        data_ = static_cast<const char *>(vdbs_contain_map(fd, &size_));
+    }
+    ~ChildResult()
+    {
+        vdbs_contain_unmap(data_, size_);
+        close(fd_);
+    }
+    uint64_t u64()
+    {
+        uint64_t v;
+        take(&v, sizeof v);
+        return v;
+    }
+    std::string str()
+    {
+        const uint64_t n = u64();
+        if (n > size_ - at_)
+            fail(VDBS_ERR_INTERNAL, "OpenVDB reader: short result");
+        std::string s(data_ + at_, n);
+        at_ += n;
+        return s;
+    }
+    void take(void *dst, size_t n)
+    {
+        if (!data_ || n > size_ - at_)
+            fail(VDBS_ERR_INTERNAL, "OpenVDB reader: short result");
+        memcpy(dst, data_ + at_, n);
+        at_ += n;
+    }
+    /* The rest as an OpenVDB stream. */
+    openvdb::io::Stream stream()
+    {
+        MemInBuf buf(data_ + at_, size_ - at_);
+        std::istream is(&buf);
+        return openvdb::io::Stream(is, /*delayLoad=*/false);
+    }
+    /* Status, message and warnings: replays the warnings, throws the child's failure. */
+    void replay(vdbs_warn_fn warn_fn, void *warn_user)
+    {
+        const vdbs_status st = static_cast<vdbs_status>(u64());
+        const std::string message = str();
+        const uint64_t n = u64();
+        for (uint64_t i = 0; i < n; ++i)
+            warn(warn_fn, warn_user, str());
+        if (st != VDBS_OK)
+            fail(st, message);
+    }
+
+  private:
+    int fd_;
+    const char *data_ = nullptr;
+    size_t size_ = 0, at_ = 0;
+};
+
+/* Runs body(os, log) in a contained child: body writes the payload after the header the
+ * child writes from the status body returns. */
+template <typename F> void contained(const char *path, F &&body, ChildResult *&result)
+{
+    struct Ctx {
+        F *body;
+    } ctx{&body};
+    auto child = [](int fd, void *user) -> int {
+        F &b = *static_cast<Ctx *>(user)->body;
+        FdOutBuf buf(fd);
+        std::ostream os(&buf);
+        ChildLog log;
+        vdbs_error e;
+        e.message[0] = '\0';
+        /* body reads and checks; what it returns writes the payload after the header. */
+        std::function<void(std::ostream &)> payload;
+        const vdbs_status st = guarded(&e, [&] { payload = b(log); });
+        put_u64(os, static_cast<uint64_t>(st));
+        put_str(os, st == VDBS_OK ? std::string() : std::string(e.message));
+        put_u64(os, log.warnings.size());
+        for (const std::string &w : log.warnings)
+            put_str(os, w);
+        if (st == VDBS_OK && payload) {
+            try {
+                payload(os);
+            } catch (...) {
+                return 3;
+            }
+        }
+        os.flush();
+        return buf.ok() && os ? 0 : 3;
+    };
+    int fd = -1;
+    vdbs_error e;
+    const vdbs_status st = vdbs_contain_run(path, "OpenVDB", child, &ctx, &fd, &e);
+    if (st != VDBS_OK)
+        fail(st, e.message);
+    result = new ChildResult(fd);
+}
+
+void write_stream(std::ostream &os, const openvdb::GridCPtrVec &grids, const openvdb::MetaMap &meta)
+{
+    openvdb::io::Stream out(os);
+    out.setCompression(openvdb::io::COMPRESS_NONE);
+    out.write(grids, meta);
+}
+
+void density_read_contained(const char *path, const vdbio_read_options *options,
+                            vdbio_density **out)
+{
+    if (!path || !out)
+        fail(VDBS_ERR_INTERNAL, "vdbio_density_read: NULL argument");
+    ChildResult *raw = nullptr;
+    contained(
+        path,
+        [&](ChildLog &log) -> std::function<void(std::ostream &)> {
+            vdbio_read_options o;
+            memset(&o, 0, sizeof o);
+            if (options)
+                o = *options;
+            o.warn = ChildLog::collect;
+            o.warn_user = &log;
+            vdbio_density *d = nullptr;
+            density_read(path, &o, &d);
+            return [d](std::ostream &os) {
+                os.write(reinterpret_cast<const char *>(&d->info), sizeof d->info);
+                write_stream(os, openvdb::GridCPtrVec{d->grid}, openvdb::MetaMap());
+            };
+        },
+        raw);
+    std::unique_ptr<ChildResult> result(raw);
+    result->replay(options ? options->warn : nullptr, options ? options->warn_user : nullptr);
+    auto d = std::make_unique<vdbio_density>();
+    result->take(&d->info, sizeof d->info);
+    openvdb::GridPtrVecPtr grids = result->stream().getGrids();
+    if (!grids || grids->size() != 1 || !(d->grid = openvdb::gridPtrCast<FloatGrid>((*grids)[0])))
+        fail(VDBS_ERR_INTERNAL, "OpenVDB reader: no density grid in its result");
+    *out = d.release();
+}
+
+} // namespace
+
 extern "C" {
 
 vdbs_status vdbio_list_grids(const char *path, vdbio_grid_summary **grids, int *count,
@@ -1392,16 +1610,34 @@ vdbs_status vdbio_list_grids(const char *path, vdbio_grid_summary **grids, int *
     return guarded(err, [&] {
         if (!path || !grids || !count)
             fail(VDBS_ERR_INTERNAL, "vdbio_list_grids: NULL argument");
-        Reader r;
-        r.open(path, /*load_all=*/true);
-        const size_t n = r.entries.size();
+        ChildResult *raw = nullptr;
+        contained(
+            path,
+            [&](ChildLog &) -> std::function<void(std::ostream &)> {
+                Reader r;
+                r.open(path, /*load_all=*/true);
+                auto list = std::make_shared<std::vector<vdbio_grid_summary>>(r.entries.size());
+                for (size_t i = 0; i < list->size(); ++i)
+                    summarize(r, i, (*list)[i]);
+                return [list](std::ostream &os) {
+                    put_u64(os, list->size());
+                    os.write(
+                        reinterpret_cast<const char *>(list->data()),
+                        static_cast<std::streamsize>(list->size() * sizeof(vdbio_grid_summary)));
+                };
+            },
+            raw);
+        std::unique_ptr<ChildResult> result(raw);
+        result->replay(nullptr, nullptr);
+        const uint64_t n = result->u64();
+        if (n > INT_MAX)
+            fail(VDBS_ERR_INTERNAL, "OpenVDB reader: bad grid count");
         auto *list =
             static_cast<vdbio_grid_summary *>(calloc(n ? n : 1, sizeof(vdbio_grid_summary)));
         if (!list)
             throw std::bad_alloc();
         try {
-            for (size_t i = 0; i < n; ++i)
-                summarize(r, i, list[i]);
+            result->take(list, n * sizeof(vdbio_grid_summary));
         } catch (...) {
             free(list);
             throw;
@@ -1416,7 +1652,7 @@ vdbs_status vdbio_density_read(const char *path, const vdbio_read_options *optio
 {
     if (out)
         *out = nullptr;
-    return guarded(err, [&] { density_read(path, options, out); });
+    return guarded(err, [&] { density_read_contained(path, options, out); });
 }
 
 vdbs_status vdbio_density_from_dense(const float *values, const int dims[3], const int origin[3],
@@ -1546,16 +1782,35 @@ vdbs_status vdbio_lit_open(const char *path, vdbio_lit **out, vdbs_error *err)
     return guarded(err, [&] {
         if (!path || !out)
             fail(VDBS_ERR_INTERNAL, "vdbio_lit_open: NULL argument");
-        Reader r;
-        r.open(path, /*load_all=*/true);
+        ChildResult *raw = nullptr;
+        contained(
+            path,
+            [&](ChildLog &) -> std::function<void(std::ostream &)> {
+                auto r = std::make_shared<Reader>();
+                r->open(path, /*load_all=*/true);
+                return [r](std::ostream &os) {
+                    openvdb::GridCPtrVec grids;
+                    for (const Reader::Entry &e : r->entries) {
+                        e.grid->setName(e.gd.gridName());
+                        grids.push_back(e.grid);
+                    }
+                    write_stream(os, grids, r->file_meta);
+                };
+            },
+            raw);
+        std::unique_ptr<ChildResult> result(raw);
+        result->replay(nullptr, nullptr);
+        openvdb::io::Stream stream = result->stream();
+        openvdb::GridPtrVecPtr grids = stream.getGrids();
+        openvdb::MetaMap::Ptr file_meta = stream.getMetadata();
+        if (!grids || !file_meta)
+            fail(VDBS_ERR_INTERNAL, "OpenVDB reader: no grids in its result");
         auto lit = std::make_unique<vdbio_lit>();
         lit->path = path;
         lit->serial = lit_serial.fetch_add(1);
-        for (const Reader::Entry &e : r.entries) {
-            e.grid->setName(e.gd.gridName());
-            lit->grids.push_back(e.grid);
-        }
-        for (auto it = r.file_meta.beginMeta(); it != r.file_meta.endMeta(); ++it) {
+        for (const GridBase::Ptr &g : *grids)
+            lit->grids.push_back(g);
+        for (auto it = file_meta->beginMeta(); it != file_meta->endMeta(); ++it) {
             if (it->second && it->second->typeName() == openvdb::StringMetadata::staticTypeName())
                 lit->meta[it->first] =
                     static_cast<const openvdb::StringMetadata &>(*it->second).value();

@@ -771,11 +771,22 @@ static vdbs_status parse_scene(const parse_ctx *ctx, const char *json_text, vdbs
     return st;
 }
 
+/* An error is one line: keys and values of the file that the message quotes may hold
+ * control characters (a JSON "\n" escape), shown as '?'. */
+static vdbs_status one_line(vdbs_status st, vdbs_error *err)
+{
+    if (st != VDBS_OK && err)
+        for (char *c = err->message; *c; ++c)
+            if ((unsigned char)*c < 0x20 || *c == 0x7f)
+                *c = '?';
+    return st;
+}
+
 vdbs_status vdbs_scene_parse(const char *json_text, const char *base_dir, vdbs_scene *scene,
                              vdbs_error *err)
 {
     parse_ctx ctx = {"scene", base_dir, err};
-    return parse_scene(&ctx, json_text, scene);
+    return one_line(parse_scene(&ctx, json_text, scene), err);
 }
 
 /* Reads a whole file in chunks (no size query: a directory or a pipe reports none). */
@@ -855,7 +866,7 @@ vdbs_status vdbs_scene_load(const char *path, vdbs_scene *scene, vdbs_error *err
         base_dir = base;
     }
     parse_ctx ctx = {prefix, base_dir, err};
-    st = parse_scene(&ctx, text, scene);
+    st = one_line(parse_scene(&ctx, text, scene), err);
     free(text);
     return st;
 }
