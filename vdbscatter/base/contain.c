@@ -7,7 +7,7 @@
 #include <signal.h>
 #include <stdio.h>
 #include <string.h>
-#include <sys/mman.h>
+#include <stdlib.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -37,23 +37,35 @@ int vdbs_contain_write(int fd, const void *data, size_t size)
     return 0;
 }
 
-const void *vdbs_contain_map(int fd, size_t *size)
+void vdbs_contain_free(vdbs_contained *result)
 {
-    *size = 0;
-    const off_t end = lseek(fd, 0, SEEK_END);
-    if (end <= 0)
-        return NULL;
-    void *data = mmap(NULL, (size_t)end, PROT_READ, MAP_PRIVATE, fd, 0);
-    if (data == MAP_FAILED)
-        return NULL;
-    *size = (size_t)end;
-    return data;
+    free(result->data);
+    result->data = NULL;
+    result->size = 0;
 }
 
-void vdbs_contain_unmap(const void *data, size_t size)
+/* Reads fd to its end into out (grown by doubling); 0, or -1 with errno set. */
+static int drain(int fd, vdbs_contained *out)
 {
-    if (data)
-        munmap((void *)data, size);
+    size_t room = 0;
+    for (;;) {
+        if (out->size == room) {
+            const size_t grown = room ? 2 * room : 1 << 16;
+            char *data = realloc(out->data, grown);
+            if (!data)
+                return -1;
+            out->data = data;
+            room = grown;
+        }
+        const ssize_t n = read(fd, out->data + out->size, room - out->size);
+        if (n < 0 && errno == EINTR)
+            continue;
+        if (n < 0)
+            return -1;
+        if (n == 0)
+            return 0;
+        out->size += (size_t)n;
+    }
 }
 
 static const char *signal_label(int sig)
@@ -77,21 +89,24 @@ static const char *signal_label(int sig)
 }
 
 vdbs_status vdbs_contain_run(const char *path, const char *library,
-                             int (*child)(int fd, void *user), void *user, int *fd_out,
+                             int (*child)(int fd, void *user), void *user, vdbs_contained *out,
                              vdbs_error *err)
 {
-    *fd_out = -1;
-    const int fd = memfd_create("vdbscatter-read", MFD_CLOEXEC);
-    if (fd < 0)
-        return vdbs_error_set(err, VDBS_ERR_INTERNAL, "memfd_create: %s", strerror(errno));
+    out->data = NULL;
+    out->size = 0;
+    int ends[2];
+    if (pipe2(ends, O_CLOEXEC) != 0)
+        return vdbs_error_set(err, VDBS_ERR_INTERNAL, "pipe: %s", strerror(errno));
     fflush(NULL); /* buffered output must not be written twice */
     const pid_t pid = fork();
     if (pid < 0) {
-        close(fd);
+        close(ends[0]);
+        close(ends[1]);
         return vdbs_error_set(err, VDBS_ERR_NOMEM, "%s: cannot start the reader: %s", path,
                               strerror(errno));
     }
     if (pid == 0) {
+        close(ends[0]);
         /* A crash must end the child by its signal, whatever handlers the caller (or a
          * sanitizer) installed, so that the parent sees and names it. */
         const int fatal[] = {SIGSEGV, SIGBUS, SIGABRT, SIGFPE, SIGILL};
@@ -109,20 +124,24 @@ vdbs_status vdbs_contain_run(const char *path, const char *library,
             (void)!write(adj, "1000", 4);
             close(adj);
         }
-        const int rc = child(fd, user);
+        const int rc = child(ends[1], user);
         fflush(NULL);
         _exit(rc);
     }
+    close(ends[1]);
+    const int drained = drain(ends[0], out);
+    const int drain_errno = errno;
+    close(ends[0]);
     int wstatus = 0;
     while (waitpid(pid, &wstatus, 0) < 0) {
         if (errno != EINTR) {
-            close(fd);
+            vdbs_contain_free(out);
             return vdbs_error_set(err, VDBS_ERR_INTERNAL, "waitpid: %s", strerror(errno));
         }
     }
     if (WIFSIGNALED(wstatus)) {
         const int sig = WTERMSIG(wstatus);
-        close(fd);
+        vdbs_contain_free(out);
         if (sig == SIGINT || sig == SIGTERM)
             return vdbs_error_cancelled(err);
         return vdbs_error_set(err, VDBS_ERR_INPUT,
@@ -130,12 +149,15 @@ vdbs_status vdbs_contain_run(const char *path, const char *library,
                               library, signal_label(sig));
     }
     if (!WIFEXITED(wstatus) || WEXITSTATUS(wstatus) != 0) {
-        close(fd);
+        vdbs_contain_free(out);
         return vdbs_error_set(err, VDBS_ERR_INPUT,
                               "%s: not a valid %s file (the %s reader failed, exit status %d)",
                               path, library, library, WEXITSTATUS(wstatus));
     }
-    lseek(fd, 0, SEEK_SET);
-    *fd_out = fd;
+    if (drained != 0) {
+        vdbs_contain_free(out);
+        return vdbs_error_set(err, VDBS_ERR_NOMEM, "%s: reading the %s reader's result: %s", path,
+                              library, strerror(drain_errno));
+    }
     return VDBS_OK;
 }

@@ -288,12 +288,12 @@ vdbs_status read_exr_contained(const char *path, vdbs_image *image, bool want_se
 {
     std::memset(image, 0, sizeof *image);
     Job job{path, want_se};
-    int fd = -1;
-    vdbs_status st = vdbs_contain_run(path, "OpenEXR", read_exr_child, &job, &fd, err);
+    vdbs_contained contained;
+    vdbs_status st = vdbs_contain_run(path, "OpenEXR", read_exr_child, &job, &contained, err);
     if (st != VDBS_OK)
         return st;
-    size_t size = 0;
-    const char *data = static_cast<const char *>(vdbs_contain_map(fd, &size));
+    const size_t size = contained.size;
+    const char *data = contained.data;
     ResultHead head;
     if (!data || size < sizeof head) {
         st = vdbs_error_set(err, VDBS_ERR_INTERNAL, "%s: the OpenEXR reader gave no result", path);
@@ -313,8 +313,7 @@ vdbs_status read_exr_contained(const char *path, vdbs_image *image, bool want_se
                 std::memcpy(image->se, data + sizeof head + bytes, bytes);
         }
     }
-    vdbs_contain_unmap(data, size);
-    close(fd);
+    vdbs_contain_free(&contained);
     return st;
 }
 

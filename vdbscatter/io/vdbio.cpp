@@ -1460,14 +1460,13 @@ void put_str(std::ostream &os, const std::string &s)
 class ChildResult
 {
   public:
-    ChildResult(int fd) : fd_(fd)
+    explicit ChildResult(vdbs_contained result)
+        : result_(result), data_(result.data), size_(result.size)
     {
-        data_ = static_cast<const char *>(vdbs_contain_map(fd, &size_));
     }
     ~ChildResult()
     {
-        vdbs_contain_unmap(data_, size_);
-        close(fd_);
+        vdbs_contain_free(&result_);
     }
     uint64_t u64()
     {
@@ -1511,7 +1510,7 @@ class ChildResult
     }
 
   private:
-    int fd_;
+    vdbs_contained result_;
     const char *data_ = nullptr;
     size_t size_ = 0, at_ = 0;
 };
@@ -1548,12 +1547,12 @@ template <typename F> void contained(const char *path, F &&body, ChildResult *&r
         os.flush();
         return buf.ok() && os ? 0 : 3;
     };
-    int fd = -1;
+    vdbs_contained contained;
     vdbs_error e;
-    const vdbs_status st = vdbs_contain_run(path, "OpenVDB", child, &ctx, &fd, &e);
+    const vdbs_status st = vdbs_contain_run(path, "OpenVDB", child, &ctx, &contained, &e);
     if (st != VDBS_OK)
         fail(st, e.message);
-    result = new ChildResult(fd);
+    result = new ChildResult(contained);
 }
 
 void write_stream(std::ostream &os, const openvdb::GridCPtrVec &grids, const openvdb::MetaMap &meta)
