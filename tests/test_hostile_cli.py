@@ -22,8 +22,10 @@ class HostileVdb(unittest.TestCase):
         self.assertEqual(p.returncode, 2, p.stderr)
         lines = p.stderr.strip().splitlines()
         self.assertEqual(len(lines), 1, p.stderr)
-        self.assertIn("openvdb_segfault.vdb: not a valid OpenVDB file (the OpenVDB reader "
-                      "crashed: segmentation fault)", lines[0])
+        # A segmentation fault in a plain build; under AddressSanitizer the overflow is caught
+        # before it and the child ends by abort: either way a crash, contained.
+        self.assertRegex(lines[0], r"openvdb_segfault\.vdb: not a valid OpenVDB file \(the "
+                         r"OpenVDB reader crashed: (segmentation fault|abort)\)$")
         if output:
             self.assertFalse(os.path.exists(output))
 

@@ -68,6 +68,14 @@ static int drain(int fd, vdbs_contained *out)
     }
 }
 
+#ifdef VDBS_SANITIZED
+static void die_by_abort(void)
+{
+    signal(SIGABRT, SIG_DFL);
+    abort();
+}
+#endif
+
 static const char *signal_label(int sig)
 {
     switch (sig) {
@@ -114,10 +122,17 @@ vdbs_status vdbs_contain_run(const char *path, const char *library,
             signal(fatal[i], SIG_DFL);
 #ifdef VDBS_SANITIZED
         /* A sanitizer's report in the child (an overflow inside the library) ends the child
-         * like a crash; a death callback of the caller's (libFuzzer's, which would record
-         * the input as a crash of its own) must not run there. */
-        __sanitizer_set_death_callback(NULL);
+         * like a crash, by SIGABRT; a death callback of the caller's (libFuzzer's, which would
+         * record the input as a crash of its own) must not run there. */
+        __sanitizer_set_death_callback(die_by_abort);
 #endif
+        /* The child's own errors and warnings travel back through the pipe; what a library
+         * or a sanitizer prints while failing would break the caller's one-line error. */
+        const int null = open("/dev/null", O_WRONLY | O_CLOEXEC);
+        if (null >= 0) {
+            dup2(null, STDERR_FILENO);
+            close(null);
+        }
         /* The kernel's OOM killer should pick the child, never the caller. */
         const int adj = open("/proc/self/oom_score_adj", O_WRONLY | O_CLOEXEC);
         if (adj >= 0) {
