@@ -4,7 +4,7 @@
 # seeds, samples/, the external test data when present (VDBSCATTER_DATA_DIR, else
 # ../shared/data) and the corpus of earlier runs (fuzz/corpus/, not committed). Prints per
 # harness the executions per second, the corpus size and the findings (fuzz/findings/HARNESS/);
-# exits 1 on any finding. A finding is fixed in the code and its input kept in
+# exits 1 on any finding, 3 when the build fails. A finding is fixed in the code and its input kept in
 # fuzz/regressions/HARNESS/ (replayed by the ctest fuzz_replay_HARNESS). docs/robustness.md.
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -21,7 +21,7 @@ fi
 start=$SECONDS
 CC=clang CXX=clang++ cmake -S . -B build-fuzz -DCMAKE_BUILD_TYPE=Fuzz -DVDBSCATTER_FUZZ=ON \
   "${launcher[@]}" >/dev/null
-cmake --build build-fuzz -j "$(nproc)" 2>&1 | grep -E "error|FAILED" && exit 1
+cmake --build build-fuzz -j "$(nproc)" 2>&1 | grep -E "error|FAILED" && exit 3
 echo "fuzz.sh: built in $((SECONDS - start)) s"
 
 # Seeds, gathered per harness into build-fuzz/seeds/HARNESS (libFuzzer reads folders).

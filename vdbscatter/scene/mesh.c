@@ -3,6 +3,7 @@
 #include "vdbscatter/mesh.h"
 
 #include <errno.h>
+#include <float.h>
 #include <limits.h>
 #include <math.h>
 #include <stdarg.h>
@@ -279,6 +280,9 @@ static vdbs_status read_numbers(obj_reader *r, const char *key, char *rest, int 
             return obj_fail(r, "%s: '%s' overflows a double", key, tok);
         if (!isfinite(x))
             return obj_fail(r, "%s: '%s' is not a finite number", key, tok);
+        /* Positions are kept as floats: a larger double would become infinite there. */
+        if (fabs(x) > FLT_MAX)
+            return obj_fail(r, "%s: '%s' is beyond a float's range", key, tok);
         out[n++] = x;
     }
     if (n < lo)
