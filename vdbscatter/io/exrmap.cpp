@@ -11,7 +11,7 @@
  * one path. */
 #include "io/exrmap.h"
 
-#include "vdbscatter/contain.h"
+#include "contain_tbb.h"
 
 #include <ImathBox.h>
 #include <ImfArray.h>
@@ -289,7 +289,8 @@ vdbs_status read_exr_contained(const char *path, vdbs_image *image, bool want_se
     std::memset(image, 0, sizeof *image);
     Job job{path, want_se};
     vdbs_contained contained;
-    vdbs_status st = vdbs_contain_run(path, "OpenEXR", read_exr_child, &job, &contained, err);
+    vdbs_status st =
+        contain_run_without_tbb_workers(path, "OpenEXR", read_exr_child, &job, &contained, err);
     if (st != VDBS_OK)
         return st;
     const size_t size = contained.size;

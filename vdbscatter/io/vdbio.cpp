@@ -3,7 +3,7 @@
 #include "vdbscatter/vdbio.h"
 #include "vdbscatter/tempfile.h"
 
-#include "vdbscatter/contain.h"
+#include "contain_tbb.h"
 
 #include <openvdb/openvdb.h>
 #include <openvdb/io/Archive.h>
@@ -1549,7 +1549,8 @@ template <typename F> void contained(const char *path, F &&body, ChildResult *&r
     };
     vdbs_contained contained;
     vdbs_error e;
-    const vdbs_status st = vdbs_contain_run(path, "OpenVDB", child, &ctx, &contained, &e);
+    const vdbs_status st =
+        contain_run_without_tbb_workers(path, "OpenVDB", child, &ctx, &contained, &e);
     if (st != VDBS_OK)
         fail(st, e.message);
     result = new ChildResult(contained);

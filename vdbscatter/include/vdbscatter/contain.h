@@ -27,7 +27,12 @@ typedef struct vdbs_contained {
  * "PATH: not a valid LIBRARY file (the LIBRARY reader crashed: SIGNAL)"; an interrupted
  * read (SIGINT, SIGTERM) VDBS_ERR_CANCELLED. The child ends with _exit: no atexit handler
  * runs there. Only the calling thread exists in the child, so child must not wait on
- * other threads of the parent (no OpenMP; TBB runs its work on the calling thread). */
+ * other threads of the parent (no OpenMP), nor on a lock one of them held at the fork (the C++
+ * bridge ends TBB's workers before it calls this: io/contain_tbb.h).
+ * Limits: the child gets RLIMIT_CPU of 120 s plus 1 s per 2 MiB of the file (past it,
+ * VDBS_ERR_INPUT "... ran past its N s of CPU time"); a child that gains no CPU time, reads
+ * nothing and hands back nothing for 60 s (VDBSCATTER_READER_STALL_SECONDS) has stalled: it is
+ * killed and the read tried once more, and a second stall is VDBS_ERR_IO. */
 vdbs_status vdbs_contain_run(const char *path, const char *library,
                              int (*child)(int fd, void *user), void *user, vdbs_contained *out,
                              vdbs_error *err);
@@ -36,6 +41,9 @@ vdbs_status vdbs_contain_run(const char *path, const char *library,
 int vdbs_contain_write(int fd, const void *data, size_t size);
 
 void vdbs_contain_free(vdbs_contained *result);
+
+/* How many stalled children this process has killed (each retried or reported). */
+unsigned vdbs_contain_stalls(void);
 
 #ifdef __cplusplus
 }
