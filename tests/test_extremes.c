@@ -738,6 +738,90 @@ static void test_reference_corners(void **state)
     vdbs_volume_free(&cube);
 }
 
+/* ---- the white furnace ----
+ * At albedo 1 under a uniform sky of radiance 1 and no other light, the exact in-scattered
+ * radiance is 1 at every voxel, whatever the density and g. Over the voxels whose density is
+ * above 0.05 of the largest: the target at high for every multiple-scattering solver is a mean
+ * within 2% of 1 and the 1st to 99th percentiles within 5%. POP is measured and printed, not
+ * held to it: its bias is its published method's (docs/robustness.md "White furnace"). */
+static const char *const FURNACE_MEASURED_ONLY[] = {"pop", NULL};
+static const double FURNACE_GS[] = {0.0, 0.5, 0.9};
+
+static int cmp_double(const void *a, const void *b)
+{
+    const double x = *(const double *)a, y = *(const double *)b;
+    return (x > y) - (x < y);
+}
+
+static void furnace_case(const vdbs_solver *solver, int kind, const vdbs_volume *volume, double g)
+{
+    box b;
+    vdbs_volume_support_bounds(volume, b.lo, b.hi);
+    vdbs_scene scene;
+    make_scene(&scene, solver, LIGHT_SKY, 1.0, g, 1.0, 1.0, &b, volume->mean_voxel_size);
+    snprintf(scene.quality, sizeof scene.quality, "high");
+    for (int c = 0; c < 3; ++c)
+        scene.lights[0].color[c] = 1.0;
+    outputs o;
+    char why[512];
+    if (!bake(volume, &scene, &o, why, sizeof why)) {
+        finding("furnace %s %s g %g: the bake failed: %s", solver->name, VOL_NAMES[kind], g, why);
+        outputs_free(&o);
+        return;
+    }
+    double dmax = 0.0;
+    for (size_t v = 0; v < o.n; ++v)
+        dmax = fmax(dmax, vdbio_density_value(volume->density, volume->coords + 3 * v));
+    double *r = malloc(sizeof(double) * o.n);
+    assert_non_null(r);
+    size_t n = 0, worst = 0;
+    double sum = 0.0, worst_off = -1.0;
+    for (size_t v = 0; v < o.n; ++v) {
+        if (vdbio_density_value(volume->density, volume->coords + 3 * v) <= 0.05 * dmax)
+            continue;
+        r[n] = o.radiance[3 * v + 1];
+        if (fabs(r[n] - 1.0) > worst_off) {
+            worst_off = fabs(r[n] - 1.0);
+            worst = v;
+        }
+        sum += r[n++];
+    }
+    assert_true(n > 0);
+    qsort(r, n, sizeof *r, cmp_double);
+    const double mean = sum / (double)n, p1 = r[n / 100], p99 = r[n - 1 - n / 100];
+    const int32_t *w = volume->coords + 3 * worst;
+    int measured_only = 0;
+    for (int i = 0; FURNACE_MEASURED_ONLY[i]; ++i)
+        measured_only |= strcmp(solver->name, FURNACE_MEASURED_ONLY[i]) == 0;
+    print_message("furnace %s %s g %g: mean %.4f p1 %.4f p99 %.4f, worst %.4f at (%d %d %d)%s\n",
+                  solver->name, VOL_NAMES[kind], g, mean, p1, p99, o.radiance[3 * worst + 1], w[0],
+                  w[1], w[2], measured_only ? " (measured only)" : "");
+    if (!measured_only && (fabs(mean - 1.0) > 0.02 || p1 < 0.95 || p99 > 1.05))
+        finding("furnace %s %s g %g: mean %.4f, p1 %.4f, p99 %.4f (target: mean within 2%%, "
+                "p1 to p99 within 5%%)",
+                solver->name, VOL_NAMES[kind], g, mean, p1, p99);
+    free(r);
+    outputs_free(&o);
+}
+
+static void test_white_furnace(void **state)
+{
+    (void)state;
+    const int before = FAILURES;
+    const int kinds[] = {VOL_CUBE, VOL_CLOUD};
+    for (int k = 0; k < 2; ++k) {
+        vdbs_volume volume;
+        make_volume(kinds[k], &volume);
+        for (int s = 0; vdbs_solver_at(s); ++s)
+            if (vdbs_solver_at(s)->writes_ms)
+                for (size_t gi = 0; gi < sizeof FURNACE_GS / sizeof *FURNACE_GS; ++gi)
+                    furnace_case(vdbs_solver_at(s), kinds[k], &volume, FURNACE_GS[gi]);
+        vdbs_volume_free(&volume);
+    }
+    if (FAILURES > before)
+        fail_msg("%d furnace cases miss the target", FAILURES - before);
+}
+
 static void write_table(const char *path)
 {
     FILE *f = fopen(path, "w");
@@ -784,10 +868,14 @@ static void test_verdict(void **state)
 int main(int argc, char **argv)
 {
     FULL = argc > 1 && strcmp(argv[1], "full") == 0;
+    /* VDBSCATTER_EXTREMES_ONLY=NAME: that test alone (cmocka's pattern: * and ?). */
+    const char *only = getenv("VDBSCATTER_EXTREMES_ONLY");
+    if (only && only[0])
+        cmocka_set_test_filter(only);
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_covering_array), cmocka_unit_test(test_grid),
         cmocka_unit_test(test_covering_cases), cmocka_unit_test(test_reference_corners),
-        cmocka_unit_test(test_verdict),
+        cmocka_unit_test(test_white_furnace),  cmocka_unit_test(test_verdict),
     };
     int rc = cmocka_run_group_tests(tests, NULL, NULL);
     test_runners_free();
