@@ -12,6 +12,8 @@
  *   their caps and converged => residual <= requested; a light scale 2^+-20 gives the scale-1
  *   result times the factor.
  * - The reference path tracer renders finite, non-negative images at the corners.
+ * - The white furnace (albedo 1, sky of radiance 1): every solver that writes ms, at high, on
+ *   the cube and the cloud for three g, against the target (POP measured only).
  *
  * Without an argument the slice runs (the grid's corners and the covering array's rows on the
  * small volumes, for the default suite); `test_extremes full` (ctest test_extremes_full,
