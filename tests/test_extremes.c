@@ -870,10 +870,14 @@ static void test_verdict(void **state)
 int main(int argc, char **argv)
 {
     FULL = argc > 1 && strcmp(argv[1], "full") == 0;
-    /* VDBSCATTER_EXTREMES_ONLY=NAME: that test alone (cmocka's pattern: * and ?). */
-    const char *only = getenv("VDBSCATTER_EXTREMES_ONLY");
+    /* VDBSCATTER_EXTREMES_ONLY / _SKIP=PATTERN: run only / skip the tests it matches (cmocka's
+     * patterns: * and ?). */
+    const char *only = getenv("VDBSCATTER_EXTREMES_ONLY"),
+               *skip = getenv("VDBSCATTER_EXTREMES_SKIP");
     if (only && only[0])
         cmocka_set_test_filter(only);
+    if (skip && skip[0])
+        cmocka_set_skip_filter(skip);
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_covering_array), cmocka_unit_test(test_grid),
         cmocka_unit_test(test_covering_cases), cmocka_unit_test(test_reference_corners),

@@ -114,6 +114,25 @@ const void *vdbs_bake_report_stats(const vdbs_bake_report *report)
 }
 
 /* Runs the scene's solver on the chosen backend; the lights are resolved here, once. */
+/* ms_l1 = (3 g / 4 pi) integral Lms w dw and ms = (1 / 4 pi) integral Lms dw with Lms >= 0, so
+ * |ms_l1| <= 3 |g| ms holds exactly (docs/design.md "output grids"). A solver's moments can
+ * break it by rounding or upsampling where ms is near 0 (FLD at 1e4 per voxel: ms 0, |ms_l1|
+ * 7e-3); each voxel's ms_l1 is scaled back onto the bound. The true moments satisfy it, so the
+ * projection never moves a result away from them. */
+static void bound_first_moments(size_t count, double g, const float *ms, float *const l1[3])
+{
+    for (size_t i = 0; i < 3 * count; ++i) {
+        const double x = l1[0][i], y = l1[1][i], z = l1[2][i];
+        const double len = sqrt(x * x + y * y + z * z), bound = 3.0 * fabs(g) * ms[i];
+        if (len > bound) {
+            const double f = bound / len;
+            l1[0][i] = (float)(x * f);
+            l1[1][i] = (float)(y * f);
+            l1[2][i] = (float)(z * f);
+        }
+    }
+}
+
 static vdbs_status solve(const vdbs_bake_options *o, const vdbs_solver *solver,
                          const vdbs_quality *quality, const vdbs_volume *volume, vdbs_solve *s,
                          stored_lights *stored, vdbs_bake_report *report, vdbs_error *err)
@@ -167,6 +186,8 @@ static vdbs_status solve(const vdbs_bake_options *o, const vdbs_solver *solver,
     vdbs_runner_transfer moved = vdbs_runner_transfers(runner);
     report->bytes_uploaded = moved.uploaded;
     report->bytes_read_back = moved.read_back;
+    if (st == VDBS_OK && solver->writes_ms)
+        bound_first_moments(volume->coord_count, o->scene->g, s->ms, s->ms_l1);
     if (st == VDBS_OK && s->radiance_view && solver->writes_ms) {
         float *wo = vdbs_view_directions(volume, o->scene->camera.position);
         if (wo)
