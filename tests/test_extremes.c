@@ -749,12 +749,6 @@ static void test_reference_corners(void **state)
 static const char *const FURNACE_MEASURED_ONLY[] = {"pop", NULL};
 static const double FURNACE_GS[] = {0.0, 0.5, 0.9};
 
-static int cmp_double(const void *a, const void *b)
-{
-    const double x = *(const double *)a, y = *(const double *)b;
-    return (x > y) - (x < y);
-}
-
 static void furnace_case(const vdbs_solver *solver, int kind, const vdbs_volume *volume, double g)
 {
     box b;
@@ -789,7 +783,7 @@ static void furnace_case(const vdbs_solver *solver, int kind, const vdbs_volume 
         sum += r[n++];
     }
     assert_true(n > 0);
-    qsort(r, n, sizeof *r, cmp_double);
+    qsort(r, n, sizeof *r, test_compare_doubles);
     const double mean = sum / (double)n, p1 = r[n / 100], p99 = r[n - 1 - n / 100];
     const int32_t *w = volume->coords + 3 * worst;
     int measured_only = 0;

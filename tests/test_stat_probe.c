@@ -379,12 +379,6 @@ static double box_density(const box_profile *b, const double x[3])
     return profile(b, 0, x[0]) * profile(b, 1, x[1]) * profile(b, 2, x[2]);
 }
 
-static int cmp_double(const void *a, const void *b)
-{
-    double x = *(const double *)a, y = *(const double *)b;
-    return (x > y) - (x < y);
-}
-
 /* Optical depth from x along the unit direction v to infinity. */
 static double box_tau(const box_profile *b, const double x[3], const double v[3])
 {
@@ -404,7 +398,7 @@ static double box_tau(const box_profile *b, const double x[3], const double v[3]
         }
         t_end = fmin(t_end, fmax((edges[0] - x[a]) / v[a], (edges[3] - x[a]) / v[a]));
     }
-    qsort(t, (size_t)n, sizeof *t, cmp_double);
+    qsort(t, (size_t)n, sizeof *t, test_compare_doubles);
     double sum = 0.0;
     const double q = 0.5 / sqrt(3.0);
     for (int k = 0; k + 1 < n && t[k] < t_end; ++k) {

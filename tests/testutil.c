@@ -49,6 +49,12 @@ double test_rel_diff(double a, double b)
     return m == 0.0 ? 0.0 : fabs(a - b) / m;
 }
 
+int test_compare_doubles(const void *a, const void *b)
+{
+    const double x = *(const double *)a, y = *(const double *)b;
+    return (x > y) - (x < y);
+}
+
 void test_add_sun_point_sky(vdbs_scene *scene)
 {
     static const double sun_dir[3] = {0.3, -1.0, 0.2}, sun[3] = {3.0, 3.0, 3.0};

@@ -26,6 +26,9 @@ void test_truncated_copy(const char *from, const char *to, double keep);
 /* Relative difference |a-b| / max(|a|,|b|), 0 when both are 0. */
 double test_rel_diff(double a, double b);
 
+/* qsort's comparison of doubles, ascending. */
+int test_compare_doubles(const void *a, const void *b);
+
 /* The lights the CPU/GPU agreement tests share: a sun travelling along (0.3,-1,0.2) of
  * irradiance 3, a coloured point light at (0.5,1.2,-0.3) and a constant blue sky. */
 void test_add_sun_point_sky(vdbs_scene *scene);

@@ -113,7 +113,6 @@ const void *vdbs_bake_report_stats(const vdbs_bake_report *report)
     return report->solver_stats.bytes;
 }
 
-/* Runs the scene's solver on the chosen backend; the lights are resolved here, once. */
 /* ms_l1 = (3 g / 4 pi) integral Lms w dw and ms = (1 / 4 pi) integral Lms dw with Lms >= 0, so
  * |ms_l1| <= 3 |g| ms holds exactly (docs/design.md "output grids"). A solver's moments can
  * break it by rounding or upsampling where ms is near 0 (FLD at 1e4 per voxel: ms 0, |ms_l1|
@@ -133,6 +132,7 @@ static void bound_first_moments(size_t count, double g, const float *ms, float *
     }
 }
 
+/* Runs the scene's solver on the chosen backend; the lights are resolved here, once. */
 static vdbs_status solve(const vdbs_bake_options *o, const vdbs_solver *solver,
                          const vdbs_quality *quality, const vdbs_volume *volume, vdbs_solve *s,
                          stored_lights *stored, vdbs_bake_report *report, vdbs_error *err)

@@ -1460,8 +1460,7 @@ void put_str(std::ostream &os, const std::string &s)
 class ChildResult
 {
   public:
-    explicit ChildResult(vdbs_contained result)
-        : result_(result), data_(result.data), size_(result.size)
+    explicit ChildResult(vdbs_contained result) : result_(result)
     {
     }
     ~ChildResult()
@@ -1477,23 +1476,23 @@ class ChildResult
     std::string str()
     {
         const uint64_t n = u64();
-        if (n > size_ - at_)
+        if (n > result_.size - at_)
             fail(VDBS_ERR_INTERNAL, "OpenVDB reader: short result");
-        std::string s(data_ + at_, n);
+        std::string s(result_.data + at_, n);
         at_ += n;
         return s;
     }
     void take(void *dst, size_t n)
     {
-        if (!data_ || n > size_ - at_)
+        if (!result_.data || n > result_.size - at_)
             fail(VDBS_ERR_INTERNAL, "OpenVDB reader: short result");
-        memcpy(dst, data_ + at_, n);
+        memcpy(dst, result_.data + at_, n);
         at_ += n;
     }
     /* The rest as an OpenVDB stream. */
     openvdb::io::Stream stream()
     {
-        MemInBuf buf(data_ + at_, size_ - at_);
+        MemInBuf buf(result_.data + at_, result_.size - at_);
         std::istream is(&buf);
         return openvdb::io::Stream(is, /*delayLoad=*/false);
     }
@@ -1511,8 +1510,7 @@ class ChildResult
 
   private:
     vdbs_contained result_;
-    const char *data_ = nullptr;
-    size_t size_ = 0, at_ = 0;
+    size_t at_ = 0;
 };
 
 /* Runs body(os, log) in a contained child: body writes the payload after the header the
