@@ -74,15 +74,19 @@ static int file_exists(const char *path)
     return stat(path, &st) == 0;
 }
 
-/* No ".NAME.tmp.PID" file may be left behind in the test folder. */
+/* No ".NAME.tmp.PID" file of this process may be left behind in the test folder (the folder is
+ * shared with tests running beside this one, whose writes have temp files of their own). */
 static int temp_files_left(void)
 {
     int n = 0;
+    char own[32];
+    snprintf(own, sizeof own, ".tmp.%ld", (long)getpid());
     DIR *dir = opendir(test_tmp_path(""));
     assert_non_null(dir);
     struct dirent *e;
     while ((e = readdir(dir))) {
-        if (e->d_name[0] == '.' && strstr(e->d_name, ".tmp."))
+        const char *tmp = strstr(e->d_name, own);
+        if (e->d_name[0] == '.' && tmp && tmp[strlen(own)] == '\0')
             n++;
     }
     closedir(dir);
