@@ -789,9 +789,12 @@ static void furnace_case(const vdbs_solver *solver, int kind, const vdbs_volume 
     int measured_only = 0;
     for (int i = 0; FURNACE_MEASURED_ONLY[i]; ++i)
         measured_only |= strcmp(solver->name, FURNACE_MEASURED_ONLY[i]) == 0;
-    print_message("furnace %s %s g %g: mean %.4f p1 %.4f p99 %.4f, worst %.4f at (%d %d %d)%s\n",
+    print_message("furnace %s %s g %g: mean %.4f p1 %.4f p99 %.4f, worst %.4f at (%d %d %d): "
+                  "density %.3f of %.3f, S1 %.4f, ms %.4f%s\n",
                   solver->name, VOL_NAMES[kind], g, mean, p1, p99, o.radiance[3 * worst + 1], w[0],
-                  w[1], w[2], measured_only ? " (measured only)" : "");
+                  w[1], w[2], vdbio_density_value(volume->density, w), dmax,
+                  o.radiance[3 * worst + 1] - o.ms[3 * worst + 1], o.ms[3 * worst + 1],
+                  measured_only ? " (measured only)" : "");
     if (!measured_only && (fabs(mean - 1.0) > 0.02 || p1 < 0.95 || p99 > 1.05))
         finding("furnace %s %s g %g: mean %.4f, p1 %.4f, p99 %.4f (target: mean within 2%%, "
                 "p1 to p99 within 5%%)",

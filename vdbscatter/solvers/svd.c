@@ -204,7 +204,7 @@ static vdbs_status layout_build(const vdbs_svd_grid *g, int chunk, svd_layout *l
     p[VS_SVD_OFF_TABLE_V] = (uint32_t)v_at;
     p[VS_SVD_OFF_TABLE_LIGHTS] = (uint32_t)light_at;
     l->state_words = cells * ((size_t)N * 3 + VS_SVD_OUT_WORDS) +
-                     2 * (size_t)l->chunk * (size_t)g->n[0] * g->n[1] * 3;
+                     2 * (size_t)l->chunk * (size_t)g->n[0] * g->n[1] * VS_SVD_FACE_WORDS;
     /* The kernel indexes with 32-bit ints (GLSL). */
     if (l->state_words > (size_t)INT32_MAX || cells * (size_t)N * 3 > (size_t)INT32_MAX) {
         layout_free(l);
@@ -258,7 +258,9 @@ static int sweep_chunk(vdbs_runner *runner, const vdbs_svd_grid *grid, int chunk
 {
     if (chunk > 0 || vdbs_runner_backend(runner) != VDBS_BACKEND_GPU)
         return chunk;
-    chunk = SVD_GPU_TRIPS / (2 * grid->terms + grid->light_count + 16);
+    /* Per direction: two loops over the terms, one over the lights, and the cell's three
+     * channels of at most three passes over three axes (vs_svd_cell_channel) with the rest. */
+    chunk = SVD_GPU_TRIPS / (2 * grid->terms + grid->light_count + 48);
     return chunk > 0 ? chunk : 1;
 }
 
