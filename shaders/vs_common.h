@@ -20,6 +20,7 @@
 #define VS_DATA_ONLY_ARG(name)
 #define vs_floor floor
 #define vs_exp exp
+#define vs_ldexp ldexp
 #define vs_sqrt sqrt
 #define vs_abs abs
 #define vs_min min
@@ -60,6 +61,7 @@ typedef struct vs_vec4 {
 #define VS_DATA_ONLY_ARG(name) name
 #define vs_floor floorf
 #define vs_exp expf
+#define vs_ldexp ldexpf
 #define vs_sqrt sqrtf
 #define vs_abs fabsf
 #define vs_pow powf

@@ -7,17 +7,18 @@
  * w_d with solid angles dw_d, sorted by octant, are swept octant by octant: a direction's upwind
  * neighbours are the same for its whole octant, so the octant's cells are visited plane by plane in
  * the sweep order (i' + j' + k' = s with i' the index counted from the octant's upwind side), every
- * step one plane, each item one column (i', j'). A weighted-diamond scheme on a box: along each
- * axis a the cell's mean L = alpha_a L_out,a + (1 - alpha_a) L_in,a, with alpha_a the slab weight
- * of the axis's optical depth (vs_svd_slab_weight: exact for light that only attenuates, 1/2 in
- * thin cells, 1, the step scheme, in thick ones). With r_a = h / h_a (h the largest side; 1 on a
- * cube) and mu_a = |w_d,a|, the balance  sigma_t h L + sum_a r_a mu_a (L_out,a - L_in,a) = eta h
- * gives L = (eta h + sum_a (r_a mu_a / alpha_a) L_in,a) / (sigma_t h + sum_a r_a mu_a / alpha_a),
- * and per cell and direction power in (eta V + inflow) = collisions (sigma_t L V) + outflow
+ * step one plane, each item one column (i', j'). The cell scheme on a box: along each axis a the
+ * cell's mean L = alpha_a L_out,a + (1 - alpha_a) L_in,a. The step scheme (the default) has
+ * alpha_a = 1, every outflow face the cell's mean; the weighted diamond (VS_SVD_OFF_SCHEME) has
+ * the slab weight of the axis's optical depth (vs_svd_slab_weight: exact for light that only
+ * attenuates, 1/2 in thin cells, 1 in thick ones), which removes most of the step's sideways
+ * spreading, a numerical diffusion of the order of the cell per free path. With r_a = h / h_a
+ * (h the largest side; 1 on a cube) and mu_a = |w_d,a|, the balance
+ * sigma_t h L + sum_a r_a mu_a (L_out,a - L_in,a) = eta h gives
+ * L = (eta h + sum_a (r_a mu_a / alpha_a) L_in,a) / (sigma_t h + sum_a r_a mu_a / alpha_a), and
+ * per cell and direction power in (eta V + inflow) = collisions (sigma_t L V) + outflow
  * (V = h_x h_y h_z, face a's area V / h_a): conservative by construction (a face held at 0 rather
  * than negative stays so: vs_svd_cell_channel), and the tallies of that balance come out per cell.
- * The step scheme (every outflow face the cell's mean) spread light sideways on every cell it
- * crossed, a numerical diffusion that lost 10% of the white furnace's collided light.
  *
  * The emission eta (power per volume and steradian) toward w_d is
  *   sum over direct lights l of E_l p_l(w_d)    (the first scattering of a sun's or point's
@@ -51,7 +52,8 @@
 #define VS_SVD_OFF_TABLE_V 26      /* word offset of v (D x N) in `svd_tables` */
 #define VS_SVD_OFF_TABLE_LIGHTS 27 /* word offset of the light records in `svd_tables` */
 #define VS_SVD_OFF_SIDE 28         /* 3 floats: world side of a cell along x, y, z */
-#define VS_SVD_PARAM_WORDS 31
+#define VS_SVD_OFF_SCHEME 31       /* 0: the step scheme; 1: the weighted diamond */
+#define VS_SVD_PARAM_WORDS 32
 
 /* `svd_tables` (floats): D direction records from word 0, then v, then the lights. */
 #define VS_SVD_DIR_W 0      /* 3: unit direction of travel */
@@ -155,6 +157,7 @@ struct vs_svd_cell {
     int terms, lights;
     int v_at, light_at; /* word offsets in svd_tables */
     int record;         /* word offset of the cell's record in the state */
+    int diamond;        /* VS_SVD_OFF_SCHEME */
     float h, g, volume, area;
     pnanovdb_vec3_t side;   /* world sides along x, y, z */
     pnanovdb_vec3_t ratio;  /* h / side: the faces' weights in the step (1 on a cube) */
@@ -176,6 +179,7 @@ VS_FUNC vs_svd_cell vs_svd_cell_of(VS_DATA_PARAM(vs_uint, svd_params)
     c.v_at = VS_INT(svd_params[VS_SVD_OFF_TABLE_V]);
     c.light_at = VS_INT(svd_params[VS_SVD_OFF_TABLE_LIGHTS]);
     c.record = VS_INT(svd_params[VS_SVD_OFF_STATE_OUT]) + at.cell * VS_SVD_OUT_WORDS;
+    c.diamond = VS_INT(svd_params[VS_SVD_OFF_SCHEME]);
     c.h = vs_svd_param_float(VS_DATA_ARG(svd_params) VS_SVD_OFF_H);
     c.g = vs_svd_param_float(VS_DATA_ARG(svd_params) VS_SVD_OFF_G);
     c.side = vs_vec3(vs_svd_param_float(VS_DATA_ARG(svd_params) VS_SVD_OFF_SIDE),
@@ -260,23 +264,41 @@ VS_FUNC_HOT pnanovdb_vec3_t vs_svd_emission(VS_DATA_PARAM(float, svd_tables)
  * direction's cosine): the cell's mean radiance is alpha L_out + (1 - alpha) L_in, exact for light
  * that only attenuates across the slab. 1/2 (the diamond) when thin, 1 (the step) when thick:
  * exact attenuation through thick cells without the step's sideways spreading through thin ones. */
+/* e^-tau for tau in [0.1, 40] in arithmetic that C and GLSL round alike (the drivers' exp is
+ * only within a few ulp, and the slab weight's difference of two terms amplifies that): tau
+ * split into n ln 2 + r with |r| <= ln 2 / 2 (ln 2 in two parts), r's Taylor polynomial to
+ * degree 7 (relative error below 2e-8), times 2^-n exactly. */
+VS_FUNC float vs_svd_exp_neg(float tau)
+{
+    float n = vs_floor(tau * 1.44269504f + 0.5f);
+    VS_PRECISE float r = (n * 0.693145752f - tau) + n * 1.42860677e-6f;
+    VS_PRECISE float p =
+        1.0f +
+        r * (1.0f + r * (0.5f + r * (0.166666667f +
+                                     r * (0.0416666667f +
+                                          r * (0.00833333333f +
+                                               r * (0.00138888889f + r * 0.000198412698f))))));
+    return vs_ldexp(p, -VS_INT(n));
+}
+
 VS_FUNC float vs_svd_slab_weight(float tau)
 {
     if (tau < 0.1f) /* the series: the closed form cancels here */
         return 0.5f + tau / 12.0f - tau * tau * tau / 720.0f;
     if (tau > 40.0f)
         return 1.0f - 1.0f / tau;
-    return 1.0f / (1.0f - vs_exp(-tau)) - 1.0f / tau;
+    return 1.0f / (1.0f - vs_svd_exp_neg(tau)) - 1.0f / tau;
 }
 
 /* One channel of a cell for one direction: the mean radiance and the outflow on each axis's far
  * face (outflow), from the emission q, sigma_t* st and the inflows. open[a] = |w_a| h / side_a
- * weighs face a (0: the direction does not cross it). The balance
+ * weighs face a (0: the direction does not cross it). alpha_a is the slab weight with `diamond`,
+ * else 1 (the step: every face the mean, never negative). The balance
  *   st h L + sum_a open_a (out_a - in_a) = q h,   L = alpha_a out_a + (1 - alpha_a) in_a
  * gives L; a face whose extrapolated outflow would be negative is held at 0 and L solved again
  * without it, which keeps the balance exact (the next pass only raises L, so two passes settle
  * every face; the third is a guard). */
-VS_FUNC_HOT float vs_svd_cell_channel(float q, float st, float h, pnanovdb_vec3_t open,
+VS_FUNC_HOT float vs_svd_cell_channel(int diamond, float q, float st, float h, pnanovdb_vec3_t open,
                                       pnanovdb_vec3_t inflow,
                                       PNANOVDB_INOUT(pnanovdb_vec3_t) outflow)
 {
@@ -291,7 +313,7 @@ VS_FUNC_HOT float vs_svd_cell_channel(float q, float st, float h, pnanovdb_vec3_
     i[1] = inflow.y;
     i[2] = inflow.z;
     for (int ax = 0; ax < 3; ++ax) {
-        a[ax] = o[ax] > 0.0f ? vs_svd_slab_weight(st * h / o[ax]) : 1.0f;
+        a[ax] = diamond != 0 && o[ax] > 0.0f ? vs_svd_slab_weight(st * h / o[ax]) : 1.0f;
         held[ax] = 0;
     }
     float l = 0.0f;
@@ -359,12 +381,12 @@ VS_FUNC_HOT pnanovdb_vec3_t vs_svd_upwind(VS_OUT_PARAM(float, svd_state) vs_svd_
     pnanovdb_vec3_t f0 = ax;
     pnanovdb_vec3_t f1 = ax;
     pnanovdb_vec3_t f2 = ax;
-    float l0 =
-        vs_svd_cell_channel(q.x, c.st.x, c.h, open, vs_vec3(ax.x, ay.x, az.x), PNANOVDB_REF(f0));
-    float l1 =
-        vs_svd_cell_channel(q.y, c.st.y, c.h, open, vs_vec3(ax.y, ay.y, az.y), PNANOVDB_REF(f1));
-    float l2 =
-        vs_svd_cell_channel(q.z, c.st.z, c.h, open, vs_vec3(ax.z, ay.z, az.z), PNANOVDB_REF(f2));
+    float l0 = vs_svd_cell_channel(c.diamond, q.x, c.st.x, c.h, open, vs_vec3(ax.x, ay.x, az.x),
+                                   PNANOVDB_REF(f0));
+    float l1 = vs_svd_cell_channel(c.diamond, q.y, c.st.y, c.h, open, vs_vec3(ax.y, ay.y, az.y),
+                                   PNANOVDB_REF(f1));
+    float l2 = vs_svd_cell_channel(c.diamond, q.z, c.st.z, c.h, open, vs_vec3(ax.z, ay.z, az.z),
+                                   PNANOVDB_REF(f2));
     PNANOVDB_DEREF(faces).x = vs_vec3(f0.x, f1.x, f2.x);
     PNANOVDB_DEREF(faces).y = vs_vec3(f0.y, f1.y, f2.y);
     PNANOVDB_DEREF(faces).z = vs_vec3(f0.z, f1.z, f2.z);

@@ -136,6 +136,7 @@ class HelpAndFlags(Base):
             (base + ["--method", "svd", "--residual", "0"], "--residual"),
             (base + ["--method", "svd", "--residual", "nan"], "--residual"),
             (base + ["--method", "svd", "--residual", "1.5"], "--residual"),
+            (base + ["--method", "svd", "--svd-scheme", "bogus"], "--svd-scheme"),
             (base + ["--method", "pop", "--keep-state"], "--keep-state"),
             (base + ["--method", "fld", "--warm-start", src], "--warm-start"),
             (base + ["--method", "svd", "--warm-start", src], "--warm-start"),

@@ -122,7 +122,7 @@ static void test_cell_closed_forms(void **state)
         const double tau = taus[i], h = 0.5, sigma = tau / h, in = 2.0, q = 3.0;
         pnanovdb_vec3_t out;
         float mean =
-            vs_svd_cell_channel((float)q, (float)sigma, (float)h, vs_vec3(1.0f, 0.0f, 0.0f),
+            vs_svd_cell_channel(1, (float)q, (float)sigma, (float)h, vs_vec3(1.0f, 0.0f, 0.0f),
                                 vs_vec3((float)in, 0.0f, 0.0f), &out);
         const double t = exp(-tau), pass = -expm1(-tau) / tau;
         const double want_out = in * t + q / sigma * -expm1(-tau);
@@ -138,7 +138,7 @@ static void test_cell_closed_forms(void **state)
     for (size_t i = 0; i < sizeof sts / sizeof *sts; ++i) {
         const float h = 1.0f, q = 0.1f;
         pnanovdb_vec3_t in = vs_vec3(0.0f, 50.0f, 0.0f), out;
-        float l = vs_svd_cell_channel(q, sts[i], h, vs_vec3(w[0], w[1], w[2]), in, &out);
+        float l = vs_svd_cell_channel(1, q, sts[i], h, vs_vec3(w[0], w[1], w[2]), in, &out);
         double balance = sts[i] * h * l + w[0] * (out.x - in.x) + w[1] * (out.y - in.y) +
                          w[2] * (out.z - in.z) - q * h;
         print_message("oblique, sigma_t %g: L %.6g, faces %.6g %.6g %.6g, imbalance %.2e\n", sts[i],
@@ -155,18 +155,20 @@ static void test_sweep_balance(void **state)
         int directions, terms;
         double g;
     } cases[] = {{48, 48, 0.6}, {48, 12, 0.6}, {96, 96, 0.9}, {64, 8, -0.4}};
-    for (size_t i = 0; i < sizeof cases / sizeof cases[0]; ++i) {
+    for (size_t i = 0; i < 2 * sizeof cases / sizeof cases[0]; ++i) {
+        const size_t c = i / 2; /* each case with the step, then with the diamond */
         problem p;
-        heterogeneous(&p, 9, cases[i].directions, cases[i].terms, cases[i].g, 0.95, 0);
+        heterogeneous(&p, 9, cases[c].directions, cases[c].terms, cases[c].g, 0.95, 0);
         vdbs_svd_desc desc = {0};
         desc.max_iterations = 6;
+        desc.scheme = i % 2 ? VDBS_SVD_DIAMOND : VDBS_SVD_STEP;
         vdbs_svd_stats stats;
         solve(&p.grid, &desc, NULL, NULL, &stats);
-        print_message("D %d N %d g %.2f (f %.3f): %d sweeps, emitted %.6g collided %.6g leaked "
-                      "%.6g, worst imbalance %.2e, clamped %.2e\n",
-                      cases[i].directions, cases[i].terms, cases[i].g, stats.delta_m_f,
-                      stats.iterations, stats.emitted, stats.collided, stats.leaked, stats.balance,
-                      stats.clamped_fraction);
+        print_message("%s, D %d N %d g %.2f (f %.3f): %d sweeps, emitted %.6g collided %.6g "
+                      "leaked %.6g, worst imbalance %.2e, clamped %.2e\n",
+                      i % 2 ? "diamond" : "step", cases[c].directions, cases[c].terms, cases[c].g,
+                      stats.delta_m_f, stats.iterations, stats.emitted, stats.collided,
+                      stats.leaked, stats.balance, stats.clamped_fraction);
         assert_int_equal(stats.iterations, 6);
         assert_true(stats.emitted > 0.0 && stats.leaked > 0.0 && stats.collided > 0.0);
         if (!(stats.balance <= 1e-4))
@@ -260,7 +262,11 @@ static void test_infinite_medium(void **state)
     const struct {
         int directions, terms;
         double g;
-    } cases[] = {{32, 32, 0.0}, {48, 48, 0.8}, {48, 6, 0.5}};
+        vdbs_svd_scheme scheme;
+    } cases[] = {{32, 32, 0.0, VDBS_SVD_STEP},
+                 {48, 48, 0.8, VDBS_SVD_STEP},
+                 {48, 6, 0.5, VDBS_SVD_STEP},
+                 {48, 48, 0.8, VDBS_SVD_DIAMOND}};
     for (size_t i = 0; i < sizeof cases / sizeof cases[0]; ++i) {
         problem p;
         memset(&p, 0, sizeof p);
@@ -294,6 +300,7 @@ static void test_infinite_medium(void **state)
         assert_non_null(fluence);
         vdbs_svd_desc desc = {0};
         desc.residual = 1e-6;
+        desc.scheme = cases[i].scheme;
         vdbs_svd_stats stats;
         solve(&g0, &desc, fluence, NULL, &stats);
         const size_t centre = ((size_t)(n / 2) * n + n / 2) * n + n / 2;

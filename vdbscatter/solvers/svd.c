@@ -136,7 +136,8 @@ static void layout_free(svd_layout *l)
     free(l->order);
 }
 
-static vdbs_status layout_build(const vdbs_svd_grid *g, int chunk, svd_layout *l, vdbs_error *err)
+static vdbs_status layout_build(const vdbs_svd_grid *g, int chunk, vdbs_svd_scheme scheme,
+                                svd_layout *l, vdbs_error *err)
 {
     memset(l, 0, sizeof *l);
     const vdbs_phasemat *pm = g->phase;
@@ -197,6 +198,7 @@ static vdbs_status layout_build(const vdbs_svd_grid *g, int chunk, svd_layout *l
     put_float(p, VS_SVD_OFF_G, pm->g_scaled);
     p[VS_SVD_OFF_CHUNK] = (uint32_t)l->chunk;
     p[VS_SVD_OFF_CHUNKS] = (uint32_t)l->chunks;
+    p[VS_SVD_OFF_SCHEME] = scheme == VDBS_SVD_DIAMOND ? 1u : 0u;
     for (int o = 0; o <= VS_SVD_OCTANTS; ++o)
         p[VS_SVD_OFF_OCTANT + o] = (uint32_t)start[o];
     p[VS_SVD_OFF_STATE_OUT] = (uint32_t)(cells * (size_t)N * 3);
@@ -367,7 +369,8 @@ vdbs_status vdbs_svd_solve_grid(vdbs_runner *runner, const vdbs_svd_grid *grid,
     stats_begin(grid, stats);
     const int64_t cells = stats->cells;
     svd_layout l;
-    vdbs_status st = layout_build(grid, sweep_chunk(runner, grid, desc->chunk), &l, err);
+    vdbs_status st =
+        layout_build(grid, sweep_chunk(runner, grid, desc->chunk), desc->scheme, &l, err);
     if (st != VDBS_OK)
         return st;
     stats->chunk = l.chunk;

@@ -12,7 +12,10 @@
 #define SVD_MAX_RESOLUTION 512
 #define SVD_MAX_ITERATIONS 100000
 
-enum { OPT_DIRECTIONS, OPT_TERMS, OPT_RES, OPT_ACROSS, OPT_ITERATIONS, OPT_RESIDUAL };
+enum { OPT_DIRECTIONS, OPT_TERMS, OPT_RES, OPT_ACROSS, OPT_ITERATIONS, OPT_RESIDUAL, OPT_SCHEME };
+
+/* Index order: vdbs_svd_scheme's. */
+static const char *const scheme_names[] = {"step", "diamond", NULL};
 
 /* The presets are svd.c's vdbs_svd_quality (test_svd checks). */
 static const vdbs_solver_option options[] = {
@@ -60,6 +63,16 @@ static const vdbs_solver_option options[] = {
                       .help = "SVD: stop when the fluence changes by at most R per\n"
                               "iteration (default 1e-2/3e-3/1e-3/3e-4)",
                       .preset = {1e-2, 3e-3, 1e-3, 3e-4}},
+    [OPT_SCHEME] = {.key = "svd_scheme",
+                    .flag = "--svd-scheme",
+                    .kind = VDBS_OPTION_CHOICE,
+                    .syntax = "S",
+                    .choices = scheme_names,
+                    .noun = "scheme",
+                    .report_key = "scheme",
+                    .help = "SVD: the sweep's cell scheme: step (default) or diamond\n"
+                            "(weighted by each axis's optical depth: less numerical\n"
+                            "diffusion; docs/methods/svd.md has where each wins)"},
 };
 
 static double option(const vdbs_scene *scene, int i)
@@ -185,6 +198,7 @@ static vdbs_status run_svd(const vdbs_solve *s, void *stats, vdbs_error *err)
     desc.resolution = (int)option(s->scene, OPT_RES);
     desc.across = (int)option(s->scene, OPT_ACROSS);
     desc.residual = option(s->scene, OPT_RESIDUAL);
+    desc.scheme = (vdbs_svd_scheme)option(s->scene, OPT_SCHEME);
     desc.max_iterations = (int)option(s->scene, OPT_ITERATIONS);
     desc.warm = s->warm ? &((const svd_state *)s->warm)->moments : NULL;
     desc.keep = s->keep ? &((svd_state *)s->keep)->moments : NULL;

@@ -31,21 +31,28 @@ extern "C" {
 #endif
 
 /* Zero-initialise; 0 means the default. */
+/* The sweep's cell scheme (shaders/vs_svd.h). */
+typedef enum vdbs_svd_scheme {
+    VDBS_SVD_STEP = 0, /* every outflow face carries the cell's mean */
+    VDBS_SVD_DIAMOND   /* each axis's outflow extrapolated with the slab weight of its depth */
+} vdbs_svd_scheme;
+
 typedef struct vdbs_svd_desc {
-    int directions;     /* D (--svd-directions); default: the quality's */
-    int terms;          /* N (--svd-terms), at most D; default: the fewest whose factorisation
-                           RMSE is within the quality's tolerance */
-    int resolution;     /* cells across the support box's extent (--svd-res); default: the
-                           quality's; never finer than the voxels */
-    int across;         /* cells at least across every axis (--svd-across; coarse.h's
-                           vdbs_coarse_world_frame); default VDBS_COARSE_MIN_ACROSS, 1: cubic
-                           cells */
-    double residual;    /* stop once the relative change of the fluence per iteration is at
-                           most this (--residual); default: the quality's */
-    int max_iterations; /* the cap (--svd-iterations); default 2000 */
-    int delta_m;        /* phasemat.h: 0 auto, 1 always, -1 never */
-    int chunk;          /* directions per sweep step; default: an octant's on the C path, as
-                           many as keep a step under the GPU driver's loop limit on the GPU */
+    int directions;         /* D (--svd-directions); default: the quality's */
+    int terms;              /* N (--svd-terms), at most D; default: the fewest whose factorisation
+                               RMSE is within the quality's tolerance */
+    int resolution;         /* cells across the support box's extent (--svd-res); default: the
+                               quality's; never finer than the voxels */
+    int across;             /* cells at least across every axis (--svd-across; coarse.h's
+                               vdbs_coarse_world_frame); default VDBS_COARSE_MIN_ACROSS, 1: cubic
+                               cells */
+    double residual;        /* stop once the relative change of the fluence per iteration is at
+                               most this (--residual); default: the quality's */
+    int max_iterations;     /* the cap (--svd-iterations); default 2000 */
+    int delta_m;            /* phasemat.h: 0 auto, 1 always, -1 never */
+    vdbs_svd_scheme scheme; /* --svd-scheme; default the step */
+    int chunk;              /* directions per sweep step; default: an octant's on the C path, as
+                               many as keep a step under the GPU driver's loop limit on the GPU */
     const struct vdbs_svd_moments *warm; /* --warm-start: moments to start from, or NULL;
                                             its D and N unless directions or terms are set
                                             (then they must match) */
