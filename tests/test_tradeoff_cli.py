@@ -126,6 +126,22 @@ class Tradeoff(unittest.TestCase):
         self.assertNotEqual(self.other["reference"]["key"], a["key"])
         self.assertFalse(self.other["reference"]["cached"])
 
+    def test_camera_flag(self):
+        """--camera frames the reference and the renders (it once failed every run: the
+        camera it handed the bakes had no image size); another camera, another reference."""
+        cloud = os.path.join(SAMPLES, "cloud.vdb")
+        keys = []
+        for cam in ["0,0.6,4.5:0,0,0:35", "4.5,0.6,0:0,0,0:35"]:
+            out = os.path.join(self.tmp, "camera-" + cam.split(",")[0])
+            rep = json.loads(run("tradeoff", cloud, "--sun", "0.3,-1,0.2", "--density-scale",
+                                 "20", "--camera", cam, "-o", out, "--methods", "single",
+                                 "--qualities", "low", "--size", "24x18", "--ref-noise", "0.3",
+                                 "--json", "-q", check=0).stdout)
+            self.assertEqual((rep["width"], rep["height"]), (24, 18))
+            self.assertEqual([r["method"] for r in rep["rows"]], ["single"])
+            keys.append(rep["reference"]["key"])
+        self.assertNotEqual(keys[0], keys[1])
+
     def test_plot_and_summary(self):
         self.assertEqual(png_size(os.path.join(self.dir, "tradeoff.png")), (800, 560))
         md = open(os.path.join(self.dir, "tradeoff.md")).read()

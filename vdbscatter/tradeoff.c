@@ -21,8 +21,6 @@
 #include "vdbscatter/scene_file.h"
 #include "vdbscatter/solver.h"
 
-#define DEFAULT_WIDTH 128
-#define DEFAULT_HEIGHT 96
 #define DEFAULT_REF_NOISE 0.01
 #define DEFAULT_REF_SECONDS 600.0
 /* The pilot reference that sizes the real one; also a point of the reference's curve. */
@@ -595,8 +593,8 @@ vdbs_status vdbs_tradeoff_run(const vdbs_tradeoff_desc *d, vdbs_tradeoff_report 
     j.desc = d;
     j.report = rep;
     j.input = d->input ? d->input : d->scene->volume_file;
-    j.width = d->width > 0 ? d->width : DEFAULT_WIDTH;
-    j.height = d->height > 0 ? d->height : DEFAULT_HEIGHT;
+    j.width = d->width > 0 ? d->width : VDBS_TRADEOFF_WIDTH;
+    j.height = d->height > 0 ? d->height : VDBS_TRADEOFF_HEIGHT;
     rep->width = j.width;
     rep->height = j.height;
     if (!d->dir || !d->dir[0])

@@ -23,6 +23,10 @@ extern "C" {
 #define VDBS_TRADEOFF_MAX_METHODS 8
 #define VDBS_TRADEOFF_MAX_CURVE 16
 
+/* The image size when the caller gives none. */
+#define VDBS_TRADEOFF_WIDTH 128
+#define VDBS_TRADEOFF_HEIGHT 96
+
 /* Zero-initialise; 0 means "choose the default". */
 typedef struct vdbs_tradeoff_desc {
     const char *input;       /* density VDB; scene->volume_file when NULL */
@@ -35,7 +39,7 @@ typedef struct vdbs_tradeoff_desc {
      * medium and high. */
     unsigned qualities;
     const vdbs_camera *camera; /* NULL: the scene's camera, else a view of the whole volume */
-    int width, height;         /* 0: 128 x 96 */
+    int width, height;         /* 0: VDBS_TRADEOFF_WIDTH x VDBS_TRADEOFF_HEIGHT */
     /* The reference: rendered to this relative standard error of the image,
      * sqrt(mean se^2) / sqrt(mean L^2) (0: 0.01), in at most ref_seconds (0: 600). */
     double ref_noise;
