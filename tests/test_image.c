@@ -1,6 +1,7 @@
 /* Images: EXR round trips (bit-exact float RGB and se channels), PNG within 8-bit sRGB
- * quantisation, every read/write error class, and the compare metrics on images with
- * known answers (scaled copies, a known percentile, Gaussian noise of known se). */
+ * quantisation, Radiance HDR within RGBE's and cut short anywhere, every read/write error class,
+ * and the compare metrics on images with known answers (scaled copies, a known percentile, Gaussian
+ * noise of known se). */
 #define _POSIX_C_SOURCE 200809L
 #include "testutil.h"
 
@@ -227,6 +228,57 @@ static void test_read_errors(void **state)
     vdbs_image_free(&src);
 }
 
+/* Radiance HDR: a round trip within RGBE's quantisation (8 mantissa bits shared by the pixel's
+ * largest channel, truncated), and every cut of the run-length pixel data refused with one
+ * line. stb_image alone loops forever on a scanline cut short (it reads zeros past the end,
+ * and a zero count never advances), so each cut is a hang without the reader's own check. */
+static void test_hdr_round_trip_and_cuts(void **state)
+{
+    (void)state;
+    vdbs_image src, back;
+    vdbs_error err;
+    alloc_ok(&src, 64, 16, 0); /* 8 <= width < 32768: stb writes run-length scanlines */
+    fill_random(&src);
+    const char *path = test_tmp_path("test_image_hdr.hdr");
+    write_ok(path, &src, 0.0);
+    assert_no_temp("test_image_hdr.hdr");
+    read_ok(path, &back);
+    assert_int_equal(back.width, 64);
+    assert_int_equal(back.height, 16);
+    for (size_t p = 0; p < (size_t)64 * 16; ++p) {
+        const float *a = src.rgb + 3 * p, *b = back.rgb + 3 * p;
+        const float top = fmaxf(a[0], fmaxf(a[1], a[2]));
+        for (int c = 0; c < 3; ++c)
+            assert_true(b[c] <= a[c] && a[c] - b[c] <= top * 0x1p-7f);
+    }
+    vdbs_image_free(&back);
+
+    FILE *f = fopen(path, "rb");
+    assert_non_null(f);
+    static unsigned char bytes[1 << 16];
+    const size_t size = fread(bytes, 1, sizeof bytes, f);
+    fclose(f);
+    assert_true(size > 0 && size < sizeof bytes);
+    const unsigned char *dims = (const unsigned char *)strstr((const char *)bytes, "-Y 16 +X 64\n");
+    assert_non_null(dims);
+    const size_t data_start = (size_t)(dims - bytes) + strlen("-Y 16 +X 64\n");
+    const char *cut = test_tmp_path("test_image_hdr_cut.hdr");
+    for (size_t len = data_start; len < size; ++len) {
+        f = fopen(cut, "wb");
+        assert_non_null(f);
+        assert_int_equal(fwrite(bytes, 1, len, f), len);
+        fclose(f);
+        if (vdbs_image_read(cut, &back, &err) != VDBS_ERR_INPUT)
+            fail_msg("an HDR file cut to %zu of %zu bytes was not refused", len, size);
+        assert_non_null(strstr(err.message, cut));
+        assert_null(strchr(err.message, '\n'));
+        assert_null(back.rgb);
+    }
+    unlink(cut);
+    unlink(path);
+    vdbs_image_free(&src);
+}
+
 static void test_write_errors(void **state)
 {
     (void)state;
@@ -442,6 +494,7 @@ int main(void)
         cmocka_unit_test(test_exr_round_trip),
         cmocka_unit_test(test_png_round_trip),
         cmocka_unit_test(test_read_errors),
+        cmocka_unit_test(test_hdr_round_trip_and_cuts),
         cmocka_unit_test(test_write_errors),
         cmocka_unit_test(test_compare_self_and_scaled),
         cmocka_unit_test(test_compare_percentile),

@@ -5,6 +5,7 @@
 #include "vdbscatter/image.h"
 
 #include "io/exrmap.h"
+#include "vdbscatter/readfile.h"
 #include "vdbscatter/tempfile.h"
 
 #include <errno.h>
@@ -234,16 +235,106 @@ static vdbs_status hdr_write(const char *path, const char *tmp, const vdbs_image
     return VDBS_OK;
 }
 
-/* Radiance RGBE (.hdr): linear float radiance as stored. */
+/* A byte cursor that reads 0 past the end, as stb_image's reader does, so that the check
+ * below walks the file exactly as stb will. */
+typedef struct hdr_cursor {
+    const unsigned char *bytes;
+    size_t size, at;
+} hdr_cursor;
+
+static int hdr_get8(hdr_cursor *c)
+{
+    return c->at < c->size ? c->bytes[c->at++] : 0;
+}
+
+/* One header line, stb's way: at most 1023 characters kept, the rest of the line skipped. */
+static void hdr_line(hdr_cursor *c, char *line, size_t cap)
+{
+    size_t len = 0;
+    int ch = hdr_get8(c);
+    while (c->at < c->size && ch != '\n') {
+        line[len++] = (char)ch;
+        if (len == cap - 1) {
+            while (c->at < c->size && hdr_get8(c) != '\n')
+                ;
+            break;
+        }
+        ch = hdr_get8(c);
+    }
+    line[len] = 0;
+}
+
+/* Debian's stb_image loops forever on a run-length scanline that holds a zero count, which is
+ * what every truncated scanline reads as (bytes past the end read 0). Walks the scanlines
+ * stb will decode and refuses a zero count or a scanline cut short; anything else stb
+ * reports itself. Returns the bad scanline's number, or -1 when stb may read the file. */
+static long hdr_bad_scanline(const unsigned char *bytes, size_t size)
+{
+    hdr_cursor c = {bytes, size, 0};
+    char line[1024];
+    hdr_line(&c, line, sizeof line); /* "#?RADIANCE": stb checks it */
+    do
+        hdr_line(&c, line, sizeof line);
+    while (line[0] && c.at < c.size);
+    hdr_line(&c, line, sizeof line);
+    long height = 0, width = 0;
+    if (sscanf(line, "-Y %ld +X %ld", &height, &width) != 2 || width < 8 || width >= 32768)
+        return -1; /* another layout, or flat pixels: stb refuses or reads without runs */
+    for (long row = 0; row < height; ++row) {
+        if (c.size - c.at < 4)
+            return row;
+        const int c1 = hdr_get8(&c), c2 = hdr_get8(&c), hi = hdr_get8(&c);
+        if (c1 != 2 || c2 != 2 || (hi & 0x80))
+            return -1; /* flat pixels from here on */
+        if (((long)hi << 8 | hdr_get8(&c)) != width)
+            return -1; /* stb refuses the length */
+        for (int channel = 0; channel < 4; ++channel) {
+            for (long x = 0; x < width;) {
+                if (c.at >= c.size)
+                    return row;
+                int count = hdr_get8(&c);
+                const int run = count > 128;
+                count -= run ? 128 : 0;
+                if (count == 0)
+                    return row;
+                if (count > width - x)
+                    return -1; /* stb refuses the run */
+                const size_t need = run ? 1u : (size_t)count;
+                if (c.size - c.at < need)
+                    return row;
+                c.at += need;
+                x += count;
+            }
+        }
+    }
+    return -1;
+}
+
+/* Radiance RGBE (.hdr): linear float radiance as stored. The file is read once into memory,
+ * checked, and decoded from the same bytes. */
 static vdbs_status hdr_read(const char *path, vdbs_image *image, vdbs_error *err)
 {
+    char *bytes = NULL;
+    size_t size = 0;
+    vdbs_status st = vdbs_read_file(path, NULL, INT32_MAX, &bytes, &size, err);
+    if (st != VDBS_OK)
+        return st;
+    const long bad_row = hdr_bad_scanline((const unsigned char *)bytes, size);
+    if (bad_row >= 0) {
+        free(bytes);
+        return vdbs_error_set(err, VDBS_ERR_INPUT,
+                              "%s: corrupt Radiance HDR file: run-length scanline %ld is "
+                              "truncated or holds a zero-length run",
+                              path, bad_row);
+    }
     int w = 0, h = 0, comp = 0;
-    float *data = stbi_loadf(path, &w, &h, &comp, 3);
+    float *data = stbi_loadf_from_memory((const unsigned char *)bytes, (int)size, &w, &h, &comp, 3);
+    free(bytes);
     if (!data)
         return vdbs_error_set(err, VDBS_ERR_INPUT,
                               "%s: corrupt or unsupported Radiance HDR file: %s", path,
                               stbi_failure_reason());
-    vdbs_status st = vdbs_image_alloc(image, w, h, 0, err);
+    st = vdbs_image_alloc(image, w, h, 0, err);
     if (st == VDBS_OK)
         memcpy(image->rgb, data, sizeof(float) * 3 * (size_t)w * (size_t)h);
     stbi_image_free(data);

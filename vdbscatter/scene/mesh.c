@@ -1,6 +1,7 @@
 /* Occluder meshes: a strict Wavefront OBJ reader (every malformed line is an error naming
  * file and line; docs/design.md "Decisions" says why not assimp) and tessellated primitives. */
 #include "vdbscatter/mesh.h"
+#include "vdbscatter/readfile.h"
 
 #include <errno.h>
 #include <float.h>
@@ -428,54 +429,6 @@ static vdbs_status read_line(obj_reader *r, char *line)
     return VDBS_OK;
 }
 
-/* Reads a whole file (at most OBJ_FILE_MAX bytes) NUL-terminated. */
-static vdbs_status read_file(const char *path, char **text, size_t *length, vdbs_error *err)
-{
-    errno = 0;
-    FILE *f = fopen(path, "rb");
-    if (!f)
-        return vdbs_error_set(err, VDBS_ERR_INPUT, "%s: cannot open: %s", path,
-                              errno ? strerror(errno) : "unknown error");
-    size_t cap = 0, len = 0;
-    char *buf = NULL;
-    for (;;) {
-        if (cap - len < 65536 + 1) {
-            if (cap >= (size_t)OBJ_FILE_MAX) {
-                free(buf);
-                fclose(f);
-                return vdbs_error_set(err, VDBS_ERR_INPUT, "%s: larger than %ld bytes", path,
-                                      OBJ_FILE_MAX);
-            }
-            size_t ncap = cap ? cap * 2 : 262144;
-            char *b = realloc(buf, ncap);
-            if (!b) {
-                free(buf);
-                fclose(f);
-                return vdbs_error_set(err, VDBS_ERR_NOMEM, "%s: out of memory", path);
-            }
-            buf = b;
-            cap = ncap;
-        }
-        size_t got = fread(buf + len, 1, cap - len - 1, f);
-        len += got;
-        if (got == 0 || ferror(f) || feof(f))
-            break;
-    }
-    if (ferror(f)) {
-        int e = errno;
-        free(buf);
-        fclose(f);
-        /* A directory opens but does not read. */
-        return vdbs_error_set(err, VDBS_ERR_INPUT, "%s: cannot read: %s", path,
-                              e ? strerror(e) : "read error");
-    }
-    fclose(f);
-    buf[len] = '\0';
-    *text = buf;
-    *length = len;
-    return VDBS_OK;
-}
-
 vdbs_status vdbs_mesh_load_obj(const char *path, const vdbs_mesh_transform *transform,
                                vdbs_mesh *out, vdbs_error *err)
 {
@@ -484,7 +437,7 @@ vdbs_status vdbs_mesh_load_obj(const char *path, const vdbs_mesh_transform *tran
     vdbs_status st;
     if (!path || !out) /* a caller's mistake */
         return vdbs_error_set(err, VDBS_ERR_INTERNAL, "mesh: no OBJ path or output given");
-    if ((st = read_file(path, &text, &len, err)) != VDBS_OK)
+    if ((st = vdbs_read_file(path, NULL, OBJ_FILE_MAX, &text, &len, err)) != VDBS_OK)
         return st;
     obj_reader r = {0};
     r.path = path;

@@ -6,6 +6,7 @@
 #include "vdbscatter/solver.h"
 
 #include "vdbscatter/suggest.h"
+#include "vdbscatter/readfile.h"
 
 #include <cjson/cJSON.h>
 
@@ -789,48 +790,6 @@ vdbs_status vdbs_scene_parse(const char *json_text, const char *base_dir, vdbs_s
     return one_line(parse_scene(&ctx, json_text, scene), err);
 }
 
-/* Reads a whole file in chunks (no size query: a directory or a pipe reports none). */
-static vdbs_status read_text(const char *prefix, FILE *f, char **out, vdbs_error *err)
-{
-    size_t cap = 0, len = 0;
-    char *text = NULL;
-    for (;;) {
-        if (cap - len < 4096 + 1) {
-            if (cap >= (size_t)SCENE_FILE_MAX) {
-                free(text);
-                return vdbs_error_set(err, VDBS_ERR_INPUT, "%s: file too large for a scene",
-                                      prefix);
-            }
-            size_t ncap = cap ? cap * 2 : 16384;
-            char *t = realloc(text, ncap);
-            if (!t) {
-                free(text);
-                return vdbs_error_set(err, VDBS_ERR_NOMEM, "%s: out of memory", prefix);
-            }
-            text = t;
-            cap = ncap;
-        }
-        size_t got = fread(text + len, 1, cap - len - 1, f);
-        len += got;
-        if (got == 0 || ferror(f) || feof(f))
-            break;
-    }
-    if (ferror(f)) {
-        int e = errno;
-        free(text);
-        return vdbs_error_set(err, VDBS_ERR_INPUT, "%s: cannot read: %s", prefix,
-                              e ? strerror(e) : "read error");
-    }
-    text[len] = '\0';
-    if (strlen(text) != len) {
-        free(text);
-        return vdbs_error_set(err, VDBS_ERR_INPUT, "%s: not a text file (contains NUL bytes)",
-                              prefix);
-    }
-    *out = text;
-    return VDBS_OK;
-}
-
 vdbs_status vdbs_scene_load(const char *path, vdbs_scene *scene, vdbs_error *err)
 {
     char prefix[VDBS_PATH_MAX + 16];
@@ -839,21 +798,19 @@ vdbs_status vdbs_scene_load(const char *path, vdbs_scene *scene, vdbs_error *err
     const char *slash;
     char *text = NULL;
     vdbs_status st;
-    FILE *f;
 
     if (!path) /* a caller's mistake; a missing file is VDBS_ERR_INPUT below */
         return vdbs_error_set(err, VDBS_ERR_INTERNAL, "scene: no file given");
     snprintf(prefix, sizeof prefix, "scene %s", path);
-    errno = 0;
-    f = fopen(path, "rb");
-    if (!f)
-        return vdbs_error_set(err, VDBS_ERR_INPUT, "%s: cannot open: %s", prefix,
-                              errno ? strerror(errno) : "unknown error");
-    errno = 0;
-    st = read_text(prefix, f, &text, err);
-    fclose(f);
+    size_t len = 0;
+    st = vdbs_read_file(path, prefix, SCENE_FILE_MAX, &text, &len, err);
     if (st != VDBS_OK)
         return st;
+    if (strlen(text) != len) {
+        free(text);
+        return vdbs_error_set(err, VDBS_ERR_INPUT, "%s: not a text file (contains NUL bytes)",
+                              prefix);
+    }
 
     /* Relative paths in the scene are relative to the scene file's folder. */
     slash = strrchr(path, '/');
