@@ -233,13 +233,6 @@ int cmd_tradeoff(int argc, char **argv)
         free(scene);
         return cli_fail("tradeoff", st, err.message);
     }
-    if (d.camera) {
-        /* The bakes' radiance_view and the renders frame with it; the lit VDB's scene keeps
-         * it, so it needs the image's size to be a valid camera there. */
-        camera.width = d.width > 0 ? d.width : VDBS_TRADEOFF_WIDTH;
-        camera.height = d.height > 0 ? d.height : VDBS_TRADEOFF_HEIGHT;
-        scene->camera = camera;
-    }
     d.input = args.positional_count ? args.positional[0] : scene->volume_file;
     if (!d.input[0]) {
         free(scene);

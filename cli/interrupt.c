@@ -23,8 +23,16 @@ const vdbs_cancel *cli_interrupt_install(void)
     /* SA_RESETHAND: a second signal of the kind takes the default action (the user can
      * still kill a stuck process); SA_RESTART: no EINTR in the middle of file I/O. */
     sa.sa_flags = SA_RESETHAND | SA_RESTART;
+    /* Both held while the two handlers go in, so that a signal between the two calls waits
+     * for its handler rather than taking the default action. */
+    sigset_t both, before;
+    sigemptyset(&both);
+    sigaddset(&both, SIGINT);
+    sigaddset(&both, SIGTERM);
+    sigprocmask(SIG_BLOCK, &both, &before);
     sigaction(SIGINT, &sa, NULL);
     sigaction(SIGTERM, &sa, NULL);
+    sigprocmask(SIG_SETMASK, &before, NULL);
     return &interrupt_signal;
 }
 

@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # Builds the libFuzzer harnesses of fuzz/ with clang (build-fuzz/, ccache when installed) and
-# runs each for SECONDS (default 30), as many at once as there are cores, from the committed
+# runs each for SECONDS (default 30), as many at once as there are cores (VDBSCATTER_FUZZ_JOBS
+# sets another number), from the committed
 # seeds, samples/, the external test data when present (VDBSCATTER_DATA_DIR, else
 # ../shared/data) and the corpus of earlier runs (fuzz/corpus/, not committed). Prints per
 # harness the executions per second, the corpus size and the findings (fuzz/findings/HARNESS/);
@@ -59,7 +60,9 @@ run_one() { # HARNESS
 }
 export -f run_one
 export root secs seeds
-printf '%s\n' "${harnesses[@]}" | xargs -P "$(nproc)" -I{} bash -c 'run_one {}'
+jobs=${VDBSCATTER_FUZZ_JOBS:-$(nproc)}
+case "$jobs" in '' | *[!0-9]* | 0) echo "fuzz.sh: VDBSCATTER_FUZZ_JOBS must be a count" >&2; exit 2 ;; esac
+printf '%s\n' "${harnesses[@]}" | xargs -P "$jobs" -I{} bash -c 'run_one {}'
 
 status=0
 printf '%-6s %10s %8s %8s %9s\n' harness execs execs/s corpus findings

@@ -77,8 +77,24 @@
 #define VS_SVD_OUT_CLAMPED 15 /* emitted power lost to the clamp at 0 */
 #define VS_SVD_OUT_WORDS 16
 /* A column's words on a plane in flight, per direction: its cell's outflow on the far x, y and
- * z faces, 3 channels each. */
-#define VS_SVD_FACE_WORDS 9
+ * z faces, 3 channels each (the diamond). The step's three faces all carry the cell's mean, so
+ * it keeps only the first. */
+#define VS_SVD_FACE_X 0
+#define VS_SVD_FACE_Y 3
+#define VS_SVD_FACE_Z 6
+#define VS_SVD_FACE_WORDS_DIAMOND 9
+#define VS_SVD_FACE_WORDS_STEP 3
+
+VS_FUNC int vs_svd_face_words(int diamond)
+{
+    return diamond != 0 ? VS_SVD_FACE_WORDS_DIAMOND : VS_SVD_FACE_WORDS_STEP;
+}
+
+/* The word of face (VS_SVD_FACE_X, _Y or _Z) in a column's words: the step keeps one. */
+VS_FUNC int vs_svd_face_word(int face_words, int face)
+{
+    return face < face_words ? face : VS_SVD_FACE_X;
+}
 
 /* The word of term k, channel ch of a cell's moments (the state's and the source's): a cell's
  * terms lie contiguous per channel, so that a direction's sums over them run in SIMD lanes. */
@@ -115,6 +131,7 @@ struct vs_svd_at {
     int here, back; /* word offsets of this step's plane and of the previous step's */
     int first, end; /* the step's directions; first >= end: nothing to do */
     int chunk_dirs; /* directions per chunk (the planes' stride) */
+    int face_words; /* a column's words per direction on a plane (vs_svd_face_words) */
 };
 PNANOVDB_STRUCT_TYPEDEF(vs_svd_at)
 
@@ -146,8 +163,9 @@ VS_FUNC vs_svd_at vs_svd_locate(VS_DATA_PARAM(vs_uint, svd_params) int item, int
     at.column = at.jp * n0 + at.ip;
     int columns = n0 * n1;
     int plane_at = VS_INT(svd_params[VS_SVD_OFF_STATE_PLANES]);
-    at.here = plane_at + (plane & 1) * at.chunk_dirs * columns * VS_SVD_FACE_WORDS;
-    at.back = plane_at + ((plane + 1) & 1) * at.chunk_dirs * columns * VS_SVD_FACE_WORDS;
+    at.face_words = vs_svd_face_words(VS_INT(svd_params[VS_SVD_OFF_SCHEME]));
+    at.here = plane_at + (plane & 1) * at.chunk_dirs * columns * at.face_words;
+    at.back = plane_at + ((plane + 1) & 1) * at.chunk_dirs * columns * at.face_words;
     return at;
 }
 
@@ -357,6 +375,13 @@ VS_FUNC pnanovdb_vec3_t vs_svd_load3(VS_OUT_PARAM(float, svd_state) int at)
     return vs_vec3(svd_state[at], svd_state[at + 1], svd_state[at + 2]);
 }
 
+VS_FUNC void vs_svd_store3(VS_OUT_PARAM(float, svd_state) int at, pnanovdb_vec3_t v)
+{
+    svd_state[at] = v.x;
+    svd_state[at + 1] = v.y;
+    svd_state[at + 2] = v.z;
+}
+
 /* The cell's radiance toward w from its emission q (clamped) and the upwind inflow: the far face
  * of the column before along each axis on the previous plane, 0 at the grid's inflow faces
  * (vacuum). Its outflow faces go to `faces`. */
@@ -369,15 +394,16 @@ VS_FUNC_HOT pnanovdb_vec3_t vs_svd_upwind(VS_OUT_PARAM(float, svd_state) vs_svd_
     pnanovdb_vec3_t ax = vs_vec3(0.0f, 0.0f, 0.0f);
     pnanovdb_vec3_t ay = ax;
     pnanovdb_vec3_t az = ax;
+    int fw = at.face_words;
     if (at.ip > 0)
-        ax = vs_svd_load3(VS_DATA_ARG(svd_state) at.back +
-                          (slot + at.column - 1) * VS_SVD_FACE_WORDS);
+        ax = vs_svd_load3(VS_DATA_ARG(svd_state) at.back + (slot + at.column - 1) * fw +
+                          vs_svd_face_word(fw, VS_SVD_FACE_X));
     if (at.jp > 0)
-        ay = vs_svd_load3(VS_DATA_ARG(svd_state) at.back +
-                          (slot + at.column - c.n0) * VS_SVD_FACE_WORDS + 3);
+        ay = vs_svd_load3(VS_DATA_ARG(svd_state) at.back + (slot + at.column - c.n0) * fw +
+                          vs_svd_face_word(fw, VS_SVD_FACE_Y));
     if (at.kp > 0)
-        az = vs_svd_load3(VS_DATA_ARG(svd_state) at.back + (slot + at.column) * VS_SVD_FACE_WORDS +
-                          6);
+        az = vs_svd_load3(VS_DATA_ARG(svd_state) at.back + (slot + at.column) * fw +
+                          vs_svd_face_word(fw, VS_SVD_FACE_Z));
     pnanovdb_vec3_t f0 = ax;
     pnanovdb_vec3_t f1 = ax;
     pnanovdb_vec3_t f2 = ax;
@@ -422,16 +448,12 @@ VS_FUNC_HOT void vs_svd_direction(VS_DATA_PARAM(float, svd_tables) VS_DATA_PARAM
     vs_svd_faces leaving;
     pnanovdb_vec3_t l =
         vs_svd_upwind(VS_DATA_ARG(svd_state) at, c, slot, q, w, PNANOVDB_REF(leaving));
-    int put = at.here + (slot + at.column) * VS_SVD_FACE_WORDS;
-    svd_state[put] = leaving.x.x;
-    svd_state[put + 1] = leaving.x.y;
-    svd_state[put + 2] = leaving.x.z;
-    svd_state[put + 3] = leaving.y.x;
-    svd_state[put + 4] = leaving.y.y;
-    svd_state[put + 5] = leaving.y.z;
-    svd_state[put + 6] = leaving.z.x;
-    svd_state[put + 7] = leaving.z.y;
-    svd_state[put + 8] = leaving.z.z;
+    int put = at.here + (slot + at.column) * at.face_words;
+    vs_svd_store3(VS_DATA_ARG(svd_state) put + VS_SVD_FACE_X, leaving.x);
+    if (at.face_words > VS_SVD_FACE_Y) {
+        vs_svd_store3(VS_DATA_ARG(svd_state) put + VS_SVD_FACE_Y, leaving.y);
+        vs_svd_store3(VS_DATA_ARG(svd_state) put + VS_SVD_FACE_Z, leaving.z);
+    }
     int vrow = c.v_at + d * c.terms;
     int m0 = vs_svd_moment_at(at.cell, c.terms, 0, 0);
     int m1 = m0 + c.terms;

@@ -990,7 +990,8 @@ static void test_svd_uploads_once(void **state)
         const unsigned long long state_bytes =
             sizeof(float) *
             (SVD_CELLS * (N * 3 + VS_SVD_OUT_WORDS) +
-             2 * (unsigned long long)stats.chunk * SVD_N0 * SVD_N1 * VS_SVD_FACE_WORDS);
+             2 * (unsigned long long)stats.chunk * SVD_N0 * SVD_N1 *
+                 (unsigned long long)vs_svd_face_words(s->desc.scheme == VDBS_SVD_DIAMOND));
         const unsigned long long n = (unsigned long long)sweeps[r];
         print_message("SVD, %d sweeps of %d steps: uploaded %llu (resident %llu), read back "
                       "%llu\n",

@@ -410,14 +410,19 @@ static void test_agreement_samples(void **state)
 static void test_agreement_disney_cloud(void **state)
 {
     (void)state;
+#if defined(__SANITIZE_ADDRESS__)
+    /* The samples' agreement runs the same code under the sanitizers; this march, at 6x the
+     * cost there, was the sanitized pass's longest test. */
+    skip();
+#endif
     vdbs_volume volume;
     vdbs_error err;
     vdbio_read_options read = {0};
     if (vdbs_volume_load(test_data_path("wdas_cloud_sixteenth.vdb"), &read, &volume, &err) !=
         VDBS_OK)
         fail_msg("%s", err.message);
-    /* F 1 and 2 only: this is the suite's largest march (504k voxels) and it runs under the
-     * sanitizers too; F 3 is in bench/RESULTS.md. The error depends on the lighting: with 4
+    /* F 1 and 2 only: this is the suite's largest march (504k voxels); F 3 is in
+     * bench/RESULTS.md. The error depends on the lighting: with 4
      * sky directions 0.76%, with 2 1.03%, with the default 64 0.46% (bench); the sun
      * alone 0.84%. */
     agree("wdas_cloud_sixteenth at 0.2", &volume, 0.2, 4, 2);

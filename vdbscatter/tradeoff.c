@@ -323,6 +323,13 @@ static vdbs_status run_row(tradeoff_job *j, const char *method, int quality, vdb
     if (!scene)
         return vdbs_error_set(err, VDBS_ERR_NOMEM, "out of memory");
     *scene = *d->scene;
+    if (d->camera) {
+        /* The bake frames radiance_view with it and the lit VDB keeps it in its scene, where a
+         * camera needs a size: the image's. */
+        scene->camera = *d->camera;
+        scene->camera.width = j->width;
+        scene->camera.height = j->height;
+    }
     vdbs_status st = vdbs_scene_set_method(scene, "--methods", method, err);
     if (st == VDBS_OK)
         st = vdbs_scene_set_quality(scene, "--qualities", q->name, err);

@@ -206,7 +206,8 @@ static vdbs_status layout_build(const vdbs_svd_grid *g, int chunk, vdbs_svd_sche
     p[VS_SVD_OFF_TABLE_V] = (uint32_t)v_at;
     p[VS_SVD_OFF_TABLE_LIGHTS] = (uint32_t)light_at;
     l->state_words = cells * ((size_t)N * 3 + VS_SVD_OUT_WORDS) +
-                     2 * (size_t)l->chunk * (size_t)g->n[0] * g->n[1] * VS_SVD_FACE_WORDS;
+                     2 * (size_t)l->chunk * (size_t)g->n[0] * g->n[1] *
+                         (size_t)vs_svd_face_words(scheme == VDBS_SVD_DIAMOND);
     /* The kernel indexes with 32-bit ints (GLSL). */
     if (l->state_words > (size_t)INT32_MAX || cells * (size_t)N * 3 > (size_t)INT32_MAX) {
         layout_free(l);
@@ -256,13 +257,16 @@ static void stats_begin(const vdbs_svd_grid *grid, vdbs_svd_stats *stats)
 
 /* Directions per sweep step: the caller's, else on the GPU as many as keep a step's loops
  * under SVD_GPU_TRIPS (0 on the C path: a whole octant). */
-static int sweep_chunk(vdbs_runner *runner, const vdbs_svd_grid *grid, int chunk)
+static int sweep_chunk(vdbs_runner *runner, const vdbs_svd_grid *grid, vdbs_svd_scheme scheme,
+                       int chunk)
 {
     if (chunk > 0 || vdbs_runner_backend(runner) != VDBS_BACKEND_GPU)
         return chunk;
     /* Per direction: two loops over the terms, one over the lights, and the cell's three
-     * channels of at most three passes over three axes (vs_svd_cell_channel) with the rest. */
-    chunk = SVD_GPU_TRIPS / (2 * grid->terms + grid->light_count + 48);
+     * channels (vs_svd_cell_channel): one pass over the axes in the step, which never holds a
+     * face, up to three in the diamond. */
+    const int cell_trips = scheme == VDBS_SVD_DIAMOND ? 48 : 16;
+    chunk = SVD_GPU_TRIPS / (2 * grid->terms + grid->light_count + cell_trips);
     return chunk > 0 ? chunk : 1;
 }
 
@@ -369,8 +373,8 @@ vdbs_status vdbs_svd_solve_grid(vdbs_runner *runner, const vdbs_svd_grid *grid,
     stats_begin(grid, stats);
     const int64_t cells = stats->cells;
     svd_layout l;
-    vdbs_status st =
-        layout_build(grid, sweep_chunk(runner, grid, desc->chunk), desc->scheme, &l, err);
+    vdbs_status st = layout_build(grid, sweep_chunk(runner, grid, desc->scheme, desc->chunk),
+                                  desc->scheme, &l, err);
     if (st != VDBS_OK)
         return st;
     stats->chunk = l.chunk;
