@@ -3,9 +3,6 @@
 
 #include <cjson/cJSON.h>
 #include <errno.h>
-#ifdef __GLIBC__
-#include <malloc.h>
-#endif
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -14,6 +11,7 @@
 
 #include "vdbscatter/bake.h"
 #include "vdbscatter/image.h"
+#include "vdbscatter/memory.h"
 #include "vdbscatter/plot.h"
 #include "vdbscatter/progress.h"
 #include "vdbscatter/quality.h"
@@ -25,32 +23,6 @@
 #define DEFAULT_REF_SECONDS 600.0
 /* The pilot reference that sizes the real one; also a point of the reference's curve. */
 #define PILOT_SPP 16
-
-void vdbs_peak_memory_reset(void)
-{
-#ifdef __GLIBC__
-    malloc_trim(0); /* what earlier runs freed goes back, or it would count as this run's */
-#endif
-    FILE *f = fopen("/proc/self/clear_refs", "w");
-    if (f) {
-        fputs("5", f); /* resets the peak resident set size (Linux 4.0 on) */
-        fclose(f);
-    }
-}
-
-double vdbs_peak_memory_mib(void)
-{
-    FILE *f = fopen("/proc/self/status", "r");
-    if (!f)
-        return -1.0;
-    char line[256];
-    double kib = -1.0;
-    while (fgets(line, sizeof line, f))
-        if (strncmp(line, "VmHWM:", 6) == 0)
-            kib = strtod(line + 6, NULL);
-    fclose(f);
-    return kib < 0.0 ? -1.0 : kib / 1024.0;
-}
 
 void vdbs_tradeoff_measure(const float *a, const float *b, const float *b_se, long long n,
                            vdbs_tradeoff_metrics *m)
@@ -337,7 +309,7 @@ static vdbs_status run_row(tradeoff_job *j, const char *method, int quality, vdb
     job_path(j, lit, sizeof lit, ".tradeoff-lit.vdb");
     snprintf(name, sizeof name, "images/%s-%s.exr", method, q->name);
     job_path(j, image, sizeof image, name);
-    vdbs_peak_memory_reset();
+    vdbs_memory_reset_peak();
     if (st == VDBS_OK) {
         vdbs_bake_options b = {0};
         b.input = j->input;
@@ -372,7 +344,8 @@ static vdbs_status run_row(tradeoff_job *j, const char *method, int quality, vdb
     }
     free(scene);
     remove(lit);
-    row->peak_mib = vdbs_peak_memory_mib();
+    const int64_t peak = vdbs_memory_peak();
+    row->peak_mib = peak > 0 ? (double)peak / (1024.0 * 1024.0) : -1.0;
     vdbs_image im = {0};
     if (st == VDBS_OK && (st = vdbs_image_read(image, &im, err)) == VDBS_OK) {
         vdbs_tradeoff_metrics m;

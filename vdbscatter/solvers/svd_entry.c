@@ -85,7 +85,7 @@ static double option(const vdbs_scene *scene, int i)
 /* The moments and the names and metadata the lit VDB stores them under. */
 typedef struct svd_state {
     vdbs_svd_moments moments; /* first: the solver reads the state as its moments */
-    char (*names)[16];        /* "svd_m0000" ... per term */
+    char (*names)[24];        /* "svd_m0000" ... per term */
     char directions[16], terms[16];
 } svd_state;
 

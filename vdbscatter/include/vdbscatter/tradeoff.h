@@ -110,11 +110,6 @@ typedef struct vdbs_tradeoff_metrics {
 void vdbs_tradeoff_measure(const float *a, const float *b, const float *b_se, long long n,
                            vdbs_tradeoff_metrics *metrics);
 
-/* The process's peak resident memory: reset it (Linux: /proc/self/clear_refs), read it in
- * MiB (-1 where the system does not say). */
-void vdbs_peak_memory_reset(void);
-double vdbs_peak_memory_mib(void);
-
 #ifdef __cplusplus
 }
 #endif
