@@ -89,6 +89,21 @@ static const char *exr_reason(exr_result_t rv)
 
 static const char *const channel_names[6] = {"R", "G", "B", "se.R", "se.G", "se.B"};
 
+/* OpenEXR 3.1's ZIP encoder keeps its zlib output when that is exactly as long as the packed
+ * pixels, and a reader takes a chunk of that length for the raw pixels: such a chunk read back
+ * as garbage (OpenEXR fixed it in 3.4). The chunk is then stored raw, as the format does for
+ * output that does not shrink. The library's own routine, chosen per chunk, is kept here. */
+static _Thread_local exr_result_t (*exr_zip_compress)(exr_encode_pipeline_t *);
+
+static exr_result_t exr_compress_or_raw(exr_encode_pipeline_t *enc)
+{
+    exr_result_t rv = exr_zip_compress(enc);
+    if (rv == EXR_ERR_SUCCESS && enc->compressed_bytes == enc->packed_bytes &&
+        enc->compressed_buffer && enc->compressed_buffer != enc->packed_buffer)
+        memcpy(enc->compressed_buffer, enc->packed_buffer, enc->packed_bytes);
+    return rv;
+}
+
 static vdbs_status exr_write(const char *path, const char *tmp, const vdbs_image *image,
                              vdbs_error *err)
 {
@@ -138,6 +153,10 @@ static vdbs_status exr_write(const char *path, const char *tmp, const vdbs_image
             ch->encode_from_ptr = (const uint8_t *)(plane + (size_t)y * w * 3);
         }
         rv = exr_encoding_choose_default_routines(ctx, part, &enc);
+        if (rv == EXR_ERR_SUCCESS && enc.compress_fn) {
+            exr_zip_compress = enc.compress_fn;
+            enc.compress_fn = exr_compress_or_raw;
+        }
         if (rv == EXR_ERR_SUCCESS)
             rv = exr_encoding_run(ctx, part, &enc);
     }
