@@ -88,6 +88,19 @@ static void assert_no_temp(const char *name)
     closedir(d);
 }
 
+/* Writes im to the temp folder's NAME (no temporary file left), reads it back into back, of the
+ * same size; returns the path. */
+static const char *round_trip(const char *name, const vdbs_image *im, vdbs_image *back)
+{
+    const char *path = test_tmp_path(name);
+    write_ok(path, im, 0.0);
+    assert_no_temp(name);
+    read_ok(path, back);
+    assert_int_equal(back->width, im->width);
+    assert_int_equal(back->height, im->height);
+    return path;
+}
+
 static int file_exists(const char *path)
 {
     struct stat s;
@@ -189,12 +202,7 @@ static void test_png_round_trip(void **state)
     const size_t n = (size_t)16 * 8 * 3;
     for (size_t i = 0; i < n; ++i)
         im.rgb[i] = (float)(i / (double)(n - 1));
-    const char *path = test_tmp_path("test_image_rt.png");
-    write_ok(path, &im, 0.0);
-    assert_no_temp("test_image_rt.png");
-    read_ok(path, &back);
-    assert_int_equal(back.width, 16);
-    assert_int_equal(back.height, 8);
+    const char *path = round_trip("test_image_rt.png", &im, &back);
     assert_null(back.se);
     for (size_t i = 0; i < n; ++i) {
         /* Half a code value in sRGB space, plus float rounding. */
@@ -273,12 +281,7 @@ static void test_hdr_round_trip_and_cuts(void **state)
     vdbs_error err;
     alloc_ok(&src, 64, 16, 0); /* 8 <= width < 32768: stb writes run-length scanlines */
     fill_random(&src);
-    const char *path = test_tmp_path("test_image_hdr.hdr");
-    write_ok(path, &src, 0.0);
-    assert_no_temp("test_image_hdr.hdr");
-    read_ok(path, &back);
-    assert_int_equal(back.width, 64);
-    assert_int_equal(back.height, 16);
+    const char *path = round_trip("test_image_hdr.hdr", &src, &back);
     for (size_t p = 0; p < (size_t)64 * 16; ++p) {
         const float *a = src.rgb + 3 * p, *b = back.rgb + 3 * p;
         const float top = fmaxf(a[0], fmaxf(a[1], a[2]));
