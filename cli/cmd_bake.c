@@ -8,6 +8,7 @@
 
 #include <cjson/cJSON.h>
 
+#include "vdbscatter/tempfile.h"
 #include "vdbscatter/litvdb.h"
 
 #include "commands.h"
@@ -194,11 +195,16 @@ static int print_report(const cli_args *args, cJSON *j, const vdbs_scene *scene,
     int status = CLI_EXIT_OK;
     if (report_path) {
         char *text = cJSON_Print(j);
-        FILE *f = fopen(report_path, "w");
-        if (!f || fputs(text, f) < 0 || fputc('\n', f) < 0)
-            status = cli_fail("bake", 1, "cannot write the --report file");
-        if (f && fclose(f) != 0)
-            status = cli_fail("bake", 1, "cannot write the --report file");
+        vdbs_text_file file;
+        vdbs_error err;
+        vdbs_status st = text ? vdbs_text_begin(&file, report_path, &err) : VDBS_ERR_NOMEM;
+        if (st == VDBS_OK) {
+            fputs(text, file.stream);
+            fputc('\n', file.stream);
+            st = vdbs_text_commit(&file, &err);
+        }
+        if (st != VDBS_OK)
+            status = cli_fail("bake", 1, text ? err.message : "out of memory");
         free(text);
     }
     if (cli_flag(args, "--json")) {

@@ -1,12 +1,15 @@
-/* The writers' temporary files (tempfile.h): the name, and which stale ones are removed.
+/* The writers' temporary files (tempfile.h): the name, which stale ones are removed, and a text
+ * output written whole or not at all (a full disk keeps the previous file).
  * The writers' behaviour under SIGKILL, full disks and concurrent writes is tested through
  * the CLI in test_faults_cli.py. */
 #define _POSIX_C_SOURCE 200809L
 #include "testutil.h"
 
+#include <signal.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/resource.h>
 #include <sys/stat.h>
 #include <unistd.h>
 
@@ -115,11 +118,71 @@ static void test_remove_stale(void **state)
     assert_int_equal(rmdir(folder), 0);
 }
 
+static void read_text(const char *path, char *text, size_t size)
+{
+    FILE *f = fopen(path, "r");
+    assert_non_null(f);
+    const size_t n = fread(text, 1, size - 1, f);
+    text[n] = '\0';
+    fclose(f);
+}
+
+static int temp_left(const char *path)
+{
+    char *tmp = vdbs_temp_path(path);
+    const int left = exists(tmp);
+    free(tmp);
+    return left;
+}
+
+static void test_text_file(void **state)
+{
+    (void)state;
+    const char *path = test_tmp_path("test_tempfile_report.csv");
+    vdbs_text_file t;
+    vdbs_error err;
+    char text[256];
+    assert_int_equal(vdbs_text_begin(&t, path, &err), VDBS_OK);
+    fputs("first\n", t.stream);
+    assert_int_equal(vdbs_text_commit(&t, &err), VDBS_OK);
+    read_text(path, text, sizeof text);
+    assert_string_equal(text, "first\n");
+    assert_false(temp_left(path));
+
+    /* A write past the file size limit fails (EFBIG; SIGXFSZ ignored, as test_faults_cli does
+     * for the whole CLI): the previous file stays byte for byte, the temporary one goes. */
+    struct rlimit old;
+    assert_int_equal(getrlimit(RLIMIT_FSIZE, &old), 0);
+    struct rlimit small = old;
+    small.rlim_cur = 4096;
+    void (*was)(int) = signal(SIGXFSZ, SIG_IGN);
+    assert_int_equal(setrlimit(RLIMIT_FSIZE, &small), 0);
+    assert_int_equal(vdbs_text_begin(&t, path, &err), VDBS_OK);
+    for (int i = 0; i < 1000; ++i)
+        fputs("a line of a large table that does not fit\n", t.stream);
+    const vdbs_status st = vdbs_text_commit(&t, &err);
+    assert_int_equal(setrlimit(RLIMIT_FSIZE, &old), 0);
+    signal(SIGXFSZ, was);
+    assert_int_equal(st, VDBS_ERR_IO);
+    assert_non_null(strstr(err.message, path));
+    assert_null(strchr(err.message, '\n'));
+    read_text(path, text, sizeof text);
+    assert_string_equal(text, "first\n");
+    assert_false(temp_left(path));
+
+    /* A folder that does not exist: refused at the start, nothing made. */
+    const char *nowhere = test_tmp_path("no_such_folder/report.csv");
+    assert_int_equal(vdbs_text_begin(&t, nowhere, &err), VDBS_ERR_IO);
+    assert_non_null(strstr(err.message, nowhere));
+    unlink(path);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_temp_path),
         cmocka_unit_test(test_remove_stale),
+        cmocka_unit_test(test_text_file),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

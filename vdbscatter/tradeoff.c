@@ -18,6 +18,7 @@
 #include "vdbscatter/render.h"
 #include "vdbscatter/scene_file.h"
 #include "vdbscatter/solver.h"
+#include "vdbscatter/tempfile.h"
 
 #define DEFAULT_REF_NOISE 0.01
 #define DEFAULT_REF_SECONDS 600.0
@@ -173,14 +174,16 @@ static vdbs_status reference_write_meta(const tradeoff_job *j, const char *path,
     }
     char *text = cJSON_Print(o);
     cJSON_Delete(o);
-    FILE *f = text ? fopen(path, "w") : NULL;
-    if (!f) {
-        free(text);
-        return vdbs_error_set(err, VDBS_ERR_IO, "%s: cannot write: %s", path, strerror(errno));
+    if (!text)
+        return vdbs_error_set(err, VDBS_ERR_NOMEM, "out of memory");
+    vdbs_text_file out;
+    vdbs_status st = vdbs_text_begin(&out, path, err);
+    if (st == VDBS_OK) {
+        fputs(text, out.stream);
+        st = vdbs_text_commit(&out, err);
     }
-    fputs(text, f);
     free(text);
-    return fclose(f) == 0 ? VDBS_OK : vdbs_error_set(err, VDBS_ERR_IO, "%s: cannot write", path);
+    return st;
 }
 
 /* 1 when the cache holds the reference (image and its metadata), read into the job. */
@@ -382,9 +385,11 @@ static void mark_pareto(vdbs_tradeoff_report *rep)
 
 static vdbs_status write_csv(const vdbs_tradeoff_report *rep, vdbs_error *err)
 {
-    FILE *f = fopen(rep->csv, "w");
-    if (!f)
-        return vdbs_error_set(err, VDBS_ERR_IO, "%s: cannot write: %s", rep->csv, strerror(errno));
+    vdbs_text_file out;
+    vdbs_status st = vdbs_text_begin(&out, rep->csv, err);
+    if (st != VDBS_OK)
+        return st;
+    FILE *f = out.stream;
     fputs("method,quality,bake_s,render_s,total_s,peak_mib,relrmse,relrmse_se,mean_ratio,"
           "pareto\n",
           f);
@@ -397,8 +402,7 @@ static vdbs_status write_csv(const vdbs_tradeoff_report *rep, vdbs_error *err)
     for (int i = 0; i < rep->curve_count; ++i)
         fprintf(f, "reference,%dspp,0,%.4f,%.4f,,%.6g,,1,0\n", rep->curve[i].spp,
                 rep->curve[i].seconds, rep->curve[i].seconds, rep->curve[i].relrmse);
-    return fclose(f) == 0 ? VDBS_OK
-                          : vdbs_error_set(err, VDBS_ERR_IO, "%s: cannot write", rep->csv);
+    return vdbs_text_commit(&out, err);
 }
 
 /* Seconds the reference needs for an error e, by its 1/sqrt(spp) law through the measured
@@ -416,10 +420,11 @@ static double reference_seconds_for(const vdbs_tradeoff_report *rep, double e)
 static vdbs_status write_markdown(const vdbs_tradeoff_report *rep, const char *input,
                                   vdbs_error *err)
 {
-    FILE *f = fopen(rep->markdown, "w");
-    if (!f)
-        return vdbs_error_set(err, VDBS_ERR_IO, "%s: cannot write: %s", rep->markdown,
-                              strerror(errno));
+    vdbs_text_file out;
+    vdbs_status st = vdbs_text_begin(&out, rep->markdown, err);
+    if (st != VDBS_OK)
+        return st;
+    FILE *f = out.stream;
     const char *base = strrchr(input, '/');
     fprintf(f, "# Trade-off: %s at %dx%d\n\n", base ? base + 1 : input, rep->width, rep->height);
     fprintf(f,
@@ -460,8 +465,7 @@ static vdbs_status write_markdown(const vdbs_tradeoff_report *rep, const char *i
     for (int i = 0; i < rep->curve_count; ++i)
         fprintf(f, "| %d | %.2f | %.4f |\n", rep->curve[i].spp, rep->curve[i].seconds,
                 rep->curve[i].relrmse);
-    return fclose(f) == 0 ? VDBS_OK
-                          : vdbs_error_set(err, VDBS_ERR_IO, "%s: cannot write", rep->markdown);
+    return vdbs_text_commit(&out, err);
 }
 
 static vdbs_status write_plot(const vdbs_tradeoff_report *rep, const char *input, vdbs_error *err)

@@ -93,6 +93,45 @@ void vdbs_temp_sync_folder(const char *path)
     free(dir);
 }
 
+vdbs_status vdbs_text_begin(vdbs_text_file *t, const char *path, vdbs_error *err)
+{
+    t->path = path;
+    t->stream = NULL;
+    t->tmp = vdbs_temp_path(path);
+    if (!t->tmp)
+        return vdbs_error_set(err, VDBS_ERR_NOMEM, "%s: out of memory", path);
+    vdbs_temp_remove_stale(path);
+    t->stream = fopen(t->tmp, "w");
+    if (!t->stream) {
+        const int e = errno;
+        free(t->tmp);
+        t->tmp = NULL;
+        return vdbs_error_set(err, VDBS_ERR_IO, "%s: cannot write: %s", path, strerror(e));
+    }
+    return VDBS_OK;
+}
+
+vdbs_status vdbs_text_commit(vdbs_text_file *t, vdbs_error *err)
+{
+    /* A failed fprintf sets the stream's error flag; fflush and fsync catch a full disk. */
+    int ok = !ferror(t->stream) && fflush(t->stream) == 0 && fsync(fileno(t->stream)) == 0;
+    const int e = ok ? 0 : errno;
+    ok = fclose(t->stream) == 0 && ok;
+    ok = ok && rename(t->tmp, t->path) == 0;
+    vdbs_status st = VDBS_OK;
+    if (!ok) {
+        st = vdbs_error_set(err, VDBS_ERR_IO, "%s: cannot write: %s", t->path,
+                            strerror(e ? e : errno));
+        unlink(t->tmp);
+    } else {
+        vdbs_temp_sync_folder(t->path);
+    }
+    free(t->tmp);
+    t->tmp = NULL;
+    t->stream = NULL;
+    return st;
+}
+
 void vdbs_fault_point(const char *point, const char *tmp)
 {
     const char *want = getenv("VDBSCATTER_FAULT");

@@ -108,12 +108,13 @@ static vdbs_status check_keys(const parse_ctx *ctx, const cJSON *obj, const char
             vdbs_suggest_hint(c->string, allowed, mean, sizeof mean);
             vdbs_join_names(allowed, names, sizeof names);
             if (hint)
-                return fail(ctx, path, "unknown key \"%s\"%s%s", c->string, mean, hint);
-            return fail(ctx, path, "unknown key \"%s\"%s (valid keys: %s)", c->string, mean, names);
+                return fail(ctx, path, "unknown key \"%.64s\"%s%s", c->string, mean, hint);
+            return fail(ctx, path, "unknown key \"%.64s\"%s (valid keys: %s)", c->string, mean,
+                        names);
         }
         for (const cJSON *d = obj->child; d != c; d = d->next)
             if (strcmp(d->string, c->string) == 0)
-                return fail(ctx, path, "duplicate key \"%s\"", c->string);
+                return fail(ctx, path, "duplicate key \"%.64s\"", c->string);
     }
     return VDBS_OK;
 }
@@ -276,7 +277,7 @@ static vdbs_status check_name(const char *what, const char *kind, const char *co
     char mean[96], list[256];
     vdbs_suggest_hint(value ? value : "", names, mean, sizeof mean);
     vdbs_join_names(names, list, sizeof list);
-    return vdbs_error_set(err, VDBS_ERR_INPUT, "%s: unknown %s \"%s\"%s (expected one of: %s)",
+    return vdbs_error_set(err, VDBS_ERR_INPUT, "%s: unknown %s \"%.64s\"%s (expected one of: %s)",
                           what, kind, value ? value : "", mean, list);
 }
 
@@ -350,7 +351,8 @@ static vdbs_status parse_volume(const parse_ctx *ctx, const cJSON *vol, vdbs_sce
     if (found) {
         const char *why = NULL;
         if (!vdbs_grid_spec_split(grid, s->grid, &s->grid_index, &why))
-            return fail(ctx, "volume.grid", "\"%s\": %s (expected NAME or NAME@INDEX)", grid, why);
+            return fail(ctx, "volume.grid", "\"%.64s\": %s (expected NAME or NAME@INDEX)", grid,
+                        why);
     }
     return VDBS_OK;
 }
@@ -429,7 +431,7 @@ static vdbs_status parse_light(const parse_ctx *ctx, const cJSON *obj, const cha
                         VDBS_ENV_PATHS_MAX);
         }
     } else {
-        return fail(ctx, tpath, "unknown light type \"%s\" (expected sun, point or env)",
+        return fail(ctx, tpath, "unknown light type \"%.64s\" (expected sun, point or env)",
                     type->valuestring);
     }
     return VDBS_OK;
@@ -599,7 +601,8 @@ static vdbs_status parse_occluder(const parse_ctx *ctx, const cJSON *obj, const 
         required = plane_required;
         hint = " (a plane takes type, point, normal, albedo)";
     } else {
-        return fail(ctx, tpath, "unknown occluder type \"%s\" (expected obj, sphere, box or plane)",
+        return fail(ctx, tpath,
+                    "unknown occluder type \"%.64s\" (expected obj, sphere, box or plane)",
                     type->valuestring);
     }
     if ((st = check_keys(ctx, obj, path, keys, hint)) != VDBS_OK)

@@ -4,6 +4,10 @@
 #ifndef VDBSCATTER_TEMPFILE_H
 #define VDBSCATTER_TEMPFILE_H
 
+#include <stdio.h>
+
+#include "vdbscatter/status.h"
+
 #ifdef __cplusplus
 extern "C" {
 #endif
@@ -23,6 +27,18 @@ void vdbs_temp_remove_stale(const char *path);
  * power cut (the file's data was synced before). Best effort: a folder that cannot be
  * opened or synced is no error (the new file is in place either way). */
 void vdbs_temp_sync_folder(const char *path);
+
+/* A text output (a report, a table) written whole or not at all, like the pictures and VDBs:
+ * vdbs_text_begin opens `stream` on path's temporary file; vdbs_text_commit checks every write,
+ * flushes and syncs it and renames it over path, or removes it and returns VDBS_ERR_IO naming
+ * path (the previous file stays). Commit once for every successful begin. */
+typedef struct vdbs_text_file {
+    FILE *stream;
+    char *tmp;
+    const char *path;
+} vdbs_text_file;
+vdbs_status vdbs_text_begin(vdbs_text_file *t, const char *path, vdbs_error *err);
+vdbs_status vdbs_text_commit(vdbs_text_file *t, vdbs_error *err);
 
 /* Test-only: when the environment variable VDBSCATTER_FAULT equals point ("before-write",
  * "mid-write" or "before-rename"), the process kills itself with SIGKILL here, as a power
