@@ -896,6 +896,70 @@ static void test_bad_files(void **state)
     assert_int_equal(vdbio_list_grids(text, &list, &count, &err), VDBS_ERR_INPUT);
 }
 
+/* The value length of a string metadata entry `key` (file or grid metadata) set to 2 GB, as
+ * a fuzzed file had it: refused before OpenVDB allocates and fills the string. */
+static void corrupt_meta_length(const char *from, const char *to, const char *key)
+{
+    long size = file_size(from);
+    char *bytes = malloc((size_t)size);
+    assert_non_null(bytes);
+    FILE *f = fopen(from, "rb");
+    assert_non_null(f);
+    assert_int_equal(fread(bytes, 1, (size_t)size, f), (size_t)size);
+    fclose(f);
+    char entry[64];
+    const uint32_t key_len = (uint32_t)strlen(key), type_len = 6;
+    memcpy(entry, &key_len, 4);
+    memcpy(entry + 4, key, key_len);
+    memcpy(entry + 4 + key_len, &type_len, 4);
+    memcpy(entry + 8 + key_len, "string", 6);
+    char *at = NULL;
+    for (long i = 0; !at && i + 18 + (long)key_len <= size; i++)
+        if (memcmp(bytes + i, entry, 14 + key_len) == 0)
+            at = bytes + i;
+    assert_non_null(at);
+    const uint32_t absurd = 0x74617000u;
+    memcpy(at + 14 + key_len, &absurd, 4);
+    f = fopen(to, "wb");
+    assert_non_null(f);
+    assert_int_equal(fwrite(bytes, 1, (size_t)size, f), (size_t)size);
+    fclose(f);
+    free(bytes);
+}
+
+static void test_metadata_lengths(void **state)
+{
+    (void)state;
+    uint64_t active;
+    vdbio_density *d = make_dense(&active);
+    const char *path = test_tmp_path("vdbio_meta.vdb");
+    warnings w = {0};
+    int32_t *coords;
+    size_t n;
+    float *values;
+    vdbs_error err = {{0}};
+    assert_int_equal(write_lit(path, d, 0, &w, &coords, &n, &values, &err), VDBS_OK);
+    free(coords);
+    free(values);
+    vdbio_density_free(d);
+    const char *bad = test_tmp_path("vdbio_meta_length.vdb");
+    const struct {
+        const char *key, *expect;
+    } cases[] = {{"vdbscatter_method", "file metadata"}, {"class", "grid metadata"}};
+    vdbio_read_options o = options(&w);
+    for (size_t c = 0; c < sizeof cases / sizeof cases[0]; c++) {
+        corrupt_meta_length(path, bad, cases[c].key);
+        read_fails(bad, &o, cases[c].expect);
+        vdbio_grid_summary *list = NULL;
+        int count = 0;
+        assert_int_equal(vdbio_list_grids(bad, &list, &count, &err), VDBS_ERR_INPUT);
+        assert_non_null(strstr(err.message, cases[c].expect));
+        vdbio_lit *lit = NULL;
+        assert_int_equal(vdbio_lit_open(bad, &lit, &err), VDBS_ERR_INPUT);
+        assert_non_null(strstr(err.message, cases[c].expect));
+    }
+}
+
 static void test_bad_values(void **state)
 {
     (void)state;
@@ -1084,14 +1148,14 @@ static void test_lit_threads(void **state)
 int main(void)
 {
     const struct CMUnitTest tests[] = {
-        cmocka_unit_test(test_from_dense_info), cmocka_unit_test(test_output_coords),
-        cmocka_unit_test(test_round_trip),      cmocka_unit_test(test_half_clamp),
-        cmocka_unit_test(test_write_refusals),  cmocka_unit_test(test_real_files),
-        cmocka_unit_test(test_duplicate_names), cmocka_unit_test(test_background_and_tiles),
-        cmocka_unit_test(test_level_set),       cmocka_unit_test(test_rotated_transform),
-        cmocka_unit_test(test_nanovdb),         cmocka_unit_test(test_bad_files),
-        cmocka_unit_test(test_bad_values),      cmocka_unit_test(test_list_grids),
-        cmocka_unit_test(test_lit_threads),
+        cmocka_unit_test(test_from_dense_info),  cmocka_unit_test(test_output_coords),
+        cmocka_unit_test(test_round_trip),       cmocka_unit_test(test_half_clamp),
+        cmocka_unit_test(test_write_refusals),   cmocka_unit_test(test_real_files),
+        cmocka_unit_test(test_duplicate_names),  cmocka_unit_test(test_background_and_tiles),
+        cmocka_unit_test(test_level_set),        cmocka_unit_test(test_rotated_transform),
+        cmocka_unit_test(test_nanovdb),          cmocka_unit_test(test_bad_files),
+        cmocka_unit_test(test_metadata_lengths), cmocka_unit_test(test_bad_values),
+        cmocka_unit_test(test_list_grids),       cmocka_unit_test(test_lit_threads),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -271,6 +271,57 @@ class ArchiveInput : public openvdb::io::Archive
         is_.seekg(static_cast<std::streamoff>(at));
     }
 
+    /* A metadata map (a count, then per entry its name, its type name and its value, each
+     * behind a 32-bit length) whose lengths run past `limit` means truncation or garbage;
+     * walked before OpenVDB reads it, which allocates and fills each string first (a
+     * corrupt length of 2 GB took seconds to fail). The stream is left where it was. */
+    void check_meta_ahead(uint64_t limit, const char *what)
+    {
+        const std::streamoff start = is_.tellg();
+        uint64_t at = static_cast<uint64_t>(start);
+        const auto corrupt = [&] {
+            fail(VDBS_ERR_INPUT,
+                 format("%s: truncated or corrupt file (%s metadata at byte %llu runs past its "
+                        "end)",
+                        path.c_str(), what, static_cast<unsigned long long>(start)));
+        };
+        int32_t count = 0;
+        if (at + sizeof count > limit)
+            corrupt();
+        is_.read(reinterpret_cast<char *>(&count), sizeof count);
+        at += sizeof count;
+        /* Every entry holds at least its three lengths. */
+        if (count < 0 || static_cast<uint64_t>(count) * 12u > limit - at)
+            corrupt();
+        for (int32_t i = 0; i < count; ++i) {
+            for (int part = 0; part < 3; ++part) {
+                uint32_t len = 0;
+                if (at + sizeof len > limit)
+                    corrupt();
+                is_.read(reinterpret_cast<char *>(&len), sizeof len);
+                at += sizeof len;
+                if (len > limit - at)
+                    corrupt();
+                at += len;
+                is_.seekg(static_cast<std::streamoff>(at));
+            }
+        }
+        is_.seekg(start);
+    }
+
+    /* A grid's compression flags and metadata, checked before Archive::readGrid: the grid
+     * spans [gd's grid position, its end), or to the end of the file without offsets. */
+    void check_grid_meta_ahead(const openvdb::io::GridDescriptor &gd)
+    {
+        const std::streamoff start = is_.tellg();
+        const uint64_t end =
+            inputHasGridOffsets() ? static_cast<uint64_t>(gd.getEndPos()) : size_;
+        if (fileVersion() >= openvdb::OPENVDB_FILE_VERSION_NODE_MASK_COMPRESSION)
+            is_.seekg(start + static_cast<std::streamoff>(sizeof(uint32_t)));
+        check_meta_ahead(end, "grid");
+        is_.seekg(start);
+    }
+
     /* The archive's header and file metadata; returns the grid count that follows. */
     int32_t read_header(openvdb::MetaMap &file_meta)
     {
@@ -281,6 +332,7 @@ class ArchiveInput : public openvdb::io::Archive
         setFormatVersion(is_);
         setLibraryVersion(is_);
         setDataCompression(is_);
+        check_meta_ahead(size_, "file");
         file_meta.readMeta(is_);
         const int32_t count = readGridCount(is_);
         if (count < 0 || static_cast<uint64_t>(count) > size_)
@@ -366,6 +418,7 @@ class Reader : public ArchiveInput
         if (e.loaded || e.gd.isInstance())
             return;
         e.gd.seekToGrid(is_);
+        check_grid_meta_ahead(e.gd);
         Archive::readGrid(e.grid, e.gd, is_);
         e.loaded = true;
     }
@@ -386,6 +439,7 @@ class Reader : public ArchiveInput
             e.gd.seekToEnd(is_);
         } else {
             /* Without offsets the grids can only be read in sequence. */
+            check_grid_meta_ahead(e.gd);
             Archive::readGrid(e.grid, e.gd, is_);
             e.loaded = true;
             entries.push_back(e);
@@ -414,6 +468,7 @@ class Reader : public ArchiveInput
                                             path.c_str(), sanitize(e.gd.gridName(), 80).c_str()));
         }
         e.gd.seekToGrid(is_);
+        check_grid_meta_ahead(e.gd);
         Archive::readGrid(e.grid, e.gd, is_);
         e.loaded = true;
         connect_instances();
