@@ -111,21 +111,44 @@ vdbs_status vdbs_text_begin(vdbs_text_file *t, const char *path, vdbs_error *err
     return VDBS_OK;
 }
 
+vdbs_status vdbs_temp_sync(const char *tmp, const char *path, vdbs_error *err)
+{
+    vdbs_fault_point("mid-write", tmp);
+    const int fd = open(tmp, O_RDONLY);
+    if (fd < 0 || fsync(fd) != 0) {
+        const int e = errno;
+        if (fd >= 0)
+            close(fd);
+        return vdbs_error_set(err, VDBS_ERR_IO, "%s: cannot sync %s: %s", path, tmp, strerror(e));
+    }
+    close(fd);
+    return VDBS_OK;
+}
+
+vdbs_status vdbs_temp_rename(const char *tmp, const char *dest, const char *path, vdbs_error *err)
+{
+    vdbs_fault_point("before-rename", NULL);
+    if (rename(tmp, dest) != 0)
+        return vdbs_error_set(err, VDBS_ERR_IO, "%s: cannot rename %s into place: %s", path, tmp,
+                              strerror(errno));
+    vdbs_temp_sync_folder(dest);
+    return VDBS_OK;
+}
+
 vdbs_status vdbs_text_commit(vdbs_text_file *t, vdbs_error *err)
 {
-    /* A failed fprintf sets the stream's error flag; fflush and fsync catch a full disk. */
-    int ok = !ferror(t->stream) && fflush(t->stream) == 0 && fsync(fileno(t->stream)) == 0;
+    /* A failed fprintf sets the stream's error flag; fflush catches a full disk. */
+    int ok = !ferror(t->stream) && fflush(t->stream) == 0;
     const int e = ok ? 0 : errno;
     ok = fclose(t->stream) == 0 && ok;
-    ok = ok && rename(t->tmp, t->path) == 0;
     vdbs_status st = VDBS_OK;
-    if (!ok) {
+    if (!ok)
         st = vdbs_error_set(err, VDBS_ERR_IO, "%s: cannot write: %s", t->path,
                             strerror(e ? e : errno));
+    else if ((st = vdbs_temp_sync(t->tmp, t->path, err)) == VDBS_OK)
+        st = vdbs_temp_rename(t->tmp, t->path, t->path, err);
+    if (st != VDBS_OK)
         unlink(t->tmp);
-    } else {
-        vdbs_temp_sync_folder(t->path);
-    }
     free(t->tmp);
     t->tmp = NULL;
     t->stream = NULL;

@@ -35,29 +35,14 @@ static int has_extension(const char *path, const char *ext)
 static vdbs_status commit_temp(const char *tmp, const char *path, const vdbs_cancel *cancel,
                                vdbs_error *err)
 {
-    vdbs_fault_point("mid-write", tmp);
-    int fd = open(tmp, O_RDONLY);
-    if (fd < 0 || fsync(fd) != 0) {
-        int e = errno;
-        if (fd >= 0)
-            close(fd);
+    vdbs_status st = vdbs_temp_sync(tmp, path, err);
+    if (st == VDBS_OK && vdbs_cancelled(cancel))
+        st = vdbs_error_cancelled(err);
+    if (st == VDBS_OK)
+        st = vdbs_temp_rename(tmp, path, path, err);
+    if (st != VDBS_OK)
         unlink(tmp);
-        return vdbs_error_set(err, VDBS_ERR_IO, "%s: cannot sync %s: %s", path, tmp, strerror(e));
-    }
-    close(fd);
-    if (vdbs_cancelled(cancel)) {
-        unlink(tmp);
-        return vdbs_error_cancelled(err);
-    }
-    vdbs_fault_point("before-rename", NULL);
-    if (rename(tmp, path) != 0) {
-        int e = errno;
-        unlink(tmp);
-        return vdbs_error_set(err, VDBS_ERR_IO, "%s: cannot rename %s into place: %s", path, tmp,
-                              strerror(e));
-    }
-    vdbs_temp_sync_folder(path);
-    return VDBS_OK;
+    return st;
 }
 
 /* OpenEXRCore reports details through a callback (by default onto stderr). Library code

@@ -1045,24 +1045,16 @@ template <typename F> void write_synced(const char *path, const std::string &tmp
     os.close();
     if (os.fail())
         fail(VDBS_ERR_IO, format("%s: writing %s failed: %s", path, tmp.c_str(), strerror(errno)));
-    vdbs_fault_point("mid-write", tmp.c_str());
-    const int fd = ::open(tmp.c_str(), O_RDONLY);
-    if (fd < 0 || fsync(fd) != 0) {
-        const int e = errno;
-        if (fd >= 0)
-            close(fd);
-        fail(VDBS_ERR_IO, format("%s: cannot sync %s: %s", path, tmp.c_str(), strerror(e)));
-    }
-    close(fd);
+    vdbs_error err;
+    if (vdbs_temp_sync(tmp.c_str(), path, &err) != VDBS_OK)
+        fail(VDBS_ERR_IO, err.message);
 }
 
 void rename_into_place(const char *path, const std::string &tmp, const std::string &dest)
 {
-    vdbs_fault_point("before-rename", nullptr);
-    if (rename(tmp.c_str(), dest.c_str()) != 0)
-        fail(VDBS_ERR_IO,
-             format("%s: cannot rename %s into place: %s", path, tmp.c_str(), strerror(errno)));
-    vdbs_temp_sync_folder(dest.c_str());
+    vdbs_error err;
+    if (vdbs_temp_rename(tmp.c_str(), dest.c_str(), path, &err) != VDBS_OK)
+        fail(VDBS_ERR_IO, err.message);
 }
 
 /* Runs body; on any failure (a cancel included) every temporary file is removed, so the old

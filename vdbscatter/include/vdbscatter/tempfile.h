@@ -28,6 +28,13 @@ void vdbs_temp_remove_stale(const char *path);
  * opened or synced is no error (the new file is in place either way). */
 void vdbs_temp_sync_folder(const char *path);
 
+/* The last two steps of every output: vdbs_temp_sync puts tmp (written and closed) on the disk,
+ * vdbs_temp_rename renames it over dest and syncs the folder. Each passes its fault point
+ * ("mid-write", "before-rename") and returns VDBS_ERR_IO naming path, the output asked for;
+ * removing tmp after a failure is the caller's (a writer of two files removes both). */
+vdbs_status vdbs_temp_sync(const char *tmp, const char *path, vdbs_error *err);
+vdbs_status vdbs_temp_rename(const char *tmp, const char *dest, const char *path, vdbs_error *err);
+
 /* A text output (a report, a table) written whole or not at all, like the pictures and VDBs:
  * vdbs_text_begin opens `stream` on path's temporary file; vdbs_text_commit checks every write,
  * flushes and syncs it and renames it over path, or removes it and returns VDBS_ERR_IO naming
