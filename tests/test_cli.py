@@ -508,6 +508,28 @@ class EnvMaps(Base):
             with self.subTest(env=env):
                 self.assert_bad_input(["bake", src, "-o", self.path("out.vdb"), "--env", env], needle)
 
+    def test_fuzz_findings_on_the_command_line(self):
+        """The inputs kept from fuzzing (fuzz/regressions/), through the command line: one line
+        naming the problem, exit 2, no output. A Radiance HDR cut inside a run-length scanline
+        (stb_image looped forever on it), a scene file with a 25 kB key and a --grid of 1 kB
+        (each once filled the whole message), a VDB whose grid metadata claims a 2 GB string
+        (OpenVDB allocated and zero-filled it first)."""
+        fuzz = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "fuzz", "regressions")
+        src = os.path.join(SAMPLES, "cloud.vdb")
+        out = ["-o", self.path("out.vdb"), "--sun", "0,-1,0", "-q"]
+        cases = [
+            (["bake", src, *out, "--env", os.path.join(fuzz, "hdr", "truncated_rle_scanline.hdr")],
+             "scanline"),
+            (["bake", src, *out, "--scene", os.path.join(fuzz, "scene", "long_unknown_key.json")],
+             "unknown key"),
+            (["bake", src, *out, "--grid", "d" * 1000], "grid"),
+            (["bake", os.path.join(fuzz, "vdb", "grid_metadata_2gb_string.vdb"), *out], "metadata"),
+        ]
+        for args, needle in cases:
+            with self.subTest(args=args[:3]):
+                line = self.assert_bad_input(args, needle)
+                self.assertLess(len(line), 700, line)
+
 
 class LightGrids(Base):
     def test_s1_grid_against_march(self):

@@ -871,6 +871,33 @@ static void test_env_paths(void **state)
 
 /* Occluders and fog: every type, defaults, resolved OBJ paths stored once, and ranges
  * of values set by code checked by vdbs_scene_validate. */
+/* Every error message is one line of valid UTF-8 (vdbs_error_clean, applied by
+ * vdbs_error_set): control characters and stray bytes become '?', UTF-8 stays, and a sequence
+ * cut by a quoting limit does not leave half a character. */
+static void test_error_messages_clean(void **state)
+{
+    (void)state;
+    vdbs_error err;
+    vdbs_error_set(&err, VDBS_ERR_INPUT, "key \"%s\"",
+                   "a\nb\x01\x7f\xff\xc3\xa9\xe2\x82\xac\xe2\x82");
+    assert_string_equal(err.message, "key \"a?b???\xc3\xa9\xe2\x82\xac??\"");
+    /* A key of 300 bytes of 0xb2 through the parser: quoted to 64 bytes, all '?'. */
+    char json[400] = "{\"";
+    memset(json + 2, 0xb2, 300);
+    strcpy(json + 302, "\": 1}");
+    vdbs_scene scene;
+    assert_int_equal(vdbs_scene_parse(json, NULL, &scene, &err), VDBS_ERR_INPUT);
+    assert_non_null(strstr(err.message,
+                           "\"????????????????????????????????????????????????????????????????\""));
+    /* --grid of 1000 characters: quoted to 64. */
+    char grid[1001];
+    memset(grid, 'd', 1000);
+    grid[1000] = '\0';
+    vdbs_scene_init(&scene);
+    assert_int_equal(vdbs_scene_set_grid(&scene, grid, &err), VDBS_ERR_INPUT);
+    assert_true(strlen(err.message) < 200);
+}
+
 static void test_occluders_and_fog(void **state)
 {
     (void)state;
@@ -1030,7 +1057,7 @@ int main(void)
         cmocka_unit_test(test_round_trip),        cmocka_unit_test(test_grid_spec),
         cmocka_unit_test(test_quality),           cmocka_unit_test(test_env_paths),
         cmocka_unit_test(test_suggestions),       cmocka_unit_test(test_density_auto),
-        cmocka_unit_test(test_occluders_and_fog),
+        cmocka_unit_test(test_occluders_and_fog), cmocka_unit_test(test_error_messages_clean),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

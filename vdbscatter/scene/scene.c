@@ -57,7 +57,7 @@ vdbs_status vdbs_scene_set_grid(vdbs_scene *scene, const char *spec, vdbs_error 
         return vdbs_error_set(err, VDBS_ERR_INTERNAL, "scene: grid: no grid name given");
     if (!vdbs_grid_spec_split(spec, name, &index, &why))
         return vdbs_error_set(err, VDBS_ERR_INPUT,
-                              "scene: grid \"%s\": %s (expected NAME or NAME@INDEX)", spec, why);
+                              "scene: grid \"%.64s\": %s (expected NAME or NAME@INDEX)", spec, why);
     memcpy(scene->grid, name, sizeof name);
     scene->grid_index = index;
     return VDBS_OK;

@@ -776,13 +776,11 @@ static vdbs_status parse_scene(const parse_ctx *ctx, const char *json_text, vdbs
 }
 
 /* An error is one line: keys and values of the file that the message quotes may hold
- * control characters (a JSON "\n" escape), shown as '?'. */
+ * control characters (a JSON "\n" escape) or bytes that are not UTF-8, shown as '?'. */
 static vdbs_status one_line(vdbs_status st, vdbs_error *err)
 {
     if (st != VDBS_OK && err)
-        for (char *c = err->message; *c; ++c)
-            if ((unsigned char)*c < 0x20 || *c == 0x7f)
-                *c = '?';
+        vdbs_error_clean(err->message);
     return st;
 }
 

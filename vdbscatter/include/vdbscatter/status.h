@@ -37,6 +37,11 @@ vdbs_status vdbs_error_set(vdbs_error *err, vdbs_status status, const char *fmt,
 /* Sets err to VDBS_CANCELLED_MESSAGE and returns VDBS_ERR_CANCELLED. */
 vdbs_status vdbs_error_cancelled(vdbs_error *err);
 
+/* Makes a message one line of valid UTF-8, in place: control characters and bytes that are
+ * not part of a UTF-8 sequence (a quoted key or file name may hold either) become '?'.
+ * vdbs_error_set applies it to every message. */
+void vdbs_error_clean(char *message);
+
 /* Receives non-fatal warnings (one line each, no trailing newline). */
 typedef void (*vdbs_warn_fn)(void *user, const char *message);
 
