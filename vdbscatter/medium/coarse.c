@@ -159,9 +159,10 @@ void vdbs_coarse_sigma(const vdbs_coarse_frame *f, const vdbs_volume *volume,
 }
 
 /* The trilinear weights of p's eight surrounding cells, renormalised over the cells inside
- * the grid (the nearest cell alone beyond the outer centres on every side). */
-static void coarse_weights(const vdbs_coarse_frame *dst, const double p[3], double w[8],
-                           int64_t at[8])
+ * the grid and, with a mask, over those whose mask is > 0 (none: every weight 0); without a
+ * mask the nearest cell alone beyond the outer centres on every side. */
+static void coarse_weights(const vdbs_coarse_frame *dst, const double p[3], const float *mask,
+                           double w[8], int64_t at[8])
 {
     int i0[3];
     double f[3];
@@ -177,10 +178,15 @@ static void coarse_weights(const vdbs_coarse_frame *dst, const double p[3], doub
             w[c] *= bit ? f[a] : 1.0 - f[a];
             inside &= idx[a] >= 0 && idx[a] < dst->n[a];
         }
-        if (!inside)
+        at[c] = inside ? coarse_index(dst, idx) : 0;
+        if (!inside || (mask && !(mask[at[c]] > 0.0f)))
             w[c] = 0.0;
-        at[c] = coarse_index(dst, idx);
         wsum += w[c];
+    }
+    if (mask && !(wsum > 0.0)) {
+        for (int c = 0; c < 8; ++c)
+            w[c] = 0.0;
+        return;
     }
     if (!(wsum > 0.0)) {
         /* Beyond the grid's outer centres on every side: the nearest cell takes it. */
@@ -198,19 +204,29 @@ static void coarse_weights(const vdbs_coarse_frame *dst, const double p[3], doub
         w[c] /= wsum;
 }
 
-void vdbs_coarse_splat(const vdbs_coarse_frame *dst, double *acc, int width, const double p[3],
-                       const double *values, double scale)
+int vdbs_coarse_splat_masked(const vdbs_coarse_frame *dst, double *acc, int width,
+                             const double p[3], const double *values, double scale,
+                             const float *mask)
 {
     double w[8];
     int64_t at[8];
-    coarse_weights(dst, p, w, at);
+    coarse_weights(dst, p, mask, w, at);
+    int any = 0;
     for (int c = 0; c < 8; ++c) {
         if (w[c] == 0.0)
             continue;
+        any = 1;
         double s = scale * w[c];
         for (int v = 0; v < width; ++v)
             acc[at[c] * width + v] += s * values[v];
     }
+    return any;
+}
+
+void vdbs_coarse_splat(const vdbs_coarse_frame *dst, double *acc, int width, const double p[3],
+                       const double *values, double scale)
+{
+    (void)vdbs_coarse_splat_masked(dst, acc, width, p, values, scale, NULL);
 }
 
 void vdbs_coarse_sample(const vdbs_coarse_frame *f, const float *values, int width,
@@ -218,7 +234,7 @@ void vdbs_coarse_sample(const vdbs_coarse_frame *f, const float *values, int wid
 {
     double w[8];
     int64_t at[8];
-    coarse_weights(f, p, w, at);
+    coarse_weights(f, p, NULL, w, at);
     for (int v = 0; v < width; ++v)
         out[v] = 0.0;
     for (int c = 0; c < 8; ++c)

@@ -76,7 +76,7 @@ static double seed(const vdbs_radial_frame *f, const vdbs_volume *volume,
     double total = 0.0;
     for (int chunk = 0; chunk < IMPORTANCE_SEED_CHUNKS; ++chunk)
         total += part[chunk];
-    vdbs_pop_start_lobes(state, vdbs_radial_cells(f), g, 0, f);
+    vdbs_pop_start_lobes(state, vdbs_radial_cells(f), g, 0, f, NULL);
     return 3.0 * total;
 }
 

@@ -65,6 +65,7 @@ typedef struct pop_run {
     double h;                 /* cell side of the directional grids */
     vdbs_coarse_frame merged; /* world-aligned, side h / 2: the accumulated ms and ms_l1 */
     double *merged_acc;       /* VDBS_COARSE_WIDTH per merged cell */
+    float *merged_sigma;      /* sigma_t per merged cell: > 0 where the medium is */
     vdbs_coarse_frame iso;    /* world-aligned, side h: the isotropic residuum */
     double *iso_residual;     /* 3 per iso cell: the directional grids' light still in transit */
 } pop_run;
@@ -75,6 +76,7 @@ static void run_free(pop_run *r)
     vdbs_light_grids_free(&r->fine);
     vdbs_medium_box_free(&r->box);
     free(r->merged_acc);
+    free(r->merged_sigma);
     free(r->iso_residual);
 }
 
@@ -90,7 +92,7 @@ static int seed_chunk_begin(int columns, int chunk)
  * loses over each whole sub-column, albedo E (1 - T) with T looked up far beyond the grid's
  * end (equal when the grid holds all of the medium and no cell's share is lost). */
 static double seed_grid(const pop_run *r, int l, const vdbs_coarse_frame *f, const double e[3],
-                        double a0, float *state, double *beam)
+                        double a0, const float *sigma, float *state, double *beam)
 {
     const vdbs_solve *s = r->s;
     const double *albedo = s->scene->albedo;
@@ -144,7 +146,8 @@ static double seed_grid(const pop_run *r, int l, const vdbs_coarse_frame *f, con
         *beam += part[chunk][1];
     }
     const int64_t cells = vdbs_coarse_cells(f);
-    vdbs_pop_start_lobes(state, cells, a0, r->desc.tally_cell, NULL);
+    const vdbs_pop_absorption absorption = {sigma, albedo, f->h};
+    vdbs_pop_start_lobes(state, cells, a0, r->desc.tally_cell, NULL, &absorption);
     return total;
 }
 
@@ -205,28 +208,33 @@ static vdbs_status grid_arrays(const pop_run *r, const vdbs_coarse_frame *f, flo
     return VDBS_OK;
 }
 
-/* Splats one cell's values of frame f into the merged grid: at its centre, or, where the merged
- * cells are less than half as wide (point lights refine the merged grid), split into m^3
- * parts so that a large cell does not land on 8 small ones. */
-static void splat_cell(const vdbs_coarse_frame *merged, double *acc, const vdbs_coarse_frame *f,
-                       int64_t c, const double *v, double scale)
+/* Splats one cell's values of frame f into the merged grid's cells of medium: at its centre,
+ * or, where the merged cells are less than half as wide (point lights refine the merged grid),
+ * split into m^3 parts so that a large cell does not land on 8 small ones. Returns the share
+ * that landed (a part with no cell of medium around it merges nothing). */
+static double splat_cell(const pop_run *r, const vdbs_coarse_frame *f, int64_t c, const double *v,
+                         double scale)
 {
+    const vdbs_coarse_frame *merged = &r->merged;
     int m = (int)ceil(f->h / (2.0 * merged->h) - 1e-9);
     double x[3] = {(double)(c % f->n[0]), (double)((c / f->n[0]) % f->n[1]),
                    (double)(c / ((int64_t)f->n[0] * f->n[1]))};
     if (m <= 1) {
         double w[3];
         vdbs_coarse_cell_centre(f, c, w);
-        vdbs_coarse_splat(merged, acc, VDBS_COARSE_WIDTH, w, v, scale);
-        return;
+        return vdbs_coarse_splat_masked(merged, r->merged_acc, VDBS_COARSE_WIDTH, w, v, scale,
+                                        r->merged_sigma);
     }
+    int landed = 0;
     for (int p = 0; p < m * m * m; ++p) {
         double y[3] = {x[0] + (p % m + 0.5) / m, x[1] + ((p / m) % m + 0.5) / m,
                        x[2] + (p / (m * m) + 0.5) / m},
                w[3];
         vdbs_coarse_point(f, y, w);
-        vdbs_coarse_splat(merged, acc, VDBS_COARSE_WIDTH, w, v, scale / (m * m * m));
+        landed += vdbs_coarse_splat_masked(merged, r->merged_acc, VDBS_COARSE_WIDTH, w, v,
+                                           scale / (m * m * m), r->merged_sigma);
     }
+    return (double)landed / (m * m * m);
 }
 
 static vdbs_status propagate_grid(pop_run *r, int l, const double d[3], const double e[3],
@@ -247,7 +255,7 @@ static vdbs_status propagate_grid(pop_run *r, int l, const double d[3], const do
         return st;
     r->stats->cells += cells;
     double beam = 0.0;
-    double seeded = seed_grid(r, l, &f, e, a0, state, &beam);
+    double seeded = seed_grid(r, l, &f, e, a0, sigma, state, &beam);
     r->stats->seeded += seeded * f.h * f.h * f.h;
     r->stats->beam_loss += beam * f.h * f.h * f.h;
     double t1 = vdbs_now();
@@ -261,7 +269,10 @@ static vdbs_status propagate_grid(pop_run *r, int l, const double d[3], const do
     double t2 = vdbs_now();
     if (st == VDBS_OK) {
         /* Splat the accumulated lobes (ms, ms_l1) into the merged grid and the light still in
-         * transit into the isotropic one; the ratio of cell volumes keeps the energy. */
+         * transit into the isotropic one; the ratio of cell volumes keeps the energy. A cell of
+         * vacuum merges no lobes: no voxel scatters or absorbs there, and its splat put light
+         * that had left the medium onto the medium cells beside it (the extremes matrix's
+         * outputs then absorbed up to 38 times the power that entered). */
         const double scale = pow(f.h / r->merged.h, 3.0), g = s->scene->g;
         for (int64_t c = 0; c < cells; ++c) {
             const float *cell = state + c * VS_POP_STATE_WORDS;
@@ -276,11 +287,13 @@ static vdbs_status propagate_grid(pop_run *r, int l, const double d[3], const do
             }
             if (!any)
                 continue;
-            for (int ch = 0; ch < 3; ++ch)
-                r->stats->merge_in += cell[VS_POP_STATE_ACC_L + ch] * f.h * f.h * f.h;
             double w[3];
             vdbs_coarse_cell_centre(&f, c, w);
-            splat_cell(&r->merged, r->merged_acc, &f, c, v, scale);
+            if (sigma[c] > 0.0f) {
+                const double landed = splat_cell(r, &f, c, v, scale);
+                for (int ch = 0; ch < 3; ++ch)
+                    r->stats->merge_in += landed * cell[VS_POP_STATE_ACC_L + ch] * f.h * f.h * f.h;
+            }
             double residual[3] = {cell[VS_POP_STATE_L], cell[VS_POP_STATE_L + 1],
                                   cell[VS_POP_STATE_L + 2]};
             if (residual[0] != 0.0 || residual[1] != 0.0 || residual[2] != 0.0)
@@ -299,7 +312,7 @@ static vdbs_status propagate_grid(pop_run *r, int l, const double d[3], const do
  * a lobe of anisotropy g about the radial direction with L = power / A(cell). Returns the
  * seeded power (summed over channels) and in *beam what the sub-rays lose in all. */
 static double seed_radial(const pop_run *r, int l, const vdbs_radial_frame *f, double r_out,
-                          float *state, double *beam)
+                          const float *sigma, float *state, double *beam)
 {
     const vdbs_solve *s = r->s;
     const vdbs_direct_light *dl = &r->lights.direct[l];
@@ -356,14 +369,16 @@ static double seed_radial(const pop_run *r, int l, const vdbs_radial_frame *f, d
         total += part[chunk][0];
         *beam += part[chunk][1];
     }
-    vdbs_pop_start_lobes(state, vdbs_radial_cells(f), g, r->desc.tally_cell, f);
+    const vdbs_pop_absorption absorption = {sigma, albedo, 0.0};
+    vdbs_pop_start_lobes(state, vdbs_radial_cells(f), g, r->desc.tally_cell, f, &absorption);
     return total;
 }
 
 /* A point light (Sec. 6): its octahedral radial grid around the light, seeded from the fine
  * S1 grid, propagated with the shared gather, then splatted part by part into the merged grid
- * (fluence times volume is kept) and its light still in transit into the isotropic one (power
- * is kept: the iso grid's L is power times h / V). */
+ * (fluence times volume is kept; cells of vacuum merge nothing, as on directional grids) and its
+ * light still in transit into the isotropic one (power is kept: the iso grid's L is power times
+ * h / V). */
 static vdbs_status propagate_point(pop_run *r, int l, double mean_sigma_s, vdbs_error *err)
 {
     const vdbs_solve *s = r->s;
@@ -391,7 +406,7 @@ static vdbs_status propagate_point(pop_run *r, int l, double mean_sigma_s, vdbs_
     r->stats->cells += cells;
     vdbs_radial_sigma(&f, s->volume, &r->box, s->scene->density_scale, r->merged.h, sigma);
     double beam = 0.0;
-    const double seeded = seed_radial(r, l, &f, r_out, state, &beam);
+    const double seeded = seed_radial(r, l, &f, r_out, sigma, state, &beam);
     /* Part 1's energy unit, power times the directional cell side (pop.h). */
     r->stats->seeded += seeded * r->h;
     r->stats->beam_loss += beam * r->h;
@@ -436,10 +451,11 @@ static vdbs_status propagate_point(pop_run *r, int l, double mean_sigma_s, vdbs_
             /* Parts beyond the support box hold no voxel (their light has left). */
             if (!vdbs_volume_in_support(s->volume, w + 3 * p))
                 continue;
-            for (int ch = 0; ch < 3; ++ch)
-                r->stats->merge_in += cell[VS_POP_STATE_ACC_L + ch] * pv[p];
-            vdbs_coarse_splat(&r->merged, r->merged_acc, VDBS_COARSE_WIDTH, w + 3 * p, v,
-                              pv[p] / merged_volume);
+            if (sigma[c] > 0.0f &&
+                vdbs_coarse_splat_masked(&r->merged, r->merged_acc, VDBS_COARSE_WIDTH, w + 3 * p, v,
+                                         pv[p] / merged_volume, r->merged_sigma))
+                for (int ch = 0; ch < 3; ++ch)
+                    r->stats->merge_in += cell[VS_POP_STATE_ACC_L + ch] * pv[p];
             if (residual[0] != 0.0 || residual[1] != 0.0 || residual[2] != 0.0)
                 vdbs_coarse_splat(&r->iso, r->iso_residual, 3, w + 3 * p, residual,
                                   area * pv[p] / volume * iso_scale);
@@ -457,8 +473,8 @@ done:
 /* The isotropic residuum (Sec. 5.4), on a world-aligned grid with the directional grids' cell
  * side (not the merged grid's half: a lattice walk of step h diffuses like a medium with
  * sigma_tr h near 2, so finer cells spread isotropic light faster; on the POP check
- * scene the half-size grid tripled POP's image error). Its accumulation is splatted into the
- * merged grid's ms. */
+ * scene the half-size grid tripled POP's image error). Its accumulation in the medium's cells is
+ * splatted into the merged grid's ms. */
 static vdbs_status isotropic(pop_run *r, vdbs_error *err)
 {
     const vdbs_solve *s = r->s;
@@ -505,9 +521,9 @@ static vdbs_status isotropic(pop_run *r, vdbs_error *err)
             double v[VDBS_COARSE_WIDTH] = {0};
             for (int ch = 0; ch < 3; ++ch)
                 v[VDBS_COARSE_MS + ch] = cell[VS_POP_STATE_ACC_L + ch] * VDBS_INV_4PI;
-            if (v[0] == 0.0 && v[1] == 0.0 && v[2] == 0.0)
+            if ((v[0] == 0.0 && v[1] == 0.0 && v[2] == 0.0) || !(sigma[c] > 0.0f))
                 continue;
-            splat_cell(&r->merged, r->merged_acc, f, c, v, scale);
+            (void)splat_cell(r, f, c, v, scale);
         }
     }
     r->stats->seconds_isotropic += vdbs_now() - t0;
@@ -574,10 +590,14 @@ static vdbs_status setup_grids(pop_run *r, int points, vdbs_error *err)
     int block = (int)floor(merged_side / s->volume->mean_voxel_size);
     r->merged_acc =
         calloc((size_t)r->stats->merged_cells * VDBS_COARSE_WIDTH, sizeof *r->merged_acc);
+    r->merged_sigma = malloc(sizeof *r->merged_sigma * (size_t)r->stats->merged_cells);
     r->iso_residual = calloc((size_t)vdbs_coarse_cells(&r->iso) * 3, sizeof *r->iso_residual);
-    if (!r->merged_acc || !r->iso_residual)
+    if (!r->merged_acc || !r->merged_sigma || !r->iso_residual)
         return vdbs_error_set(err, VDBS_ERR_NOMEM, "out of memory for the merged POP grid");
-    return vdbs_medium_box_build(s->volume, block < 1 ? 1 : block, &r->box, err);
+    vdbs_status st = vdbs_medium_box_build(s->volume, block < 1 ? 1 : block, &r->box, err);
+    if (st == VDBS_OK)
+        vdbs_coarse_sigma(&r->merged, s->volume, &r->box, s->scene->density_scale, r->merged_sigma);
+    return st;
 }
 
 /* The suns, points and sky ordinates: from the sky, or the sky times the camera's importance

@@ -56,6 +56,11 @@ void vdbs_coarse_sigma(const vdbs_coarse_frame *f, const vdbs_volume *volume,
  * the cells gains exactly scale x values. */
 void vdbs_coarse_splat(const vdbs_coarse_frame *dst, double *acc, int width, const double p[3],
                        const double *values, double scale);
+/* The same over the cells whose mask (one float per cell of dst) is > 0, renormalised over
+ * those: returns 0, adding nothing, when none of the eight is (NULL: vdbs_coarse_splat). */
+int vdbs_coarse_splat_masked(const vdbs_coarse_frame *dst, double *acc, int width,
+                             const double p[3], const double *values, double scale,
+                             const float *mask);
 
 /* The transpose of the splat: values (width floats per cell) interpolated at world point p
  * with the same weights. */

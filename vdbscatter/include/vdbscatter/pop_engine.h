@@ -44,12 +44,22 @@ vdbs_status vdbs_pop_propagate(vdbs_runner *runner, const uint32_t *params, size
                                const float *sigma, int64_t cells, float *state, int max_iterations,
                                double tolerance, int *iterations, double *left, vdbs_error *err);
 
+/* The medium a grid's seeded light is absorbed in on its first crossing: sigma_t per cell (the
+ * propagation's; < 0 counts as 0), the albedo per channel and, on a rectilinear grid, the cell
+ * side (a radial cell's length is its shell's thickness). */
+typedef struct vdbs_pop_absorption {
+    const float *sigma;
+    const double *albedo;
+    double h;
+} vdbs_pop_absorption;
+
 /* Turns seeded light into lobes: the L of every cell and channel (on a radial frame its power,
  * divided here by the cell's mean section A; NULL: a rectilinear grid's L) gets anisotropy a0,
  * and the accumulation starts with the half crossing the light travels on average in the
- * cell where it scattered (times the lobe's mean chord unless tally_cell). */
+ * cell where it scattered (times the lobe's mean chord unless tally_cell), shortened by the
+ * cell's absorption when `absorption` is given (NULL: none, as for the camera's importance). */
 void vdbs_pop_start_lobes(float *state, int64_t cells, double a0, int tally_cell,
-                          const vdbs_radial_frame *radial);
+                          const vdbs_radial_frame *radial, const vdbs_pop_absorption *absorption);
 
 /* The parameter words of a radial grid over frame f (shaders/vs_pop.h): the header for a medium
  * of HG g and albedo with the transport's decay law and tally, the flux-conserving compensation on,
