@@ -896,6 +896,15 @@ static void test_error_messages_clean(void **state)
     vdbs_scene_init(&scene);
     assert_int_equal(vdbs_scene_set_grid(&scene, grid, &err), VDBS_ERR_INPUT);
     assert_true(strlen(err.message) < 200);
+    /* A message longer than the buffer is cut visibly, and stays under its last byte (the
+     * fuzz harnesses take a full buffer for a cut message). */
+    char value[3 * VDBS_ERROR_MAX];
+    memset(value, 'v', sizeof value - 1);
+    value[sizeof value - 1] = '\0';
+    vdbs_error_set(&err, VDBS_ERR_INPUT, "--x: got '%s'", value);
+    const size_t len = strlen(err.message);
+    assert_true(len < VDBS_ERROR_MAX - 1);
+    assert_string_equal(err.message + len - 6, " [...]");
 }
 
 static void test_occluders_and_fog(void **state)

@@ -927,21 +927,31 @@ static void corrupt_meta_length(const char *from, const char *to, const char *ke
     free(bytes);
 }
 
+/* The dense test grid's lit VDB written to the temporary folder as `file` (its coordinates and
+ * values as write_lit gives them); returns its path. */
+static const char *dense_lit(const char *file, int32_t **coords, size_t *n, float **values)
+{
+    uint64_t active;
+    vdbio_density *d = make_dense(&active);
+    const char *path = test_tmp_path(file);
+    warnings w = {0};
+    vdbs_error err = {{0}};
+    assert_int_equal(write_lit(path, d, 0, &w, coords, n, values, &err), VDBS_OK);
+    vdbio_density_free(d);
+    return path;
+}
+
 static void test_metadata_lengths(void **state)
 {
     (void)state;
-    uint64_t active;
-    vdbio_density *d = make_dense(&active);
-    const char *path = test_tmp_path("vdbio_meta.vdb");
-    warnings w = {0};
     int32_t *coords;
     size_t n;
     float *values;
-    vdbs_error err = {{0}};
-    assert_int_equal(write_lit(path, d, 0, &w, &coords, &n, &values, &err), VDBS_OK);
+    const char *path = dense_lit("vdbio_meta.vdb", &coords, &n, &values);
     free(coords);
     free(values);
-    vdbio_density_free(d);
+    warnings w = {0};
+    vdbs_error err = {{0}};
     const char *bad = test_tmp_path("vdbio_meta_length.vdb");
     const struct {
         const char *key, *expect;
@@ -1116,15 +1126,11 @@ static void test_list_grids(void **state)
 static void test_lit_threads(void **state)
 {
     (void)state;
-    uint64_t active;
-    vdbio_density *d = make_dense(&active);
-    const char *path = test_tmp_path("vdbio_threads.vdb");
-    warnings w = {0};
     int32_t *coords;
     size_t n;
     float *values;
+    const char *path = dense_lit("vdbio_threads.vdb", &coords, &n, &values);
     vdbs_error err = {{0}};
-    assert_int_equal(write_lit(path, d, 0, &w, &coords, &n, &values, &err), VDBS_OK);
     vdbio_lit *lit = NULL;
     assert_int_equal(vdbio_lit_open(path, &lit, &err), VDBS_OK);
     long bad = 0;
@@ -1142,7 +1148,6 @@ static void test_lit_threads(void **state)
     vdbio_lit_close(lit);
     free(coords);
     free(values);
-    vdbio_density_free(d);
 }
 
 int main(void)

@@ -2,6 +2,7 @@
 
 #include <stdarg.h>
 #include <stdio.h>
+#include <string.h>
 
 /* The length of the UTF-8 sequence that starts at s (2 to 4 bytes), or 0 when there is none:
  * a lead byte followed by its continuation bytes (overlong forms of 3 and 4 bytes pass). */
@@ -39,8 +40,13 @@ vdbs_status vdbs_error_set(vdbs_error *err, vdbs_status status, const char *fmt,
     if (err) {
         va_list ap;
         va_start(ap, fmt);
-        vsnprintf(err->message, sizeof err->message, fmt, ap);
+        const int n = vsnprintf(err->message, sizeof err->message, fmt, ap);
         va_end(ap);
+        /* A quoted value (a file's key, an argument of the command line) that fills the buffer
+         * is cut visibly, so that the message stays one whole line. */
+        static const char cut[] = " [...]";
+        if (n >= (int)sizeof err->message)
+            memcpy(err->message + sizeof err->message - sizeof cut - 1, cut, sizeof cut);
         vdbs_error_clean(err->message);
     }
     return status;

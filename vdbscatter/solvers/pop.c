@@ -271,8 +271,8 @@ static vdbs_status propagate_grid(pop_run *r, int l, const double d[3], const do
         /* Splat the accumulated lobes (ms, ms_l1) into the merged grid and the light still in
          * transit into the isotropic one; the ratio of cell volumes keeps the energy. A cell of
          * vacuum merges no lobes: no voxel scatters or absorbs there, and its splat put light
-         * that had left the medium onto the medium cells beside it (the extremes matrix's
-         * outputs then absorbed up to 38 times the power that entered). */
+         * that had left the medium onto the medium cells beside it (in the extremes matrix the
+         * outputs then absorbed up to 2000 times the power that entered). */
         const double scale = pow(f.h / r->merged.h, 3.0), g = s->scene->g;
         for (int64_t c = 0; c < cells; ++c) {
             const float *cell = state + c * VS_POP_STATE_WORDS;

@@ -92,8 +92,8 @@ void vdbs_pop_start_lobes(float *state, int64_t cells, double a0, int tally_cell
     /* Light scattered in a cell travels half a crossing on average: 1/2 L^0 (times the
      * lobe's mean chord with the chord tally, as every later crossing), less where the cell
      * absorbs it first. Without that, a cell thick in absorption counted its seed as fluence
-     * over half its width while the voxels it lands on absorb it within a fraction of one:
-     * the outputs absorbed up to 17 times the power that entered (the extremes matrix). */
+     * over half its width while its voxels absorb it within a fraction of one, and the
+     * outputs absorbed more than entered (3.4 times in the extremes matrix's slice). */
     const double chord = tally_cell ? 1.0 : (double)vs_pop_chord((float)a0);
     for (int64_t c = 0; c < cells; ++c) {
         float *cell = state + c * VS_POP_STATE_WORDS;

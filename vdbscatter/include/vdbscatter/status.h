@@ -24,7 +24,8 @@ typedef struct vdbs_error {
     char message[VDBS_ERROR_MAX];
 } vdbs_error;
 
-/* Formats the message into err (when err is not NULL) and returns status. */
+/* Formats the message into err (when err is not NULL) and returns status. A message longer
+ * than the buffer ends in " [...]"; every message is cleaned by vdbs_error_clean. */
 vdbs_status vdbs_error_set(vdbs_error *err, vdbs_status status, const char *fmt, ...)
 #if defined(__GNUC__)
     __attribute__((format(printf, 3, 4)))
