@@ -905,6 +905,10 @@ static void test_error_messages_clean(void **state)
     const size_t len = strlen(err.message);
     assert_true(len < VDBS_ERROR_MAX - 1);
     assert_string_equal(err.message + len - 6, " [...]");
+    /* Exactly as long as the buffer holds (the fuzz finding): cut as well. */
+    value[VDBS_ERROR_MAX - 1 - 11] = '\0';
+    vdbs_error_set(&err, VDBS_ERR_INPUT, "--x: got '%s'", value);
+    assert_true(strlen(err.message) < VDBS_ERROR_MAX - 1);
 }
 
 static void test_occluders_and_fog(void **state)

@@ -43,9 +43,10 @@ vdbs_status vdbs_error_set(vdbs_error *err, vdbs_status status, const char *fmt,
         const int n = vsnprintf(err->message, sizeof err->message, fmt, ap);
         va_end(ap);
         /* A quoted value (a file's key, an argument of the command line) that fills the buffer
-         * is cut visibly, so that the message stays one whole line. */
+         * to its last byte is cut visibly, so that the message stays one whole line (a full
+         * buffer reads as a cut message). */
         static const char cut[] = " [...]";
-        if (n >= (int)sizeof err->message)
+        if (n >= (int)sizeof err->message - 1)
             memcpy(err->message + sizeof err->message - sizeof cut - 1, cut, sizeof cut);
         vdbs_error_clean(err->message);
     }
