@@ -775,20 +775,11 @@ static vdbs_status parse_scene(const parse_ctx *ctx, const char *json_text, vdbs
     return st;
 }
 
-/* An error is one line: keys and values of the file that the message quotes may hold
- * control characters (a JSON "\n" escape) or bytes that are not UTF-8, shown as '?'. */
-static vdbs_status one_line(vdbs_status st, vdbs_error *err)
-{
-    if (st != VDBS_OK && err)
-        vdbs_error_clean(err->message);
-    return st;
-}
-
 vdbs_status vdbs_scene_parse(const char *json_text, const char *base_dir, vdbs_scene *scene,
                              vdbs_error *err)
 {
     parse_ctx ctx = {"scene", base_dir, err};
-    return one_line(parse_scene(&ctx, json_text, scene), err);
+    return parse_scene(&ctx, json_text, scene);
 }
 
 vdbs_status vdbs_scene_load(const char *path, vdbs_scene *scene, vdbs_error *err)
@@ -824,7 +815,7 @@ vdbs_status vdbs_scene_load(const char *path, vdbs_scene *scene, vdbs_error *err
         base_dir = base;
     }
     parse_ctx ctx = {prefix, base_dir, err};
-    st = one_line(parse_scene(&ctx, text, scene), err);
+    st = parse_scene(&ctx, text, scene);
     free(text);
     return st;
 }
