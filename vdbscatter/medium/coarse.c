@@ -349,6 +349,7 @@ vdbs_status vdbs_coarse_upsample(const vdbs_coarse_frame *f, const double *value
         }
     const double range = count > 0 ? 0.5 * sum / count : 1.0;
     double *coef = NULL;
+    const int smoothing = kernel == VDBS_COARSE_BSPLINE;
     if (kernel == VDBS_COARSE_BSPLINE_INTERP) {
         coef = malloc(sizeof *coef * (size_t)cells * VDBS_COARSE_WIDTH);
         if (!coef) {
@@ -379,14 +380,25 @@ vdbs_status vdbs_coarse_upsample(const vdbs_coarse_frame *f, const double *value
                 taps[a] = axis_taps(taps_kernel, dot3(rel, f->axis[a]) / f->side[a], f->n[a], at[a],
                                     aw[a]);
             double out[VDBS_COARSE_WIDTH] = {0}, wsum = 0.0;
+            double hi[3] = {-HUGE_VAL, -HUGE_VAL, -HUGE_VAL};
             for (int k = 0; k < taps[2]; ++k)
                 for (int j = 0; j < taps[1]; ++j)
                     for (int i = 0; i < taps[0]; ++i) {
+                        const int id[3] = {at[0][i], at[1][j], at[2][k]};
+                        int64_t c = coarse_index(f, id);
+                        /* The smoothing spline spreads a cell's value over the cells beyond
+                         * its neighbours: where the light falls within a cell (the lit skin
+                         * of a medium thick in absorption) it puts light deeper in than the
+                         * cells there hold, which the voxels there absorb, creating energy.
+                         * Each voxel's ms stays at most the largest of the 2 x 2 x 2 cells
+                         * around it (the inner taps); ms_l1 follows through its bound. */
+                        if (smoothing && i % 3 && j % 3 && k % 3)
+                            for (int ch = 0; ch < 3; ++ch)
+                                hi[ch] = fmax(hi[ch],
+                                              values[c * VDBS_COARSE_WIDTH + VDBS_COARSE_MS + ch]);
                         double wt = aw[0][i] * aw[1][j] * aw[2][k];
                         if (wt == 0.0)
                             continue;
-                        const int id[3] = {at[0][i], at[1][j], at[2][k]};
-                        int64_t c = coarse_index(f, id);
                         /* The joint bilateral factor: cells whose medium differs from the
                          * voxel's count less (an edge in the density is an edge in ms). */
                         double dr = (guide[c] - sv) / range;
@@ -398,8 +410,11 @@ vdbs_status vdbs_coarse_upsample(const vdbs_coarse_frame *f, const double *value
             if (!(wsum > 0.0))
                 continue;
             for (int ch = 0; ch < 3; ++ch) {
+                double x = out[VDBS_COARSE_MS + ch] / wsum;
+                if (smoothing)
+                    x = fmin(x, hi[ch]);
                 /* The interpolating spline overshoots next to sharp changes: ms >= 0. */
-                float v = (float)fmax(out[VDBS_COARSE_MS + ch] / wsum, 0.0);
+                float v = (float)fmax(x, 0.0);
                 ms[3 * n + ch] += v;
                 radiance[3 * n + ch] += v;
                 for (int a = 0; a < 3; ++a)

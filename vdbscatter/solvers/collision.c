@@ -142,6 +142,11 @@ void vdbs_voxel_faces_free(vdbs_voxel_faces *faces)
     memset(faces, 0, sizeof *faces);
 }
 
+double vdbs_beam_transmittance(double k, float depth)
+{
+    return depth >= VS_TAU_LIMIT ? 0.0 : exp(-k * (double)depth);
+}
+
 void vdbs_first_collisions(const vdbs_volume *volume, const vdbs_voxel_faces *faces,
                            const vdbs_light_table *lights, int light, const float *depth,
                            double density_scale, const double k[3], double *scratch, double *rate,
@@ -162,7 +167,7 @@ void vdbs_first_collisions(const vdbs_volume *volume, const vdbs_voxel_faces *fa
         double *at = scratch + VDBS_COLLISION_SCRATCH * n;
         vdbs_lights_arrival(lights, light, w, at + 6, dir);
         for (int ch = 0; ch < 3; ++ch)
-            at[ch] = exp(-k[ch] * (double)depth[n]);
+            at[ch] = vdbs_beam_transmittance(k[ch], depth[n]);
         vdbs_volume_index_vector(volume, dir, at + 3);
         for (int a = 0; travel && a < 3; ++a)
             travel[3 * n + a] = (float)dir[a];

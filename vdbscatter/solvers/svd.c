@@ -501,8 +501,8 @@ void vdbs_svd_light_depth(void *user, int light, const float *depth)
             vdbs_volume_voxel_point(volume, (size_t)n, w);
             vdbs_lights_arrival(s->lights, light, w, color, travel);
             for (int ch = 0; ch < 3; ++ch) {
-                const double scaled = exp(-k[ch] * (double)depth[n]);
-                const double peak = color[ch] * (scaled - exp(-(double)depth[n]));
+                const double peak = color[ch] * (vdbs_beam_transmittance(k[ch], depth[n]) -
+                                                 vdbs_beam_transmittance(1.0, depth[n]));
                 s->ms[3 * n + ch] += (float)(peak * VDBS_INV_4PI);
                 for (int ax = 0; ax < 3; ++ax)
                     s->ms_l1[ax][3 * n + ch] += (float)(l1 * peak * travel[ax]);

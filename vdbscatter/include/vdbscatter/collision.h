@@ -42,6 +42,12 @@ void vdbs_voxel_faces_free(vdbs_voxel_faces *faces);
  * NULL, receives the light's unit world direction of travel at each voxel (3 per voxel). */
 #define VDBS_COLLISION_SCRATCH 9
 
+/* exp(-k depth) for a light grid's optical depth: a march stops once the depth passes its
+ * limit (VS_TAU_LIMIT, where exp(-depth) is 0 in float), so a depth there stands for any
+ * larger one and gives 0 whatever k. A scaled medium's k (delta-M's 1 - f albedo, 0.015 at
+ * g 0.999) would otherwise read light deep inside a thick medium (exp(-0.015 x 100) = 0.22). */
+double vdbs_beam_transmittance(double k, float depth);
+
 void vdbs_first_collisions(const vdbs_volume *volume, const vdbs_voxel_faces *faces,
                            const vdbs_light_table *lights, int light, const float *depth,
                            double density_scale, const double k[3], double *scratch, double *rate,
