@@ -53,7 +53,11 @@
 #define VS_SVD_OFF_TABLE_LIGHTS 27 /* word offset of the light records in `svd_tables` */
 #define VS_SVD_OFF_SIDE 28         /* 3 floats: world side of a cell along x, y, z */
 #define VS_SVD_OFF_SCHEME 31       /* 0: the step scheme; 1: the weighted diamond */
-#define VS_SVD_PARAM_WORDS 32
+#define VS_SVD_OFF_INFLOW                                                                          \
+    32 /* 3 floats: the radiance entering every boundary face from                                 \
+          outside in every direction (the sky's uniform part,                                      \
+          vdbscatter/skyfloor.h), per channel */
+#define VS_SVD_PARAM_WORDS 35
 
 /* `svd_tables` (floats): D direction records from word 0, then v, then the lights. */
 #define VS_SVD_DIR_W 0      /* 3: unit direction of travel */
@@ -69,9 +73,11 @@
 
 /* The state (floats) the sweeps write, in place: N x 3 new moments per cell from word 0
  * (vs_svd_moment_at), a record per cell at OFF_STATE_OUT, the planes after. */
-#define VS_SVD_OUT_FLUENCE 0  /* 3: sum_d L_d dw_d */
-#define VS_SVD_OUT_FLUX 3     /* 9: sum_d L_d w_d dw_d, x, y, z components of R, G, B */
-#define VS_SVD_OUT_SOURCE 12  /* emitted power eta h^3 dw summed over directions and channels */
+#define VS_SVD_OUT_FLUENCE 0 /* 3: sum_d L_d dw_d */
+#define VS_SVD_OUT_FLUX 3    /* 9: sum_d L_d w_d dw_d, x, y, z components of R, G, B */
+#define VS_SVD_OUT_SOURCE                                                                          \
+    12                        /* power in: emitted eta h^3 dw summed over directions and           \
+                                 channels, and what entered from outside (VS_SVD_OFF_INFLOW) */
 #define VS_SVD_OUT_COLLIDE 13 /* collisions sigma_t* L h^3 dw, the same way */
 #define VS_SVD_OUT_LEAK 14    /* power out through the grid's boundary faces */
 #define VS_SVD_OUT_CLAMPED 15 /* emitted power lost to the clamp at 0 */
@@ -182,6 +188,7 @@ struct vs_svd_cell {
     pnanovdb_vec3_t faces;  /* face areas along x, y, z over area (1 on a cube) */
     pnanovdb_vec3_t centre; /* world */
     pnanovdb_vec3_t st;     /* sigma_t* per channel */
+    pnanovdb_vec3_t inflow; /* VS_SVD_OFF_INFLOW */
 };
 PNANOVDB_STRUCT_TYPEDEF(vs_svd_cell)
 
@@ -221,6 +228,9 @@ VS_FUNC vs_svd_cell vs_svd_cell_of(VS_DATA_PARAM(vs_uint, svd_params)
     c.st = vs_vec3(sigma * vs_svd_param_float(VS_DATA_ARG(svd_params) VS_SVD_OFF_EXTINCT),
                    sigma * vs_svd_param_float(VS_DATA_ARG(svd_params) VS_SVD_OFF_EXTINCT + 1),
                    sigma * vs_svd_param_float(VS_DATA_ARG(svd_params) VS_SVD_OFF_EXTINCT + 2));
+    c.inflow = vs_vec3(vs_svd_param_float(VS_DATA_ARG(svd_params) VS_SVD_OFF_INFLOW),
+                       vs_svd_param_float(VS_DATA_ARG(svd_params) VS_SVD_OFF_INFLOW + 1),
+                       vs_svd_param_float(VS_DATA_ARG(svd_params) VS_SVD_OFF_INFLOW + 2));
     return c;
 }
 
@@ -383,15 +393,15 @@ VS_FUNC void vs_svd_store3(VS_OUT_PARAM(float, svd_state) int at, pnanovdb_vec3_
 }
 
 /* The cell's radiance toward w from its emission q (clamped) and the upwind inflow: the far face
- * of the column before along each axis on the previous plane, 0 at the grid's inflow faces
- * (vacuum). Its outflow faces go to `faces`. */
+ * of the column before along each axis on the previous plane, the radiance from outside
+ * (VS_SVD_OFF_INFLOW; 0: vacuum) at the grid's inflow faces. Its outflow faces go to `faces`. */
 VS_FUNC_HOT pnanovdb_vec3_t vs_svd_upwind(VS_OUT_PARAM(float, svd_state) vs_svd_at at,
                                           vs_svd_cell c, int slot, pnanovdb_vec3_t q,
                                           pnanovdb_vec3_t w, PNANOVDB_INOUT(vs_svd_faces) faces)
 {
     pnanovdb_vec3_t open =
         vs_vec3(vs_abs(w.x) * c.ratio.x, vs_abs(w.y) * c.ratio.y, vs_abs(w.z) * c.ratio.z);
-    pnanovdb_vec3_t ax = vs_vec3(0.0f, 0.0f, 0.0f);
+    pnanovdb_vec3_t ax = c.inflow;
     pnanovdb_vec3_t ay = ax;
     pnanovdb_vec3_t az = ax;
     int fw = at.face_words;
@@ -477,7 +487,13 @@ VS_FUNC_HOT void vs_svd_direction(VS_DATA_PARAM(float, svd_tables) VS_DATA_PARAM
     PNANOVDB_DEREF(t).fz =
         vs_vec3(PNANOVDB_DEREF(t).fz.x + l.x * w.z * dw, PNANOVDB_DEREF(t).fz.y + l.y * w.z * dw,
                 PNANOVDB_DEREF(t).fz.z + l.z * w.z * dw);
-    PNANOVDB_DEREF(t).emitted += (q.x + q.y + q.z) * dw * c.volume;
+    /* Power in: the emission, and at the grid's inflow faces the radiance from outside. */
+    float from_outside = (at.ip == 0 ? vs_abs(w.x) * c.faces.x : 0.0f) +
+                         (at.jp == 0 ? vs_abs(w.y) * c.faces.y : 0.0f) +
+                         (at.kp == 0 ? vs_abs(w.z) * c.faces.z : 0.0f);
+    PNANOVDB_DEREF(t).emitted +=
+        (q.x + q.y + q.z) * dw * c.volume +
+        from_outside * (c.inflow.x + c.inflow.y + c.inflow.z) * dw * c.area;
     PNANOVDB_DEREF(t).collided += (c.st.x * l.x + c.st.y * l.y + c.st.z * l.z) * dw * c.volume;
     float leak =
         (at.ip == c.n0 - 1 ? vs_abs(w.x) * c.faces.x * (leaving.x.x + leaving.x.y + leaving.x.z)

@@ -107,7 +107,7 @@ static void test_energy_balance(void **state)
     assert_true(sigma && source && mono && phi);
     energy_medium(sigma, source);
     vdbs_fld_grid grid = {
-        {E_N0, E_N1, E_N2}, {0.25, 0.25, 0.25}, sigma, {0.99, 0.9, 0.7}, 0.6, source, NULL};
+        {E_N0, E_N1, E_N2}, {0.25, 0.25, 0.25}, sigma, {0.99, 0.9, 0.7}, 0.6, source, NULL, NULL};
     vdbs_fld_desc desc = {0};
     desc.tolerance = 1e-8;
     vdbs_fld_stats stats;
@@ -195,8 +195,8 @@ static void test_first_moment_shift(void **state)
         for (int a = 0; a < 3; ++a)
             moment[9 * centre + 3 * a + ch] = g * d[a];
     }
-    vdbs_fld_grid grid = {{N, N, N}, {1.0, 1.0, 1.0}, sigma, {albedo, albedo, albedo},
-                          g,         source,          moment};
+    vdbs_fld_grid grid = {{N, N, N}, {1.0, 1.0, 1.0}, sigma,  {albedo, albedo, albedo},
+                          g,         source,          moment, NULL};
     vdbs_fld_desc desc = {0};
     desc.limiter_off = 1;
     desc.tolerance = 1e-10;
@@ -283,7 +283,7 @@ static void point_source(double h, double albedo, double lattice_bound, double c
     for (int ch = 0; ch < 3; ++ch)
         source[3 * centre + ch] = power / (h * h * h);
     vdbs_fld_grid grid = {{G_N, G_N, G_N}, {h, h, h}, sigma, {albedo, albedo, albedo}, 0.0,
-                          source,          NULL};
+                          source,          NULL,      NULL};
     vdbs_fld_desc desc = {0};
     desc.limiter_off = 1;
     desc.tolerance = 1e-9;
@@ -384,7 +384,7 @@ static void test_limiter_empty_space(void **state)
                     source[3 * c + ch] = core ? 2.0 + ch : 0.0;
             }
     vdbs_fld_grid grid = {
-        {B_N, B_N, B_N}, {0.5, 0.5, 0.5}, sigma, {0.99, 0.9, 0.7}, 0.6, source, NULL};
+        {B_N, B_N, B_N}, {0.5, 0.5, 0.5}, sigma, {0.99, 0.9, 0.7}, 0.6, source, NULL, NULL};
     vdbs_fld_desc desc = {0};
     desc.tolerance = 1e-8;
     vdbs_fld_stats stats;
@@ -406,6 +406,51 @@ static void test_limiter_empty_space(void **state)
     free(source);
     free(phi);
     free(flux);
+}
+
+/* ---- 4b. light arriving through the boundary (the sky's uniform part, skyfloor.h) ----
+ * A uniform radiance L around the grid enters every boundary face as the current pi L. With
+ * nothing absorbed, phi = 4 pi L in every cell solves the discrete equations exactly (the
+ * white furnace), whatever the medium: the heterogeneous medium of test 1, a dense block in
+ * empty space, g 0.6. With absorption, what the boundary let in counts in the source, and
+ * source = absorbed + leaked. */
+static void test_boundary_inflow(void **state)
+{
+    (void)state;
+    const int n[3] = {B_N, B_N, B_N};
+    float *sigma = calloc(B_CELLS, sizeof *sigma);
+    double *source = calloc(3 * B_CELLS, sizeof *source);
+    double *phi = malloc(sizeof *phi * 3 * B_CELLS);
+    assert_true(sigma && source && phi);
+    for (int k = 7; k < 15; ++k)
+        for (int j = 9; j < 17; ++j)
+            for (int i = 8; i < 16; ++i)
+                sigma[cell_of(n, i, j, k)] = 10.0f + (float)((i * 7 + j * 3 + k) % 5);
+    const double radiance[3] = {1.0, 2.0, 0.5};
+    double inflow[18];
+    for (int i = 0; i < 18; ++i)
+        inflow[i] = PI * radiance[i % 3];
+    vdbs_fld_grid grid = {
+        {B_N, B_N, B_N}, {0.5, 0.5, 0.5}, sigma, {1.0, 1.0, 1.0}, 0.6, source, NULL, inflow};
+    vdbs_fld_desc desc = {0};
+    desc.tolerance = 1e-8;
+    vdbs_fld_stats stats;
+    solve(&grid, &desc, phi, NULL, &stats);
+    double worst = 0.0;
+    for (int64_t c = 0; c < B_CELLS; ++c)
+        for (int ch = 0; ch < 3; ++ch)
+            worst = fmax(worst, fabs(phi[3 * c + ch] / (4.0 * PI * radiance[ch]) - 1.0));
+    print_message("boundary inflow, albedo 1: phi / (4 pi L) within %.2e of 1\n", worst);
+    assert_true(worst <= 1e-6);
+    check_balance("boundary inflow, albedo 1", &stats);
+    grid.albedo[0] = 0.9, grid.albedo[1] = 0.5, grid.albedo[2] = 0.0;
+    solve(&grid, &desc, phi, NULL, &stats);
+    check_phi("boundary inflow, absorbing", phi, 3 * B_CELLS);
+    assert_true(stats.absorbed > 0.0);
+    check_balance("boundary inflow, absorbing", &stats);
+    free(sigma);
+    free(source);
+    free(phi);
 }
 
 /* ---- 5. the absorption where sigma_a is small against D / h^2 ---- */
@@ -523,7 +568,7 @@ static void test_absorption_fine_cells(void **state)
                 for (int ch = 0; ch < 3; ++ch)
                     source[3 * cell_of(n, i, j, k) + ch] = 1.0;
     vdbs_fld_grid grid = {{F_N, F_N, F_N}, {h, h, h}, sigma, {albedo[0], albedo[1], albedo[2]}, g,
-                          source,          NULL};
+                          source,          NULL,      NULL};
     vdbs_fld_desc desc = {0};
     desc.limiter_off = 1;
     desc.tolerance = 1e-9;
@@ -580,7 +625,7 @@ static int iterations_at(int n, int runner_cells)
                     source[3 * c + ch] = inside ? 1.0 : 0.0;
             }
     vdbs_fld_grid grid = {
-        {n, n, n}, {1.0 / n, 1.0 / n, 1.0 / n}, sigma, {0.99, 0.99, 0.99}, 0.0, source, NULL};
+        {n, n, n}, {1.0 / n, 1.0 / n, 1.0 / n}, sigma, {0.99, 0.99, 0.99}, 0.0, source, NULL, NULL};
     vdbs_fld_desc desc = {0};
     desc.limiter_off = 1;
     desc.tolerance = 1e-8;
@@ -619,6 +664,7 @@ int main(void)
         cmocka_unit_test(test_first_moment_shift),
         cmocka_unit_test(test_point_source),
         cmocka_unit_test(test_limiter_empty_space),
+        cmocka_unit_test(test_boundary_inflow),
         cmocka_unit_test(test_absorption_fine_cells),
         cmocka_unit_test(test_iterations_flat_under_refinement),
     };

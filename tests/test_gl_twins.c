@@ -701,6 +701,7 @@ static void fld_solve_scenario_make(fld_solve_scenario *s)
                           {0.99, 0.9, 0.7},
                           0.6,
                           s->source,
+                          NULL,
                           NULL};
     s->grid = grid;
     s->desc.tolerance = 1e-8;
@@ -845,7 +846,8 @@ typedef struct svd_scenario {
 
 /* A heterogeneous medium with empty cells (sigma_t 0..12 per unit, h 0.15), albedo 0.95 /
  * 0.9 / 0.6, g 0.8 on 40 directions with delta-M and 10 terms (so the clamp acts), a sun and a
- * point light's first scattering and a projected sky. */
+ * point light's first scattering, a projected sky and a radiance entering through the
+ * boundary. */
 static void svd_scenario_make(svd_scenario *s, int iterations, int chunk)
 {
     memset(s, 0, sizeof *s);
@@ -872,7 +874,8 @@ static void svd_scenario_make(svd_scenario *s, int iterations, int chunk)
                               .lights = s->lights,
                               .light_count = 2,
                               .direct = s->direct,
-                              .sky = s->sky};
+                              .sky = s->sky,
+                              .inflow = {0.3, 0.5, 0.2}};
     s->desc.max_iterations = iterations;
     s->desc.chunk = chunk;
 }

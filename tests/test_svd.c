@@ -251,6 +251,78 @@ static void test_phase_normalisation(void **state)
     }
 }
 
+/* A uniform radiance L around the grid entering every boundary face (vdbs_svd_grid.inflow, the
+ * sky's uniform part): at albedo 1 the constant L in every direction solves the scheme exactly
+ * (the balanced phase keeps a scattering's energy, sigma_s* = sigma_t*), so one sweep from it
+ * returns fluence 4 pi L in every cell of the heterogeneous medium, 3 free paths a cell at
+ * most, for the exact and a truncated phase, with delta-M (g 0.9) and without (step and
+ * diamond); and from nothing the iteration converges to it, emitting what enters: power in
+ * (emission plus inflow) = collided + leaked every sweep. */
+static void test_boundary_inflow(void **state)
+{
+    (void)state;
+    const double radiance[3] = {1.0, 2.0, 0.5};
+    const struct {
+        int terms;
+        double g;
+        vdbs_svd_scheme scheme;
+    } cases[] = {{48, 0.5, VDBS_SVD_STEP}, {12, 0.9, VDBS_SVD_STEP}, {48, 0.5, VDBS_SVD_DIAMOND}};
+    for (size_t i = 0; i < sizeof cases / sizeof cases[0]; ++i) {
+        problem p;
+        const int n = 8, terms = cases[i].terms;
+        heterogeneous(&p, n, 48, terms, cases[i].g, 1.0, 0);
+        const size_t cells = (size_t)n * n * n;
+        for (int ch = 0; ch < 3; ++ch) {
+            p.grid.albedo[ch] = 1.0;
+            p.grid.inflow[ch] = radiance[ch];
+        }
+        p.grid.light_count = 0;
+        p.grid.sky = NULL;
+        float *warm = malloc(sizeof *warm * cells * (size_t)terms * 3);
+        double *fluence = malloc(sizeof *fluence * 3 * cells);
+        assert_true(warm && fluence);
+        for (size_t c = 0; c < cells; ++c)
+            for (int k = 0; k < terms; ++k)
+                for (int ch = 0; ch < 3; ++ch) {
+                    double m = 0.0;
+                    for (int d = 0; d < p.pm.d; ++d)
+                        m += p.pm.eigvec[(size_t)d * p.pm.d + k] * radiance[ch];
+                    warm[vs_svd_moment_at((int)c, terms, k, ch)] = (float)m;
+                }
+        p.grid.warm = warm;
+        vdbs_svd_desc desc = {0};
+        desc.scheme = cases[i].scheme;
+        desc.max_iterations = 1;
+        vdbs_svd_stats stats;
+        solve(&p.grid, &desc, fluence, NULL, &stats);
+        double worst = 0.0;
+        for (size_t c = 0; c < cells; ++c)
+            for (int ch = 0; ch < 3; ++ch)
+                worst = fmax(worst, fabs(fluence[3 * c + ch] / (4.0 * PI * radiance[ch]) - 1.0));
+        p.grid.warm = NULL;
+        desc.max_iterations = 0;
+        desc.residual = 1e-7;
+        vdbs_svd_stats cold;
+        solve(&p.grid, &desc, fluence, NULL, &cold);
+        double cold_worst = 0.0;
+        for (size_t c = 0; c < cells; ++c)
+            for (int ch = 0; ch < 3; ++ch)
+                cold_worst =
+                    fmax(cold_worst, fabs(fluence[3 * c + ch] / (4.0 * PI * radiance[ch]) - 1.0));
+        print_message("inflow, N %d g %.1f %s: one sweep from L: fluence within %.2e of 4 pi L; "
+                      "from 0: %d iterations, within %.2e; balance %.2e\n",
+                      terms, cases[i].g, cases[i].scheme == VDBS_SVD_DIAMOND ? "diamond" : "step",
+                      worst, cold.iterations, cold_worst, cold.balance);
+        assert_true(worst <= 1e-5);
+        assert_true(cold.converged);
+        assert_true(cold_worst <= 1e-3);
+        assert_true(stats.balance <= 1e-4 && cold.balance <= 1e-4);
+        free(warm);
+        free(fluence);
+        problem_free(&p);
+    }
+}
+
 /* A uniform isotropic source q in a homogeneous box: in the interior the scattered fluence is
  * q / (sigma_t (1 - albedo)) (each direction's sweep is exact there: every cell is alike), for
  * isotropic and forward scattering, exact and truncated phase. The walls' deficit reaches the
@@ -355,7 +427,7 @@ int main(void)
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_cell_closed_forms),   cmocka_unit_test(test_sweep_balance),
         cmocka_unit_test(test_phase_normalisation), cmocka_unit_test(test_infinite_medium),
-        cmocka_unit_test(test_albedo_one),
+        cmocka_unit_test(test_albedo_one),          cmocka_unit_test(test_boundary_inflow),
     };
     return cmocka_run_group_tests(tests, NULL, teardown);
 }

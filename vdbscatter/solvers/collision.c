@@ -237,9 +237,9 @@ vdbs_status vdbs_collision_sum_init(vdbs_collision_sum *sum, const vdbs_volume *
     return VDBS_OK;
 }
 
-void vdbs_collision_sum_light(void *user, int light, const float *depth)
+void vdbs_collision_sum_share(vdbs_collision_sum *sum, int light, const float *depth,
+                              const double share[3])
 {
-    vdbs_collision_sum *sum = user;
     const double beam_k[3] = {1.0, 1.0, 1.0};
     vdbs_first_collisions(sum->volume, &sum->faces, sum->lights, light, depth, sum->density_scale,
                           beam_k, sum->scratch, sum->rate, sum->travel);
@@ -247,11 +247,17 @@ void vdbs_collision_sum_light(void *user, int light, const float *depth)
 #pragma omp parallel for schedule(static)
     for (int64_t n = 0; n < count; ++n)
         for (int ch = 0; ch < 3; ++ch) {
-            const double r = sum->rate[3 * n + ch];
+            const double r = share[ch] * sum->rate[3 * n + ch];
             sum->total[3 * n + ch] += r;
             for (int a = 0; sum->flux && a < 3; ++a)
                 sum->flux[9 * n + 3 * a + ch] += r * (double)sum->travel[3 * n + a];
         }
+}
+
+void vdbs_collision_sum_light(void *user, int light, const float *depth)
+{
+    const double all[3] = {1.0, 1.0, 1.0};
+    vdbs_collision_sum_share(user, light, depth, all);
 }
 
 void vdbs_collision_sum_free(vdbs_collision_sum *sum)

@@ -420,15 +420,33 @@ static double true_residual(const fld_system *sys, int ch, const double *b, cons
 /* The right side of one channel: Q - div(3 D M). A face's source flux is 3 D_face times the
  * two cells' mean M (D_face the coupling's harmonic mean, coupling h^2); a boundary face
  * carries h/(h + 4 D) of the cell's 3 D M out with Marshak's condition (its outward share
- * is returned per volume in *boundary, summed, so that it counts as leaked). */
-static void source_rhs(const fld_system *sys, int ch, double *b, double *boundary)
+ * is returned per volume in *boundary, summed, so that it counts as leaked). With an inward
+ * current J on a boundary face, Marshak's condition between the face and the cell centre
+ * (half a cell) lets in 8 D J / (h + 4 D) beside the leak 2 D phi / (h + 4 D): a uniform
+ * phi = 4 J with nothing absorbed is then exact (returned per volume in *inflow). */
+static void source_rhs(const fld_system *sys, int ch, double *b, double *boundary, double *inflow)
 {
     const vdbs_fld_grid *g = sys->grid;
     const int64_t stride[3] = {1, g->n[0], (int64_t)g->n[0] * g->n[1]};
     const int k_axis[3] = {VS_FLD_COEF_X, VS_FLD_COEF_Y, VS_FLD_COEF_Z};
-    double out = 0.0;
+    double out = 0.0, in = 0.0;
     for (int64_t c = 0; c < sys->cells; ++c)
         b[c] = g->source[3 * c + ch];
+    for (int64_t c = 0; g->inflow && c < sys->cells; ++c) {
+        int at[3];
+        cell_at(g, c, at);
+        const double d = sys->d[3 * c + ch];
+        for (int a = 0; a < 3; ++a)
+            for (int side = 0; side < 2; ++side) {
+                if (at[a] != (side ? g->n[a] - 1 : 0))
+                    continue;
+                const double h = g->h[a];
+                const double q = 8.0 * d * g->inflow[3 * (2 * a + side) + ch] / ((h + 4.0 * d) * h);
+                b[c] += q;
+                in += q;
+            }
+    }
+    *inflow = in;
     for (int64_t c = 0; g->moment && c < sys->cells; ++c) {
         int at[3];
         cell_at(g, c, at);
@@ -674,12 +692,14 @@ static void cell_flux(const fld_system *sys, const double *phi, double *flux)
 }
 
 /* Energy tallies from phi in double: source, absorbed and leaked power (summed channels);
- * `boundary` is the first-moment source's share through the boundary, per volume. */
-static void tally(const fld_system *sys, const double *phi, double boundary, vdbs_fld_stats *stats)
+ * `boundary` is the first-moment source's share through the boundary, `inflow` what the
+ * boundary let in, both per volume. */
+static void tally(const fld_system *sys, const double *phi, double boundary, double inflow,
+                  vdbs_fld_stats *stats)
 {
     const vdbs_fld_grid *g = sys->grid;
     const double volume = g->h[0] * g->h[1] * g->h[2];
-    double source = 0.0, absorbed = 0.0, leaked = boundary * volume;
+    double source = inflow * volume, absorbed = 0.0, leaked = boundary * volume;
     for (int64_t c = 0; c < sys->cells; ++c)
         for (int ch = 0; ch < 3; ++ch) {
             source += g->source[3 * c + ch] * volume;
@@ -739,7 +759,7 @@ vdbs_status vdbs_fld_solve_grid(vdbs_runner *runner, const vdbs_fld_grid *grid,
     fld_cost cost = {0, 0};
     stats->updates = 0;
     int last = 0;
-    double boundary = 0.0;
+    double boundary = 0.0, inflow = 0.0;
     for (int u = 0; !last && st == VDBS_OK; ++u) {
         last = d.limiter_off || u + 1 >= d.max_updates;
         update_d(&sys, have_phi ? phi : NULL, !d.limiter_off);
@@ -748,11 +768,12 @@ vdbs_status vdbs_fld_solve_grid(vdbs_runner *runner, const vdbs_fld_grid *grid,
         levels_renew(&sys);
         const double tolerance = last ? d.tolerance : fmax(d.tolerance, FLD_EARLY_TOLERANCE);
         double worst = 0.0, change = 0.0, norm = 0.0;
-        boundary = 0.0;
+        boundary = inflow = 0.0;
         for (int ch = 0; ch < 3 && st == VDBS_OK; ++ch) {
-            double out = 0.0;
-            source_rhs(&sys, ch, b, &out);
+            double out = 0.0, in = 0.0;
+            source_rhs(&sys, ch, b, &out, &in);
             boundary += out;
+            inflow += in;
             for (int64_t c = 0; c < sys.cells; ++c)
                 x[c] = phi[3 * c + ch];
             int iterations = 0;
@@ -778,7 +799,7 @@ vdbs_status vdbs_fld_solve_grid(vdbs_runner *runner, const vdbs_fld_grid *grid,
         stats->cell_updates = cost.cells;
     }
     if (st == VDBS_OK) {
-        tally(&sys, phi, boundary, stats);
+        tally(&sys, phi, boundary, inflow, stats);
         if (flux)
             cell_flux(&sys, phi, flux);
     }
@@ -870,6 +891,10 @@ vdbs_status vdbs_fld_solve(const vdbs_solve *s, const vdbs_fld_desc *desc, vdbs_
     if (st == VDBS_OK) {
         vdbs_coarse_sigma(&f, s->volume, &box, s->scene->density_scale, sigma);
         gather_source(s, &f, d.collisions, d.collision_flux, source, moment);
+        /* A uniform radiance L arrives through every face as the current pi L. */
+        double inflow[18];
+        for (int i = 0; d.sky_floor && i < 18; ++i)
+            inflow[i] = VDBS_PI * d.sky_floor->radiance[i % 3];
         stats->seconds_source = vdbs_now() - t0;
         vdbs_fld_grid grid = {{f.n[0], f.n[1], f.n[2]},
                               {f.side[0], f.side[1], f.side[2]},
@@ -877,18 +902,23 @@ vdbs_status vdbs_fld_solve(const vdbs_solve *s, const vdbs_fld_desc *desc, vdbs_
                               {s->scene->albedo[0], s->scene->albedo[1], s->scene->albedo[2]},
                               s->scene->g,
                               source,
-                              moment};
+                              moment,
+                              d.sky_floor ? inflow : NULL};
         double t1 = vdbs_now();
         st = vdbs_fld_solve_grid(s->runner, &grid, &d, phi, flux, stats, err);
         stats->seconds_solve = vdbs_now() - t1;
     }
     if (st == VDBS_OK) {
         double t2 = vdbs_now();
+        if (d.sky_floor && flux)
+            vdbs_sky_floor_take_flux(d.sky_floor, s->volume, &f, flux);
         vdbs_coarse_ms_values(cells, phi, flux, s->scene->g, values);
         /* Through the cell values: the interpolating B-spline (docs/design.md "Upsampling
          * without seams"). */
         st = vdbs_coarse_upsample(&f, values, s->volume, &box, s->scene->density_scale,
                                   VDBS_COARSE_BSPLINE_INTERP, s->ms, s->ms_l1, s->radiance, err);
+        if (st == VDBS_OK && d.sky_floor)
+            vdbs_sky_floor_remove(d.sky_floor, s->volume->coord_count, s->ms, s->radiance);
         stats->seconds_upsample = vdbs_now() - t2;
     }
     vdbs_medium_box_free(&box);

@@ -2,16 +2,18 @@
 #include <stddef.h>
 #include <stdio.h>
 #include <stdlib.h>
+#include <string.h>
 
 #include "vdbscatter/collision.h"
 #include "vdbscatter/fld.h"
 #include "vdbscatter/solver.h"
 
 static const char *const on_off[] = {"on", "off", NULL};
+static const char *const sky_ways[] = {"collisions", "boundary", NULL};
 
 #define FLD_MAX_RESOLUTION 1024
 
-enum { OPT_RES, OPT_ACROSS, OPT_LIMITER, OPT_L1, OPT_P1 };
+enum { OPT_RES, OPT_ACROSS, OPT_LIMITER, OPT_L1, OPT_P1, OPT_SKY };
 
 static const vdbs_solver_option options[] = {
     [OPT_RES] = {.key = "fld_res",
@@ -53,6 +55,15 @@ static const vdbs_solver_option options[] = {
                 .report_key = "p1",
                 .help = "FLD: the first-scattered light's first moment (P1 source;\n"
                         "default on) or an isotropic source"},
+    [OPT_SKY] = {.key = "fld_sky",
+                 .flag = "--fld-sky",
+                 .kind = VDBS_OPTION_CHOICE,
+                 .syntax = "collisions|boundary",
+                 .choices = sky_ways,
+                 .report_key = "sky",
+                 .help = "FLD: the whole sky enters as first collisions (default),\n"
+                         "or its uniform part through the grid's boundary (exact in\n"
+                         "the white furnace; docs/methods/fld.md has where each wins)"},
 };
 
 static int option_int(const vdbs_scene *scene, int i)
@@ -60,27 +71,54 @@ static int option_int(const vdbs_scene *scene, int i)
     return (int)vdbs_scene_solver_value(scene, options[i].key);
 }
 
+/* The S1 pass's per-light callback: every light's first collisions, a sky ordinate's less
+ * the sky's uniform part, which enters through the boundary (skyfloor.h). */
+typedef struct fld_first {
+    vdbs_collision_sum sum;
+    vdbs_sky_floor floor;
+} fld_first;
+
+static void fld_first_light(void *user, int light, const float *depth)
+{
+    fld_first *x = user;
+    const vdbs_light_table *lights = x->sum.lights;
+    if (light < lights->direct_count || !vdbs_sky_floor_active(&x->floor)) {
+        vdbs_collision_sum_light(&x->sum, light, depth);
+        return;
+    }
+    double rest[3];
+    vdbs_sky_floor_light(&x->floor, x->sum.volume, lights, light, depth, rest);
+    vdbs_collision_sum_share(&x->sum, light, depth, rest);
+}
+
 /* Exact S1, every light's first collisions (with their flux for the first-moment source
- * unless g = 0 or --fld-p1 off), then flux-limited diffusion of the first-scattered light. */
+ * unless g = 0 or --fld-p1 off), then flux-limited diffusion of the first-scattered light;
+ * with --fld-sky boundary the sky's uniform part enters through the grid's boundary. */
 static vdbs_status run_fld(const vdbs_solve *s, void *stats, vdbs_error *err)
 {
     const int p1 = s->scene->g != 0.0 && !option_int(s->scene, OPT_P1);
-    vdbs_collision_sum sum;
+    const int l1 = !option_int(s->scene, OPT_L1);
+    fld_first first;
+    memset(&first, 0, sizeof first);
     vdbs_status st =
-        vdbs_collision_sum_init(&sum, s->volume, s->lights, s->scene->density_scale, p1, err);
+        vdbs_collision_sum_init(&first.sum, s->volume, s->lights, s->scene->density_scale, p1, err);
+    if (st == VDBS_OK && option_int(s->scene, OPT_SKY))
+        st = vdbs_sky_floor_init(&first.floor, s->volume, s->lights, err);
     if (st == VDBS_OK)
-        st = vdbs_solve_s1(s, vdbs_collision_sum_light, &sum, err);
+        st = vdbs_solve_s1(s, fld_first_light, &first, err);
     if (st == VDBS_OK) {
         vdbs_fld_desc desc = {0};
         desc.resolution = option_int(s->scene, OPT_RES);
         desc.across = option_int(s->scene, OPT_ACROSS);
         desc.limiter_off = option_int(s->scene, OPT_LIMITER);
-        desc.write_l1 = !option_int(s->scene, OPT_L1);
-        desc.collisions = sum.total;
-        desc.collision_flux = sum.flux;
+        desc.write_l1 = l1;
+        desc.collisions = first.sum.total;
+        desc.collision_flux = first.sum.flux;
+        desc.sky_floor = vdbs_sky_floor_active(&first.floor) ? &first.floor : NULL;
         st = vdbs_fld_solve(s, &desc, stats, err);
     }
-    vdbs_collision_sum_free(&sum);
+    vdbs_collision_sum_free(&first.sum);
+    vdbs_sky_floor_free(&first.floor);
     return st;
 }
 

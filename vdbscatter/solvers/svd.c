@@ -10,6 +10,7 @@
 #include "vdbscatter/collision.h"
 #include "vdbscatter/lightgrid.h"
 #include "vdbscatter/medium.h"
+#include "vdbscatter/skyfloor.h"
 #include "vdbscatter/progress.h"
 
 #define PNANOVDB_C
@@ -188,6 +189,7 @@ static vdbs_status layout_build(const vdbs_svd_grid *g, int chunk, vdbs_svd_sche
         p[VS_SVD_OFF_N + a] = (uint32_t)g->n[a];
         put_float(p, VS_SVD_OFF_ORIGIN + a, g->origin[a]);
         put_float(p, VS_SVD_OFF_EXTINCT + a, 1.0 - pm->f * g->albedo[a]);
+        put_float(p, VS_SVD_OFF_INFLOW + a, g->inflow[a]);
     }
     const double largest = fmax(g->h[0], fmax(g->h[1], g->h[2]));
     put_float(p, VS_SVD_OFF_H, largest);
@@ -463,6 +465,7 @@ struct vdbs_svd_run {
     double *project; /* N: a sky ordinate's emission projected on the v_k */
     double *phase;   /* D: a sky ordinate's HG toward every direction */
     double *fluence, *flux, *values;
+    vdbs_sky_floor floor; /* the sky's uniform part, through the boundary (skyfloor.h) */
 };
 
 /* One light's first scattering in the scaled problem, from the optical depth toward it at
@@ -492,17 +495,22 @@ void vdbs_svd_light_depth(void *user, int light, const float *depth)
     }
     vdbs_first_collisions(volume, &r->faces, s->lights, light, depth, s->scene->density_scale, k,
                           r->beam, r->scatter, NULL);
+    /* A sky ordinate less the sky's uniform part, which enters through the boundary. */
+    double rest[3] = {1.0, 1.0, 1.0};
+    if (light >= s->lights->direct_count && vdbs_sky_floor_active(&r->floor))
+        vdbs_sky_floor_light(&r->floor, volume, s->lights, light, depth, rest);
 #pragma omp parallel for schedule(static)
     for (int64_t n = 0; n < count; ++n) {
         for (int ch = 0; ch < 3; ++ch)
-            r->scatter[3 * n + ch] *= share[ch];
+            r->scatter[3 * n + ch] *= share[ch] * rest[ch];
         if (pm->f > 0.0) {
             double w[3], color[3], travel[3];
             vdbs_volume_voxel_point(volume, (size_t)n, w);
             vdbs_lights_arrival(s->lights, light, w, color, travel);
             for (int ch = 0; ch < 3; ++ch) {
-                const double peak = color[ch] * (vdbs_beam_transmittance(k[ch], depth[n]) -
-                                                 vdbs_beam_transmittance(1.0, depth[n]));
+                const double peak = rest[ch] * color[ch] *
+                                    (vdbs_beam_transmittance(k[ch], depth[n]) -
+                                     vdbs_beam_transmittance(1.0, depth[n]));
                 s->ms[3 * n + ch] += (float)(peak * VDBS_INV_4PI);
                 for (int ax = 0; ax < 3; ++ax)
                     s->ms_l1[ax][3 * n + ch] += (float)(l1 * peak * travel[ax]);
@@ -636,6 +644,7 @@ void vdbs_svd_end(vdbs_svd_run *r)
     free(r->fluence);
     free(r->flux);
     free(r->values);
+    vdbs_sky_floor_free(&r->floor);
     free(r);
 }
 
@@ -710,6 +719,8 @@ vdbs_status vdbs_svd_begin(const vdbs_solve *s, const vdbs_svd_desc *desc, vdbs_
                               (long long)cells, r->terms);
     }
     st = vdbs_voxel_faces_build(s->volume, &r->faces, err);
+    if (st == VDBS_OK && d.sky_boundary)
+        st = vdbs_sky_floor_init(&r->floor, s->volume, s->lights, err);
     if (st != VDBS_OK) {
         vdbs_svd_end(r);
         return st;
@@ -748,7 +759,8 @@ vdbs_status vdbs_svd_finish(vdbs_svd_run *r, vdbs_svd_stats *stats, vdbs_error *
                               s->lights->direct_count,
                               r->direct,
                               r->sky,
-                              r->warm};
+                              r->warm,
+                              {r->floor.radiance[0], r->floor.radiance[1], r->floor.radiance[2]}};
         double t1 = vdbs_now();
         st = vdbs_svd_solve_grid(s->runner, &grid, d, r->fluence, r->flux, r->moments, &r->stats,
                                  err);
@@ -760,11 +772,14 @@ vdbs_status vdbs_svd_finish(vdbs_svd_run *r, vdbs_svd_stats *stats, vdbs_error *
         for (size_t v = 0; v < 3 * s->volume->coord_count; ++v)
             s->radiance[v] += s->ms[v];
         /* docs/design.md's ms and ms_l1 with the medium's g (the full phase's first moment). */
+        vdbs_sky_floor_take_flux(&r->floor, s->volume, &r->f, r->flux);
         vdbs_coarse_ms_values(r->cells, r->fluence, r->flux, s->scene->g, r->values);
         /* Through the cell values: the interpolating B-spline (docs/design.md "Upsampling
          * without seams"). */
         st = vdbs_coarse_upsample(&r->f, r->values, s->volume, &r->box, s->scene->density_scale,
                                   VDBS_COARSE_BSPLINE_INTERP, s->ms, s->ms_l1, s->radiance, err);
+        if (st == VDBS_OK)
+            vdbs_sky_floor_remove(&r->floor, s->volume->coord_count, s->ms, s->radiance);
         if (st == VDBS_OK && r->moments)
             moments_to_voxels(s->volume, &r->f, r->terms, r->moments, d->keep->voxels);
         r->stats.seconds_upsample = vdbs_now() - t2;

@@ -12,10 +12,20 @@
 #define SVD_MAX_RESOLUTION 512
 #define SVD_MAX_ITERATIONS 100000
 
-enum { OPT_DIRECTIONS, OPT_TERMS, OPT_RES, OPT_ACROSS, OPT_ITERATIONS, OPT_RESIDUAL, OPT_SCHEME };
+enum {
+    OPT_DIRECTIONS,
+    OPT_TERMS,
+    OPT_RES,
+    OPT_ACROSS,
+    OPT_ITERATIONS,
+    OPT_RESIDUAL,
+    OPT_SCHEME,
+    OPT_SKY
+};
 
 /* Index order: vdbs_svd_scheme's. */
 static const char *const scheme_names[] = {"step", "diamond", NULL};
+static const char *const sky_ways[] = {"collisions", "boundary", NULL};
 
 /* The presets are svd.c's vdbs_svd_quality (test_svd checks). */
 static const vdbs_solver_option options[] = {
@@ -73,6 +83,15 @@ static const vdbs_solver_option options[] = {
                     .help = "SVD: the sweep's cell scheme: step (default) or diamond\n"
                             "(weighted by each axis's optical depth: less numerical\n"
                             "diffusion; docs/methods/svd.md has where each wins)"},
+    [OPT_SKY] = {.key = "svd_sky",
+                 .flag = "--svd-sky",
+                 .kind = VDBS_OPTION_CHOICE,
+                 .syntax = "collisions|boundary",
+                 .choices = sky_ways,
+                 .report_key = "sky",
+                 .help = "SVD: the whole sky enters as first collisions (default),\n"
+                         "or its uniform part through the grid's boundary (exact in\n"
+                         "the white furnace; docs/methods/svd.md has where each wins)"},
 };
 
 static double option(const vdbs_scene *scene, int i)
@@ -199,6 +218,7 @@ static vdbs_status run_svd(const vdbs_solve *s, void *stats, vdbs_error *err)
     desc.across = (int)option(s->scene, OPT_ACROSS);
     desc.residual = option(s->scene, OPT_RESIDUAL);
     desc.scheme = (vdbs_svd_scheme)option(s->scene, OPT_SCHEME);
+    desc.sky_boundary = (int)option(s->scene, OPT_SKY);
     desc.max_iterations = (int)option(s->scene, OPT_ITERATIONS);
     desc.warm = s->warm ? &((const svd_state *)s->warm)->moments : NULL;
     desc.keep = s->keep ? &((svd_state *)s->keep)->moments : NULL;

@@ -73,6 +73,9 @@ vdbs_status vdbs_collision_sum_init(vdbs_collision_sum *sum, const vdbs_volume *
                                     const vdbs_light_table *lights, double density_scale,
                                     int with_flux, vdbs_error *err);
 void vdbs_collision_sum_light(void *user, int light, const float *depth);
+/* The same with the light's colour times share[ch] (a part of a light handled otherwise). */
+void vdbs_collision_sum_share(vdbs_collision_sum *sum, int light, const float *depth,
+                              const double share[3]);
 void vdbs_collision_sum_free(vdbs_collision_sum *sum);
 
 #ifdef __cplusplus

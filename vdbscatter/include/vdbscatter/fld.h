@@ -18,6 +18,7 @@
 #include <stdint.h>
 
 #include "vdbscatter/runner.h"
+#include "vdbscatter/skyfloor.h"
 #include "vdbscatter/solve.h"
 #include "vdbscatter/status.h"
 
@@ -51,6 +52,12 @@ typedef struct vdbs_fld_desc {
      * isotropic source, --fld-p1 off or g = 0). */
     const double *collisions;
     const double *collision_flux;
+    /* The sky's uniform part through the grid's boundary (--fld-sky boundary; skyfloor.h):
+     * its radiance L enters each boundary face as the inward current pi L (Marshak's
+     * condition, vdbs_fld_grid.inflow) instead of as first collisions (`collisions` holds the
+     * ordinates' remainder only), and its unscattered light is taken off ms after the solve.
+     * NULL: the whole sky enters as first collisions. */
+    const vdbs_sky_floor *sky_floor;
     const vdbs_cancel *cancel; /* polled every CG iteration: VDBS_ERR_CANCELLED once set;
                                   NULL: never (the bake's is its progress's) */
 } vdbs_fld_desc;
@@ -83,6 +90,10 @@ typedef struct vdbs_fld_grid {
                              NULL. It enters Fick's law as F = -D grad phi + 3 D M (the P1
                              source, M / sigma_tr without the limiter), so the system's right
                              side gains -div(3 D M), and a boundary face leaks its part */
+    const double *inflow; /* per boundary face of the box (-x, +x, -y, +y, -z, +z) and channel
+                             (18): the inward partial current J of light arriving from outside,
+                             power per area, entering by Marshak's condition
+                             phi / 4 + (D / 2) d phi / dn = J; NULL: none (vacuum) */
 } vdbs_fld_grid;
 
 typedef struct vdbs_fld_stats {

@@ -51,6 +51,9 @@ typedef struct vdbs_svd_desc {
     int max_iterations;     /* the cap (--svd-iterations); default 2000 */
     int delta_m;            /* phasemat.h: 0 auto, 1 always, -1 never */
     vdbs_svd_scheme scheme; /* --svd-scheme; default the step */
+    int sky_boundary;       /* 1: the sky's uniform part enters through the grid's boundary
+                               (--svd-sky boundary, skyfloor.h); 0: the whole sky as first
+                               collisions */
     int chunk;              /* directions per sweep step; default: an octant's on the C path, as
                                many as keep a step under the GPU driver's loop limit on the GPU */
     const struct vdbs_svd_moments *warm; /* --warm-start: moments to start from, or NULL;
@@ -121,6 +124,8 @@ typedef struct vdbs_svd_grid {
                             and steradian), or NULL */
     const float *warm;   /* per cell, N x 3 the same way: the radiance moments to start from,
                             or NULL */
+    double inflow[3];    /* the radiance entering every boundary face from outside in every
+                            direction (the sky's uniform part, skyfloor.h); 0: vacuum */
 } vdbs_svd_grid;
 
 typedef struct vdbs_svd_stats {
