@@ -53,10 +53,9 @@
 #define VS_SVD_OFF_TABLE_LIGHTS 27 /* word offset of the light records in `svd_tables` */
 #define VS_SVD_OFF_SIDE 28         /* 3 floats: world side of a cell along x, y, z */
 #define VS_SVD_OFF_SCHEME 31       /* 0: the step scheme; 1: the weighted diamond */
-#define VS_SVD_OFF_INFLOW                                                                          \
-    32 /* 3 floats: the radiance entering every boundary face from                                 \
-          outside in every direction (the sky's uniform part,                                      \
-          vdbscatter/skyfloor.h), per channel */
+/* The radiance arriving from outside through every boundary face, in every direction (the
+ * sky's uniform part, vdbscatter/skyfloor.h; 0: vacuum), per channel. */
+#define VS_SVD_OFF_INFLOW 32 /* 3 floats */
 #define VS_SVD_PARAM_WORDS 35
 
 /* `svd_tables` (floats): D direction records from word 0, then v, then the lights. */
@@ -73,11 +72,9 @@
 
 /* The state (floats) the sweeps write, in place: N x 3 new moments per cell from word 0
  * (vs_svd_moment_at), a record per cell at OFF_STATE_OUT, the planes after. */
-#define VS_SVD_OUT_FLUENCE 0 /* 3: sum_d L_d dw_d */
-#define VS_SVD_OUT_FLUX 3    /* 9: sum_d L_d w_d dw_d, x, y, z components of R, G, B */
-#define VS_SVD_OUT_SOURCE                                                                          \
-    12                        /* power in: emitted eta h^3 dw summed over directions and           \
-                                 channels, and what entered from outside (VS_SVD_OFF_INFLOW) */
+#define VS_SVD_OUT_FLUENCE 0  /* 3: sum_d L_d dw_d */
+#define VS_SVD_OUT_FLUX 3     /* 9: sum_d L_d w_d dw_d, x, y, z components of R, G, B */
+#define VS_SVD_OUT_SOURCE 12  /* power in: emitted eta h^3 dw and inflow, summed */
 #define VS_SVD_OUT_COLLIDE 13 /* collisions sigma_t* L h^3 dw, the same way */
 #define VS_SVD_OUT_LEAK 14    /* power out through the grid's boundary faces */
 #define VS_SVD_OUT_CLAMPED 15 /* emitted power lost to the clamp at 0 */

@@ -68,7 +68,7 @@ static void test_keys_and_flags_unique(void **state)
             vdbs_solver_option_help(o, help, sizeof help);
             assert_non_null(strstr(help, o->flag));
         }
-    assert_int_equal(options, 19);
+    assert_int_equal(options, 21);
     /* cost hints: measured, and a higher quality never costs less */
     for (int m = 0; (s = vdbs_solver_at(m)) != NULL; ++m)
         for (int q = 0; q < VDBS_QUALITY_COUNT; ++q) {

@@ -6,10 +6,10 @@
 
 #include "vdbscatter/collision.h"
 #include "vdbscatter/fld.h"
+#include "vdbscatter/skyfloor.h"
 #include "vdbscatter/solver.h"
 
 static const char *const on_off[] = {"on", "off", NULL};
-static const char *const sky_ways[] = {"collisions", "boundary", NULL};
 
 #define FLD_MAX_RESOLUTION 1024
 
@@ -59,7 +59,7 @@ static const vdbs_solver_option options[] = {
                  .flag = "--fld-sky",
                  .kind = VDBS_OPTION_CHOICE,
                  .syntax = "collisions|boundary",
-                 .choices = sky_ways,
+                 .choices = vdbs_sky_floor_ways,
                  .report_key = "sky",
                  .help = "FLD: the whole sky enters as first collisions (default),\n"
                          "or its uniform part through the grid's boundary (exact in\n"
@@ -102,7 +102,7 @@ static vdbs_status run_fld(const vdbs_solve *s, void *stats, vdbs_error *err)
     memset(&first, 0, sizeof first);
     vdbs_status st =
         vdbs_collision_sum_init(&first.sum, s->volume, s->lights, s->scene->density_scale, p1, err);
-    if (st == VDBS_OK && option_int(s->scene, OPT_SKY))
+    if (st == VDBS_OK && option_int(s->scene, OPT_SKY) == VDBS_SKY_BOUNDARY)
         st = vdbs_sky_floor_init(&first.floor, s->volume, s->lights, err);
     if (st == VDBS_OK)
         st = vdbs_solve_s1(s, fld_first_light, &first, err);

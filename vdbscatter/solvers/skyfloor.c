@@ -7,6 +7,8 @@
 #include "base/vdbs_math.h"
 #include "vdbscatter/collision.h"
 
+const char *const vdbs_sky_floor_ways[] = {"collisions", "boundary", NULL};
+
 vdbs_status vdbs_sky_floor_init(vdbs_sky_floor *floor, const vdbs_volume *volume,
                                 const vdbs_light_table *lights, vdbs_error *err)
 {

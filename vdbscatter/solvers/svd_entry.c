@@ -5,6 +5,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 
+#include "vdbscatter/skyfloor.h"
 #include "vdbscatter/solver.h"
 #include "vdbscatter/svd.h"
 
@@ -25,7 +26,6 @@ enum {
 
 /* Index order: vdbs_svd_scheme's. */
 static const char *const scheme_names[] = {"step", "diamond", NULL};
-static const char *const sky_ways[] = {"collisions", "boundary", NULL};
 
 /* The presets are svd.c's vdbs_svd_quality (test_svd checks). */
 static const vdbs_solver_option options[] = {
@@ -87,7 +87,7 @@ static const vdbs_solver_option options[] = {
                  .flag = "--svd-sky",
                  .kind = VDBS_OPTION_CHOICE,
                  .syntax = "collisions|boundary",
-                 .choices = sky_ways,
+                 .choices = vdbs_sky_floor_ways,
                  .report_key = "sky",
                  .help = "SVD: the whole sky enters as first collisions (default),\n"
                          "or its uniform part through the grid's boundary (exact in\n"
@@ -218,7 +218,7 @@ static vdbs_status run_svd(const vdbs_solve *s, void *stats, vdbs_error *err)
     desc.across = (int)option(s->scene, OPT_ACROSS);
     desc.residual = option(s->scene, OPT_RESIDUAL);
     desc.scheme = (vdbs_svd_scheme)option(s->scene, OPT_SCHEME);
-    desc.sky_boundary = (int)option(s->scene, OPT_SKY);
+    desc.sky_boundary = (int)option(s->scene, OPT_SKY) == VDBS_SKY_BOUNDARY;
     desc.max_iterations = (int)option(s->scene, OPT_ITERATIONS);
     desc.warm = s->warm ? &((const svd_state *)s->warm)->moments : NULL;
     desc.keep = s->keep ? &((svd_state *)s->keep)->moments : NULL;

@@ -21,6 +21,12 @@
 extern "C" {
 #endif
 
+/* The solvers' choice of how the sky enters (--fld-sky, --svd-sky): "collisions" (index 0,
+ * the default: the whole sky as first collisions) or "boundary" (its uniform part through the
+ * grid's boundary). */
+extern const char *const vdbs_sky_floor_ways[];
+#define VDBS_SKY_BOUNDARY 1
+
 typedef struct vdbs_sky_floor {
     double radiance[3]; /* per channel; all 0: no floor (no sky, or a black direction) */
     float *s1;          /* 3 per output voxel: the floor's unscattered fluence over 4 pi */
