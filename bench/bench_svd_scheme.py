@@ -1,16 +1,19 @@
 #!/usr/bin/python3
-"""The SVD sweep's cell scheme, step against weighted diamond (--svd-scheme), side by side in
-one run: `vdbscatter tradeoff --methods svd` at low, medium and high on each scene below with
-each scheme, both against the same Monte-Carlo reference (rendered once per scene, reused by
-the second run through tradeoff's cache): five of bench_calibrate.py's scenes. Scenes whose
-volume is missing (VDBSCATTER_DATA_DIR, default ../shared/data beside the repo) are skipped
-and listed.
+"""Two choices of one solver option side by side in one run, by default the SVD sweep's cell
+scheme, step against weighted diamond (--svd-scheme): `vdbscatter tradeoff --methods METHOD`
+at low, medium and high on each scene below with each choice, both against the same
+Monte-Carlo reference (rendered once per scene, reused by the second run through tradeoff's
+cache). Scenes whose volume is missing (VDBSCATTER_DATA_DIR, default ../shared/data beside
+the repo) are skipped and listed. `--key svd_sky --choices collisions,boundary` (or fld_sky
+with `--method fld`) compares how the sky enters (docs/design.md "The sky's uniform part")
+on the sky-lit scenes: `--scenes cloud,cloud_sky,thick_cube,usd_heat,vpt_box,dragon,disney`.
 
 Writes a Markdown table of the relative RMSE (+- its standard error), the mean ratio to the
-reference and the seconds (bake + render) per scheme and quality.
+reference and the seconds (bake + render) per choice and quality.
 
 usage: bench/bench_svd_scheme.py BUILD [--out bench/svd_scheme.md] [--size 96x72]
-       [--ref-noise 0.02] [--scenes a,b]"""
+       [--ref-noise 0.02] [--scenes a,b] [--method svd] [--key svd_scheme]
+       [--choices step,diamond]"""
 import argparse
 import json
 import os
@@ -22,20 +25,18 @@ from benchlib import run_json
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 # name: (scene file, input VDB or None for the scene's own): the calibration set's scenes
-SCENES = {name: scene[:2] for name, scene in {**CALIBRATION, **VALIDATION}.items()
-          if name in ("cloud", "smoke", "usd_smoke", "plasma", "disney")}
-SCHEMES = ["step", "diamond"]
+SCENES = {name: scene[:2] for name, scene in {**CALIBRATION, **VALIDATION}.items()}
 
 
-def scene_with_scheme(path, scheme, tmp):
-    """A copy of the scene file with solver.svd_scheme set and its
+def scene_with_choice(path, key, scheme, tmp):
+    """A copy of the scene file with solver.KEY set and its
     volume path made absolute, so that it reads from the temporary folder."""
     with open(path) as f:
         scene = json.load(f)
     vol = scene.get("volume", {})
     if "file" in vol and not os.path.isabs(vol["file"]):
         vol["file"] = os.path.join(os.path.dirname(path), vol["file"])
-    scene.setdefault("solver", {})["svd_scheme"] = scheme
+    scene.setdefault("solver", {})[key] = scheme
     out = os.path.join(tmp, f"{os.path.basename(path)[:-5]}-{scheme}.json")
     with open(out, "w") as f:
         json.dump(scene, f)
@@ -49,7 +50,12 @@ def main():
     ap.add_argument("--size", default="96x72")
     ap.add_argument("--ref-noise", default="0.02")
     ap.add_argument("--scenes", default="cloud,smoke,usd_smoke,plasma,disney")
+    ap.add_argument("--method", default="svd")
+    ap.add_argument("--key", default="svd_scheme")
+    ap.add_argument("--choices", default="step,diamond")
     args = ap.parse_args()
+    SCHEMES = args.choices.split(",")
+    assert len(SCHEMES) == 2, "--choices takes two"
     exe = os.path.join(args.build, "vdbscatter")
     tmp = tempfile.mkdtemp(prefix="bench-svd-scheme-")
     rows, skipped = [], []
@@ -65,7 +71,8 @@ def main():
                 first = os.path.join(tmp, f"{name}-{SCHEMES[0]}")
                 shutil.copytree(first, out, ignore=shutil.ignore_patterns("images", "tradeoff*"))
             cmd = [exe, "tradeoff", *([vdb] if vdb else []), "--scene",
-                   scene_with_scheme(scene_file, scheme, tmp), "-o", out, "--methods", "svd",
+                   scene_with_choice(scene_file, args.key, scheme, tmp), "-o", out,
+                   "--methods", args.method,
                    "--size", args.size, "--ref-noise", args.ref_noise, "--backend", "cpu",
                    "--json", "-q"]
             rep = run_json(cmd)
@@ -73,17 +80,18 @@ def main():
             print(f"{name} {scheme}: " + ", ".join(
                 f"{q} {r['relrmse']:.4f}" for q, r in results[scheme].items()), flush=True)
         for q in results[SCHEMES[0]]:
-            rows.append((name, q, results["step"][q], results["diamond"][q]))
+            rows.append((name, q, results[SCHEMES[0]][q], results[SCHEMES[1]][q]))
     shutil.rmtree(tmp, ignore_errors=True)
     with open(args.out, "w") as f:
-        f.write("# SVD cell scheme: step against weighted diamond\n\n")
+        a, b = SCHEMES
+        f.write(f"# {args.method}: {args.key} {a} against {b}\n\n")
         f.write(f"`bench/bench_svd_scheme.py` at {args.size}, references of relative noise "
-                f"{args.ref_noise} (its noise removed from the errors), C path, both schemes "
+                f"{args.ref_noise} (its noise removed from the errors), C path, both choices "
                 "against the same reference. Error: the baked image's relative RMSE +- its "
                 "standard error; ratio: the image mean over the reference's; seconds: bake + "
                 "render (one machine, the schemes run one after the other).\n\n")
-        f.write("| scene | quality | step error | diamond error | step ratio | diamond ratio "
-                "| step s | diamond s |\n|---|---|---|---|---|---|---|---|\n")
+        f.write(f"| scene | quality | {a} error | {b} error | {a} ratio | {b} ratio "
+                f"| {a} s | {b} s |\n|---|---|---|---|---|---|---|---|\n")
         for name, q, s, d in rows:
             f.write(f"| {name} | {q} | {s['relrmse']:.4f} +- {s['relrmse_se']:.4f} | "
                     f"{d['relrmse']:.4f} +- {d['relrmse_se']:.4f} | {s['mean_ratio']:.3f} | "

@@ -47,9 +47,10 @@ void vdbs_sky_floor_light(vdbs_sky_floor *floor, const vdbs_volume *volume,
                           double rest[3]);
 /* Before the upsampling: the floor's unscattered flux off a solve's cell flux (9 per cell of
  * f), each voxel's splatted into the cells around it, so that ms_l1 is the scattered light's
- * alone. Taken off at the voxels instead, the cells' smooth flux less the voxels' sharp one
- * made blotches (the cloud sample's FLD 0.127 against 0.072); left in, SVD on the cloud was
- * 0.080 against 0.045 at low. */
+ * alone, at the scale it was solved on. Measured on the cloud sample (image relative RMSE at
+ * low, FLD / SVD): off the cells 0.088 / 0.055, off the voxels 0.127 (blotches: the cells'
+ * smooth flux less the voxels' sharp one) / 0.045, left in 0.072 / 0.080; none wins
+ * everywhere (SVD at high: 0.050, 0.055, 0.047). */
 void vdbs_sky_floor_take_flux(const vdbs_sky_floor *floor, const vdbs_volume *volume,
                               const vdbs_coarse_frame *f, double *flux);
 /* After the upsampling: the floor's unscattered light off each voxel's ms (never below 0;
