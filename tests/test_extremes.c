@@ -399,14 +399,22 @@ static const vdbs_solver_option *boundary_option(const vdbs_solver *solver, int 
     return NULL;
 }
 
-/* The case's solver options into the scene. */
-static void case_options(const case_desc *c, const vdbs_solver *solver, vdbs_scene *scene)
+/* The solver's choice "boundary" set in the scene; returns its option, NULL: none. */
+static const vdbs_solver_option *set_boundary(const vdbs_solver *solver, vdbs_scene *scene)
 {
     int choice = 0;
-    const vdbs_solver_option *option = c->boundary ? boundary_option(solver, &choice) : NULL;
+    const vdbs_solver_option *option = boundary_option(solver, &choice);
     vdbs_error err;
     if (option)
         assert_int_equal(vdbs_scene_solver_store(scene, option->key, choice, &err), VDBS_OK);
+    return option;
+}
+
+/* The case's solver options into the scene. */
+static void case_options(const case_desc *c, const vdbs_solver *solver, vdbs_scene *scene)
+{
+    if (c->boundary)
+        set_boundary(solver, scene);
 }
 
 static void case_name(const case_desc *c, const vdbs_solver *solver, char *buf, size_t size)
@@ -810,8 +818,8 @@ static const char *const FURNACE_MEASURED_ONLY[] = {"pop", NULL};
 static const double FURNACE_GS[] = {0.0, 0.5, 0.9};
 
 /* One case; `held`: 1 when it is held to the target, 0 when only printed. */
-static void furnace_case(const vdbs_solver *solver, const vdbs_solver_option *option, int choice,
-                         int held, int kind, const vdbs_volume *volume, double g)
+static void furnace_case(const vdbs_solver *solver, int boundary, int held, int kind,
+                         const vdbs_volume *volume, double g)
 {
     box b;
     vdbs_volume_support_bounds(volume, b.lo, b.hi);
@@ -820,15 +828,10 @@ static void furnace_case(const vdbs_solver *solver, const vdbs_solver_option *op
     snprintf(scene.quality, sizeof scene.quality, "high");
     for (int c = 0; c < 3; ++c)
         scene.lights[0].color[c] = 1.0;
+    const vdbs_solver_option *option = boundary ? set_boundary(solver, &scene) : NULL;
     char name[160];
     snprintf(name, sizeof name, "%s%s%s %s g %g", solver->name, option ? " " : "",
              option ? option->flag : "", VOL_NAMES[kind], g);
-    if (option) {
-        vdbs_error err;
-        assert_int_equal(vdbs_scene_solver_store(&scene, option->key, choice, &err), VDBS_OK);
-        snprintf(name, sizeof name, "%s %s %s %s g %g", solver->name, option->flag,
-                 option->choices[choice], VOL_NAMES[kind], g);
-    }
     outputs o;
     char why[512];
     if (!bake(volume, &scene, &o, why, sizeof why)) {
@@ -889,11 +892,10 @@ static void test_white_furnace(void **state)
                 measured_only |= strcmp(solver->name, FURNACE_MEASURED_ONLY[i]) == 0;
             const vdbs_solver_option *option = boundary_option(solver, &choice);
             for (size_t gi = 0; gi < sizeof FURNACE_GS / sizeof *FURNACE_GS; ++gi) {
-                furnace_case(solver, NULL, 0, !measured_only && !option, kinds[k], &volume,
+                furnace_case(solver, 0, !measured_only && !option, kinds[k], &volume,
                              FURNACE_GS[gi]);
                 if (option)
-                    furnace_case(solver, option, choice, !measured_only, kinds[k], &volume,
-                                 FURNACE_GS[gi]);
+                    furnace_case(solver, 1, !measured_only, kinds[k], &volume, FURNACE_GS[gi]);
                 held += !measured_only;
             }
         }

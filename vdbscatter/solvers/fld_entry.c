@@ -97,7 +97,6 @@ static void fld_first_light(void *user, int light, const float *depth)
 static vdbs_status run_fld(const vdbs_solve *s, void *stats, vdbs_error *err)
 {
     const int p1 = s->scene->g != 0.0 && !option_int(s->scene, OPT_P1);
-    const int l1 = !option_int(s->scene, OPT_L1);
     fld_first first;
     memset(&first, 0, sizeof first);
     vdbs_status st =
@@ -111,7 +110,7 @@ static vdbs_status run_fld(const vdbs_solve *s, void *stats, vdbs_error *err)
         desc.resolution = option_int(s->scene, OPT_RES);
         desc.across = option_int(s->scene, OPT_ACROSS);
         desc.limiter_off = option_int(s->scene, OPT_LIMITER);
-        desc.write_l1 = l1;
+        desc.write_l1 = !option_int(s->scene, OPT_L1);
         desc.collisions = first.sum.total;
         desc.collision_flux = first.sum.flux;
         desc.sky_floor = vdbs_sky_floor_active(&first.floor) ? &first.floor : NULL;
