@@ -765,7 +765,7 @@ class Svd(Base):
         """bake --method svd on the cloud sample at --quality low: radiance is the single bake's
         S1 plus ms to float rounding, ms >= 0 and positive inside the cloud; the report gives the
         quality's D = 32 and 16 cells across, every sweep's power balance within 1e-4, and a
-        converged residual within the quality's 1e-2. With g 0 (no delta-M) the first sweep
+        converged residual within the quality's 3e-2. With g 0 (no delta-M) the first sweep
         emits at least sigma_s 4 pi S1 summed over the voxels times their volume (the point
         rule, which undercounts the optically thick voxels here) and within 2% of it
         (Collisions has the exact value); with g 0.85 delta-M moves f into the beam and the
@@ -785,7 +785,7 @@ class Svd(Base):
             self.assertEqual(stats["directions"], 32)
             self.assertEqual(stats["resolution"], 16)
             self.assertTrue(stats["converged"])
-            self.assertLessEqual(stats["residual"], 1e-2)
+            self.assertLessEqual(stats["residual"], 3e-2)
             self.assertLessEqual(stats["balance"], 1e-4)
             for stage in ["svd_source", "svd_solve", "svd_upsample"]:
                 self.assertGreaterEqual(report["seconds"][stage], 0.0)

@@ -28,11 +28,16 @@
 #define SVD_GPU_TRIPS 32768
 /* Default cap of source iterations. */
 #define SVD_MAX_ITERATIONS 2000
+/* Iterations before the contraction's estimate may end a solve that the cap would end anyway:
+ * the ratio of successive changes rises towards the slowest mode's as the faster ones die. */
+#define SVD_SETTLE_ITERATIONS 10
+/* Iterations whose changes' mean ratio is the contraction. */
+#define SVD_RATIO_SPAN 4
 
 void vdbs_svd_quality(const char *quality, vdbs_svd_preset *preset)
 {
     static const vdbs_svd_preset presets[] = {
-        {32, 16, 0.10, 1e-2}, {64, 24, 0.05, 3e-3}, {128, 32, 0.02, 1e-3}, {512, 32, 0.01, 3e-4}};
+        {32, 16, 0.10, 3e-2}, {64, 24, 0.05, 1e-2}, {128, 32, 0.02, 3e-3}, {512, 32, 0.01, 1e-3}};
     *preset = presets[vdbs_quality_level(quality)];
 }
 
@@ -303,10 +308,37 @@ static void sweep_kernel(const vdbs_svd_grid *grid, const svd_layout *l, svd_ker
     kd->reduce = VDBS_REDUCE_NONE;
 }
 
+/* The fluence's distance from the converged one, relative, estimated from the iterations'
+ * relative changes (changes[0] the latest, `known` of them): source iteration shrinks its error
+ * by about the ratio rho of successive changes, so what remains after a change c is about
+ * c rho / (1 - rho), which in a thick medium near albedo 1 (rho near 1) is many times c. rho
+ * is the mean ratio over up to SVD_RATIO_SPAN iterations, as single ratios wander once the
+ * changes near float rounding. Never below c itself; a ratio of 1 or more (no contraction seen
+ * yet) leaves c, and the caller does not stop on it. A change of 0 is a fixed point. */
+static double remaining_error(const double *changes, int known, double *rho)
+{
+    const int span = known - 1 < SVD_RATIO_SPAN ? known - 1 : SVD_RATIO_SPAN;
+    if (known > 0 && changes[0] == 0.0)
+        *rho = 0.0; /* a fixed point, in float */
+    else
+        *rho = span > 0 && changes[span] > 0.0 ? pow(changes[0] / changes[span], 1.0 / span) : 1.0;
+    return *rho < 1.0 ? changes[0] * fmax(1.0, *rho / (1.0 - *rho)) : changes[0];
+}
+
+/* Iterations in all that the error `remaining` after `done` of them needs to reach `target` at
+ * the contraction rho (done itself once there; 0 when rho says nothing). */
+static int predicted_iterations(int done, double remaining, double target, double rho)
+{
+    if (!(rho > 0.0 && rho < 1.0 && target > 0.0) || remaining <= target)
+        return rho < 1.0 ? done : 0;
+    return done + (int)fmin(ceil(log(target / remaining) / log(rho)), 1e9);
+}
+
 /* Sweep `it`'s tallies into stats from its per-cell records `out`: the power balance, the
- * clamp, and the fluence's relative change since the last sweep (previous: updated). */
-static void sweep_tally(int64_t cells, int directions, const float *out, int it, double *previous,
-                        vdbs_svd_stats *stats)
+ * clamp, and the fluence's relative change since the last sweep (previous: updated), returned
+ * for remaining_error. */
+static double sweep_tally(int64_t cells, int directions, const float *out, int it, double *previous,
+                          vdbs_svd_stats *stats)
 {
     stats->cell_direction_updates += cells * directions;
     double emitted = 0.0, collided = 0.0, leaked = 0.0, clamped = 0.0, change = 0.0, total = 0.0;
@@ -334,7 +366,7 @@ static void sweep_tally(int64_t cells, int directions, const float *out, int it,
     if (emitted + clamped > 0.0)
         stats->clamped_fraction = fmax(stats->clamped_fraction, clamped / (emitted + clamped));
     stats->iterations = it + 1;
-    stats->residual = total > 0.0 ? change / total : 0.0;
+    return total > 0.0 ? change / total : 0.0;
 }
 
 /* The iterations' progress: the residual's way from 1 to the target on a log scale. */
@@ -395,6 +427,7 @@ vdbs_status vdbs_svd_solve_grid(vdbs_runner *runner, const vdbs_svd_grid *grid,
     kd.cancel = vdbs_progress_cancel(desc->progress);
     const size_t out = l.params[VS_SVD_OFF_STATE_OUT]; /* the per-cell records in the state */
     const int max_iterations = desc->max_iterations > 0 ? desc->max_iterations : SVD_MAX_ITERATIONS;
+    double changes[SVD_RATIO_SPAN + 1] = {0.0};
     if (st == VDBS_OK)
         next_source(grid, grid->warm, source);
     for (int it = 0; it < max_iterations && st == VDBS_OK; ++it) {
@@ -406,13 +439,27 @@ vdbs_status vdbs_svd_solve_grid(vdbs_runner *runner, const vdbs_svd_grid *grid,
         memset(state, 0, sizeof *state * l.state_words);
         if ((st = vdbs_kernel_iterate(runner, &kd, NULL, err)) != VDBS_OK)
             break;
-        sweep_tally(cells, grid->phase->d, state + out, it, previous, stats);
+        const double change = sweep_tally(cells, grid->phase->d, state + out, it, previous, stats);
+        memmove(changes + 1, changes, sizeof changes - sizeof *changes);
+        changes[0] = change;
+        double rho;
+        /* The first sweep's change is from the start (zero, or a warm start's moments
+         * against zero fluence): no step of the iteration, so no ratio uses it. */
+        stats->residual = remaining_error(changes, it, &rho);
+        stats->contraction = rho;
+        stats->predicted_iterations =
+            predicted_iterations(it + 1, stats->residual, desc->residual, rho);
         next_source(grid, state, source);
         sweep_progress(desc, stats, it);
-        if (stats->residual <= desc->residual) {
+        if (rho < 1.0 && stats->residual <= desc->residual) {
             stats->converged = 1;
             break;
         }
+        /* Where the contraction, once settled, says the cap comes first, the sweeps left would
+         * only be spent: stop, not converged, with the estimate reported. */
+        if (desc->residual > 0.0 && it + 1 >= SVD_SETTLE_ITERATIONS &&
+            stats->predicted_iterations > max_iterations)
+            break;
     }
     if (st == VDBS_OK)
         solve_outputs(cells, grid->terms, state, state + out, fluence, flux, moments);

@@ -70,9 +70,9 @@ static const vdbs_solver_option options[] = {
                       .syntax = "R",
                       .min = 0,
                       .max = 1,
-                      .help = "SVD: stop when the fluence changes by at most R per\n"
-                              "iteration (default 1e-2/3e-3/1e-3/3e-4)",
-                      .preset = {1e-2, 3e-3, 1e-3, 3e-4}},
+                      .help = "SVD: stop when the fluence's estimated relative error is at\n"
+                              "most R (default 3e-2/1e-2/3e-3/1e-3)",
+                      .preset = {3e-2, 1e-2, 3e-3, 1e-3}},
     [OPT_SCHEME] = {.key = "svd_scheme",
                     .flag = "--svd-scheme",
                     .kind = VDBS_OPTION_CHOICE,
@@ -258,6 +258,8 @@ static const vdbs_report_field report[] = {
     {"cell_side", VDBS_REPORT_DOUBLE, offsetof(vdbs_svd_stats, cell_side)},
     {"iterations", VDBS_REPORT_INT, offsetof(vdbs_svd_stats, iterations)},
     {"residual", VDBS_REPORT_DOUBLE, offsetof(vdbs_svd_stats, residual)},
+    {"contraction", VDBS_REPORT_DOUBLE, offsetof(vdbs_svd_stats, contraction)},
+    {"predicted_iterations", VDBS_REPORT_INT, offsetof(vdbs_svd_stats, predicted_iterations)},
     {"converged", VDBS_REPORT_BOOL, offsetof(vdbs_svd_stats, converged)},
     {"steps_per_sweep", VDBS_REPORT_INT, offsetof(vdbs_svd_stats, steps_per_sweep)},
     {"chunk", VDBS_REPORT_INT, offsetof(vdbs_svd_stats, chunk)},

@@ -46,9 +46,12 @@ typedef struct vdbs_svd_desc {
     int across;             /* cells at least across every axis (--svd-across; coarse.h's
                                vdbs_coarse_world_frame); default VDBS_COARSE_MIN_ACROSS, 1: cubic
                                cells */
-    double residual;        /* stop once the relative change of the fluence per iteration is at
-                               most this (--residual); default: the quality's */
-    int max_iterations;     /* the cap (--svd-iterations); default 2000 */
+    double residual;        /* stop once the fluence's estimated relative distance from the
+                               converged one is at most this (--residual): the last iteration's
+                               relative change, times rho / (1 - rho) where the contraction rho
+                               (stats) exceeds 1/2; default: the quality's */
+    int max_iterations;     /* the cap (--svd-iterations); default 2000; a solve whose
+                               settled contraction predicts more stops early, not converged */
     int delta_m;            /* phasemat.h: 0 auto, 1 always, -1 never */
     vdbs_svd_scheme scheme; /* --svd-scheme; default the step */
     int sky_boundary;       /* 1: the sky's uniform part enters through the grid's boundary
@@ -89,7 +92,7 @@ typedef struct vdbs_svd_preset {
     int directions;   /* low 32, medium 64, high 128, ultra 512 */
     int resolution;   /* 16 / 24 / 32 / 32 */
     double tolerance; /* factorisation RMSE of the default N: 10% / 5% / 2% / 1% */
-    double residual;  /* 1e-2 / 3e-3 / 1e-3 / 3e-4 */
+    double residual;  /* 3e-2 / 1e-2 / 3e-3 / 1e-3 */
 } vdbs_svd_preset;
 
 /* The preset of a quality name (medium's for an unknown one). */
@@ -136,8 +139,11 @@ typedef struct vdbs_svd_stats {
     double factor_rmse;         /* of the N-term factorisation */
     int chunk, steps_per_sweep;
     int iterations;
-    double residual; /* the last iteration's relative change of the fluence */
-    int converged;   /* 0: stopped at the cap */
+    double residual;    /* the estimated relative distance from the converged fluence (desc) */
+    double contraction; /* the mean ratio of successive changes over the last 4 iterations:
+                           the error's shrink per iteration */
+    int predicted_iterations; /* what the contraction says reaching `residual` takes in all */
+    int converged; /* 0: stopped at the cap, or before it where predicted_iterations exceeds it */
     /* The last sweep's power balance (summed over channels, in double from per-cell float
      * tallies): emitted = collided + leaked up to `balance`, the worst relative mismatch
      * |emitted - collided - leaked| / emitted over every sweep. */
