@@ -22,7 +22,9 @@
  * The probe depends on the scene and g only, so it runs once per (scene, g); its time is
  * listed beside each POP solve's (S1 + POP, C path).
  *
- * With --method fld the same for FLD, --res then giving --fld-res (columns keep POP's names).
+ * With --method fld the same for FLD, --res then giving --fld-res (columns keep POP's names);
+ * --method svd the same for SVD (rows per --qualities). --sky boundary sets FLD's and SVD's
+ * sky option (solver.fld_sky / svd_sky) to "boundary".
  * --scenes point adds FLD's validation case of Koerner et al.: a point light of intensity 1 at
  * the centre of the cube sample (48^3, half-size 0.6, density scale 30, albedo 0.99: a
  * diffusion length of 4.6 voxels, a mean free path of 0.8), no other light.
@@ -35,7 +37,7 @@
  * usage: bench_pop_probe [--out bench/pop_probe.md] [--res 2,3,4,8] [--g 0,0.5,0.85]
  *        [--scenes sphere,cloud,point] [--points 300] [--radius-voxels 2] [--photons-sphere N]
  *        [--photons-cloud N] [--quality medium] [--seed 1] [--tally chord|cell]
- *        [--method pop|fld] [--qualities low,medium,high,ultra] */
+ *        [--method pop|fld|svd] [--sky collisions|boundary] [--qualities low,medium,...] */
 #include <math.h>
 #include <stdint.h>
 #include <stdio.h>
@@ -50,6 +52,7 @@
 #include "vdbscatter/samples.h"
 #include "vdbscatter/scene.h"
 #include "vdbscatter/scene_file.h"
+#include "vdbscatter/skyfloor.h"
 #include "vdbscatter/solver.h"
 #include "vdbscatter/volume.h"
 
@@ -74,7 +77,8 @@ typedef struct options {
     int g_count;
     int points;
     int tally_cell;     /* --tally cell: the paper's one cell side per crossing */
-    const char *method; /* --method pop (default) or fld: --res is then --fld-res */
+    const char *method; /* --method pop (default), fld (--res is then --fld-res) or svd */
+    int sky_boundary;   /* --sky boundary: solver.fld_sky / svd_sky "boundary" */
     double radius_voxels;
     const char *quality;
     uint64_t seed;
@@ -141,7 +145,8 @@ static void usage(void)
         "usage: bench_pop_probe [--out FILE] [--res 2,3,4,8] [--g 0,0.5,0.85] "
         "[--scenes sphere,cloud,point,smoke_point,cloud_point] [--points 300] [--radius-voxels 2] "
         "[--photons-sphere N] [--photons-cloud N] [--quality medium] [--seed 1] "
-        "[--tally chord|cell] [--method pop|fld] [--qualities low,medium,...]\n");
+        "[--tally chord|cell] [--method pop|fld|svd] [--sky collisions|boundary]\n"
+        "       [--qualities low,medium,...]\n");
     exit(2);
 }
 
@@ -207,8 +212,11 @@ static void parse_args(int argc, char **argv, options *o)
             o->seed = strtoull(v, NULL, 10);
         else if (strcmp(a, "--tally") == 0 && (!strcmp(v, "chord") || !strcmp(v, "cell")))
             o->tally_cell = strcmp(v, "cell") == 0;
-        else if (strcmp(a, "--method") == 0 && (!strcmp(v, "pop") || !strcmp(v, "fld")))
+        else if (strcmp(a, "--method") == 0 &&
+                 (!strcmp(v, "pop") || !strcmp(v, "fld") || !strcmp(v, "svd")))
             o->method = v;
+        else if (strcmp(a, "--sky") == 0 && (!strcmp(v, "collisions") || !strcmp(v, "boundary")))
+            o->sky_boundary = strcmp(v, "boundary") == 0;
         else
             usage();
     }
@@ -538,6 +546,10 @@ static void run_scene(const scene_def *def, const options *o, vdbs_runner *runne
                 set_option(&scene, "fld_res", o->res[ri]);
             }
             set_option(&scene, "pop_tally", o->tally_cell);
+            if (o->sky_boundary) {
+                set_option(&scene, "fld_sky", VDBS_SKY_BOUNDARY);
+                set_option(&scene, "svd_sky", VDBS_SKY_BOUNDARY);
+            }
             const vdbs_solver *solver = vdbs_solver_find(o->method);
             vdbs_lights_desc ld = {0};
             ld.sky_ordinates =

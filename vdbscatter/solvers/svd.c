@@ -260,6 +260,8 @@ static void stats_begin(const vdbs_svd_grid *grid, vdbs_svd_stats *stats)
     stats->balance = 0.0;
     stats->clamped_fraction = 0.0;
     stats->residual = 1.0;
+    stats->contraction = 0.0;
+    stats->predicted_iterations = 0;
 }
 
 /* Directions per sweep step: the caller's, else on the GPU as many as keep a step's loops
