@@ -284,9 +284,13 @@ static void test_compile_error_line(void **state)
     /* Defines without a final newline work as well. */
     msg = build_failure(gpu, &src, "#define A 1");
     assert_non_null(strstr(msg, "myfile.comp:8: error"));
-    /* An error inside the defines is reported as such. */
+    /* An error inside the defines is reported as such: the place is ours, the wording the
+     * driver's (Mesa: "preprocessor error: #error bad define", NVIDIA: "error C0000: bad
+     * define"). */
     msg = build_failure(gpu, &src, "#define A 1\n#error bad define\n");
-    assert_non_null(strstr(msg, "<defines>:2: preprocessor error: #error bad define"));
+    const char *at = strstr(msg, "<defines>:2: ");
+    assert_non_null(at);
+    assert_non_null(strstr(at, "bad define"));
 }
 
 static void test_compile_error_in_included_file(void **state)
