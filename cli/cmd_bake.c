@@ -318,7 +318,13 @@ int cmd_bake(int argc, char **argv)
         c.height = scene.camera.present ? scene.camera.height : 480;
         scene.camera = c;
     }
-    const char *input = args.positional_count ? args.positional[0] : scene.volume_file;
+    /* IN.vdb overrides the scene file's volume, in the bake and in the scene it records. */
+    if (args.positional_count) {
+        if (strlen(args.positional[0]) >= sizeof scene.volume_file)
+            return cli_fail("bake", 2, "IN.vdb: the path is too long");
+        snprintf(scene.volume_file, sizeof scene.volume_file, "%s", args.positional[0]);
+    }
+    const char *input = scene.volume_file;
     if (!input[0])
         return cli_fail("bake", 2, "no input VDB (give IN.vdb or volume.file in --scene)");
     vdbs_bake_options o = {0};

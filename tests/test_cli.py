@@ -978,6 +978,20 @@ class Samples(Base):
             self.assertEqual(g["name"], "density")
             self.assertAlmostEqual(g["voxel_size"][0], 2 / 24, places=12)
 
+    def test_input_overrides_the_scene_volume(self):
+        # IN.vdb on the command line is what is baked, and what the report's and the lit VDB's
+        # scene name: a re-bake from the recorded scene must read the same volume.
+        out = self.path("lit.vdb")
+        p = run("bake", sample("sphere.vdb"), "--scene", sample("cloud.json"), "--method", "single",
+                "--quality", "low", "--backend", "cpu", "--json", "-q", "-o", out, check=0)
+        report = json.loads(p.stdout)
+        self.assertEqual(report["input"], sample("sphere.vdb"))
+        self.assertEqual(report["scene"]["volume"]["file"], sample("sphere.vdb"))
+        meta = vdb.readAllGridMetadata(out)[0]
+        self.assertEqual(json.loads(meta["vdbscatter_scene"])["volume"]["file"], sample("sphere.vdb"))
+        self.assertEqual(vdb.read(out, "density").activeVoxelCount(),
+                         vdb.read(sample("sphere.vdb"), "density").activeVoxelCount())
+
     def test_sphere_round_trip(self):
         res = 20
         out = self.path("sphere.vdb")

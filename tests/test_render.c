@@ -439,6 +439,13 @@ static void test_baked_single_bake_equals_single(void **state)
     vdbs_bake_report report;
     if (vdbs_bake(&bake, &report, &err) != VDBS_OK)
         fail_msg("%s", err.message);
+    /* The scene recorded in the lit VDB names the volume baked (this scene names none). */
+    vdbio_lit *lit = NULL;
+    assert_int_equal(vdbio_lit_open(lit_path, &lit, &err), VDBS_OK);
+    const char *recorded = vdbio_lit_meta(lit, "vdbscatter_scene");
+    assert_non_null(recorded);
+    assert_non_null(strstr(recorded, input));
+    vdbio_lit_close(lit);
 
     vdbio_read_options read = {0};
     vdbs_volume source, baked;
