@@ -313,6 +313,12 @@ class BadFiles(Base):
     def bake_args(self, src, *extra):
         return ["bake", src, "-o", self.path("out.vdb"), "--sun", "0,-1,0", *extra]
 
+    def test_input_path_too_long(self):
+        # The path goes into the scene the bake records; one that does not fit is refused
+        # before anything is read or written.
+        long_path = os.path.join(self.dir, "d" * 250, *["e" * 250] * 16, "in.vdb")
+        self.assert_bad_input(self.bake_args(long_path), "IN.vdb: the path is too long")
+
     def test_missing_foreign_truncated(self):
         self.assert_bad_input(self.bake_args(self.path("nope.vdb")), "nope.vdb")
         text = self.path("notes.vdb")

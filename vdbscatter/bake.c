@@ -324,12 +324,10 @@ static vdbs_status load(bake_job *j, vdbs_bake_report *report, vdbs_error *err)
     *j->scene = *o->scene;
     j->options.scene = j->scene;
     /* The scene recorded in the report and the lit VDB names the volume baked, also when the
-     * caller's input overrides the scene file's. */
-    if (j->input != o->scene->volume_file) {
-        if (strlen(j->input) >= sizeof j->scene->volume_file)
-            return vdbs_error_set(err, VDBS_ERR_INPUT, "%s: the path is too long", j->input);
+     * caller's input overrides the scene file's. The volume was opened from that path, so it
+     * is shorter than PATH_MAX, the field's size: the copy is whole. */
+    if (j->input != o->scene->volume_file)
         snprintf(j->scene->volume_file, sizeof j->scene->volume_file, "%s", j->input);
-    }
     if ((st = vdbs_scene_fit_density(j->scene, &j->volume, err)) != VDBS_OK)
         return st;
     if (j->scene->light_count == 0)
