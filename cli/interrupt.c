@@ -2,7 +2,6 @@
 #include "interrupt.h"
 
 #include <signal.h>
-#include <stdio.h>
 #include <string.h>
 
 /* The first signal's number; 0 until one comes. */
@@ -34,13 +33,4 @@ const vdbs_cancel *cli_interrupt_install(void)
     sigaction(SIGTERM, &sa, NULL);
     sigprocmask(SIG_SETMASK, &before, NULL);
     return &interrupt_signal;
-}
-
-int cli_interrupt_status(const char *command, int status)
-{
-    const int signo = interrupt_signal;
-    if (!signo)
-        return status;
-    fprintf(stderr, "vdbscatter %s: interrupted\n", command);
-    return 128 + signo;
 }

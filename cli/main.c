@@ -1,13 +1,12 @@
-/* vdbscatter: volume-lighting preprocessor. Dispatches to the subcommands. */
+/* vdbscatter: volume-lighting preprocessor. The commands live in the library
+ * (vdbs_command_run, vdbscatter.h); this program hands them its words and prints what they say:
+ * OUTPUT on stdout, the rest on stderr. */
 #include <stdio.h>
 #include <string.h>
+#include <unistd.h>
 
-#include "commands.h"
-#include "options.h"
-
-#ifndef VDBSCATTER_VERSION
-#define VDBSCATTER_VERSION "0"
-#endif
+#include "interrupt.h"
+#include "vdbscatter/vdbscatter.h"
 
 static const char usage[] =
     "usage: vdbscatter COMMAND [options]\n"
@@ -24,35 +23,41 @@ static const char usage[] =
     "Run 'vdbscatter COMMAND --help' for the options of a command.\n"
     "Exit status: 0 success, 1 failure while working, 2 bad input or usage.\n";
 
+static void print_message(void *user, vdbs_message_kind kind, const char *text)
+{
+    (void)user;
+    FILE *to = kind == VDBS_MESSAGE_OUTPUT ? stdout : stderr;
+    fputs(text, to);
+    fflush(to);
+}
+
 int main(int argc, char **argv)
 {
     if (argc < 2) {
         fputs(usage, stderr);
-        return CLI_EXIT_USAGE;
+        return 2;
     }
     const char *cmd = argv[1];
     if (strcmp(cmd, "--help") == 0 || strcmp(cmd, "-h") == 0 || strcmp(cmd, "help") == 0) {
         fputs(usage, stdout);
-        return CLI_EXIT_OK;
+        return 0;
     }
     if (strcmp(cmd, "--version") == 0) {
-        printf("vdbscatter %s\n", VDBSCATTER_VERSION);
-        return CLI_EXIT_OK;
+        printf("vdbscatter %s\n", vdbs_version());
+        return 0;
     }
-    if (strcmp(cmd, "bake") == 0)
-        return cmd_bake(argc - 2, argv + 2);
-    if (strcmp(cmd, "info") == 0)
-        return cmd_info(argc - 2, argv + 2);
-    if (strcmp(cmd, "render") == 0)
-        return cmd_render(argc - 2, argv + 2);
-    if (strcmp(cmd, "compare") == 0)
-        return cmd_compare(argc - 2, argv + 2);
-    if (strcmp(cmd, "sample") == 0)
-        return cmd_sample(argc - 2, argv + 2);
-    if (strcmp(cmd, "tradeoff") == 0)
-        return cmd_tradeoff(argc - 2, argv + 2);
-    if (strcmp(cmd, "phase-svd") == 0)
-        return cmd_phase_svd(argc - 2, argv + 2);
-    fprintf(stderr, "vdbscatter: unknown command '%s' (try --help)\n", cmd);
-    return CLI_EXIT_USAGE;
+    vdbs_command_desc desc = {0};
+    desc.argc = argc - 1;
+    desc.argv = (const char *const *)argv + 1;
+    desc.message = print_message;
+    desc.cancel = cli_interrupt_install();
+    desc.progress = isatty(STDERR_FILENO);
+    vdbs_command_result result;
+    int status = vdbs_command_run(&desc, &result);
+    vdbs_command_result_free(&result);
+    if (fflush(stdout) != 0) {
+        fprintf(stderr, "vdbscatter %s: cannot write to stdout\n", cmd);
+        return status ? status : 1;
+    }
+    return status;
 }

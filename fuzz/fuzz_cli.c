@@ -4,22 +4,21 @@
  * Arguments naming files outside the working folder are dropped (--scene /dev/zero). */
 #include "fuzz_util.h"
 #include "options.h"
-#include "solver_flags.h"
 #include "vdbscatter/scene.h"
 
-static const cli_option common[] = {
-    CLI_COMMON_OPTIONS,         {"--camera", CLI_VALUE},       {"--size", CLI_VALUE},
-    {"--method", CLI_VALUE},    {"--from-levelset", CLI_FLAG}, {"--half", CLI_FLAG},
-    {"--tolerance", CLI_VALUE}, {"--mode", CLI_VALUE},
+static const vdbs_arg_option common[] = {
+    VDBS_OPTIONS_COMMON,         {"--camera", VDBS_ARG_VALUE},       {"--size", VDBS_ARG_VALUE},
+    {"--method", VDBS_ARG_VALUE},    {"--from-levelset", VDBS_ARG_FLAG}, {"--half", VDBS_ARG_FLAG},
+    {"--tolerance", VDBS_ARG_VALUE}, {"--mode", VDBS_ARG_VALUE},
 };
 
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
 {
-    static cli_option table[CLI_MAX_OPTIONS];
+    static vdbs_arg_option table[VDBS_OPTIONS_MAX];
     static int ready = 0;
     if (!ready) {
         memcpy(table, common, sizeof common);
-        cli_solver_flags_add(table, (int)(sizeof common / sizeof *common), CLI_MAX_OPTIONS);
+        vdbs_options_add_solver_flags(table, (int)(sizeof common / sizeof *common), VDBS_OPTIONS_MAX);
         ready = 1;
     }
     char *text = malloc(size + 1);
@@ -38,30 +37,30 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
             start = p + 1;
         }
     }
-    cli_args args;
+    vdbs_options_args args;
     vdbs_error err;
-    vdbs_status st = cli_parse(argc, argv, table, &args, &err);
-    fuzz_check_error(st, &err, "cli_parse");
+    vdbs_status st = vdbs_options_parse(argc, argv, table, &args, &err);
+    fuzz_check_error(st, &err, "vdbs_options_parse");
     if (st == VDBS_OK) {
-        st = cli_build_scene(&args, scene, size % 2, &err);
-        fuzz_check_error(st, &err, "cli_build_scene");
-        (void)cli_scene_flags(&args);
+        st = vdbs_options_build_scene(&args, scene, size % 2, &err);
+        fuzz_check_error(st, &err, "vdbs_options_build_scene");
+        (void)vdbs_options_scene_flags(&args);
         int march = 0, oversample = 0, w = 0, h = 0;
-        st = cli_s1_options(&args, &march, &oversample, &err);
-        fuzz_check_error(st, &err, "cli_s1_options");
-        const char *v = cli_value(&args, "--size");
+        st = vdbs_options_s1(&args, &march, &oversample, &err);
+        fuzz_check_error(st, &err, "vdbs_options_s1");
+        const char *v = vdbs_options_value(&args, "--size");
         if (v) {
-            st = cli_size(v, &w, &h, &err);
-            fuzz_check_error(st, &err, "cli_size");
+            st = vdbs_options_size(v, &w, &h, &err);
+            fuzz_check_error(st, &err, "vdbs_options_size");
             if (st == VDBS_OK && (w < 1 || h < 1 || w > 16384 || h > 16384)) {
                 fprintf(stderr, "fuzz: --size %s accepted as %dx%d\n", v, w, h);
                 abort();
             }
         }
-        if ((v = cli_value(&args, "--camera"))) {
+        if ((v = vdbs_options_value(&args, "--camera"))) {
             vdbs_camera camera;
-            st = cli_camera(v, &camera, &err);
-            fuzz_check_error(st, &err, "cli_camera");
+            st = vdbs_options_camera(v, &camera, &err);
+            fuzz_check_error(st, &err, "vdbs_options_camera");
         }
     }
     free(scene);

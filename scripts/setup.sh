@@ -10,7 +10,8 @@ packages=(
   libegl-dev libegl-mesa0 libgl1-mesa-dri libgl-dev libepoxy-dev
   libglfw3-dev xvfb xauth libpng-dev libstb-dev libopenexr-dev openexr
   liblapacke-dev libopenblas0-pthread libcjson-dev libcmocka-dev
-  python3-matplotlib
+  python3-matplotlib python3-numpy
+  help2man man-db
   clang libclang-rt-14-dev llvm
 )
 for arg in "$@"; do

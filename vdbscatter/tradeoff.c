@@ -12,6 +12,7 @@
 #include "vdbscatter/bake.h"
 #include "vdbscatter/image.h"
 #include "vdbscatter/memory.h"
+#include "vdbscatter/message.h"
 #include "vdbscatter/plot.h"
 #include "vdbscatter/progress.h"
 #include "vdbscatter/quality.h"
@@ -246,7 +247,7 @@ static vdbs_status make_reference(tradeoff_job *j, vdbs_progress *progress, vdbs
     job_path(j, scratch, sizeof scratch, ".tradeoff-curve.exr");
     job_path(j, pilot_path, sizeof pilot_path, ".tradeoff-pilot.exr");
     if (progress->enabled)
-        fprintf(stderr, "tradeoff: reference pilot, %d spp\n", PILOT_SPP);
+        vdbs_message_emitf(VDBS_MESSAGE_PROGRESS, "tradeoff: reference pilot, %d spp\n", PILOT_SPP);
     double pilot_s;
     if ((st = render_reference(j, pilot_path, PILOT_SPP, d->seed + 2, &pilot_s, err)) != VDBS_OK)
         return st;
@@ -262,7 +263,7 @@ static vdbs_status make_reference(tradeoff_job *j, vdbs_progress *progress, vdbs
     spp = fmin(fmax(ceil(spp), 4.0 * PILOT_SPP), 1e8);
     rep->reference_spp = (int)spp;
     if (progress->enabled)
-        fprintf(stderr, "tradeoff: reference, %d spp (about %.0f s)\n", rep->reference_spp,
+        vdbs_message_emitf(VDBS_MESSAGE_PROGRESS, "tradeoff: reference, %d spp (about %.0f s)\n", rep->reference_spp,
                 spp * per_spp);
     if ((st = render_reference(j, image, rep->reference_spp, d->seed, &rep->reference_seconds,
                                err)) != VDBS_OK ||
@@ -649,7 +650,7 @@ vdbs_status vdbs_tradeoff_run(const vdbs_tradeoff_desc *d, vdbs_tradeoff_report 
                 break;
             ++rep->row_count;
             if (d->progress)
-                fprintf(stderr, "tradeoff: %d/%d %s %s: %.2f s, error %.4f\n", rep->row_count,
+                vdbs_message_emitf(VDBS_MESSAGE_PROGRESS, "tradeoff: %d/%d %s %s: %.2f s, error %.4f\n", rep->row_count,
                         method_count * quality_count, row->method, row->quality, row_seconds(row),
                         row->relrmse);
         }

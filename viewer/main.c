@@ -83,38 +83,38 @@ static const char keys_help[] =
     "  r           reset the camera                h           this help\n"
     "  q / Esc     quit\n";
 
-static const cli_option options[] = {
-    {"--scene", CLI_VALUE},
-    {"--grid", CLI_VALUE},
-    {"--density-scale", CLI_VALUE},
-    {"--albedo", CLI_VALUE},
-    {"--g", CLI_VALUE},
-    {"--sun", CLI_VALUE},
-    {"--point", CLI_VALUE},
-    {"--env", CLI_VALUE},
-    {"--quality", CLI_VALUE},
-    {"--sky-directions", CLI_VALUE},
-    {"--s1", CLI_VALUE},
-    {"--s1-oversample", CLI_VALUE},
-    {"--camera", CLI_VALUE},
-    {"--size", CLI_VALUE},
-    {"--exposure", CLI_VALUE},
-    {"--interleave", CLI_VALUE},
-    {"--no-interleave", CLI_FLAG},
-    {"--backend", CLI_VALUE},
-    {"--screenshot", CLI_VALUE},
-    {"--json", CLI_FLAG},
-    {"--fog", CLI_VALUE},
-    {"--rebake", CLI_FLAG},
-    {"--warmup-frames", CLI_VALUE},
-    {"-q", CLI_FLAG},
-    {NULL, CLI_FLAG},
+static const vdbs_arg_option options[] = {
+    {"--scene", VDBS_ARG_VALUE},
+    {"--grid", VDBS_ARG_VALUE},
+    {"--density-scale", VDBS_ARG_VALUE},
+    {"--albedo", VDBS_ARG_VALUE},
+    {"--g", VDBS_ARG_VALUE},
+    {"--sun", VDBS_ARG_LIST},
+    {"--point", VDBS_ARG_LIST},
+    {"--env", VDBS_ARG_LIST},
+    {"--quality", VDBS_ARG_VALUE},
+    {"--sky-directions", VDBS_ARG_VALUE},
+    {"--s1", VDBS_ARG_VALUE},
+    {"--s1-oversample", VDBS_ARG_VALUE},
+    {"--camera", VDBS_ARG_VALUE},
+    {"--size", VDBS_ARG_VALUE},
+    {"--exposure", VDBS_ARG_VALUE},
+    {"--interleave", VDBS_ARG_VALUE},
+    {"--no-interleave", VDBS_ARG_FLAG},
+    {"--backend", VDBS_ARG_VALUE},
+    {"--screenshot", VDBS_ARG_VALUE},
+    {"--json", VDBS_ARG_FLAG},
+    {"--fog", VDBS_ARG_VALUE},
+    {"--rebake", VDBS_ARG_FLAG},
+    {"--warmup-frames", VDBS_ARG_VALUE},
+    {"-q", VDBS_ARG_FLAG},
+    {NULL, VDBS_ARG_FLAG},
 };
 
 static int fail(int status, const char *message)
 {
     fprintf(stderr, PROGRAM ": %s\n", message);
-    return status == VDBS_ERR_INPUT ? CLI_EXIT_USAGE : CLI_EXIT_FAILURE;
+    return status == VDBS_ERR_INPUT ? VDBS_EXIT_USAGE : VDBS_EXIT_FAILURE;
 }
 
 static double now(void)
@@ -495,45 +495,45 @@ typedef struct view_args {
     int rebake;
 } view_args;
 
-static vdbs_status parse_view_args(const cli_args *args, view_args *a, vdbs_error *err)
+static vdbs_status parse_view_args(const vdbs_options_args *args, view_args *a, vdbs_error *err)
 {
     vdbs_status st;
     const char *v;
     a->warmup = 1;
     a->interleave = DEFAULT_INTERLEAVE;
-    if ((v = cli_value(args, "--backend")) && (st = vdbs_backend_parse(v, &a->backend, err)))
+    if ((v = vdbs_options_value(args, "--backend")) && (st = vdbs_backend_parse(v, &a->backend, err)))
         return st;
-    if ((st = cli_s1_options(args, &a->desc.s1_march, &a->desc.s1_oversample, err)) != VDBS_OK)
+    if ((st = vdbs_options_s1(args, &a->desc.s1_march, &a->desc.s1_oversample, err)) != VDBS_OK)
         return st;
-    if ((v = cli_value(args, "--size")) &&
-        (st = cli_size(v, &a->desc.width, &a->desc.height, err)) != VDBS_OK)
+    if ((v = vdbs_options_value(args, "--size")) &&
+        (st = vdbs_options_size(v, &a->desc.width, &a->desc.height, err)) != VDBS_OK)
         return st;
-    if ((v = cli_value(args, "--camera"))) {
-        if ((st = cli_camera(v, &a->camera, err)) != VDBS_OK)
+    if ((v = vdbs_options_value(args, "--camera"))) {
+        if ((st = vdbs_options_camera(v, &a->camera, err)) != VDBS_OK)
             return st;
         a->desc.camera = &a->camera;
     }
-    if ((v = cli_value(args, "--exposure")) &&
-        (st = cli_number("--exposure", v, &a->exposure, err)) != VDBS_OK)
+    if ((v = vdbs_options_value(args, "--exposure")) &&
+        (st = vdbs_options_number("--exposure", v, &a->exposure, err)) != VDBS_OK)
         return st;
-    if ((v = cli_value(args, "--interleave")) &&
-        (st = cli_integer("--interleave", v, 2, VDBS_MAX_INTERLEAVE, &a->interleave, err)) !=
+    if ((v = vdbs_options_value(args, "--interleave")) &&
+        (st = vdbs_options_integer("--interleave", v, 2, VDBS_MAX_INTERLEAVE, &a->interleave, err)) !=
             VDBS_OK)
         return st;
-    a->no_interleave = cli_flag(args, "--no-interleave");
-    if ((v = cli_value(args, "--warmup-frames")) &&
-        (st = cli_integer("--warmup-frames", v, 1, 100000, &a->warmup, err)) != VDBS_OK)
+    a->no_interleave = vdbs_options_flag(args, "--no-interleave");
+    if ((v = vdbs_options_value(args, "--warmup-frames")) &&
+        (st = vdbs_options_integer("--warmup-frames", v, 1, 100000, &a->warmup, err)) != VDBS_OK)
         return st;
-    if ((a->screenshot = cli_value(args, "--screenshot")) && !has_suffix(a->screenshot, ".png") &&
+    if ((a->screenshot = vdbs_options_value(args, "--screenshot")) && !has_suffix(a->screenshot, ".png") &&
         !has_suffix(a->screenshot, ".exr"))
         return vdbs_error_set(err, VDBS_ERR_INPUT,
                               "--screenshot: unsupported image type '%s' (use .exr or .png)",
                               a->screenshot);
-    if (cli_value(args, "--warmup-frames") && !a->screenshot)
+    if (vdbs_options_value(args, "--warmup-frames") && !a->screenshot)
         return vdbs_error_set(err, VDBS_ERR_INPUT, "--warmup-frames needs --screenshot");
-    a->quiet = cli_flag(args, "-q");
-    a->json = cli_flag(args, "--json");
-    a->rebake = cli_flag(args, "--rebake");
+    a->quiet = vdbs_options_flag(args, "-q");
+    a->json = vdbs_options_flag(args, "--json");
+    a->rebake = vdbs_options_flag(args, "--rebake");
     if (a->json && !a->screenshot)
         return vdbs_error_set(err, VDBS_ERR_INPUT, "--json needs --screenshot");
     return VDBS_OK;
@@ -599,9 +599,9 @@ static vdbs_status parse_fog(const char *text, vdbs_scene *scene, vdbs_error *er
     memcpy(sigma, text, n);
     sigma[n] = '\0';
     double sigma_t = 0.0, albedo[3] = {1.0, 1.0, 1.0};
-    vdbs_status st = cli_number("--fog", sigma, &sigma_t, err);
+    vdbs_status st = vdbs_options_number("--fog", sigma, &sigma_t, err);
     if (st == VDBS_OK && colon)
-        st = cli_triple("--fog", colon + 1, 1, albedo, err);
+        st = vdbs_options_triple("--fog", colon + 1, 1, albedo, err);
     if (st != VDBS_OK)
         return st;
     if (!(sigma_t >= 0.0))
@@ -778,16 +778,16 @@ static vdbs_status run_interactive(viewer *v, GLFWwindow *window, vdbs_error *er
 
 int main(int argc, char **argv)
 {
-    cli_args args;
+    vdbs_options_args args;
     vdbs_error err;
     vdbs_status st;
-    if (cli_parse(argc - 1, argv + 1, options, &args, &err) != VDBS_OK)
+    if (vdbs_options_parse(argc - 1, argv + 1, options, &args, &err) != VDBS_OK)
         return fail(VDBS_ERR_INPUT, err.message);
     if (args.help) {
         fputs(help, stdout);
         fputs("\n", stdout);
         fputs(keys_help, stdout);
-        return CLI_EXIT_OK;
+        return VDBS_EXIT_OK;
     }
     if (args.positional_count > 1)
         return fail(VDBS_ERR_INPUT, "expected one input VDB");
@@ -798,11 +798,11 @@ int main(int argc, char **argv)
     vdbs_scene *scene = malloc(sizeof *scene);
     if (!scene)
         return fail(VDBS_ERR_NOMEM, "out of memory");
-    if ((st = cli_build_scene(&args, scene, 1, &err)) != VDBS_OK) {
+    if ((st = vdbs_options_build_scene(&args, scene, 1, &err)) != VDBS_OK) {
         free(scene);
         return fail(st, err.message);
     }
-    const char *fog_flag = cli_value(&args, "--fog");
+    const char *fog_flag = vdbs_options_value(&args, "--fog");
     if (fog_flag && (st = parse_fog(fog_flag, scene, &err)) != VDBS_OK) {
         free(scene);
         return fail(st, err.message);
@@ -820,11 +820,11 @@ int main(int argc, char **argv)
     v->input = args.positional_count ? args.positional[0] : scene->volume_file;
     a.desc.input = v->input;
     a.desc.scene = scene;
-    a.desc.scene_set = cli_scene_flags(&args);
+    a.desc.scene_set = vdbs_options_scene_flags(&args);
     /* Scene flags or a scene file on a lit VDB relight it, with its multiple scattering shown
      * as stale (b re-bakes); without them the first frame comes from its stored depths. */
     a.desc.relight = (a.desc.scene_set & ~(unsigned)VDBS_SCENE_SET_QUALITY) != 0;
-    a.desc.warn = cli_warn;
+    a.desc.warn = vdbs_command_warn;
     a.desc.warn_user = &a.quiet;
     if (a.screenshot && (st = vdbio_check_output(a.screenshot, v->input, &err)) != VDBS_OK) {
         free(v);
@@ -845,5 +845,5 @@ int main(int argc, char **argv)
     viewer_close(v, window);
     free(v);
     free(scene);
-    return st == VDBS_OK ? CLI_EXIT_OK : fail(st, err.message);
+    return st == VDBS_OK ? VDBS_EXIT_OK : fail(st, err.message);
 }

@@ -1,6 +1,8 @@
 #define _POSIX_C_SOURCE 200809L
 #include "vdbscatter/progress.h"
 
+#include "vdbscatter/message.h"
+
 #include <stdio.h>
 #include <time.h>
 
@@ -31,18 +33,16 @@ void vdbs_progress_update(vdbs_progress *progress, uint64_t done)
     double fraction = (double)done / (double)progress->total;
     double elapsed = now - progress->started;
     double eta = fraction > 0.0 ? elapsed * (1.0 - fraction) / fraction : 0.0;
-    fprintf(stderr, "\r%s: %5.1f%%  %.1fs elapsed, %.1fs left   ", progress->label,
-            100.0 * fraction, elapsed, eta);
-    fflush(stderr);
+    vdbs_message_emitf(VDBS_MESSAGE_PROGRESS, "\r%s: %5.1f%%  %.1fs elapsed, %.1fs left   ",
+                       progress->label, 100.0 * fraction, elapsed, eta);
 }
 
 void vdbs_progress_end(vdbs_progress *progress)
 {
     if (!progress || !progress->enabled)
         return;
-    fprintf(stderr, "\r%s: 100.0%%  %.1fs%*s\n", progress->label, vdbs_now() - progress->started,
-            20, "");
-    fflush(stderr);
+    vdbs_message_emitf(VDBS_MESSAGE_PROGRESS, "\r%s: 100.0%%  %.1fs%*s\n", progress->label,
+                       vdbs_now() - progress->started, 20, "");
 }
 
 const vdbs_cancel *vdbs_progress_cancel(const vdbs_progress *progress)

@@ -442,7 +442,9 @@ vdbs_status vdbs_render(const vdbs_render_desc *d, vdbs_render_report *report, v
     double t_start = vdbs_now();
     const char *input = NULL;
     vdbs_status st = input_path(d, &input, err);
-    if (st == VDBS_OK)
+    if (st == VDBS_OK && !d->output && !d->keep_image)
+        st = vdbs_error_set(err, VDBS_ERR_INTERNAL, "vdbs_render: no output and no keep_image");
+    if (st == VDBS_OK && d->output)
         st = vdbio_check_output(d->output, input, err);
     if (st != VDBS_OK)
         return st;
@@ -477,7 +479,7 @@ vdbs_status vdbs_render(const vdbs_render_desc *d, vdbs_render_report *report, v
     double t_rendered = vdbs_now();
     report->peak_render = vdbs_memory_peak();
     report->peak_per_stage &= vdbs_memory_reset_peak();
-    if (st == VDBS_OK)
+    if (st == VDBS_OK && d->output)
         st = vdbs_image_write_cancel(d->output, &image, d->exposure, d->cancel, err);
     double t_written = vdbs_now();
     report->peak_write = vdbs_memory_peak();
@@ -497,6 +499,10 @@ vdbs_status vdbs_render(const vdbs_render_desc *d, vdbs_render_report *report, v
         report->seconds_render = t_rendered - t_render;
         report->seconds_write = t_written - t_rendered;
         report->seconds_total = vdbs_now() - t_start;
+        if (d->keep_image) {
+            *d->keep_image = image;
+            memset(&image, 0, sizeof image);
+        }
     }
     vdbs_image_free(&image);
     vdbs_render_input_free(&in);

@@ -1,5 +1,5 @@
-/* Progress lines on stderr for long work; silent unless enabled (the CLI enables it
- * only when stderr is a terminal and -q is not given). */
+/* Progress lines for long work, as PROGRESS messages (message.h: stderr by default); silent
+ * unless enabled (the CLI enables it only when stderr is a terminal and -q is not given). */
 #ifndef VDBSCATTER_PROGRESS_H
 #define VDBSCATTER_PROGRESS_H
 

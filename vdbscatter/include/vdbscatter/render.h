@@ -68,7 +68,7 @@ enum {
 /* Zero-initialise; 0 means "choose the default". */
 typedef struct vdbs_render_desc {
     const char *input;       /* density or lit VDB; scene->volume_file when NULL */
-    const char *output;      /* .exr or .png */
+    const char *output;      /* .exr or .png; NULL: no file (then keep_image is required) */
     const vdbs_scene *scene; /* the caller's scene (may have no lights for a lit VDB) */
     unsigned scene_set;      /* VDBS_SCENE_SET_* bits */
     vdbs_render_mode mode;
@@ -102,6 +102,9 @@ typedef struct vdbs_render_desc {
     /* Bytes the render may hold (memory.h; as vdbs_bake_options.max_memory): checked once the
      * volume is loaded, before the light grids and the picture. 0: the default; < 0: none. */
     int64_t max_memory;
+    /* Not NULL: the picture also comes back here on success (the caller frees it with
+     * vdbs_image_free); the same floats the file holds. */
+    vdbs_image *keep_image;
 } vdbs_render_desc;
 
 typedef struct vdbs_render_report {

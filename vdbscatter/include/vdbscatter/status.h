@@ -2,6 +2,8 @@
 #ifndef VDBSCATTER_STATUS_H
 #define VDBSCATTER_STATUS_H
 
+#include "vdbscatter/export.h"
+
 #ifdef __cplusplus
 extern "C" {
 #endif
@@ -26,7 +28,7 @@ typedef struct vdbs_error {
 
 /* Formats the message into err (when err is not NULL) and returns status. A message longer
  * than the buffer ends in " [...]"; every message is cleaned by vdbs_error_clean. */
-vdbs_status vdbs_error_set(vdbs_error *err, vdbs_status status, const char *fmt, ...)
+VDBS_API vdbs_status vdbs_error_set(vdbs_error *err, vdbs_status status, const char *fmt, ...)
 #if defined(__GNUC__)
     __attribute__((format(printf, 3, 4)))
 #endif
@@ -36,15 +38,28 @@ vdbs_status vdbs_error_set(vdbs_error *err, vdbs_status status, const char *fmt,
 #define VDBS_CANCELLED_MESSAGE "interrupted"
 
 /* Sets err to VDBS_CANCELLED_MESSAGE and returns VDBS_ERR_CANCELLED. */
-vdbs_status vdbs_error_cancelled(vdbs_error *err);
+VDBS_API vdbs_status vdbs_error_cancelled(vdbs_error *err);
 
 /* Makes a message one line of valid UTF-8, in place: control characters and bytes that are
  * not part of a UTF-8 sequence (a quoted key or file name may hold either) become '?'.
  * vdbs_error_set applies it to every message. */
-void vdbs_error_clean(char *message);
+VDBS_API void vdbs_error_clean(char *message);
 
 /* Receives non-fatal warnings (one line each, no trailing newline). */
 typedef void (*vdbs_warn_fn)(void *user, const char *message);
+
+/* What a message of a command is (vdbscatter.h). The CLI writes OUTPUT on stdout and the rest
+ * on stderr. */
+typedef enum vdbs_message_kind {
+    VDBS_MESSAGE_OUTPUT = 0,   /* reports (--json), help, tables: the command's stdout */
+    VDBS_MESSAGE_ERROR = 1,    /* the one line naming what stopped the command */
+    VDBS_MESSAGE_WARNING = 2,  /* "vdbscatter: warning: ..." */
+    VDBS_MESSAGE_NOTE = 3,     /* summaries on stderr ("rendered 640x480 ... in 2.1s") */
+    VDBS_MESSAGE_PROGRESS = 4, /* a progress line: starts with '\r', the last ends in '\n' */
+} vdbs_message_kind;
+
+/* Receives each piece of text as it is produced; text holds its own newlines. */
+typedef void (*vdbs_message_fn)(void *user, vdbs_message_kind kind, const char *text);
 
 #ifdef __cplusplus
 }

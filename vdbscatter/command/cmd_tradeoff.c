@@ -9,7 +9,6 @@
 #include <cjson/cJSON.h>
 
 #include "commands.h"
-#include "interrupt.h"
 #include "options.h"
 #include "vdbscatter/quality.h"
 #include "vdbscatter/tradeoff.h"
@@ -50,37 +49,37 @@ static const char help[] =
     "other options:\n"
     "  -o, --output DIR         the folder to write (created)\n"
     "  --backend auto|cpu|gpu   for the bakes and renders (the reference runs on the C "
-    "path)\n" CLI_MAX_MEMORY_HELP
+    "path)\n" VDBS_OPTIONS_MAX_MEMORY_HELP
     "                           (each bake and render; one over it stops the run)\n"
     "  --json                   print the table as JSON on stdout\n"
     "  -q                       no progress, summary or warnings\n";
 
-static const cli_option options[] = {
-    {"-o", CLI_VALUE},
-    {"--output", CLI_VALUE},
-    {"--backend", CLI_VALUE},
-    {"--json", CLI_FLAG},
-    {"-q", CLI_FLAG},
-    {"--scene", CLI_VALUE},
-    {"--grid", CLI_VALUE},
-    {"--density-scale", CLI_VALUE},
-    {"--albedo", CLI_VALUE},
-    {"--g", CLI_VALUE},
-    {"--sun", CLI_VALUE},
-    {"--point", CLI_VALUE},
-    {"--env", CLI_VALUE},
-    {"--camera", CLI_VALUE},
-    {"--methods", CLI_VALUE},
-    {"--qualities", CLI_VALUE},
-    {"--size", CLI_VALUE},
-    {"--ref-noise", CLI_VALUE},
-    {"--ref-time", CLI_VALUE},
-    {"--seed", CLI_VALUE},
-    {"--max-memory", CLI_VALUE},
-    {NULL, CLI_FLAG},
+static const vdbs_arg_option options[] = {
+    {"-o", VDBS_ARG_VALUE},
+    {"--output", VDBS_ARG_VALUE},
+    {"--backend", VDBS_ARG_VALUE},
+    {"--json", VDBS_ARG_FLAG},
+    {"-q", VDBS_ARG_FLAG},
+    {"--scene", VDBS_ARG_VALUE},
+    {"--grid", VDBS_ARG_VALUE},
+    {"--density-scale", VDBS_ARG_VALUE},
+    {"--albedo", VDBS_ARG_VALUE},
+    {"--g", VDBS_ARG_VALUE},
+    {"--sun", VDBS_ARG_LIST},
+    {"--point", VDBS_ARG_LIST},
+    {"--env", VDBS_ARG_LIST},
+    {"--camera", VDBS_ARG_VALUE},
+    {"--methods", VDBS_ARG_VALUE},
+    {"--qualities", VDBS_ARG_VALUE},
+    {"--size", VDBS_ARG_VALUE},
+    {"--ref-noise", VDBS_ARG_VALUE},
+    {"--ref-time", VDBS_ARG_VALUE},
+    {"--seed", VDBS_ARG_VALUE},
+    {"--max-memory", VDBS_ARG_VALUE},
+    {NULL, VDBS_ARG_FLAG},
 };
 
-static const cli_command command = {
+static const vdbs_command_spec command = {
     .name = "tradeoff",
     .options = options,
     .help = help,
@@ -104,16 +103,16 @@ static vdbs_status split_list(const char *flag, const char *text, char *buf, siz
     return VDBS_OK;
 }
 
-static vdbs_status parse(const cli_args *args, vdbs_tradeoff_desc *d, vdbs_camera *camera,
+static vdbs_status parse(const vdbs_options_args *args, vdbs_tradeoff_desc *d, vdbs_camera *camera,
                          char *methods_buf, size_t methods_size, vdbs_error *err)
 {
     vdbs_status st;
     const char *v;
-    if ((v = cli_value(args, "--methods")) &&
+    if ((v = vdbs_options_value(args, "--methods")) &&
         (st = split_list("--methods", v, methods_buf, methods_size, d->methods,
                          VDBS_TRADEOFF_MAX_METHODS, &d->method_count, err)) != VDBS_OK)
         return st;
-    if ((v = cli_value(args, "--qualities"))) {
+    if ((v = vdbs_options_value(args, "--qualities"))) {
         char buf[128];
         const char *names[VDBS_QUALITY_COUNT];
         int n;
@@ -129,40 +128,40 @@ static vdbs_status parse(const cli_args *args, vdbs_tradeoff_desc *d, vdbs_camer
             d->qualities |= 1u << vdbs_quality_level(names[i]);
         }
     }
-    if ((v = cli_value(args, "--size")) &&
-        (st = cli_size(v, &d->width, &d->height, err)) != VDBS_OK)
+    if ((v = vdbs_options_value(args, "--size")) &&
+        (st = vdbs_options_size(v, &d->width, &d->height, err)) != VDBS_OK)
         return st;
-    if ((v = cli_value(args, "--ref-noise"))) {
-        if ((st = cli_number("--ref-noise", v, &d->ref_noise, err)) != VDBS_OK)
+    if ((v = vdbs_options_value(args, "--ref-noise"))) {
+        if ((st = vdbs_options_number("--ref-noise", v, &d->ref_noise, err)) != VDBS_OK)
             return st;
         if (!(d->ref_noise > 0.0 && d->ref_noise < 1.0))
             return vdbs_error_set(err, VDBS_ERR_INPUT, "--ref-noise: expected 0 < E < 1, got '%s'",
                                   v);
     }
-    if ((v = cli_value(args, "--ref-time"))) {
-        if ((st = cli_number("--ref-time", v, &d->ref_seconds, err)) != VDBS_OK)
+    if ((v = vdbs_options_value(args, "--ref-time"))) {
+        if ((st = vdbs_options_number("--ref-time", v, &d->ref_seconds, err)) != VDBS_OK)
             return st;
         if (!(d->ref_seconds > 0.0))
             return vdbs_error_set(err, VDBS_ERR_INPUT, "--ref-time: expected seconds > 0, got '%s'",
                                   v);
     }
-    if ((v = cli_value(args, "--seed"))) {
+    if ((v = vdbs_options_value(args, "--seed"))) {
         long seed;
-        if ((st = cli_integer("--seed", v, 0, 2147483647L, &seed, err)) != VDBS_OK)
+        if ((st = vdbs_options_integer("--seed", v, 0, 2147483647L, &seed, err)) != VDBS_OK)
             return st;
         d->seed = (uint64_t)seed;
     } else {
         d->seed = 1;
     }
-    if ((v = cli_value(args, "--camera"))) {
-        if ((st = cli_camera(v, camera, err)) != VDBS_OK)
+    if ((v = vdbs_options_value(args, "--camera"))) {
+        if ((st = vdbs_options_camera(v, camera, err)) != VDBS_OK)
             return st;
         d->camera = camera;
     }
-    if ((v = cli_value(args, "--backend")) &&
+    if ((v = vdbs_options_value(args, "--backend")) &&
         (st = vdbs_backend_parse(v, &d->backend, err)) != VDBS_OK)
         return st;
-    return cli_max_memory(args, &d->max_memory, err);
+    return vdbs_options_max_memory(args, &d->max_memory, err);
 }
 
 static void print_json(const vdbs_tradeoff_report *rep)
@@ -205,60 +204,65 @@ static void print_json(const vdbs_tradeoff_report *rep)
     cJSON_AddStringToObject(files, "plot", rep->plot);
     cJSON_AddNumberToObject(j, "seconds", rep->seconds_total);
     char *text = cJSON_Print(j);
-    puts(text);
+    vdbs_command_out("%s\n", text);
     free(text);
     cJSON_Delete(j);
 }
 
-int cmd_tradeoff(int argc, char **argv)
+const vdbs_arg_option *vdbs_command_tradeoff_options(void)
 {
-    cli_args args;
+    return options;
+}
+
+int vdbs_command_tradeoff(int argc, char **argv)
+{
+    vdbs_options_args args;
     vdbs_error err;
     vdbs_status st;
-    int opened = cli_open(&command, argc, argv, &args);
-    if (opened != CLI_CONTINUE)
+    int opened = vdbs_command_open(&command, argc, argv, &args);
+    if (opened != VDBS_COMMAND_CONTINUE)
         return opened;
-    const char *out = cli_output(&args);
+    const char *out = vdbs_options_output(&args);
     if (!out)
-        return cli_fail("tradeoff", 2, "missing -o DIR");
+        return vdbs_command_fail("tradeoff", 2, "missing -o DIR");
     vdbs_tradeoff_desc d = {0};
     vdbs_camera camera;
     char methods[512];
     if ((st = parse(&args, &d, &camera, methods, sizeof methods, &err)) != VDBS_OK)
-        return cli_fail("tradeoff", st, err.message);
+        return vdbs_command_fail("tradeoff", st, err.message);
     vdbs_scene *scene = malloc(sizeof *scene);
     if (!scene)
-        return cli_fail("tradeoff", 1, "out of memory");
-    if ((st = cli_build_scene(&args, scene, 0, &err)) != VDBS_OK) {
+        return vdbs_command_fail("tradeoff", 1, "out of memory");
+    if ((st = vdbs_options_build_scene(&args, scene, 0, &err)) != VDBS_OK) {
         free(scene);
-        return cli_fail("tradeoff", st, err.message);
+        return vdbs_command_fail("tradeoff", st, err.message);
     }
     d.input = args.positional_count ? args.positional[0] : scene->volume_file;
     if (!d.input[0]) {
         free(scene);
-        return cli_fail("tradeoff", 2, "no input VDB (give IN.vdb or volume.file in --scene)");
+        return vdbs_command_fail("tradeoff", 2, "no input VDB (give IN.vdb or volume.file in --scene)");
     }
-    int quiet = cli_flag(&args, "-q");
+    int quiet = vdbs_options_flag(&args, "-q");
     d.scene = scene;
     d.dir = out;
-    d.progress = !quiet && isatty(STDERR_FILENO);
-    d.warn = cli_warn;
+    d.progress = !quiet && vdbs_command_progress();
+    d.warn = vdbs_command_warn;
     d.warn_user = &quiet;
-    d.cancel = cli_interrupt_install();
+    d.cancel = vdbs_command_cancel();
     vdbs_tradeoff_report rep;
     st = vdbs_tradeoff_run(&d, &rep, &err);
     free(scene);
     if (st != VDBS_OK) {
         vdbs_tradeoff_report_free(&rep);
-        return st == VDBS_ERR_CANCELLED ? cli_interrupt_status("tradeoff", CLI_EXIT_FAILURE)
-                                        : cli_fail("tradeoff", st, err.message);
+        return st == VDBS_ERR_CANCELLED ? vdbs_command_interrupted("tradeoff", VDBS_EXIT_FAILURE)
+                                        : vdbs_command_fail("tradeoff", st, err.message);
     }
-    if (cli_flag(&args, "--json"))
+    if (vdbs_options_flag(&args, "--json"))
         print_json(&rep);
     else if (!quiet)
-        printf("tradeoff: %d runs against a %d-spp reference (noise %.4f%s) in %.1f s: %s\n",
+        vdbs_command_out("tradeoff: %d runs against a %d-spp reference (noise %.4f%s) in %.1f s: %s\n",
                rep.row_count, rep.reference_spp, rep.reference_noise,
                rep.reference_cached ? ", cached" : "", rep.seconds_total, rep.markdown);
     vdbs_tradeoff_report_free(&rep);
-    return cli_interrupt_status("tradeoff", CLI_EXIT_OK);
+    return vdbs_command_interrupted("tradeoff", VDBS_EXIT_OK);
 }

@@ -1,5 +1,6 @@
 /* vdbscatter bake IN.vdb -o OUT.vdb|OUT.nvdb: light a density volume and write a lit VDB. */
 #define _POSIX_C_SOURCE 200809L
+#include <pthread.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -8,13 +9,12 @@
 
 #include <cjson/cJSON.h>
 
+#include "vdbscatter/message.h"
 #include "vdbscatter/tempfile.h"
 #include "vdbscatter/litvdb.h"
 
 #include "commands.h"
-#include "interrupt.h"
 #include "options.h"
-#include "solver_flags.h"
 #include "vdbscatter/bake.h"
 #include "vdbscatter/plan.h"
 #include "vdbscatter/quality.h"
@@ -64,7 +64,7 @@ static const char help[] =
     "                           (OpenVDB) or FILE.nvdb (NanoVDB, the same grids as float /\n"
     "                           Vec3f, plus FILE.nvdb.json holding the metadata)\n"
     "  --backend auto|cpu|gpu   auto: a hardware GPU if EGL finds one, else the C "
-    "path\n" CLI_S1_HELP
+    "path\n" VDBS_OPTIONS_S1_HELP
     "  --s1-sky-spacing S       sky directions' light-grid spacing in smallest voxel\n"
     "                           lengths (default: by the sky's share of the light, from\n"
     "                           the suns' spacing up to 4; docs/design.md)\n"
@@ -73,28 +73,37 @@ static const char help[] =
     "  --store lights|none      lights (default): also store the optical depth toward every\n"
     "                           light and sky direction, so that renders of the lit VDB\n"
     "                           need no light sweeps (docs/lit-vdb.md); none: radiance and\n"
-    "                           the multiple-scattering grids only\n" CLI_MAX_MEMORY_HELP
+    "                           the multiple-scattering grids only\n" VDBS_OPTIONS_MAX_MEMORY_HELP
     "  --report FILE.json       write timings per stage, parameters, output grids and\n"
     "                           memory (the estimate and each stage's peak)\n"
     "  --json                   print the report as JSON on stdout\n"
     "  -q                       no progress, summary or warnings\n";
 
-static const cli_option own_options[] = {
-    CLI_COMMON_OPTIONS,          {"--from-levelset", CLI_FLAG}, {"--half", CLI_FLAG},
-    {"--report", CLI_VALUE},     {"--method", CLI_VALUE},       {"--keep-state", CLI_FLAG},
-    {"--warm-start", CLI_VALUE}, {"--camera", CLI_VALUE},       {"--store", CLI_VALUE},
-    {"--tolerance", CLI_VALUE},  {"--dry-run", CLI_FLAG},       {"--s1-sky-spacing", CLI_VALUE},
-    {"--max-memory", CLI_VALUE},
+static const vdbs_arg_option own_options[] = {
+    VDBS_OPTIONS_COMMON,          {"--from-levelset", VDBS_ARG_FLAG}, {"--half", VDBS_ARG_FLAG},
+    {"--report", VDBS_ARG_VALUE},     {"--method", VDBS_ARG_VALUE},       {"--keep-state", VDBS_ARG_FLAG},
+    {"--warm-start", VDBS_ARG_VALUE}, {"--camera", VDBS_ARG_VALUE},       {"--store", VDBS_ARG_VALUE},
+    {"--tolerance", VDBS_ARG_VALUE},  {"--dry-run", VDBS_ARG_FLAG},       {"--s1-sky-spacing", VDBS_ARG_VALUE},
+    {"--max-memory", VDBS_ARG_VALUE},
 };
 
-/* bake's options, then every solver's own flags from the solver table. */
-static const cli_option *bake_options(void)
+static vdbs_arg_option all_options[VDBS_OPTIONS_MAX];
+
+static void fill_options(void)
 {
-    static cli_option all[CLI_MAX_OPTIONS];
     const int own = (int)(sizeof own_options / sizeof own_options[0]);
-    memcpy(all, own_options, sizeof own_options);
-    cli_solver_flags_add(all, own, CLI_MAX_OPTIONS);
-    return all;
+    memcpy(all_options, own_options, sizeof own_options);
+    vdbs_options_add_solver_flags(all_options, own, VDBS_OPTIONS_MAX);
+}
+
+/* bake's options, then every solver's own flags from the solver table: built once (commands
+ * may run on several threads), after any solver the program registers before its first
+ * command. */
+const vdbs_arg_option *vdbs_command_bake_options(void)
+{
+    static pthread_once_t once = PTHREAD_ONCE_INIT;
+    pthread_once(&once, fill_options);
+    return all_options;
 }
 
 /* The light grids' sizes and times per kind of light (those with lights). */
@@ -149,14 +158,14 @@ static cJSON *report_json(const char *input, const char *output, const vdbs_scen
     if (r->s1_oversample > 0) {
         cJSON_AddNumberToObject(t, "s1_sweep", r->s1_grids.seconds_sweep);
         cJSON_AddNumberToObject(t, "s1_lookup", r->seconds_s1_lookup);
-        cli_json_light_grids(j, &r->s1_grids);
+        vdbs_options_json_light_grids(j, &r->s1_grids);
         cJSON_AddItemToObject(j, "s1_grids_per_kind", kinds_json(r->s1_kinds));
     }
     const vdbs_solver *solver = vdbs_solver_find(scene->method);
     if (solver)
         vdbs_solver_report_json(solver, scene, vdbs_bake_report_stats(r), t, j);
     double rmax[3] = {r->radiance_max[0], r->radiance_max[1], r->radiance_max[2]};
-    cJSON_AddItemToObject(j, "radiance_max", cli_json_triple(rmax));
+    cJSON_AddItemToObject(j, "radiance_max", vdbs_options_json_triple(rmax));
     const char *grids[] = {"density", "radiance", "ms",           "ms_l1x",
                            "ms_l1y",  "ms_l1z",   "radiance_view"};
     cJSON *names = cJSON_CreateStringArray(grids, scene->camera.present ? 7 : 6);
@@ -169,7 +178,7 @@ static cJSON *report_json(const char *input, const char *output, const vdbs_scen
     cJSON_AddStringToObject(j, "store", r->stored_direct + r->stored_sky ? "lights" : "none");
     const char *const stages[] = {"load", "solve", "write"};
     const int64_t peaks[] = {r->peak_load, r->peak_solve, r->peak_write};
-    cli_json_memory(j, r->memory_limit, r->memory_baseline, &r->memory_estimate, stages, peaks, 3,
+    vdbs_options_json_memory(j, r->memory_limit, r->memory_baseline, &r->memory_estimate, stages, peaks, 3,
                     r->peak_per_stage);
     if (r->planned) {
         char *plan = vdbs_plan_json(&r->plan, &r->plan_features);
@@ -188,11 +197,11 @@ static cJSON *report_json(const char *input, const char *output, const vdbs_scen
 
 /* The report: into --report's file, on stdout with --json, else a summary on stderr unless
  * -q. Returns the exit status (1 when the --report file cannot be written). */
-static int print_report(const cli_args *args, cJSON *j, const vdbs_scene *scene,
+static int print_report(const vdbs_options_args *args, cJSON *j, const vdbs_scene *scene,
                         const vdbs_bake_report *report, const char *out)
 {
-    const char *report_path = cli_value(args, "--report");
-    int status = CLI_EXIT_OK;
+    const char *report_path = vdbs_options_value(args, "--report");
+    int status = VDBS_EXIT_OK;
     if (report_path) {
         char *text = cJSON_Print(j);
         vdbs_text_file file;
@@ -204,114 +213,113 @@ static int print_report(const cli_args *args, cJSON *j, const vdbs_scene *scene,
             st = vdbs_text_commit(&file, &err);
         }
         if (st != VDBS_OK)
-            status = cli_fail("bake", 1, text ? err.message : "out of memory");
+            status = vdbs_command_fail("bake", 1, text ? err.message : "out of memory");
         free(text);
     }
-    if (cli_flag(args, "--json")) {
+    if (vdbs_options_flag(args, "--json")) {
         char *text = cJSON_Print(j);
-        puts(text);
+        vdbs_command_out("%s\n", text);
         free(text);
-    } else if (!cli_flag(args, "-q")) {
-        fprintf(stderr,
-                "baked %llu voxels of '%s' (%s, quality %s) on %s in %.2fs (solve %.2fs) -> %s\n",
+    } else if (!vdbs_options_flag(args, "-q")) {
+        vdbs_message_emitf(VDBS_MESSAGE_NOTE, "baked %llu voxels of '%s' (%s, quality %s) on %s in %.2fs (solve %.2fs) -> %s\n",
                 report->output_voxels, report->grid, scene->method, scene->quality, report->backend,
                 report->seconds_total, report->seconds_solve, out);
         const vdbs_solver *solver = vdbs_solver_find(scene->method);
         if (solver && solver->report_text) {
             char text[256];
             solver->report_text(vdbs_bake_report_stats(report), text, sizeof text);
-            fprintf(stderr, "  %s: %s\n", solver->name, text);
+            vdbs_message_emitf(VDBS_MESSAGE_NOTE, "  %s: %s\n", solver->name, text);
         }
     }
     return status;
 }
 
 /* --dry-run: the plan on stdout, as JSON with --json. */
-static int print_plan(const cli_args *args, const vdbs_bake_report *report)
+static int print_plan(const vdbs_options_args *args, const vdbs_bake_report *report)
 {
     char *text = vdbs_plan_json(&report->plan, &report->plan_features);
     cJSON *plan = text ? cJSON_Parse(text) : NULL;
     free(text);
     if (!plan)
-        return cli_fail("bake", 1, "out of memory");
-    if (cli_flag(args, "--json")) {
+        return vdbs_command_fail("bake", 1, "out of memory");
+    if (vdbs_options_flag(args, "--json")) {
         cJSON *j = cJSON_CreateObject();
         cJSON_AddItemToObject(j, "plan", plan);
         char *out = cJSON_Print(j);
-        puts(out);
+        vdbs_command_out("%s\n", out);
         free(out);
         cJSON_Delete(j);
-        return CLI_EXIT_OK;
+        return VDBS_EXIT_OK;
     }
     const vdbs_plan *p = &report->plan;
     const vdbs_plan_features *f = &report->plan_features;
-    printf("scene: mean optical depth %.3g, albedo %.3g, g %.2f, ms/ss %.2g, %.0f voxels, sky "
+    vdbs_command_out("scene: mean optical depth %.3g, albedo %.3g, g %.2f, ms/ss %.2g, %.0f voxels, sky "
            "share %.2f, point share %.2f\n",
            f->mean_depth, f->albedo, f->g, f->ms_to_ss, f->active_voxels, f->sky_share,
            f->point_share);
-    printf("%-8s %-8s %12s %12s\n", "method", "quality", "pred. error", "cost hint s");
+    vdbs_command_out("%-8s %-8s %12s %12s\n", "method", "quality", "pred. error", "cost hint s");
     int count;
     const vdbs_quality *q = vdbs_quality_list(&count);
     for (int i = 0; i < p->candidate_count; ++i) {
         const vdbs_plan_candidate *c = &p->candidates[i];
-        printf("%-8s %-8s %12.4f %12.2f%s\n", c->method, q[c->quality].name, c->error, c->seconds,
+        vdbs_command_out("%-8s %-8s %12.4f %12.2f%s\n", c->method, q[c->quality].name, c->error, c->seconds,
                strcmp(c->method, p->chosen.method) == 0 && c->quality == p->chosen.quality
                    ? "  <- plan"
                    : "");
     }
     for (int i = 0; i < f->light_count; ++i)
         if (p->skip[i])
-            printf("light %d left out: %.2g of the power\n", i, f->light_share[i]);
+            vdbs_command_out("light %d left out: %.2g of the power\n", i, f->light_share[i]);
     if (p->reachable)
-        printf("plan: --method %s --quality %s, predicted error %.3g (tolerance %g), cost "
+        vdbs_command_out("plan: --method %s --quality %s, predicted error %.3g (tolerance %g), cost "
                "hint %.1f s\n",
                p->chosen.method, q[p->chosen.quality].name, p->chosen.error, p->tolerance,
                p->chosen.seconds);
     else
-        printf("tolerance %g is out of reach: the best predicted is %.3g (--method %s "
+        vdbs_command_out("tolerance %g is out of reach: the best predicted is %.3g (--method %s "
                "--quality %s, cost hint %.1f s)\n",
                p->tolerance, p->chosen.error, p->chosen.method, q[p->chosen.quality].name,
                p->chosen.seconds);
     cJSON_Delete(plan);
-    return CLI_EXIT_OK;
+    return VDBS_EXIT_OK;
 }
 
 /* After the help: the methods and their options, from the solver table. */
 static void print_solver_help(void)
 {
-    cli_solver_help(stdout);
+    vdbs_options_solver_help();
 }
 
-int cmd_bake(int argc, char **argv)
+int vdbs_command_bake(int argc, char **argv)
 {
-    const cli_command command = {"bake", bake_options(),          help, print_solver_help, 0,
+    const vdbs_command_spec command = {"bake", vdbs_command_bake_options(),          help, print_solver_help, 0,
                                  1,      "expected one input VDB"};
-    cli_args args;
+    vdbs_options_args args;
     vdbs_error err;
     vdbs_status st;
-    int opened = cli_open(&command, argc, argv, &args);
-    if (opened != CLI_CONTINUE)
+    int opened = vdbs_command_open(&command, argc, argv, &args);
+    if (opened != VDBS_COMMAND_CONTINUE)
         return opened;
-    const char *out = cli_output(&args);
+    const char *out = vdbs_options_output(&args);
     if (!out)
-        return cli_fail("bake", 2, "missing -o OUT.vdb");
+        return vdbs_command_fail("bake", 2, "missing -o OUT.vdb");
     vdbs_scene scene;
     struct stat out_stat;
     int out_is_dir = stat(out, &out_stat) == 0 && S_ISDIR(out_stat.st_mode);
     /* a folder: the write says so */
-    if (!out_is_dir && !cli_has_extension(out, ".vdb") && !cli_has_extension(out, ".nvdb"))
-        return cli_fail("bake", 2, "-o: expected .vdb or .nvdb");
+    if (!out_is_dir && !vdbs_options_has_extension(out, ".vdb") && !vdbs_options_has_extension(out, ".nvdb"))
+        return vdbs_command_fail("bake", 2, "-o: expected .vdb or .nvdb");
     /* Lights are checked after the input file and grid (vdbs_bake), so that a missing file is
      * not reported as a missing light. */
-    if ((st = cli_build_scene(&args, &scene, 1, &err)) != VDBS_OK)
-        return cli_fail("bake", st, err.message);
-    if ((st = cli_scene_occluders("bake", &args, &scene, cli_flag(&args, "-q"), &err)) != VDBS_OK)
-        return cli_fail("bake", st, err.message);
-    const char *camera = cli_value(&args, "--camera");
+    if ((st = vdbs_options_build_scene(&args, &scene, 1, &err)) != VDBS_OK)
+        return vdbs_command_fail("bake", st, err.message);
+    if ((st = vdbs_options_scene_occluders("bake", &args, &scene, vdbs_options_flag(&args, "-q"), &err)) != VDBS_OK)
+        return vdbs_command_fail("bake", st, err.message);
+    const char *camera = vdbs_options_value(&args, "--camera");
     if (camera) {
         vdbs_camera c;
-        if ((st = cli_camera(camera, &c, &err)) != VDBS_OK)
-            return cli_fail("bake", st, err.message);
+        if ((st = vdbs_options_camera(camera, &c, &err)) != VDBS_OK)
+            return vdbs_command_fail("bake", st, err.message);
         /* The render of the lit VDB frames with it: keep the scene's size, else the render's
          * default. */
         c.width = scene.camera.present ? scene.camera.width : 640;
@@ -321,69 +329,69 @@ int cmd_bake(int argc, char **argv)
     /* IN.vdb overrides the scene file's volume, in the bake and in the scene it records. */
     if (args.positional_count) {
         if (strlen(args.positional[0]) >= sizeof scene.volume_file)
-            return cli_fail("bake", 2, "IN.vdb: the path is too long");
+            return vdbs_command_fail("bake", 2, "IN.vdb: the path is too long");
         snprintf(scene.volume_file, sizeof scene.volume_file, "%s", args.positional[0]);
     }
     const char *input = scene.volume_file;
     if (!input[0])
-        return cli_fail("bake", 2, "no input VDB (give IN.vdb or volume.file in --scene)");
+        return vdbs_command_fail("bake", 2, "no input VDB (give IN.vdb or volume.file in --scene)");
     vdbs_bake_options o = {0};
     o.input = input;
     o.output = out;
     o.scene = &scene;
-    const char *backend = cli_value(&args, "--backend");
+    const char *backend = vdbs_options_value(&args, "--backend");
     if (backend && (st = vdbs_backend_parse(backend, &o.backend, &err)) != VDBS_OK)
-        return cli_fail("bake", st, err.message);
-    int quiet = cli_flag(&args, "-q");
-    if ((st = cli_s1_options(&args, &o.s1_march, &o.s1_oversample, &err)) != VDBS_OK)
-        return cli_fail("bake", st, err.message);
-    const char *sky_spacing = cli_value(&args, "--s1-sky-spacing");
+        return vdbs_command_fail("bake", st, err.message);
+    int quiet = vdbs_options_flag(&args, "-q");
+    if ((st = vdbs_options_s1(&args, &o.s1_march, &o.s1_oversample, &err)) != VDBS_OK)
+        return vdbs_command_fail("bake", st, err.message);
+    const char *sky_spacing = vdbs_options_value(&args, "--s1-sky-spacing");
     if (sky_spacing) {
-        if ((st = cli_number("--s1-sky-spacing", sky_spacing, &o.s1_sky_spacing, &err)) != VDBS_OK)
-            return cli_fail("bake", st, err.message);
+        if ((st = vdbs_options_number("--s1-sky-spacing", sky_spacing, &o.s1_sky_spacing, &err)) != VDBS_OK)
+            return vdbs_command_fail("bake", st, err.message);
         if (!(o.s1_sky_spacing > 0.0 && o.s1_sky_spacing <= 64.0))
-            return cli_fail("bake", 2, "--s1-sky-spacing: expected a number in (0, 64]");
+            return vdbs_command_fail("bake", 2, "--s1-sky-spacing: expected a number in (0, 64]");
     }
-    o.from_levelset = cli_flag(&args, "--from-levelset");
-    o.half = cli_flag(&args, "--half");
-    const char *store = cli_value(&args, "--store");
+    o.from_levelset = vdbs_options_flag(&args, "--from-levelset");
+    o.half = vdbs_options_flag(&args, "--half");
+    const char *store = vdbs_options_value(&args, "--store");
     if (store && strcmp(store, "lights") != 0 && strcmp(store, "none") != 0)
-        return cli_fail("bake", 2, "--store: expected lights or none");
+        return vdbs_command_fail("bake", 2, "--store: expected lights or none");
     o.store = store && strcmp(store, "none") == 0 ? VDBS_STORE_NONE : VDBS_STORE_LIGHTS;
-    const char *method = cli_value(&args, "--method");
-    const char *tolerance = cli_value(&args, "--tolerance");
+    const char *method = vdbs_options_value(&args, "--method");
+    const char *tolerance = vdbs_options_value(&args, "--tolerance");
     int automatic = method && strcmp(method, "auto") == 0;
     if (tolerance && !automatic)
-        return cli_fail("bake", 2, "--tolerance needs --method auto");
-    o.dry_run = cli_flag(&args, "--dry-run");
+        return vdbs_command_fail("bake", 2, "--tolerance needs --method auto");
+    o.dry_run = vdbs_options_flag(&args, "--dry-run");
     if (o.dry_run && !automatic)
-        return cli_fail("bake", 2, "--dry-run needs --method auto");
+        return vdbs_command_fail("bake", 2, "--dry-run needs --method auto");
     if (automatic) {
         o.tolerance = 0.1;
-        if (tolerance && (st = cli_number("--tolerance", tolerance, &o.tolerance, &err)) != VDBS_OK)
-            return cli_fail("bake", st, err.message);
+        if (tolerance && (st = vdbs_options_number("--tolerance", tolerance, &o.tolerance, &err)) != VDBS_OK)
+            return vdbs_command_fail("bake", st, err.message);
         if (!(o.tolerance > 0.0 && o.tolerance < 1.0))
-            return cli_fail("bake", 2, "--tolerance: expected a relative RMSE 0 < E < 1");
+            return vdbs_command_fail("bake", 2, "--tolerance: expected a relative RMSE 0 < E < 1");
     }
-    if ((st = cli_max_memory(&args, &o.max_memory, &err)) != VDBS_OK)
-        return cli_fail("bake", st, err.message);
-    o.keep_state = cli_flag(&args, "--keep-state");
-    o.warm_start = cli_value(&args, "--warm-start");
-    o.progress = !quiet && isatty(STDERR_FILENO);
-    o.warn = cli_warn;
+    if ((st = vdbs_options_max_memory(&args, &o.max_memory, &err)) != VDBS_OK)
+        return vdbs_command_fail("bake", st, err.message);
+    o.keep_state = vdbs_options_flag(&args, "--keep-state");
+    o.warm_start = vdbs_options_value(&args, "--warm-start");
+    o.progress = !quiet && vdbs_command_progress();
+    o.warn = vdbs_command_warn;
     o.warn_user = &quiet;
-    o.cancel = cli_interrupt_install();
+    o.cancel = vdbs_command_cancel();
 
     vdbs_bake_report report;
     if ((st = vdbs_bake(&o, &report, &err)) != VDBS_OK)
-        return st == VDBS_ERR_CANCELLED ? cli_interrupt_status("bake", CLI_EXIT_FAILURE)
-                                        : cli_fail("bake", st, err.message);
+        return st == VDBS_ERR_CANCELLED ? vdbs_command_interrupted("bake", VDBS_EXIT_FAILURE)
+                                        : vdbs_command_fail("bake", st, err.message);
 
     if (o.dry_run)
         return print_plan(&args, &report);
     /* The report's scene is the one baked: the plan's method, quality and lights. */
     if (report.planned && (st = vdbs_plan_apply(&report.plan, &scene, &err)) != VDBS_OK)
-        return cli_fail("bake", st, err.message);
+        return vdbs_command_fail("bake", st, err.message);
     double target_depth = scene.density_target_depth;
     scene.density_scale = report.density_scale; /* as resolved (auto:TAU) */
     scene.density_target_depth = 0.0;
@@ -395,5 +403,5 @@ int cmd_bake(int argc, char **argv)
     cJSON_AddNumberToObject(j, "ms_to_ss_estimate", report.advice.ms_to_ss);
     int status = print_report(&args, j, &scene, &report, out);
     cJSON_Delete(j);
-    return cli_interrupt_status("bake", status); /* a signal after the new file was in place */
+    return vdbs_command_interrupted("bake", status); /* a signal after the new file was in place */
 }

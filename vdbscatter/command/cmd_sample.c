@@ -28,12 +28,12 @@ static const char help[] =
     "  --seed S           noise seed for cloud and smoke (default 1)\n"
     "  -q                 no warnings\n";
 
-static const cli_option options[] = {
-    {"-o", CLI_VALUE},     {"--output", CLI_VALUE}, {"--res", CLI_VALUE},
-    {"--seed", CLI_VALUE}, {"-q", CLI_FLAG},        {NULL, CLI_FLAG},
+static const vdbs_arg_option options[] = {
+    {"-o", VDBS_ARG_VALUE},     {"--output", VDBS_ARG_VALUE}, {"--res", VDBS_ARG_VALUE},
+    {"--seed", VDBS_ARG_VALUE}, {"-q", VDBS_ARG_FLAG},        {NULL, VDBS_ARG_FLAG},
 };
 
-static const cli_command command = {
+static const vdbs_command_spec command = {
     .name = "sample",
     .options = options,
     .help = help,
@@ -42,24 +42,29 @@ static const cli_command command = {
     .positional_error = "expected one sample NAME (cloud, smoke, sphere, slab, cube, sky)",
 };
 
-int cmd_sample(int argc, char **argv)
+const vdbs_arg_option *vdbs_command_sample_options(void)
 {
-    cli_args args;
+    return options;
+}
+
+int vdbs_command_sample(int argc, char **argv)
+{
+    vdbs_options_args args;
     vdbs_error err;
-    int status = cli_open(&command, argc, argv, &args);
-    if (status != CLI_CONTINUE)
+    int status = vdbs_command_open(&command, argc, argv, &args);
+    if (status != VDBS_COMMAND_CONTINUE)
         return status;
-    const char *out = cli_output(&args);
+    const char *out = vdbs_options_output(&args);
     if (!out)
-        return cli_fail("sample", 2, "missing -o OUT.vdb");
+        return vdbs_command_fail("sample", 2, "missing -o OUT.vdb");
     long res = 64, seed = 1;
     const char *v;
-    if ((v = cli_value(&args, "--res")) && cli_integer("--res", v, 1, 1024, &res, &err) != VDBS_OK)
-        return cli_fail("sample", 2, err.message);
-    if ((v = cli_value(&args, "--seed")) &&
-        cli_integer("--seed", v, 0, 4294967295L, &seed, &err) != VDBS_OK)
-        return cli_fail("sample", 2, err.message);
-    int quiet = cli_flag(&args, "-q");
+    if ((v = vdbs_options_value(&args, "--res")) && vdbs_options_integer("--res", v, 1, 1024, &res, &err) != VDBS_OK)
+        return vdbs_command_fail("sample", 2, err.message);
+    if ((v = vdbs_options_value(&args, "--seed")) &&
+        vdbs_options_integer("--seed", v, 0, 4294967295L, &seed, &err) != VDBS_OK)
+        return vdbs_command_fail("sample", 2, err.message);
+    int quiet = vdbs_options_flag(&args, "-q");
 
     if (strcmp(args.positional[0], "sky") == 0) {
         vdbs_image image;
@@ -67,13 +72,13 @@ int cmd_sample(int argc, char **argv)
         if (st == VDBS_OK)
             st = vdbs_image_write(out, &image, 0.0, &err);
         vdbs_image_free(&image);
-        return st == VDBS_OK ? CLI_EXIT_OK : cli_fail("sample", st, err.message);
+        return st == VDBS_OK ? VDBS_EXIT_OK : vdbs_command_fail("sample", st, err.message);
     }
     vdbio_density *density = NULL;
     vdbs_status st =
         vdbs_sample_create(args.positional[0], (int)res, (uint32_t)seed, &density, &err);
     if (st != VDBS_OK)
-        return cli_fail("sample", st, err.message);
+        return vdbs_command_fail("sample", st, err.message);
     char res_text[16], seed_text[16];
     snprintf(res_text, sizeof res_text, "%ld", res);
     snprintf(seed_text, sizeof seed_text, "%ld", seed);
@@ -86,11 +91,11 @@ int cmd_sample(int argc, char **argv)
     request.density = density;
     request.file_meta = meta;
     request.file_meta_count = 3;
-    request.warn = cli_warn;
+    request.warn = vdbs_command_warn;
     request.warn_user = &quiet;
     st = vdbio_write(out, NULL, &request, &err);
     vdbio_density_free(density);
     if (st != VDBS_OK)
-        return cli_fail("sample", st, err.message);
-    return CLI_EXIT_OK;
+        return vdbs_command_fail("sample", st, err.message);
+    return VDBS_EXIT_OK;
 }

@@ -34,14 +34,14 @@ static const char help[] =
     "  --gpu               report the OpenGL device found through EGL (FILE optional)\n"
     "  --json              print JSON on stdout\n";
 
-static const cli_option options[] = {
-    {"--density-scale", CLI_VALUE},
-    {"--grid", CLI_VALUE},
-    {"--json", CLI_FLAG},
-    {"--gpu", CLI_FLAG},
-    {"--from-levelset", CLI_FLAG},
-    {"--target-depth", CLI_VALUE},
-    {NULL, CLI_FLAG},
+static const vdbs_arg_option options[] = {
+    {"--density-scale", VDBS_ARG_VALUE},
+    {"--grid", VDBS_ARG_VALUE},
+    {"--json", VDBS_ARG_FLAG},
+    {"--gpu", VDBS_ARG_FLAG},
+    {"--from-levelset", VDBS_ARG_FLAG},
+    {"--target-depth", VDBS_ARG_VALUE},
+    {NULL, VDBS_ARG_FLAG},
 };
 
 static cJSON *ints3(const int v[3])
@@ -104,27 +104,27 @@ typedef struct info_request {
     vdbs_scene scene; /* --grid */
 } info_request;
 
-static vdbs_status parse_request(const cli_args *args, info_request *r, vdbs_error *err)
+static vdbs_status parse_request(const vdbs_options_args *args, info_request *r, vdbs_error *err)
 {
     vdbs_status st = VDBS_OK;
-    r->want_gpu = cli_flag(args, "--gpu");
-    r->json = cli_flag(args, "--json");
-    r->from_levelset = cli_flag(args, "--from-levelset");
+    r->want_gpu = vdbs_options_flag(args, "--gpu");
+    r->json = vdbs_options_flag(args, "--json");
+    r->from_levelset = vdbs_options_flag(args, "--from-levelset");
     r->scale = 1.0;
-    const char *v = cli_value(args, "--density-scale");
-    if (v && (st = cli_number("--density-scale", v, &r->scale, err)) != VDBS_OK)
+    const char *v = vdbs_options_value(args, "--density-scale");
+    if (v && (st = vdbs_options_number("--density-scale", v, &r->scale, err)) != VDBS_OK)
         return st;
     if (r->scale < 0.0)
         return vdbs_error_set(err, VDBS_ERR_INPUT, "--density-scale must be >= 0");
     r->target = 0.0;
-    if ((v = cli_value(args, "--target-depth"))) {
-        if ((st = cli_number("--target-depth", v, &r->target, err)) != VDBS_OK)
+    if ((v = vdbs_options_value(args, "--target-depth"))) {
+        if ((st = vdbs_options_number("--target-depth", v, &r->target, err)) != VDBS_OK)
             return st;
         if (!(r->target > 0.0))
             return vdbs_error_set(err, VDBS_ERR_INPUT, "--target-depth: expected a depth > 0");
     }
     vdbs_scene_init(&r->scene);
-    if ((v = cli_value(args, "--grid")))
+    if ((v = vdbs_options_value(args, "--grid")))
         st = vdbs_scene_set_grid(&r->scene, v, err);
     return st;
 }
@@ -206,7 +206,7 @@ static vdbs_status file_json(cJSON *root, const char *path, const info_request *
 
 static void print_gpu(const cJSON *gpu)
 {
-    printf("gpu: %s (%s, EGL platform %s, %s)\n", cJSON_GetObjectItem(gpu, "renderer")->valuestring,
+    vdbs_command_out("gpu: %s (%s, EGL platform %s, %s)\n", cJSON_GetObjectItem(gpu, "renderer")->valuestring,
            cJSON_GetObjectItem(gpu, "version")->valuestring,
            cJSON_GetObjectItem(gpu, "platform")->valuestring,
            cJSON_IsTrue(cJSON_GetObjectItem(gpu, "software")) ? "software" : "hardware");
@@ -217,13 +217,13 @@ static void print_grid(const cJSON *g)
     const cJSON *vs = cJSON_GetObjectItem(g, "voxel_size");
     const cJSON *lo = cJSON_GetObjectItem(g, "bbox_min");
     const cJSON *hi = cJSON_GetObjectItem(g, "bbox_max");
-    printf("  %-12s %-6s %-10s voxel %.4g x %.4g x %.4g%s\n",
+    vdbs_command_out("  %-12s %-6s %-10s voxel %.4g x %.4g x %.4g%s\n",
            cJSON_GetObjectItem(g, "name")->valuestring, cJSON_GetObjectItem(g, "type")->valuestring,
            cJSON_GetObjectItem(g, "class")->valuestring, cJSON_GetArrayItem(vs, 0)->valuedouble,
            cJSON_GetArrayItem(vs, 1)->valuedouble, cJSON_GetArrayItem(vs, 2)->valuedouble,
            cJSON_IsTrue(cJSON_GetObjectItem(g, "affine")) ? "" : " (frustum map)");
     if (cJSON_GetObjectItem(g, "active_voxels")->valuedouble > 0)
-        printf("               bbox [%d,%d,%d]->[%d,%d,%d]  active %.0f (tiles %.0f)  "
+        vdbs_command_out("               bbox [%d,%d,%d]->[%d,%d,%d]  active %.0f (tiles %.0f)  "
                "range [%g, %g]  background %g\n",
                cJSON_GetArrayItem(lo, 0)->valueint, cJSON_GetArrayItem(lo, 1)->valueint,
                cJSON_GetArrayItem(lo, 2)->valueint, cJSON_GetArrayItem(hi, 0)->valueint,
@@ -234,11 +234,11 @@ static void print_grid(const cJSON *g)
                cJSON_GetObjectItem(g, "value_max")->valuedouble,
                cJSON_GetObjectItem(g, "background")->valuedouble);
     else
-        printf("               empty\n");
+        vdbs_command_out("               empty\n");
     const cJSON *wlo = cJSON_GetObjectItem(g, "world_min");
     const cJSON *whi = cJSON_GetObjectItem(g, "world_max");
     if (wlo && whi)
-        printf("               world bbox [%.6g,%.6g,%.6g]->[%.6g,%.6g,%.6g]\n",
+        vdbs_command_out("               world bbox [%.6g,%.6g,%.6g]->[%.6g,%.6g,%.6g]\n",
                cJSON_GetArrayItem(wlo, 0)->valuedouble, cJSON_GetArrayItem(wlo, 1)->valuedouble,
                cJSON_GetArrayItem(wlo, 2)->valuedouble, cJSON_GetArrayItem(whi, 0)->valuedouble,
                cJSON_GetArrayItem(whi, 1)->valuedouble, cJSON_GetArrayItem(whi, 2)->valuedouble);
@@ -248,12 +248,12 @@ static void print_thickness(const cJSON *o, const info_request *r)
 {
     const cJSON *na = cJSON_GetObjectItem(o, "unavailable");
     if (na) {
-        printf("optical thickness: unavailable (%s)\n", na->valuestring);
+        vdbs_command_out("optical thickness: unavailable (%s)\n", na->valuestring);
         return;
     }
     const cJSON *mean = cJSON_GetObjectItem(o, "axis_mean");
     const cJSON *max = cJSON_GetObjectItem(o, "axis_max");
-    printf("optical thickness of '%s' at density scale %g:\n"
+    vdbs_command_out("optical thickness of '%s' at density scale %g:\n"
            "  per voxel max %.4g\n"
            "  through the volume along x/y/z: mean %.4g / %.4g / %.4g, max %.4g / "
            "%.4g / %.4g\n",
@@ -262,16 +262,16 @@ static void print_thickness(const cJSON *o, const info_request *r)
            cJSON_GetArrayItem(mean, 0)->valuedouble, cJSON_GetArrayItem(mean, 1)->valuedouble,
            cJSON_GetArrayItem(mean, 2)->valuedouble, cJSON_GetArrayItem(max, 0)->valuedouble,
            cJSON_GetArrayItem(max, 1)->valuedouble, cJSON_GetArrayItem(max, 2)->valuedouble);
-    printf("  mean through the volume %.4g\n", cJSON_GetObjectItem(o, "mean")->valuedouble);
+    vdbs_command_out("  mean through the volume %.4g\n", cJSON_GetObjectItem(o, "mean")->valuedouble);
     const cJSON *fit = cJSON_GetObjectItem(o, "density_scale_for_target");
     if (fit)
-        printf("density scale for a mean optical depth of %g: %.6g "
+        vdbs_command_out("density scale for a mean optical depth of %g: %.6g "
                "(--density-scale auto:%g)\n",
                r->target, fit->valuedouble, r->target);
     else if (r->target > 0.0)
-        printf("density scale for a mean optical depth of %g: none (no density)\n", r->target);
+        vdbs_command_out("density scale for a mean optical depth of %g: none (no density)\n", r->target);
     else if (cJSON_GetObjectItem(o, "mean")->valuedouble > 0.0)
-        printf("clouds look like clouds at a mean optical depth of about 5-20: "
+        vdbs_command_out("clouds look like clouds at a mean optical depth of about 5-20: "
                "--density-scale auto:10 is %.6g here (--target-depth TAU for "
                "another depth)\n",
                10.0 * r->scale / cJSON_GetObjectItem(o, "mean")->valuedouble);
@@ -286,7 +286,7 @@ static void print_text(const cJSON *root, const info_request *r)
     const cJSON *list = cJSON_GetObjectItem(root, "grids");
     if (!list)
         return;
-    printf("%s: %d grid%s\n", cJSON_GetObjectItem(root, "file")->valuestring,
+    vdbs_command_out("%s: %d grid%s\n", cJSON_GetObjectItem(root, "file")->valuestring,
            cJSON_GetArraySize(list), cJSON_GetArraySize(list) == 1 ? "" : "s");
     const cJSON *g;
     cJSON_ArrayForEach(g, list)
@@ -296,7 +296,7 @@ static void print_text(const cJSON *root, const info_request *r)
     print_thickness(cJSON_GetObjectItem(root, "optical_thickness"), r);
 }
 
-static const cli_command command = {
+static const vdbs_command_spec command = {
     .name = "info",
     .options = options,
     .help = help,
@@ -304,41 +304,46 @@ static const cli_command command = {
     .positional_error = "expected one FILE.vdb",
 };
 
-int cmd_info(int argc, char **argv)
+const vdbs_arg_option *vdbs_command_info_options(void)
 {
-    cli_args args;
+    return options;
+}
+
+int vdbs_command_info(int argc, char **argv)
+{
+    vdbs_options_args args;
     vdbs_error err;
     vdbs_status st;
-    int status = cli_open(&command, argc, argv, &args);
-    if (status != CLI_CONTINUE)
+    int status = vdbs_command_open(&command, argc, argv, &args);
+    if (status != VDBS_COMMAND_CONTINUE)
         return status;
-    if (args.positional_count == 0 && !cli_flag(&args, "--gpu")) /* FILE optional with --gpu */
-        return cli_fail("info", 2, command.positional_error);
+    if (args.positional_count == 0 && !vdbs_options_flag(&args, "--gpu")) /* FILE optional with --gpu */
+        return vdbs_command_fail("info", 2, command.positional_error);
     info_request r;
     if ((st = parse_request(&args, &r, &err)) != VDBS_OK)
-        return cli_fail("info", st, err.message);
+        return vdbs_command_fail("info", st, err.message);
 
     cJSON *root = cJSON_CreateObject();
-    status = CLI_EXIT_OK;
+    status = VDBS_EXIT_OK;
     if (r.want_gpu) {
         int ok;
         char message[VDBS_ERROR_MAX];
         cJSON_AddItemToObject(root, "gpu", gpu_json(&ok, message, sizeof message));
         if (!ok && !r.json) {
             cJSON_Delete(root);
-            return cli_fail("info", 1, message);
+            return vdbs_command_fail("info", 1, message);
         }
         if (!ok)
-            status = CLI_EXIT_FAILURE;
+            status = VDBS_EXIT_FAILURE;
     }
     if (args.positional_count == 1 &&
         (st = file_json(root, args.positional[0], &r, &err)) != VDBS_OK) {
         cJSON_Delete(root);
-        return cli_fail("info", st, err.message);
+        return vdbs_command_fail("info", st, err.message);
     }
     if (r.json) {
         char *text = cJSON_Print(root);
-        puts(text);
+        vdbs_command_out("%s\n", text);
         free(text);
     } else {
         print_text(root, &r);

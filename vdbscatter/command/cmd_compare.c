@@ -37,10 +37,10 @@ static const char help[] =
     "  --mask-below V   ignore pixels whose reference luminance\n"
     "                   (0.2126 R + 0.7152 G + 0.0722 B) is below V\n";
 
-static const cli_option options[] = {
-    {"--json", CLI_FLAG},
-    {"--mask-below", CLI_VALUE},
-    {NULL, CLI_FLAG},
+static const vdbs_arg_option options[] = {
+    {"--json", VDBS_ARG_FLAG},
+    {"--mask-below", VDBS_ARG_VALUE},
+    {NULL, VDBS_ARG_FLAG},
 };
 
 typedef struct metric {
@@ -50,7 +50,7 @@ typedef struct metric {
     int integer; /* printed without exponent however large */
 } metric;
 
-static const cli_command command = {
+static const vdbs_command_spec command = {
     .name = "compare",
     .options = options,
     .help = help,
@@ -59,28 +59,33 @@ static const cli_command command = {
     .positional_error = "expected two images: A and the reference B",
 };
 
-int cmd_compare(int argc, char **argv)
+const vdbs_arg_option *vdbs_command_compare_options(void)
 {
-    cli_args args;
+    return options;
+}
+
+int vdbs_command_compare(int argc, char **argv)
+{
+    vdbs_options_args args;
     vdbs_error err;
     vdbs_status st;
-    int status = cli_open(&command, argc, argv, &args);
-    if (status != CLI_CONTINUE)
+    int status = vdbs_command_open(&command, argc, argv, &args);
+    if (status != VDBS_COMMAND_CONTINUE)
         return status;
     double mask_below = 0.0;
-    const char *v = cli_value(&args, "--mask-below");
-    if (v && (st = cli_number("--mask-below", v, &mask_below, &err)) != VDBS_OK)
-        return cli_fail("compare", st, err.message);
+    const char *v = vdbs_options_value(&args, "--mask-below");
+    if (v && (st = vdbs_options_number("--mask-below", v, &mask_below, &err)) != VDBS_OK)
+        return vdbs_command_fail("compare", st, err.message);
     if (mask_below < 0.0)
-        return cli_fail("compare", 2, "--mask-below must be >= 0");
+        return vdbs_command_fail("compare", 2, "--mask-below must be >= 0");
 
     const char *path_a = args.positional[0], *path_b = args.positional[1];
     vdbs_image a, b;
     if ((st = vdbs_image_read(path_a, &a, &err)) != VDBS_OK)
-        return cli_fail("compare", st, err.message);
+        return vdbs_command_fail("compare", st, err.message);
     if ((st = vdbs_image_read(path_b, &b, &err)) != VDBS_OK) {
         vdbs_image_free(&a);
-        return cli_fail("compare", st, err.message);
+        return vdbs_command_fail("compare", st, err.message);
     }
     if (a.width != b.width || a.height != b.height) {
         char message[VDBS_ERROR_MAX + 64];
@@ -88,7 +93,7 @@ int cmd_compare(int argc, char **argv)
                  path_a, a.width, a.height, path_b, b.width, b.height);
         vdbs_image_free(&a);
         vdbs_image_free(&b);
-        return cli_fail("compare", 2, message);
+        return vdbs_command_fail("compare", 2, message);
     }
     vdbs_image_metrics m;
     st = vdbs_image_compare(&a, &b, mask_below, &m, &err);
@@ -96,7 +101,7 @@ int cmd_compare(int argc, char **argv)
     vdbs_image_free(&a);
     vdbs_image_free(&b);
     if (st != VDBS_OK)
-        return cli_fail("compare", st, err.message);
+        return vdbs_command_fail("compare", st, err.message);
 
     const metric list[] = {
         {"relrmse", m.relrmse, 1, 0},
@@ -112,7 +117,7 @@ int cmd_compare(int argc, char **argv)
         {"se_b", m.se_image_b, se_b, 0},
     };
     const size_t count = sizeof list / sizeof list[0];
-    if (cli_flag(&args, "--json")) {
+    if (vdbs_options_flag(&args, "--json")) {
         cJSON *j = cJSON_CreateObject();
         for (size_t i = 0; i < count; ++i) {
             if (!list[i].shown)
@@ -126,15 +131,15 @@ int cmd_compare(int argc, char **argv)
         char *text = cJSON_Print(j);
         cJSON_Delete(j);
         if (!text)
-            return cli_fail("compare", 1, "out of memory printing JSON");
-        puts(text);
+            return vdbs_command_fail("compare", 1, "out of memory printing JSON");
+        vdbs_command_out("%s\n", text);
         free(text);
     } else {
         for (size_t i = 0; i < count; ++i) {
             if (!list[i].shown)
                 continue;
-            printf(list[i].integer ? "%s=%.0f\n" : "%s=%.9g\n", list[i].key, list[i].value);
+            vdbs_command_out(list[i].integer ? "%s=%.0f\n" : "%s=%.9g\n", list[i].key, list[i].value);
         }
     }
-    return fflush(stdout) == 0 ? CLI_EXIT_OK : cli_fail("compare", 1, "cannot write to stdout");
+    return VDBS_EXIT_OK;
 }

@@ -1,12 +1,7 @@
 #define _POSIX_C_SOURCE 200809L
 #include "options.h"
 
-#include "solver_flags.h"
-
-#include "vdbscatter/mesh.h"
-
 #include <cjson/cJSON.h>
-
 #include <ctype.h>
 #include <errno.h>
 #include <math.h>
@@ -14,25 +9,28 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "vdbscatter/mesh.h"
+#include "vdbscatter/message.h"
 #include "vdbscatter/render.h"
 #include "vdbscatter/scene_file.h"
+#include "vdbscatter/solver.h"
 #include "vdbscatter/suggest.h"
 
-static const cli_option *find_option(const cli_option *options, const char *name, size_t len)
+static const vdbs_arg_option *find_option(const vdbs_arg_option *options, const char *name, size_t len)
 {
-    for (const cli_option *o = options; o->name; ++o)
+    for (const vdbs_arg_option *o = options; o->name; ++o)
         if (strlen(o->name) == len && strncmp(o->name, name, len) == 0)
             return o;
     return NULL;
 }
 
 /* "unknown option '--densty-scale' (did you mean --density-scale?)". */
-static vdbs_status unknown_option(const cli_option *options, const char *arg, size_t len,
+static vdbs_status unknown_option(const vdbs_arg_option *options, const char *arg, size_t len,
                                   vdbs_error *err)
 {
-    const char *names[CLI_MAX_OPTIONS + 1];
+    const char *names[VDBS_OPTIONS_MAX + 1];
     int n = 0;
-    for (const cli_option *o = options; o->name && n < CLI_MAX_OPTIONS; ++o)
+    for (const vdbs_arg_option *o = options; o->name && n < VDBS_OPTIONS_MAX; ++o)
         names[n++] = o->name;
     names[n] = NULL;
     char word[128];
@@ -44,7 +42,7 @@ static vdbs_status unknown_option(const cli_option *options, const char *arg, si
     return vdbs_error_set(err, VDBS_ERR_INPUT, "unknown option '%s' (see --help)", word);
 }
 
-vdbs_status cli_parse(int argc, char **argv, const cli_option *options, cli_args *out,
+vdbs_status vdbs_options_parse(int argc, char **argv, const vdbs_arg_option *options, vdbs_options_args *out,
                       vdbs_error *err)
 {
     memset(out, 0, sizeof *out);
@@ -62,14 +60,14 @@ vdbs_status cli_parse(int argc, char **argv, const cli_option *options, cli_args
         }
         const char *eq = strchr(a, '=');
         size_t len = eq ? (size_t)(eq - a) : strlen(a);
-        const cli_option *o = find_option(options, a, len);
+        const vdbs_arg_option *o = find_option(options, a, len);
         if (!o)
             return unknown_option(options, a, len, err);
-        if (out->count == CLI_MAX_ARGS)
+        if (out->count == VDBS_OPTIONS_MAX_ARGS)
             return vdbs_error_set(err, VDBS_ERR_INPUT, "too many options");
-        cli_arg *arg = &out->args[out->count++];
+        vdbs_options_arg *arg = &out->args[out->count++];
         arg->option = o;
-        if (o->kind == CLI_FLAG) {
+        if (o->kind == VDBS_ARG_FLAG) {
             if (eq)
                 return vdbs_error_set(err, VDBS_ERR_INPUT, "%s takes no value", o->name);
             continue;
@@ -85,24 +83,24 @@ vdbs_status cli_parse(int argc, char **argv, const cli_option *options, cli_args
     return VDBS_OK;
 }
 
-int cli_open(const cli_command *command, int argc, char **argv, cli_args *args)
+int vdbs_command_open(const vdbs_command_spec *command, int argc, char **argv, vdbs_options_args *args)
 {
     vdbs_error err;
-    if (cli_parse(argc, argv, command->options, args, &err) != VDBS_OK)
-        return cli_fail(command->name, 2, err.message);
+    if (vdbs_options_parse(argc, argv, command->options, args, &err) != VDBS_OK)
+        return vdbs_command_fail(command->name, 2, err.message);
     if (args->help) {
-        fputs(command->help, stdout);
+        vdbs_command_out("%s", command->help);
         if (command->more_help)
             command->more_help();
-        return CLI_EXIT_OK;
+        return VDBS_EXIT_OK;
     }
     if (args->positional_count < command->min_positional ||
         args->positional_count > command->max_positional)
-        return cli_fail(command->name, 2, command->positional_error);
-    return CLI_CONTINUE;
+        return vdbs_command_fail(command->name, 2, command->positional_error);
+    return VDBS_COMMAND_CONTINUE;
 }
 
-const char *cli_value(const cli_args *args, const char *name)
+const char *vdbs_options_value(const vdbs_options_args *args, const char *name)
 {
     const char *v = NULL;
     for (int i = 0; i < args->count; ++i)
@@ -111,7 +109,7 @@ const char *cli_value(const cli_args *args, const char *name)
     return v;
 }
 
-int cli_flag(const cli_args *args, const char *name)
+int vdbs_options_flag(const vdbs_options_args *args, const char *name)
 {
     for (int i = 0; i < args->count; ++i)
         if (strcmp(args->args[i].option->name, name) == 0)
@@ -119,7 +117,7 @@ int cli_flag(const cli_args *args, const char *name)
     return 0;
 }
 
-const char *cli_output(const cli_args *args)
+const char *vdbs_options_output(const vdbs_options_args *args)
 {
     const char *v = NULL;
     for (int i = 0; i < args->count; ++i) {
@@ -130,7 +128,7 @@ const char *cli_output(const cli_args *args)
     return v;
 }
 
-vdbs_status cli_number(const char *flag, const char *text, double *out, vdbs_error *err)
+vdbs_status vdbs_options_number(const char *flag, const char *text, double *out, vdbs_error *err)
 {
     char *end = NULL;
     errno = 0;
@@ -142,7 +140,7 @@ vdbs_status cli_number(const char *flag, const char *text, double *out, vdbs_err
     return VDBS_OK;
 }
 
-vdbs_status cli_integer(const char *flag, const char *text, long lo, long hi, long *out,
+vdbs_status vdbs_options_integer(const char *flag, const char *text, long lo, long hi, long *out,
                         vdbs_error *err)
 {
     char *end = NULL;
@@ -156,7 +154,7 @@ vdbs_status cli_integer(const char *flag, const char *text, long lo, long hi, lo
     return VDBS_OK;
 }
 
-vdbs_status cli_triple(const char *flag, const char *text, int allow_scalar, double out[3],
+vdbs_status vdbs_options_triple(const char *flag, const char *text, int allow_scalar, double out[3],
                        vdbs_error *err)
 {
     char buf[256];
@@ -166,7 +164,7 @@ vdbs_status cli_triple(const char *flag, const char *text, int allow_scalar, dou
     int n = 0;
     char *save = NULL;
     for (char *tok = strtok_r(buf, ",", &save); tok; tok = strtok_r(NULL, ",", &save)) {
-        if (n == 3 || cli_number(flag, tok, &out[n], NULL) != VDBS_OK)
+        if (n == 3 || vdbs_options_number(flag, tok, &out[n], NULL) != VDBS_OK)
             goto bad;
         ++n;
     }
@@ -193,8 +191,8 @@ static vdbs_status parse_light(const char *flag, const char *text, double xyz[3]
     memcpy(head, text, len);
     head[len] = '\0';
     rgb[0] = rgb[1] = rgb[2] = 1.0;
-    if (cli_triple(flag, head, 0, xyz, NULL) != VDBS_OK ||
-        (colon && cli_triple(flag, colon + 1, 1, rgb, NULL) != VDBS_OK))
+    if (vdbs_options_triple(flag, head, 0, xyz, NULL) != VDBS_OK ||
+        (colon && vdbs_options_triple(flag, colon + 1, 1, rgb, NULL) != VDBS_OK))
         return vdbs_error_set(err, VDBS_ERR_INPUT,
                               "%s: expected X,Y,Z[:R,G,B] with finite numbers, got '%s'", flag,
                               text);
@@ -205,7 +203,7 @@ static vdbs_status parse_light(const char *flag, const char *text, double xyz[3]
 static vdbs_status parse_env(vdbs_scene *scene, vdbs_light *light, const char *text,
                              vdbs_error *err)
 {
-    if (cli_triple("--env", text, 1, light->color, NULL) == VDBS_OK)
+    if (vdbs_options_triple("--env", text, 1, light->color, NULL) == VDBS_OK)
         return VDBS_OK;
     char path[VDBS_PATH_MAX];
     if (strlen(text) >= sizeof path)
@@ -213,7 +211,7 @@ static vdbs_status parse_env(vdbs_scene *scene, vdbs_light *light, const char *t
     strcpy(path, text);
     light->color[0] = light->color[1] = light->color[2] = 1.0;
     char *colon = strrchr(path, ':');
-    if (colon && cli_number("--env", colon + 1, &light->env_scale, NULL) == VDBS_OK) {
+    if (colon && vdbs_options_number("--env", colon + 1, &light->env_scale, NULL) == VDBS_OK) {
         *colon = '\0';
         if (!(light->env_scale >= 0.0))
             return vdbs_error_set(err, VDBS_ERR_INPUT, "--env: the scale must be >= 0, got '%s'",
@@ -246,14 +244,14 @@ static vdbs_status set_density_scale(scene_build *b, const char *name, const cha
 
 static vdbs_status set_albedo(scene_build *b, const char *name, const char *value, vdbs_error *err)
 {
-    vdbs_status st = cli_triple(name, value, 1, b->scene->albedo, err);
+    vdbs_status st = vdbs_options_triple(name, value, 1, b->scene->albedo, err);
     return st == VDBS_OK ? vdbs_check_albedo(name, b->scene->albedo, err) : st;
 }
 
 static vdbs_status set_g(scene_build *b, const char *name, const char *value, vdbs_error *err)
 {
     double x = 0.0;
-    vdbs_status st = cli_number(name, value, &x, err);
+    vdbs_status st = vdbs_options_number(name, value, &x, err);
     if (st == VDBS_OK)
         st = vdbs_check_g(name, x, err);
     b->scene->g = x;
@@ -264,7 +262,7 @@ static vdbs_status set_sky_directions(scene_build *b, const char *name, const ch
                                       vdbs_error *err)
 {
     long k = 0;
-    vdbs_status st = cli_integer(name, value, 1, VDBS_MAX_SKY_DIRECTIONS, &k, err);
+    vdbs_status st = vdbs_options_integer(name, value, 1, VDBS_MAX_SKY_DIRECTIONS, &k, err);
     b->scene->sky_directions = (int)k;
     return st;
 }
@@ -342,7 +340,7 @@ static vdbs_status set_env(scene_build *b, const char *name, const char *value, 
 }
 
 /* The scene flags that every solver shares: how each sets the scene, and which fields of a
- * lit VDB's baked scene it overrides (VDBS_SCENE_SET_*, cli_scene_flags). */
+ * lit VDB's baked scene it overrides (VDBS_SCENE_SET_*, vdbs_options_scene_flags). */
 typedef struct scene_flag {
     const char *name;
     unsigned sets;
@@ -372,12 +370,12 @@ static const scene_flag *find_scene_flag(const char *name)
     return NULL;
 }
 
-vdbs_status cli_build_scene(const cli_args *args, vdbs_scene *scene, int allow_no_lights,
+vdbs_status vdbs_options_build_scene(const vdbs_options_args *args, vdbs_scene *scene, int allow_no_lights,
                             vdbs_error *err)
 {
     vdbs_status st;
     vdbs_scene_init(scene);
-    const char *scene_file = cli_value(args, "--scene");
+    const char *scene_file = vdbs_options_value(args, "--scene");
     if (scene_file && (st = vdbs_scene_load(scene_file, scene, err)) != VDBS_OK)
         return st;
     scene_build b = {scene, 0};
@@ -388,15 +386,15 @@ vdbs_status cli_build_scene(const cli_args *args, vdbs_scene *scene, int allow_n
         const scene_flag *flag = find_scene_flag(name);
         if (flag)
             st = flag->set ? flag->set(&b, name, value, err) : VDBS_OK;
-        else /* a solver's own flag (solver_flags.c), or the command's (-o, --backend, ...) */
-            st = cli_solver_flag(name, value, scene, &handled, err);
+        else /* a solver's own flag (below), or the command's (-o, --backend, ...) */
+            st = vdbs_options_solver_flag(name, value, scene, &handled, err);
         if (st != VDBS_OK)
             return st;
     }
     return vdbs_scene_validate_opt(scene, allow_no_lights, err);
 }
 
-vdbs_status cli_scene_occluders(const char *command, const cli_args *args, const vdbs_scene *scene,
+vdbs_status vdbs_options_scene_occluders(const char *command, const vdbs_options_args *args, const vdbs_scene *scene,
                                 int quiet, vdbs_error *err)
 {
     int count = scene->occluder_count;
@@ -405,7 +403,7 @@ vdbs_status cli_scene_occluders(const char *command, const cli_args *args, const
     vdbs_error inner = {{0}};
     vdbs_status st = vdbs_occluders_check(scene, &inner);
     if (st != VDBS_OK) {
-        const char *file = cli_value(args, "--scene");
+        const char *file = vdbs_options_value(args, "--scene");
         if (file)
             return vdbs_error_set(err, st, "scene %s: %s", file, inner.message);
         return vdbs_error_set(err, st, "scene: %s", inner.message);
@@ -417,35 +415,35 @@ vdbs_status cli_scene_occluders(const char *command, const cli_args *args, const
     snprintf(line, sizeof line, "%s: ignoring %s%s%s of the scene (only vdbscatter-view draws %s)",
              command, occluders, count > 0 && scene->fog.present ? " and " : "",
              scene->fog.present ? "the fog" : "", count + scene->fog.present > 1 ? "them" : "it");
-    cli_warn(&quiet, line);
+    vdbs_command_warn(&quiet, line);
     return VDBS_OK;
 }
 
-int cli_fail(const char *command, int status, const char *message)
+int vdbs_command_fail(const char *command, int status, const char *message)
 {
-    fprintf(stderr, "vdbscatter %s: %s\n", command, message);
-    return status == 2 ? CLI_EXIT_USAGE : CLI_EXIT_FAILURE;
+    vdbs_command_error(command, status, message);
+    return status == 2 ? VDBS_EXIT_USAGE : VDBS_EXIT_FAILURE;
 }
 
-void cli_warn(void *quiet, const char *message)
+void vdbs_command_warn(void *quiet, const char *message)
 {
     if (quiet && *(const int *)quiet)
         return;
-    fprintf(stderr, "vdbscatter: warning: %s\n", message);
+    vdbs_message_emitf(VDBS_MESSAGE_WARNING, "vdbscatter: warning: %s\n", message);
 }
 
-vdbs_status cli_s1_options(const cli_args *args, int *march, int *oversample, vdbs_error *err)
+vdbs_status vdbs_options_s1(const vdbs_options_args *args, int *march, int *oversample, vdbs_error *err)
 {
     *march = 0;
     *oversample = 0;
-    const char *s1 = cli_value(args, "--s1");
+    const char *s1 = vdbs_options_value(args, "--s1");
     if (s1 && strcmp(s1, "grid") != 0 && strcmp(s1, "march") != 0)
         return vdbs_error_set(err, VDBS_ERR_INPUT, "--s1: expected grid or march, got '%s'", s1);
     *march = s1 && strcmp(s1, "march") == 0;
-    const char *text = cli_value(args, "--s1-oversample");
+    const char *text = vdbs_options_value(args, "--s1-oversample");
     long f = 0;
     if (text) {
-        vdbs_status st = cli_integer("--s1-oversample", text, 1, 16, &f, err);
+        vdbs_status st = vdbs_options_integer("--s1-oversample", text, 1, 16, &f, err);
         if (st != VDBS_OK)
             return st;
         *oversample = (int)f;
@@ -453,10 +451,10 @@ vdbs_status cli_s1_options(const cli_args *args, int *march, int *oversample, vd
     return VDBS_OK;
 }
 
-vdbs_status cli_max_memory(const cli_args *args, int64_t *bytes, vdbs_error *err)
+vdbs_status vdbs_options_max_memory(const vdbs_options_args *args, int64_t *bytes, vdbs_error *err)
 {
     *bytes = 0;
-    const char *text = cli_value(args, "--max-memory");
+    const char *text = vdbs_options_value(args, "--max-memory");
     if (!text)
         return VDBS_OK;
     if (strcmp(text, "none") == 0) {
@@ -466,7 +464,7 @@ vdbs_status cli_max_memory(const cli_args *args, int64_t *bytes, vdbs_error *err
     return vdbs_memory_parse("--max-memory", text, bytes, err);
 }
 
-void cli_json_memory(cJSON *j, int64_t limit, int64_t baseline,
+void vdbs_options_json_memory(cJSON *j, int64_t limit, int64_t baseline,
                      const vdbs_memory_estimate *estimate, const char *const stages[],
                      const int64_t peaks[], int stage_count, int per_stage)
 {
@@ -486,12 +484,12 @@ void cli_json_memory(cJSON *j, int64_t limit, int64_t baseline,
     cJSON_AddBoolToObject(m, "peak_per_stage", per_stage);
 }
 
-cJSON *cli_json_triple(const double v[3])
+cJSON *vdbs_options_json_triple(const double v[3])
 {
     return cJSON_CreateDoubleArray(v, 3);
 }
 
-void cli_json_light_grids(cJSON *j, const vdbs_light_grid_stats *stats)
+void vdbs_options_json_light_grids(cJSON *j, const vdbs_light_grid_stats *stats)
 {
     cJSON *lg = cJSON_AddObjectToObject(j, "light_grids");
     cJSON_AddNumberToObject(lg, "cells", (double)stats->cells);
@@ -501,7 +499,7 @@ void cli_json_light_grids(cJSON *j, const vdbs_light_grid_stats *stats)
 }
 
 /* "PX,PY,PZ:TX,TY,TZ:FOV"; up is +Y unless the view is vertical. */
-vdbs_status cli_camera(const char *text, vdbs_camera *camera, vdbs_error *err)
+vdbs_status vdbs_options_camera(const char *text, vdbs_camera *camera, vdbs_error *err)
 {
     char buf[512];
     if (strlen(text) >= sizeof buf)
@@ -519,9 +517,9 @@ vdbs_status cli_camera(const char *text, vdbs_camera *camera, vdbs_error *err)
         p = colon + 1;
     }
     memset(camera, 0, sizeof *camera);
-    if (n != 3 || cli_triple("--camera", parts[0], 0, camera->position, NULL) != VDBS_OK ||
-        cli_triple("--camera", parts[1], 0, camera->target, NULL) != VDBS_OK ||
-        cli_number("--camera", parts[2], &camera->fov_deg, NULL) != VDBS_OK)
+    if (n != 3 || vdbs_options_triple("--camera", parts[0], 0, camera->position, NULL) != VDBS_OK ||
+        vdbs_options_triple("--camera", parts[1], 0, camera->target, NULL) != VDBS_OK ||
+        vdbs_options_number("--camera", parts[2], &camera->fov_deg, NULL) != VDBS_OK)
         return vdbs_error_set(err, VDBS_ERR_INPUT,
                               "--camera: expected PX,PY,PZ:TX,TY,TZ:FOV_DEG, got '%s'", text);
     if (!(camera->fov_deg > 0.0 && camera->fov_deg < 180.0))
@@ -545,7 +543,7 @@ vdbs_status cli_camera(const char *text, vdbs_camera *camera, vdbs_error *err)
     return VDBS_OK;
 }
 
-vdbs_status cli_size(const char *text, int *width, int *height, vdbs_error *err)
+vdbs_status vdbs_options_size(const char *text, int *width, int *height, vdbs_error *err)
 {
     char *end = NULL;
     errno = 0;
@@ -564,7 +562,7 @@ vdbs_status cli_size(const char *text, int *width, int *height, vdbs_error *err)
                           "--size: expected WxH with integers in [1, 16384], got '%s'", text);
 }
 
-unsigned cli_scene_flags(const cli_args *args)
+unsigned vdbs_options_scene_flags(const vdbs_options_args *args)
 {
     unsigned set = 0;
     for (int i = 0; i < args->count; ++i) {
@@ -575,7 +573,7 @@ unsigned cli_scene_flags(const cli_args *args)
     return set;
 }
 
-int cli_has_extension(const char *path, const char *ext)
+int vdbs_options_has_extension(const char *path, const char *ext)
 {
     size_t n = strlen(path), e = strlen(ext);
     if (n <= e)
@@ -584,4 +582,68 @@ int cli_has_extension(const char *path, const char *ext)
         if (tolower((unsigned char)path[n - e + i]) != tolower((unsigned char)ext[i]))
             return 0;
     return path[n - e - 1] != '/';
+}
+
+/* The solvers' own flags, from the library's solver table. */
+
+int vdbs_options_add_solver_flags(vdbs_arg_option *options, int count, int max)
+{
+    const vdbs_solver *s;
+    for (int m = 0; (s = vdbs_solver_at(m)) != NULL; ++m)
+        for (int i = 0; i < s->option_count && count + 1 < max; ++i)
+            options[count++] =
+                (vdbs_arg_option){s->options[i].flag, s->options[i].syntax ? VDBS_ARG_VALUE : VDBS_ARG_FLAG};
+    options[count] = (vdbs_arg_option){NULL, VDBS_ARG_FLAG};
+    return count;
+}
+
+vdbs_status vdbs_options_solver_flag(const char *name, const char *value, vdbs_scene *scene, int *handled,
+                            vdbs_error *err)
+{
+    const vdbs_solver_option *o = vdbs_solver_option_by_flag(name, NULL);
+    *handled = o != NULL;
+    if (!o)
+        return VDBS_OK;
+    if (!o->syntax) /* a flag without a value selects choice 1 */
+        return vdbs_solver_option_set(scene, o, name, 1, err);
+    if (o->kind == VDBS_OPTION_CHOICE)
+        return vdbs_solver_option_choose(scene, o, name, value, err);
+    vdbs_status st;
+    if (o->kind == VDBS_OPTION_NUMBER) {
+        double x = 0.0;
+        if ((st = vdbs_options_number(name, value, &x, err)) != VDBS_OK)
+            return st;
+        if (!(x > o->min && x < o->max))
+            return vdbs_error_set(err, VDBS_ERR_INPUT, "%s: expected a number in (%g, %g), got %s",
+                                  name, o->min, o->max, value);
+        return vdbs_solver_option_set(scene, o, name, x, err);
+    }
+    long k = 0;
+    if ((st = vdbs_options_integer(name, value, (long)o->min, (long)o->max, &k, err)) != VDBS_OK)
+        return st;
+    if (o->even && k % 2 != 0)
+        return vdbs_error_set(err, VDBS_ERR_INPUT, "%s: expected an even count (%s), got %ld", name,
+                              o->even, k);
+    return vdbs_solver_option_set(scene, o, name, (double)k, err);
+}
+
+void vdbs_options_solver_help(void)
+{
+    const vdbs_solver *s;
+    vdbs_command_out("\nmethods (--method):\n");
+    for (int m = 0; (s = vdbs_solver_at(m)) != NULL; ++m)
+        vdbs_command_out("  %-24s %s\n", s->name, s->summary);
+    for (int m = 0; (s = vdbs_solver_at(m)) != NULL; ++m) {
+        if (s->option_count == 0)
+            continue;
+        vdbs_command_out("\n%s options (scene file keys solver.", s->name);
+        for (int i = 0; i < s->option_count; ++i)
+            vdbs_command_out("%s%s", i ? ", " : "", s->options[i].key);
+        vdbs_command_out("):\n");
+        for (int i = 0; i < s->option_count; ++i) {
+            char text[1024];
+            vdbs_solver_option_help(&s->options[i], text, sizeof text);
+            vdbs_command_out("%s", text);
+        }
+    }
 }

@@ -28,12 +28,12 @@ static const char help[] =
     "  --json              print {\"g\", \"directions\", \"delta_m_f\", \"g_scaled\", \"rows\":\n"
     "                      [{\"terms\", \"rmse\"}, ...]}\n";
 
-static const cli_option options[] = {
-    {"--g", CLI_VALUE}, {"--directions", CLI_VALUE}, {"--delta-m", CLI_VALUE}, {"--json", CLI_FLAG},
-    {NULL, CLI_FLAG},
+static const vdbs_arg_option options[] = {
+    {"--g", VDBS_ARG_VALUE}, {"--directions", VDBS_ARG_VALUE}, {"--delta-m", VDBS_ARG_VALUE}, {"--json", VDBS_ARG_FLAG},
+    {NULL, VDBS_ARG_FLAG},
 };
 
-static const cli_command command = {
+static const vdbs_command_spec command = {
     .name = "phase-svd",
     .options = options,
     .help = help,
@@ -41,23 +41,28 @@ static const cli_command command = {
     .positional_error = "takes no positional arguments",
 };
 
-int cmd_phase_svd(int argc, char **argv)
+const vdbs_arg_option *vdbs_command_phase_svd_options(void)
 {
-    cli_args args;
+    return options;
+}
+
+int vdbs_command_phase_svd(int argc, char **argv)
+{
+    vdbs_options_args args;
     vdbs_error err;
-    int status = cli_open(&command, argc, argv, &args);
-    if (status != CLI_CONTINUE)
+    int status = vdbs_command_open(&command, argc, argv, &args);
+    if (status != VDBS_COMMAND_CONTINUE)
         return status;
-    const char *gv = cli_value(&args, "--g"), *dv = cli_value(&args, "--directions");
+    const char *gv = vdbs_options_value(&args, "--g"), *dv = vdbs_options_value(&args, "--directions");
     if (!gv || !dv)
-        return cli_fail("phase-svd", 2, "--g and --directions are required");
+        return vdbs_command_fail("phase-svd", 2, "--g and --directions are required");
     double g = 0.0;
     long d = 0;
     vdbs_phasemat_desc desc = {0};
-    if (cli_number("--g", gv, &g, &err) != VDBS_OK ||
-        cli_integer("--directions", dv, 2, VDBS_PHASEMAT_MAX_DIRECTIONS, &d, &err) != VDBS_OK)
-        return cli_fail("phase-svd", 2, err.message);
-    const char *mode = cli_value(&args, "--delta-m");
+    if (vdbs_options_number("--g", gv, &g, &err) != VDBS_OK ||
+        vdbs_options_integer("--directions", dv, 2, VDBS_PHASEMAT_MAX_DIRECTIONS, &d, &err) != VDBS_OK)
+        return vdbs_command_fail("phase-svd", 2, err.message);
+    const char *mode = vdbs_options_value(&args, "--delta-m");
     if (mode) {
         static const char *const names[3] = {"off", "auto", "on"};
         int found = 0;
@@ -67,15 +72,15 @@ int cmd_phase_svd(int argc, char **argv)
                 found = 1;
             }
         if (!found)
-            return cli_fail("phase-svd", 2, "--delta-m: expected auto, on or off");
+            return vdbs_command_fail("phase-svd", 2, "--delta-m: expected auto, on or off");
     }
     desc.directions = (int)d;
     desc.g = g;
     vdbs_phasemat m;
     vdbs_status st = vdbs_phasemat_build(&desc, &m, &err);
     if (st != VDBS_OK)
-        return cli_fail("phase-svd", st, err.message);
-    if (cli_flag(&args, "--json")) {
+        return vdbs_command_fail("phase-svd", st, err.message);
+    if (vdbs_options_flag(&args, "--json")) {
         cJSON *j = cJSON_CreateObject(), *rows = NULL;
         cJSON_AddNumberToObject(j, "g", g);
         cJSON_AddNumberToObject(j, "directions", (double)d);
@@ -89,14 +94,14 @@ int cmd_phase_svd(int argc, char **argv)
             cJSON_AddItemToArray(rows, row);
         }
         char *text = cJSON_PrintUnformatted(j);
-        puts(text);
+        vdbs_command_out("%s\n", text);
         cJSON_free(text);
         cJSON_Delete(j);
     } else {
-        printf("g %g, %ld directions, delta-M f %g (g* %g)\nterms rmse\n", g, d, m.f, m.g_scaled);
+        vdbs_command_out("g %g, %ld directions, delta-M f %g (g* %g)\nterms rmse\n", g, d, m.f, m.g_scaled);
         for (int n = 1; n <= m.d; ++n)
-            printf("%d %.6g\n", n, vdbs_phasemat_rmse(&m, n));
+            vdbs_command_out("%d %.6g\n", n, vdbs_phasemat_rmse(&m, n));
     }
     vdbs_phasemat_free(&m);
-    return CLI_EXIT_OK;
+    return VDBS_EXIT_OK;
 }

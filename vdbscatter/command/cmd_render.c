@@ -10,8 +10,8 @@
 #include <cjson/cJSON.h>
 
 #include "commands.h"
-#include "interrupt.h"
 #include "options.h"
+#include "vdbscatter/message.h"
 #include "vdbscatter/runner.h"
 #include "vdbscatter/render.h"
 #include "vdbscatter/scene.h"
@@ -76,19 +76,19 @@ static const char help[] =
     "                           as given (the flags above on top of the baked ones); Sms\n"
     "                           stays as baked\n"
     "  --backend auto|cpu|gpu   single/baked: auto = a hardware GPU if EGL finds one, else\n"
-    "                           the C path; reference always runs on the C path\n" CLI_S1_HELP
+    "                           the C path; reference always runs on the C path\n" VDBS_OPTIONS_S1_HELP
     "  --exposure EV            PNG only: scale by 2^EV before the sRGB "
-    "encoding\n" CLI_MAX_MEMORY_HELP
+    "encoding\n" VDBS_OPTIONS_MAX_MEMORY_HELP
     "  --json                   print a summary as JSON on stdout (memory: the estimate\n"
     "                           and each stage's peak)\n"
     "  -q                       no progress, summary or warnings\n";
 
-static const cli_option options[] = {
-    CLI_COMMON_OPTIONS,          {"--camera", CLI_VALUE},    {"--size", CLI_VALUE},
-    {"--mode", CLI_VALUE},       {"--exposure", CLI_VALUE},  {"--spp", CLI_VALUE},
-    {"--time", CLI_VALUE},       {"--tolerance", CLI_VALUE}, {"--max-bounces", CLI_VALUE},
-    {"--seed", CLI_VALUE},       {"--env-nee", CLI_VALUE},   {"--relight", CLI_FLAG},
-    {"--max-memory", CLI_VALUE}, {NULL, CLI_FLAG},
+static const vdbs_arg_option options[] = {
+    VDBS_OPTIONS_COMMON,          {"--camera", VDBS_ARG_VALUE},    {"--size", VDBS_ARG_VALUE},
+    {"--mode", VDBS_ARG_VALUE},       {"--exposure", VDBS_ARG_VALUE},  {"--spp", VDBS_ARG_VALUE},
+    {"--time", VDBS_ARG_VALUE},       {"--tolerance", VDBS_ARG_VALUE}, {"--max-bounces", VDBS_ARG_VALUE},
+    {"--seed", VDBS_ARG_VALUE},       {"--env-nee", VDBS_ARG_VALUE},   {"--relight", VDBS_ARG_FLAG},
+    {"--max-memory", VDBS_ARG_VALUE}, {NULL, VDBS_ARG_FLAG},
 };
 
 typedef struct render_args {
@@ -113,18 +113,18 @@ static int has_suffix(const char *path, const char *suffix)
     return n > m && strcasecmp(path + n - m, suffix) == 0;
 }
 
-static vdbs_status parse_args(const cli_args *args, render_args *r, vdbs_error *err)
+static vdbs_status parse_args(const vdbs_options_args *args, render_args *r, vdbs_error *err)
 {
     vdbs_status st;
     memset(r, 0, sizeof *r);
-    r->output = cli_output(args);
-    if (!r->output)
+    r->output = vdbs_options_output(args);
+    if (!r->output && !vdbs_command_keeps_image()) /* a binding may take the picture instead */
         return vdbs_error_set(err, VDBS_ERR_INPUT, "missing -o IMAGE.exr or IMAGE.png");
-    if (!has_suffix(r->output, ".exr") && !has_suffix(r->output, ".png"))
+    if (r->output && !has_suffix(r->output, ".exr") && !has_suffix(r->output, ".png"))
         return vdbs_error_set(err, VDBS_ERR_INPUT,
                               "-o: unsupported image type '%s' (use .exr or .png)", r->output);
     const char *v;
-    if ((v = cli_value(args, "--mode"))) {
+    if ((v = vdbs_options_value(args, "--mode"))) {
         for (int m = VDBS_RENDER_SINGLE; m <= VDBS_RENDER_REFERENCE; ++m)
             if (strcmp(v, vdbs_render_mode_name((vdbs_render_mode)m)) == 0)
                 r->mode = (vdbs_render_mode)m;
@@ -132,38 +132,38 @@ static vdbs_status parse_args(const cli_args *args, render_args *r, vdbs_error *
             return vdbs_error_set(err, VDBS_ERR_INPUT,
                                   "--mode: expected single, baked or reference, got '%s'", v);
     }
-    if ((v = cli_value(args, "--backend"))) {
+    if ((v = vdbs_options_value(args, "--backend"))) {
         if ((st = vdbs_backend_parse(v, &r->backend, err)) != VDBS_OK)
             return st;
     }
-    if ((st = cli_s1_options(args, &r->s1_march, &r->s1_oversample, err)) != VDBS_OK)
+    if ((st = vdbs_options_s1(args, &r->s1_march, &r->s1_oversample, err)) != VDBS_OK)
         return st;
-    if ((v = cli_value(args, "--exposure")) &&
-        (st = cli_number("--exposure", v, &r->exposure, err)) != VDBS_OK)
+    if ((v = vdbs_options_value(args, "--exposure")) &&
+        (st = vdbs_options_number("--exposure", v, &r->exposure, err)) != VDBS_OK)
         return st;
-    if ((v = cli_value(args, "--size"))) {
-        if ((st = cli_size(v, &r->width, &r->height, err)) != VDBS_OK)
+    if ((v = vdbs_options_value(args, "--size"))) {
+        if ((st = vdbs_options_size(v, &r->width, &r->height, err)) != VDBS_OK)
             return st;
         r->size_given = 1;
     }
-    if ((v = cli_value(args, "--camera")) && (st = cli_camera(v, &r->camera, err)) != VDBS_OK)
+    if ((v = vdbs_options_value(args, "--camera")) && (st = vdbs_options_camera(v, &r->camera, err)) != VDBS_OK)
         return st;
     r->spp = 64;
-    if ((v = cli_value(args, "--spp"))) {
-        if ((st = cli_integer("--spp", v, 1, 1000000000L, &r->spp, err)) != VDBS_OK)
+    if ((v = vdbs_options_value(args, "--spp"))) {
+        if ((st = vdbs_options_integer("--spp", v, 1, 1000000000L, &r->spp, err)) != VDBS_OK)
             return st;
         r->spp_given = 1;
     }
-    if ((v = cli_value(args, "--time"))) {
-        if ((st = cli_number("--time", v, &r->time_limit, err)) != VDBS_OK)
+    if ((v = vdbs_options_value(args, "--time"))) {
+        if ((st = vdbs_options_number("--time", v, &r->time_limit, err)) != VDBS_OK)
             return st;
         if (!(r->time_limit > 0.0))
             return vdbs_error_set(err, VDBS_ERR_INPUT, "--time: expected seconds > 0, got '%s'", v);
         if (!r->spp_given)
             r->spp = 4;
     }
-    if ((v = cli_value(args, "--tolerance"))) {
-        if ((st = cli_number("--tolerance", v, &r->tolerance, err)) != VDBS_OK)
+    if ((v = vdbs_options_value(args, "--tolerance"))) {
+        if ((st = vdbs_options_number("--tolerance", v, &r->tolerance, err)) != VDBS_OK)
             return st;
         if (!(r->tolerance > 0.0 && r->tolerance < 1.0))
             return vdbs_error_set(err, VDBS_ERR_INPUT,
@@ -171,13 +171,13 @@ static vdbs_status parse_args(const cli_args *args, render_args *r, vdbs_error *
         if (!r->spp_given)
             r->spp = 16;
     }
-    r->relight = cli_flag(args, "--relight");
+    r->relight = vdbs_options_flag(args, "--relight");
     r->max_bounces = 1000;
-    if ((v = cli_value(args, "--max-bounces")) &&
-        (st = cli_integer("--max-bounces", v, 1, 1000000000L, &r->max_bounces, err)) != VDBS_OK)
+    if ((v = vdbs_options_value(args, "--max-bounces")) &&
+        (st = vdbs_options_integer("--max-bounces", v, 1, 1000000000L, &r->max_bounces, err)) != VDBS_OK)
         return st;
     r->seed = 1;
-    if ((v = cli_value(args, "--seed"))) {
+    if ((v = vdbs_options_value(args, "--seed"))) {
         char *end = NULL;
         errno = 0;
         unsigned long long s = strtoull(v, &end, 10);
@@ -186,7 +186,7 @@ static vdbs_status parse_args(const cli_args *args, render_args *r, vdbs_error *
                                   "--seed: expected a non-negative integer, got '%s'", v);
         r->seed = s;
     }
-    if ((v = cli_value(args, "--env-nee"))) {
+    if ((v = vdbs_options_value(args, "--env-nee"))) {
         if (strcmp(v, "on") != 0 && strcmp(v, "off") != 0)
             return vdbs_error_set(err, VDBS_ERR_INPUT, "--env-nee: expected on or off, got '%s'",
                                   v);
@@ -199,14 +199,17 @@ static void warn_line(int quiet, const char *fmt, const char *arg)
 {
     char line[512];
     snprintf(line, sizeof line, fmt, arg);
-    cli_warn(&quiet, line);
+    vdbs_command_warn(&quiet, line);
 }
 
 static void print_json(const char *input, const render_args *r, const vdbs_render_report *rep)
 {
     cJSON *j = cJSON_CreateObject();
     cJSON_AddStringToObject(j, "input", input);
-    cJSON_AddStringToObject(j, "output", r->output);
+    if (r->output)
+        cJSON_AddStringToObject(j, "output", r->output);
+    else
+        cJSON_AddNullToObject(j, "output");
     cJSON_AddStringToObject(j, "grid", rep->grid);
     cJSON_AddStringToObject(j, "mode", rep->mode);
     cJSON_AddStringToObject(j, "backend", rep->backend);
@@ -228,9 +231,9 @@ static void print_json(const char *input, const render_args *r, const vdbs_rende
     }
     cJSON_AddNumberToObject(j, "exposure", r->exposure);
     cJSON *c = cJSON_AddObjectToObject(j, "camera");
-    cJSON_AddItemToObject(c, "position", cli_json_triple(rep->camera.position));
-    cJSON_AddItemToObject(c, "target", cli_json_triple(rep->camera.target));
-    cJSON_AddItemToObject(c, "up", cli_json_triple(rep->camera_up));
+    cJSON_AddItemToObject(c, "position", vdbs_options_json_triple(rep->camera.position));
+    cJSON_AddItemToObject(c, "target", vdbs_options_json_triple(rep->camera.target));
+    cJSON_AddItemToObject(c, "up", vdbs_options_json_triple(rep->camera_up));
     cJSON_AddNumberToObject(c, "fov_deg", rep->camera.fov_deg);
     cJSON *t = cJSON_AddObjectToObject(j, "seconds");
     cJSON_AddNumberToObject(t, "load", rep->seconds_load);
@@ -243,21 +246,21 @@ static void print_json(const char *input, const render_args *r, const vdbs_rende
         if (rep->s1_oversample > 0) {
             cJSON_AddNumberToObject(j, "s1_oversample", rep->s1_oversample);
             cJSON_AddNumberToObject(t, "s1_sweep", rep->march_stats.grids.seconds_sweep);
-            cli_json_light_grids(j, &rep->march_stats.grids);
+            vdbs_options_json_light_grids(j, &rep->march_stats.grids);
         }
         cJSON_AddNumberToObject(t, "march", rep->march_stats.seconds_march);
     }
     const char *const stages[] = {"load", "render", "write"};
     const int64_t peaks[] = {rep->peak_load, rep->peak_render, rep->peak_write};
-    cli_json_memory(j, rep->memory_limit, rep->memory_baseline, &rep->memory_estimate, stages,
+    vdbs_options_json_memory(j, rep->memory_limit, rep->memory_baseline, &rep->memory_estimate, stages,
                     peaks, 3, rep->peak_per_stage);
     char *text = cJSON_Print(j);
-    puts(text);
+    vdbs_command_out("%s\n", text);
     free(text);
     cJSON_Delete(j);
 }
 
-static const cli_command command = {
+static const vdbs_command_spec command = {
     .name = "render",
     .options = options,
     .help = help,
@@ -265,47 +268,52 @@ static const cli_command command = {
     .positional_error = "expected one input VDB",
 };
 
-int cmd_render(int argc, char **argv)
+const vdbs_arg_option *vdbs_command_render_options(void)
 {
-    cli_args args;
+    return options;
+}
+
+int vdbs_command_render(int argc, char **argv)
+{
+    vdbs_options_args args;
     vdbs_error err;
     vdbs_status st;
-    int status = cli_open(&command, argc, argv, &args);
-    if (status != CLI_CONTINUE)
+    int status = vdbs_command_open(&command, argc, argv, &args);
+    if (status != VDBS_COMMAND_CONTINUE)
         return status;
     render_args r;
     if ((st = parse_args(&args, &r, &err)) != VDBS_OK)
-        return cli_fail("render", st, err.message);
-    int quiet = cli_flag(&args, "-q");
+        return vdbs_command_fail("render", st, err.message);
+    int quiet = vdbs_options_flag(&args, "-q");
     vdbs_scene *scene = malloc(sizeof *scene);
     if (!scene)
-        return cli_fail("render", 1, "out of memory");
-    if ((st = cli_build_scene(&args, scene, 1, &err)) != VDBS_OK) {
+        return vdbs_command_fail("render", 1, "out of memory");
+    if ((st = vdbs_options_build_scene(&args, scene, 1, &err)) != VDBS_OK) {
         free(scene);
-        return cli_fail("render", st, err.message);
+        return vdbs_command_fail("render", st, err.message);
     }
-    if ((st = cli_scene_occluders("render", &args, scene, quiet, &err)) != VDBS_OK) {
+    if ((st = vdbs_options_scene_occluders("render", &args, scene, quiet, &err)) != VDBS_OK) {
         free(scene);
-        return cli_fail("render", st, err.message);
+        return vdbs_command_fail("render", st, err.message);
     }
     const char *input = args.positional_count ? args.positional[0] : scene->volume_file;
     if (r.mode != VDBS_RENDER_REFERENCE) {
         static const char *const ref_only[] = {"--spp",  "--time",    "--tolerance",
                                                "--seed", "--env-nee", "--max-bounces"};
         for (int i = 0; i < 6; ++i)
-            if (cli_value(&args, ref_only[i]))
+            if (vdbs_options_value(&args, ref_only[i]))
                 warn_line(quiet, "%s applies to --mode reference only; ignored", ref_only[i]);
     }
 
     vdbs_render_desc desc = {0};
-    if ((st = cli_max_memory(&args, &desc.max_memory, &err)) != VDBS_OK) {
+    if ((st = vdbs_options_max_memory(&args, &desc.max_memory, &err)) != VDBS_OK) {
         free(scene);
-        return cli_fail("render", st, err.message);
+        return vdbs_command_fail("render", st, err.message);
     }
     desc.input = input;
     desc.output = r.output;
     desc.scene = scene;
-    desc.scene_set = cli_scene_flags(&args);
+    desc.scene_set = vdbs_options_scene_flags(&args);
     desc.mode = r.mode;
     desc.backend = r.backend;
     desc.s1_march = r.s1_march;
@@ -321,21 +329,26 @@ int cmd_render(int argc, char **argv)
     desc.max_bounces = (int)r.max_bounces;
     desc.seed = r.seed;
     desc.no_env_nee = r.no_env_nee;
-    desc.progress = !quiet && isatty(STDERR_FILENO);
-    desc.warn = cli_warn;
+    desc.progress = !quiet && vdbs_command_progress();
+    desc.warn = vdbs_command_warn;
     desc.warn_user = &quiet;
-    desc.cancel = cli_interrupt_install();
+    desc.cancel = vdbs_command_cancel();
+    vdbs_image kept = {0};
+    if (vdbs_command_keeps_image())
+        desc.keep_image = &kept;
     vdbs_render_report rep;
     st = vdbs_render(&desc, &rep, &err);
     if (st != VDBS_OK) {
         free(scene);
-        return st == VDBS_ERR_CANCELLED ? cli_interrupt_status("render", CLI_EXIT_FAILURE)
-                                        : cli_fail("render", st, err.message);
+        return st == VDBS_ERR_CANCELLED ? vdbs_command_interrupted("render", VDBS_EXIT_FAILURE)
+                                        : vdbs_command_fail("render", st, err.message);
     }
 
+    if (desc.keep_image)
+        vdbs_command_give_image(kept.width, kept.height, kept.rgb, kept.se);
     if (r.relight && strcmp(rep.mode, "baked") != 0)
         warn_line(quiet, "%s applies to a lit VDB only; ignored", "--relight");
-    if (cli_flag(&args, "--json")) {
+    if (vdbs_options_flag(&args, "--json")) {
         print_json(input, &r, &rep);
     } else if (!quiet) {
         char detail[96];
@@ -345,9 +358,10 @@ int cmd_render(int argc, char **argv)
             snprintf(detail, sizeof detail, "quality %s, S1 %s%s", rep.quality,
                      strcmp(rep.s1, "stored") == 0 ? "from the stored depths" : rep.s1,
                      r.relight ? ", relit" : "");
-        fprintf(stderr, "rendered %dx%d of '%s' (%s, %s) on %s in %.2fs -> %s\n", rep.width,
-                rep.height, rep.grid, rep.mode, detail, rep.backend, rep.seconds_render, r.output);
+        vdbs_message_emitf(VDBS_MESSAGE_NOTE, "rendered %dx%d of '%s' (%s, %s) on %s in %.2fs -> %s\n", rep.width,
+                rep.height, rep.grid, rep.mode, detail, rep.backend, rep.seconds_render,
+                r.output ? r.output : "(kept)");
     }
     free(scene); /* after print_json: input may be scene->volume_file */
-    return cli_interrupt_status("render", CLI_EXIT_OK); /* a signal after the rename */
+    return vdbs_command_interrupted("render", VDBS_EXIT_OK); /* a signal after the rename */
 }

@@ -1,0 +1,108 @@
+/* The public API of libvdbscatter: what the CLI does, callable from a program or a binding
+ * with the same words. A command runs from its command-line words (vdbs_command_run), so
+ * every caller parses options the same way; its output, messages and progress come back
+ * through a callback, the report text and (render) the picture in a result. Besides: the
+ * option tables that bindings build their keywords from, and dense copies of a VDB's grids.
+ * Everything here is exported from libvdbscatter.so; nothing else is (docs/api.md). */
+#ifndef VDBSCATTER_VDBSCATTER_H
+#define VDBSCATTER_VDBSCATTER_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#include "vdbscatter/cancel.h"
+#include "vdbscatter/export.h"
+#include "vdbscatter/status.h"
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+/* "MAJOR.MINOR.PATCH" of the library. */
+VDBS_API const char *vdbs_version(void);
+
+/* Messages: vdbs_message_kind and vdbs_message_fn of status.h. */
+
+/* Zero-initialise; 0 means "choose the default". */
+typedef struct vdbs_command_desc {
+    /* The command's words: argv[0] is the command ("bake", "render", "compare", "info",
+     * "sample", "phase-svd", "tradeoff"), then its arguments as on the command line. */
+    int argc;
+    const char *const *argv;
+    vdbs_message_fn message; /* NULL: nothing is passed on (OUTPUT is still collected) */
+    void *message_user;
+    /* Polled by long work (cancel.h). Once set the command stops, leaves no partial output
+     * and exits 128 + the flag's value (a signal number; 130 for 2, as after SIGINT). */
+    const vdbs_cancel *cancel;
+    int progress; /* 1: PROGRESS messages during long work (the CLI: stderr is a terminal) */
+    /* render: also return the picture in the result; -o becomes optional. */
+    int keep_image;
+} vdbs_command_desc;
+
+typedef struct vdbs_command_result {
+    /* The CLI's exit status: 0 success, 1 failure while working, 2 bad input or usage,
+     * 128 + N when cancelled. */
+    int exit_status;
+    vdbs_status status; /* VDBS_OK, or the kind of failure (VDBS_ERR_INPUT: bad input) */
+    char error[VDBS_ERROR_MAX]; /* the ERROR message without its "vdbscatter CMD: " */
+    char *output;               /* every OUTPUT text in order, NUL-terminated (never NULL) */
+    size_t output_size;
+    /* keep_image: the rendered picture, linear RGB, row 0 on top, 3 floats a pixel; se the
+     * per-pixel standard errors of a reference render (NULL otherwise). */
+    int width, height;
+    float *rgb, *se;
+} vdbs_command_result;
+
+/* Runs one command. Returns result->exit_status; the result is always filled, and is freed
+ * by vdbs_command_result_free. Thread-safe across threads, one command per thread. */
+VDBS_API int vdbs_command_run(const vdbs_command_desc *desc, vdbs_command_result *result);
+VDBS_API void vdbs_command_result_free(vdbs_command_result *result);
+
+/* The option tables, for bindings that turn keywords into command-line words. */
+typedef enum vdbs_arg_kind {
+    VDBS_ARG_FLAG = 0,  /* no value */
+    VDBS_ARG_VALUE = 1, /* one value (--name VALUE or --name=VALUE); the last given wins */
+    VDBS_ARG_LIST = 2,  /* one value each time, every one used (--sun, --point, --env) */
+} vdbs_arg_kind;
+
+typedef struct vdbs_arg_option {
+    const char *name; /* "--density-scale", "-o" */
+    vdbs_arg_kind kind;
+} vdbs_arg_option;
+
+/* The commands' names, NULL-terminated. */
+VDBS_API const char *const *vdbs_command_names(void);
+/* The count of options of command (as vdbs_command_desc.argv[0]), or -1 for an unknown
+ * command. */
+VDBS_API int vdbs_command_option_count(const char *command);
+/* Option `index` (0 <= index < count) of command; VDBS_ERR_INPUT outside. */
+VDBS_API vdbs_status vdbs_command_option_get(const char *command, int index,
+                                             vdbs_arg_option *option);
+
+/* A grid of a VDB file copied into a dense array over its active bounding box. */
+typedef struct vdbs_dense_grid {
+    char name[256];
+    int channels;   /* 1 (float) or 3 (vec3s) */
+    int origin[3];  /* index of values[0]: the active bounding box's minimum (x, y, z) */
+    int size[3];    /* voxels along x, y, z; 0 for an empty grid */
+    /* index (x, y, z, 1) -> world: rows of the affine map */
+    double index_to_world[3][4];
+    /* size[2] x size[1] x size[0] x channels floats, x varying fastest; inactive voxels hold
+     * 0 (a lit VDB's background). NULL for an empty grid. */
+    float *values;
+} vdbs_dense_grid;
+
+/* Reads grid `name` (NULL: the first grid) of the OpenVDB file at path into out (the grids of
+ * a lit VDB, docs/lit-vdb.md). The copy must fit in max_memory bytes (0: the CLI's default
+ * limit, 75% of the machine's or the cgroup's memory; < 0: none). Errors (VDBS_ERR_INPUT, one
+ * line naming the file): missing, truncated or foreign file, no such grid, a type other than
+ * float or vec3s, a copy over the limit. */
+VDBS_API vdbs_status vdbs_dense_read(const char *path, const char *name, int64_t max_memory,
+                                     vdbs_dense_grid *out, vdbs_error *err);
+VDBS_API void vdbs_dense_free(vdbs_dense_grid *grid);
+
+#ifdef __cplusplus
+}
+#endif
+
+#endif
