@@ -7,9 +7,14 @@
 #include "vdbscatter/scene.h"
 
 static const vdbs_arg_option common[] = {
-    VDBS_OPTIONS_COMMON,         {"--camera", VDBS_ARG_VALUE},       {"--size", VDBS_ARG_VALUE},
-    {"--method", VDBS_ARG_VALUE},    {"--from-levelset", VDBS_ARG_FLAG}, {"--half", VDBS_ARG_FLAG},
-    {"--tolerance", VDBS_ARG_VALUE}, {"--mode", VDBS_ARG_VALUE},
+    VDBS_OPTIONS_COMMON,
+    {"--camera", VDBS_ARG_VALUE},
+    {"--size", VDBS_ARG_VALUE},
+    {"--method", VDBS_ARG_VALUE},
+    {"--from-levelset", VDBS_ARG_FLAG},
+    {"--half", VDBS_ARG_FLAG},
+    {"--tolerance", VDBS_ARG_VALUE},
+    {"--mode", VDBS_ARG_VALUE},
 };
 
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
@@ -18,7 +23,8 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     static int ready = 0;
     if (!ready) {
         memcpy(table, common, sizeof common);
-        vdbs_options_add_solver_flags(table, (int)(sizeof common / sizeof *common), VDBS_OPTIONS_MAX);
+        vdbs_options_add_solver_flags(table, (int)(sizeof common / sizeof *common),
+                                      VDBS_OPTIONS_MAX);
         ready = 1;
     }
     char *text = malloc(size + 1);

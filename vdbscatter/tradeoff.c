@@ -263,8 +263,8 @@ static vdbs_status make_reference(tradeoff_job *j, vdbs_progress *progress, vdbs
     spp = fmin(fmax(ceil(spp), 4.0 * PILOT_SPP), 1e8);
     rep->reference_spp = (int)spp;
     if (progress->enabled)
-        vdbs_message_emitf(VDBS_MESSAGE_PROGRESS, "tradeoff: reference, %d spp (about %.0f s)\n", rep->reference_spp,
-                spp * per_spp);
+        vdbs_message_emitf(VDBS_MESSAGE_PROGRESS, "tradeoff: reference, %d spp (about %.0f s)\n",
+                           rep->reference_spp, spp * per_spp);
     if ((st = render_reference(j, image, rep->reference_spp, d->seed, &rep->reference_seconds,
                                err)) != VDBS_OK ||
         (st = vdbs_image_read(image, &j->reference, err)) != VDBS_OK)
@@ -650,9 +650,10 @@ vdbs_status vdbs_tradeoff_run(const vdbs_tradeoff_desc *d, vdbs_tradeoff_report 
                 break;
             ++rep->row_count;
             if (d->progress)
-                vdbs_message_emitf(VDBS_MESSAGE_PROGRESS, "tradeoff: %d/%d %s %s: %.2f s, error %.4f\n", rep->row_count,
-                        method_count * quality_count, row->method, row->quality, row_seconds(row),
-                        row->relrmse);
+                vdbs_message_emitf(VDBS_MESSAGE_PROGRESS,
+                                   "tradeoff: %d/%d %s %s: %.2f s, error %.4f\n", rep->row_count,
+                                   method_count * quality_count, row->method, row->quality,
+                                   row_seconds(row), row->relrmse);
         }
     vdbs_image_free(&j.reference);
     if (st != VDBS_OK)

@@ -501,7 +501,8 @@ static vdbs_status parse_view_args(const vdbs_options_args *args, view_args *a, 
     const char *v;
     a->warmup = 1;
     a->interleave = DEFAULT_INTERLEAVE;
-    if ((v = vdbs_options_value(args, "--backend")) && (st = vdbs_backend_parse(v, &a->backend, err)))
+    if ((v = vdbs_options_value(args, "--backend")) &&
+        (st = vdbs_backend_parse(v, &a->backend, err)))
         return st;
     if ((st = vdbs_options_s1(args, &a->desc.s1_march, &a->desc.s1_oversample, err)) != VDBS_OK)
         return st;
@@ -517,15 +518,15 @@ static vdbs_status parse_view_args(const vdbs_options_args *args, view_args *a, 
         (st = vdbs_options_number("--exposure", v, &a->exposure, err)) != VDBS_OK)
         return st;
     if ((v = vdbs_options_value(args, "--interleave")) &&
-        (st = vdbs_options_integer("--interleave", v, 2, VDBS_MAX_INTERLEAVE, &a->interleave, err)) !=
-            VDBS_OK)
+        (st = vdbs_options_integer("--interleave", v, 2, VDBS_MAX_INTERLEAVE, &a->interleave,
+                                   err)) != VDBS_OK)
         return st;
     a->no_interleave = vdbs_options_flag(args, "--no-interleave");
     if ((v = vdbs_options_value(args, "--warmup-frames")) &&
         (st = vdbs_options_integer("--warmup-frames", v, 1, 100000, &a->warmup, err)) != VDBS_OK)
         return st;
-    if ((a->screenshot = vdbs_options_value(args, "--screenshot")) && !has_suffix(a->screenshot, ".png") &&
-        !has_suffix(a->screenshot, ".exr"))
+    if ((a->screenshot = vdbs_options_value(args, "--screenshot")) &&
+        !has_suffix(a->screenshot, ".png") && !has_suffix(a->screenshot, ".exr"))
         return vdbs_error_set(err, VDBS_ERR_INPUT,
                               "--screenshot: unsupported image type '%s' (use .exr or .png)",
                               a->screenshot);

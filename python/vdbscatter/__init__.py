@@ -13,6 +13,7 @@ Keywords are the CLI's long flags with dashes as underscores (density_scale=20 i
 import collections
 import ctypes
 import difflib
+import inspect
 import json
 import numbers
 import os
@@ -330,7 +331,7 @@ def _report(outcome):
 def bake(input, output, *, progress=None, **options):
     """Bakes the in-scattered light of the density VDB `input` (None: the scene's volume)
     into the lit VDB `output` (`vdbscatter bake --json`); returns the JSON report as a
-    dict."""
+    dict. progress(line), when given, receives each progress line as the bake works."""
     return _report(_call("bake", [input], {**options, "o": output, "json": True}, progress))
 
 
@@ -341,7 +342,7 @@ def render(input, output=None, *, return_se=False, return_report=False, progress
     writes `output` (.exr or .png) when given. return_se=True adds the per-pixel standard
     errors of mode='reference' (an array of the same shape; None in the other modes),
     return_report=True the --json summary (a dict): the result is then a tuple
-    (image[, se][, report])."""
+    (image[, se][, report]). progress(line), when given, receives each progress line."""
     if return_report:
         options = {**options, "json": True}
     outcome = _call("render", [input], {**options, "o": output}, progress, keep_image=True)
@@ -379,7 +380,8 @@ def phase_svd(**options):
 
 def tradeoff(input, output, *, progress=None, **options):
     """Every method's error against time on the scene (`vdbscatter tradeoff --json`),
-    written into the folder `output`; returns the table as a dict."""
+    written into the folder `output`; returns the table as a dict. progress(line), when
+    given, receives each progress line."""
     return _report(_call("tradeoff", [input], {**options, "o": output, "json": True}, progress))
 
 
@@ -387,10 +389,12 @@ def _attach_help(function, command):
     """Appends the command's --help text, printed by the library itself, to the docstring:
     the keywords are the flags it lists."""
     text = _run([command, "--help"]).output.decode("utf-8")
-    function.__doc__ += (
-        "\n\nKeyword options are the flags below with dashes as underscores "
-        "(--density-scale: density_scale=...), -o is output=..., -q is q=True. "
-        "The command's help:\n\n" + text)
+    # cleandoc first: the help's lines start at column 0, the docstring's are indented.
+    function.__doc__ = (
+        inspect.cleandoc(function.__doc__) + "\n\n"
+        "Keyword options are the flags below with dashes as underscores (--density-scale is\n"
+        "density_scale=...), -o is output=..., -q is q=True (docs/python.md). The command's\n"
+        "help:\n\n" + text)
 
 
 for _function, _command in [(bake, "bake"), (render, "render"), (compare, "compare"),

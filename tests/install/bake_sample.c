@@ -66,8 +66,8 @@ int main(int argc, char **argv)
         fprintf(stderr, "bake_sample: %s\n", err.message);
         return 1;
     }
-    size_t n = (size_t)grid.size[0] * (size_t)grid.size[1] * (size_t)grid.size[2] *
-               (size_t)grid.channels;
+    size_t n =
+        (size_t)grid.size[0] * (size_t)grid.size[1] * (size_t)grid.size[2] * (size_t)grid.channels;
     float max = 0.0f;
     int finite = grid.values != NULL && n > 0;
     for (size_t i = 0; finite && i < n; i++) {

@@ -97,8 +97,8 @@ void vdbs_command_result_free(vdbs_command_result *result)
 
 const char *const *vdbs_command_names(void)
 {
-    static const char *const names[] = {"bake",     "render",    "compare", "info", "sample",
-                                        "tradeoff", "phase-svd", NULL};
+    static const char *const names[] = {"bake",   "render",   "compare",   "info",
+                                        "sample", "tradeoff", "phase-svd", NULL};
     return names;
 }
 
@@ -176,8 +176,8 @@ vdbs_status vdbs_dense_read(const char *path, const char *name, int64_t max_memo
         out->channels = 3;
     else {
         st = vdbs_error_set(err, VDBS_ERR_INPUT,
-                            "%s: grid '%s' is of type %s (dense copies take float and vec3s)",
-                            path, g->name, g->value_type);
+                            "%s: grid '%s' is of type %s (dense copies take float and vec3s)", path,
+                            g->name, g->value_type);
         free(grids);
         return st;
     }

@@ -80,10 +80,18 @@ static const char help[] =
     "  -q                       no progress, summary or warnings\n";
 
 static const vdbs_arg_option own_options[] = {
-    VDBS_OPTIONS_COMMON,          {"--from-levelset", VDBS_ARG_FLAG}, {"--half", VDBS_ARG_FLAG},
-    {"--report", VDBS_ARG_VALUE},     {"--method", VDBS_ARG_VALUE},       {"--keep-state", VDBS_ARG_FLAG},
-    {"--warm-start", VDBS_ARG_VALUE}, {"--camera", VDBS_ARG_VALUE},       {"--store", VDBS_ARG_VALUE},
-    {"--tolerance", VDBS_ARG_VALUE},  {"--dry-run", VDBS_ARG_FLAG},       {"--s1-sky-spacing", VDBS_ARG_VALUE},
+    VDBS_OPTIONS_COMMON,
+    {"--from-levelset", VDBS_ARG_FLAG},
+    {"--half", VDBS_ARG_FLAG},
+    {"--report", VDBS_ARG_VALUE},
+    {"--method", VDBS_ARG_VALUE},
+    {"--keep-state", VDBS_ARG_FLAG},
+    {"--warm-start", VDBS_ARG_VALUE},
+    {"--camera", VDBS_ARG_VALUE},
+    {"--store", VDBS_ARG_VALUE},
+    {"--tolerance", VDBS_ARG_VALUE},
+    {"--dry-run", VDBS_ARG_FLAG},
+    {"--s1-sky-spacing", VDBS_ARG_VALUE},
     {"--max-memory", VDBS_ARG_VALUE},
 };
 
@@ -178,8 +186,8 @@ static cJSON *report_json(const char *input, const char *output, const vdbs_scen
     cJSON_AddStringToObject(j, "store", r->stored_direct + r->stored_sky ? "lights" : "none");
     const char *const stages[] = {"load", "solve", "write"};
     const int64_t peaks[] = {r->peak_load, r->peak_solve, r->peak_write};
-    vdbs_options_json_memory(j, r->memory_limit, r->memory_baseline, &r->memory_estimate, stages, peaks, 3,
-                    r->peak_per_stage);
+    vdbs_options_json_memory(j, r->memory_limit, r->memory_baseline, &r->memory_estimate, stages,
+                             peaks, 3, r->peak_per_stage);
     if (r->planned) {
         char *plan = vdbs_plan_json(&r->plan, &r->plan_features);
         cJSON *p = plan ? cJSON_Parse(plan) : NULL;
@@ -221,9 +229,11 @@ static int print_report(const vdbs_options_args *args, cJSON *j, const vdbs_scen
         vdbs_command_out("%s\n", text);
         free(text);
     } else if (!vdbs_options_flag(args, "-q")) {
-        vdbs_message_emitf(VDBS_MESSAGE_NOTE, "baked %llu voxels of '%s' (%s, quality %s) on %s in %.2fs (solve %.2fs) -> %s\n",
-                report->output_voxels, report->grid, scene->method, scene->quality, report->backend,
-                report->seconds_total, report->seconds_solve, out);
+        vdbs_message_emitf(
+            VDBS_MESSAGE_NOTE,
+            "baked %llu voxels of '%s' (%s, quality %s) on %s in %.2fs (solve %.2fs) -> %s\n",
+            report->output_voxels, report->grid, scene->method, scene->quality, report->backend,
+            report->seconds_total, report->seconds_solve, out);
         const vdbs_solver *solver = vdbs_solver_find(scene->method);
         if (solver && solver->report_text) {
             char text[256];
@@ -253,33 +263,36 @@ static int print_plan(const vdbs_options_args *args, const vdbs_bake_report *rep
     }
     const vdbs_plan *p = &report->plan;
     const vdbs_plan_features *f = &report->plan_features;
-    vdbs_command_out("scene: mean optical depth %.3g, albedo %.3g, g %.2f, ms/ss %.2g, %.0f voxels, sky "
-           "share %.2f, point share %.2f\n",
-           f->mean_depth, f->albedo, f->g, f->ms_to_ss, f->active_voxels, f->sky_share,
-           f->point_share);
+    vdbs_command_out(
+        "scene: mean optical depth %.3g, albedo %.3g, g %.2f, ms/ss %.2g, %.0f voxels, sky "
+        "share %.2f, point share %.2f\n",
+        f->mean_depth, f->albedo, f->g, f->ms_to_ss, f->active_voxels, f->sky_share,
+        f->point_share);
     vdbs_command_out("%-8s %-8s %12s %12s\n", "method", "quality", "pred. error", "cost hint s");
     int count;
     const vdbs_quality *q = vdbs_quality_list(&count);
     for (int i = 0; i < p->candidate_count; ++i) {
         const vdbs_plan_candidate *c = &p->candidates[i];
-        vdbs_command_out("%-8s %-8s %12.4f %12.2f%s\n", c->method, q[c->quality].name, c->error, c->seconds,
-               strcmp(c->method, p->chosen.method) == 0 && c->quality == p->chosen.quality
-                   ? "  <- plan"
-                   : "");
+        vdbs_command_out("%-8s %-8s %12.4f %12.2f%s\n", c->method, q[c->quality].name, c->error,
+                         c->seconds,
+                         strcmp(c->method, p->chosen.method) == 0 && c->quality == p->chosen.quality
+                             ? "  <- plan"
+                             : "");
     }
     for (int i = 0; i < f->light_count; ++i)
         if (p->skip[i])
             vdbs_command_out("light %d left out: %.2g of the power\n", i, f->light_share[i]);
     if (p->reachable)
-        vdbs_command_out("plan: --method %s --quality %s, predicted error %.3g (tolerance %g), cost "
-               "hint %.1f s\n",
-               p->chosen.method, q[p->chosen.quality].name, p->chosen.error, p->tolerance,
-               p->chosen.seconds);
+        vdbs_command_out(
+            "plan: --method %s --quality %s, predicted error %.3g (tolerance %g), cost "
+            "hint %.1f s\n",
+            p->chosen.method, q[p->chosen.quality].name, p->chosen.error, p->tolerance,
+            p->chosen.seconds);
     else
         vdbs_command_out("tolerance %g is out of reach: the best predicted is %.3g (--method %s "
-               "--quality %s, cost hint %.1f s)\n",
-               p->tolerance, p->chosen.error, p->chosen.method, q[p->chosen.quality].name,
-               p->chosen.seconds);
+                         "--quality %s, cost hint %.1f s)\n",
+                         p->tolerance, p->chosen.error, p->chosen.method, q[p->chosen.quality].name,
+                         p->chosen.seconds);
     cJSON_Delete(plan);
     return VDBS_EXIT_OK;
 }
@@ -292,8 +305,9 @@ static void print_solver_help(void)
 
 int vdbs_command_bake(int argc, char **argv)
 {
-    const vdbs_command_spec command = {"bake", vdbs_command_bake_options(),          help, print_solver_help, 0,
-                                 1,      "expected one input VDB"};
+    const vdbs_command_spec command = {
+        "bake", vdbs_command_bake_options(), help, print_solver_help, 0,
+        1,      "expected one input VDB"};
     vdbs_options_args args;
     vdbs_error err;
     vdbs_status st;
@@ -307,13 +321,15 @@ int vdbs_command_bake(int argc, char **argv)
     struct stat out_stat;
     int out_is_dir = stat(out, &out_stat) == 0 && S_ISDIR(out_stat.st_mode);
     /* a folder: the write says so */
-    if (!out_is_dir && !vdbs_options_has_extension(out, ".vdb") && !vdbs_options_has_extension(out, ".nvdb"))
+    if (!out_is_dir && !vdbs_options_has_extension(out, ".vdb") &&
+        !vdbs_options_has_extension(out, ".nvdb"))
         return vdbs_command_fail("bake", 2, "-o: expected .vdb or .nvdb");
     /* Lights are checked after the input file and grid (vdbs_bake), so that a missing file is
      * not reported as a missing light. */
     if ((st = vdbs_options_build_scene(&args, &scene, 1, &err)) != VDBS_OK)
         return vdbs_command_fail("bake", st, err.message);
-    if ((st = vdbs_options_scene_occluders("bake", &args, &scene, vdbs_options_flag(&args, "-q"), &err)) != VDBS_OK)
+    if ((st = vdbs_options_scene_occluders("bake", &args, &scene, vdbs_options_flag(&args, "-q"),
+                                           &err)) != VDBS_OK)
         return vdbs_command_fail("bake", st, err.message);
     const char *camera = vdbs_options_value(&args, "--camera");
     if (camera) {
@@ -347,7 +363,8 @@ int vdbs_command_bake(int argc, char **argv)
         return vdbs_command_fail("bake", st, err.message);
     const char *sky_spacing = vdbs_options_value(&args, "--s1-sky-spacing");
     if (sky_spacing) {
-        if ((st = vdbs_options_number("--s1-sky-spacing", sky_spacing, &o.s1_sky_spacing, &err)) != VDBS_OK)
+        if ((st = vdbs_options_number("--s1-sky-spacing", sky_spacing, &o.s1_sky_spacing, &err)) !=
+            VDBS_OK)
             return vdbs_command_fail("bake", st, err.message);
         if (!(o.s1_sky_spacing > 0.0 && o.s1_sky_spacing <= 64.0))
             return vdbs_command_fail("bake", 2, "--s1-sky-spacing: expected a number in (0, 64]");
@@ -368,7 +385,8 @@ int vdbs_command_bake(int argc, char **argv)
         return vdbs_command_fail("bake", 2, "--dry-run needs --method auto");
     if (automatic) {
         o.tolerance = 0.1;
-        if (tolerance && (st = vdbs_options_number("--tolerance", tolerance, &o.tolerance, &err)) != VDBS_OK)
+        if (tolerance &&
+            (st = vdbs_options_number("--tolerance", tolerance, &o.tolerance, &err)) != VDBS_OK)
             return vdbs_command_fail("bake", st, err.message);
         if (!(o.tolerance > 0.0 && o.tolerance < 1.0))
             return vdbs_command_fail("bake", 2, "--tolerance: expected a relative RMSE 0 < E < 1");

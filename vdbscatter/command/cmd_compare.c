@@ -138,7 +138,8 @@ int vdbs_command_compare(int argc, char **argv)
         for (size_t i = 0; i < count; ++i) {
             if (!list[i].shown)
                 continue;
-            vdbs_command_out(list[i].integer ? "%s=%.0f\n" : "%s=%.9g\n", list[i].key, list[i].value);
+            vdbs_command_out(list[i].integer ? "%s=%.0f\n" : "%s=%.9g\n", list[i].key,
+                             list[i].value);
         }
     }
     return VDBS_EXIT_OK;

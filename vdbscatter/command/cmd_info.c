@@ -206,10 +206,11 @@ static vdbs_status file_json(cJSON *root, const char *path, const info_request *
 
 static void print_gpu(const cJSON *gpu)
 {
-    vdbs_command_out("gpu: %s (%s, EGL platform %s, %s)\n", cJSON_GetObjectItem(gpu, "renderer")->valuestring,
-           cJSON_GetObjectItem(gpu, "version")->valuestring,
-           cJSON_GetObjectItem(gpu, "platform")->valuestring,
-           cJSON_IsTrue(cJSON_GetObjectItem(gpu, "software")) ? "software" : "hardware");
+    vdbs_command_out("gpu: %s (%s, EGL platform %s, %s)\n",
+                     cJSON_GetObjectItem(gpu, "renderer")->valuestring,
+                     cJSON_GetObjectItem(gpu, "version")->valuestring,
+                     cJSON_GetObjectItem(gpu, "platform")->valuestring,
+                     cJSON_IsTrue(cJSON_GetObjectItem(gpu, "software")) ? "software" : "hardware");
 }
 
 static void print_grid(const cJSON *g)
@@ -217,31 +218,33 @@ static void print_grid(const cJSON *g)
     const cJSON *vs = cJSON_GetObjectItem(g, "voxel_size");
     const cJSON *lo = cJSON_GetObjectItem(g, "bbox_min");
     const cJSON *hi = cJSON_GetObjectItem(g, "bbox_max");
-    vdbs_command_out("  %-12s %-6s %-10s voxel %.4g x %.4g x %.4g%s\n",
-           cJSON_GetObjectItem(g, "name")->valuestring, cJSON_GetObjectItem(g, "type")->valuestring,
-           cJSON_GetObjectItem(g, "class")->valuestring, cJSON_GetArrayItem(vs, 0)->valuedouble,
-           cJSON_GetArrayItem(vs, 1)->valuedouble, cJSON_GetArrayItem(vs, 2)->valuedouble,
-           cJSON_IsTrue(cJSON_GetObjectItem(g, "affine")) ? "" : " (frustum map)");
+    vdbs_command_out(
+        "  %-12s %-6s %-10s voxel %.4g x %.4g x %.4g%s\n",
+        cJSON_GetObjectItem(g, "name")->valuestring, cJSON_GetObjectItem(g, "type")->valuestring,
+        cJSON_GetObjectItem(g, "class")->valuestring, cJSON_GetArrayItem(vs, 0)->valuedouble,
+        cJSON_GetArrayItem(vs, 1)->valuedouble, cJSON_GetArrayItem(vs, 2)->valuedouble,
+        cJSON_IsTrue(cJSON_GetObjectItem(g, "affine")) ? "" : " (frustum map)");
     if (cJSON_GetObjectItem(g, "active_voxels")->valuedouble > 0)
         vdbs_command_out("               bbox [%d,%d,%d]->[%d,%d,%d]  active %.0f (tiles %.0f)  "
-               "range [%g, %g]  background %g\n",
-               cJSON_GetArrayItem(lo, 0)->valueint, cJSON_GetArrayItem(lo, 1)->valueint,
-               cJSON_GetArrayItem(lo, 2)->valueint, cJSON_GetArrayItem(hi, 0)->valueint,
-               cJSON_GetArrayItem(hi, 1)->valueint, cJSON_GetArrayItem(hi, 2)->valueint,
-               cJSON_GetObjectItem(g, "active_voxels")->valuedouble,
-               cJSON_GetObjectItem(g, "active_tiles")->valuedouble,
-               cJSON_GetObjectItem(g, "value_min")->valuedouble,
-               cJSON_GetObjectItem(g, "value_max")->valuedouble,
-               cJSON_GetObjectItem(g, "background")->valuedouble);
+                         "range [%g, %g]  background %g\n",
+                         cJSON_GetArrayItem(lo, 0)->valueint, cJSON_GetArrayItem(lo, 1)->valueint,
+                         cJSON_GetArrayItem(lo, 2)->valueint, cJSON_GetArrayItem(hi, 0)->valueint,
+                         cJSON_GetArrayItem(hi, 1)->valueint, cJSON_GetArrayItem(hi, 2)->valueint,
+                         cJSON_GetObjectItem(g, "active_voxels")->valuedouble,
+                         cJSON_GetObjectItem(g, "active_tiles")->valuedouble,
+                         cJSON_GetObjectItem(g, "value_min")->valuedouble,
+                         cJSON_GetObjectItem(g, "value_max")->valuedouble,
+                         cJSON_GetObjectItem(g, "background")->valuedouble);
     else
         vdbs_command_out("               empty\n");
     const cJSON *wlo = cJSON_GetObjectItem(g, "world_min");
     const cJSON *whi = cJSON_GetObjectItem(g, "world_max");
     if (wlo && whi)
-        vdbs_command_out("               world bbox [%.6g,%.6g,%.6g]->[%.6g,%.6g,%.6g]\n",
-               cJSON_GetArrayItem(wlo, 0)->valuedouble, cJSON_GetArrayItem(wlo, 1)->valuedouble,
-               cJSON_GetArrayItem(wlo, 2)->valuedouble, cJSON_GetArrayItem(whi, 0)->valuedouble,
-               cJSON_GetArrayItem(whi, 1)->valuedouble, cJSON_GetArrayItem(whi, 2)->valuedouble);
+        vdbs_command_out(
+            "               world bbox [%.6g,%.6g,%.6g]->[%.6g,%.6g,%.6g]\n",
+            cJSON_GetArrayItem(wlo, 0)->valuedouble, cJSON_GetArrayItem(wlo, 1)->valuedouble,
+            cJSON_GetArrayItem(wlo, 2)->valuedouble, cJSON_GetArrayItem(whi, 0)->valuedouble,
+            cJSON_GetArrayItem(whi, 1)->valuedouble, cJSON_GetArrayItem(whi, 2)->valuedouble);
 }
 
 static void print_thickness(const cJSON *o, const info_request *r)
@@ -253,28 +256,31 @@ static void print_thickness(const cJSON *o, const info_request *r)
     }
     const cJSON *mean = cJSON_GetObjectItem(o, "axis_mean");
     const cJSON *max = cJSON_GetObjectItem(o, "axis_max");
-    vdbs_command_out("optical thickness of '%s' at density scale %g:\n"
-           "  per voxel max %.4g\n"
-           "  through the volume along x/y/z: mean %.4g / %.4g / %.4g, max %.4g / "
-           "%.4g / %.4g\n",
-           cJSON_GetObjectItem(o, "grid")->valuestring, r->scale,
-           cJSON_GetObjectItem(o, "voxel_max")->valuedouble,
-           cJSON_GetArrayItem(mean, 0)->valuedouble, cJSON_GetArrayItem(mean, 1)->valuedouble,
-           cJSON_GetArrayItem(mean, 2)->valuedouble, cJSON_GetArrayItem(max, 0)->valuedouble,
-           cJSON_GetArrayItem(max, 1)->valuedouble, cJSON_GetArrayItem(max, 2)->valuedouble);
-    vdbs_command_out("  mean through the volume %.4g\n", cJSON_GetObjectItem(o, "mean")->valuedouble);
+    vdbs_command_out(
+        "optical thickness of '%s' at density scale %g:\n"
+        "  per voxel max %.4g\n"
+        "  through the volume along x/y/z: mean %.4g / %.4g / %.4g, max %.4g / "
+        "%.4g / %.4g\n",
+        cJSON_GetObjectItem(o, "grid")->valuestring, r->scale,
+        cJSON_GetObjectItem(o, "voxel_max")->valuedouble, cJSON_GetArrayItem(mean, 0)->valuedouble,
+        cJSON_GetArrayItem(mean, 1)->valuedouble, cJSON_GetArrayItem(mean, 2)->valuedouble,
+        cJSON_GetArrayItem(max, 0)->valuedouble, cJSON_GetArrayItem(max, 1)->valuedouble,
+        cJSON_GetArrayItem(max, 2)->valuedouble);
+    vdbs_command_out("  mean through the volume %.4g\n",
+                     cJSON_GetObjectItem(o, "mean")->valuedouble);
     const cJSON *fit = cJSON_GetObjectItem(o, "density_scale_for_target");
     if (fit)
         vdbs_command_out("density scale for a mean optical depth of %g: %.6g "
-               "(--density-scale auto:%g)\n",
-               r->target, fit->valuedouble, r->target);
+                         "(--density-scale auto:%g)\n",
+                         r->target, fit->valuedouble, r->target);
     else if (r->target > 0.0)
-        vdbs_command_out("density scale for a mean optical depth of %g: none (no density)\n", r->target);
+        vdbs_command_out("density scale for a mean optical depth of %g: none (no density)\n",
+                         r->target);
     else if (cJSON_GetObjectItem(o, "mean")->valuedouble > 0.0)
         vdbs_command_out("clouds look like clouds at a mean optical depth of about 5-20: "
-               "--density-scale auto:10 is %.6g here (--target-depth TAU for "
-               "another depth)\n",
-               10.0 * r->scale / cJSON_GetObjectItem(o, "mean")->valuedouble);
+                         "--density-scale auto:10 is %.6g here (--target-depth TAU for "
+                         "another depth)\n",
+                         10.0 * r->scale / cJSON_GetObjectItem(o, "mean")->valuedouble);
 }
 
 /* The text form of root. */
@@ -287,7 +293,7 @@ static void print_text(const cJSON *root, const info_request *r)
     if (!list)
         return;
     vdbs_command_out("%s: %d grid%s\n", cJSON_GetObjectItem(root, "file")->valuestring,
-           cJSON_GetArraySize(list), cJSON_GetArraySize(list) == 1 ? "" : "s");
+                     cJSON_GetArraySize(list), cJSON_GetArraySize(list) == 1 ? "" : "s");
     const cJSON *g;
     cJSON_ArrayForEach(g, list)
     {
@@ -317,7 +323,8 @@ int vdbs_command_info(int argc, char **argv)
     int status = vdbs_command_open(&command, argc, argv, &args);
     if (status != VDBS_COMMAND_CONTINUE)
         return status;
-    if (args.positional_count == 0 && !vdbs_options_flag(&args, "--gpu")) /* FILE optional with --gpu */
+    if (args.positional_count == 0 &&
+        !vdbs_options_flag(&args, "--gpu")) /* FILE optional with --gpu */
         return vdbs_command_fail("info", 2, command.positional_error);
     info_request r;
     if ((st = parse_request(&args, &r, &err)) != VDBS_OK)

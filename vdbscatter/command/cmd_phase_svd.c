@@ -29,7 +29,8 @@ static const char help[] =
     "                      [{\"terms\", \"rmse\"}, ...]}\n";
 
 static const vdbs_arg_option options[] = {
-    {"--g", VDBS_ARG_VALUE}, {"--directions", VDBS_ARG_VALUE}, {"--delta-m", VDBS_ARG_VALUE}, {"--json", VDBS_ARG_FLAG},
+    {"--g", VDBS_ARG_VALUE},       {"--directions", VDBS_ARG_VALUE},
+    {"--delta-m", VDBS_ARG_VALUE}, {"--json", VDBS_ARG_FLAG},
     {NULL, VDBS_ARG_FLAG},
 };
 
@@ -53,14 +54,16 @@ int vdbs_command_phase_svd(int argc, char **argv)
     int status = vdbs_command_open(&command, argc, argv, &args);
     if (status != VDBS_COMMAND_CONTINUE)
         return status;
-    const char *gv = vdbs_options_value(&args, "--g"), *dv = vdbs_options_value(&args, "--directions");
+    const char *gv = vdbs_options_value(&args, "--g"),
+               *dv = vdbs_options_value(&args, "--directions");
     if (!gv || !dv)
         return vdbs_command_fail("phase-svd", 2, "--g and --directions are required");
     double g = 0.0;
     long d = 0;
     vdbs_phasemat_desc desc = {0};
     if (vdbs_options_number("--g", gv, &g, &err) != VDBS_OK ||
-        vdbs_options_integer("--directions", dv, 2, VDBS_PHASEMAT_MAX_DIRECTIONS, &d, &err) != VDBS_OK)
+        vdbs_options_integer("--directions", dv, 2, VDBS_PHASEMAT_MAX_DIRECTIONS, &d, &err) !=
+            VDBS_OK)
         return vdbs_command_fail("phase-svd", 2, err.message);
     const char *mode = vdbs_options_value(&args, "--delta-m");
     if (mode) {
@@ -98,7 +101,8 @@ int vdbs_command_phase_svd(int argc, char **argv)
         cJSON_free(text);
         cJSON_Delete(j);
     } else {
-        vdbs_command_out("g %g, %ld directions, delta-M f %g (g* %g)\nterms rmse\n", g, d, m.f, m.g_scaled);
+        vdbs_command_out("g %g, %ld directions, delta-M f %g (g* %g)\nterms rmse\n", g, d, m.f,
+                         m.g_scaled);
         for (int n = 1; n <= m.d; ++n)
             vdbs_command_out("%d %.6g\n", n, vdbs_phasemat_rmse(&m, n));
     }

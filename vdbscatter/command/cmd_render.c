@@ -76,7 +76,8 @@ static const char help[] =
     "                           as given (the flags above on top of the baked ones); Sms\n"
     "                           stays as baked\n"
     "  --backend auto|cpu|gpu   single/baked: auto = a hardware GPU if EGL finds one, else\n"
-    "                           the C path; reference always runs on the C path\n" VDBS_OPTIONS_S1_HELP
+    "                           the C path; reference always runs on the C "
+    "path\n" VDBS_OPTIONS_S1_HELP
     "  --exposure EV            PNG only: scale by 2^EV before the sRGB "
     "encoding\n" VDBS_OPTIONS_MAX_MEMORY_HELP
     "  --json                   print a summary as JSON on stdout (memory: the estimate\n"
@@ -84,11 +85,20 @@ static const char help[] =
     "  -q                       no progress, summary or warnings\n";
 
 static const vdbs_arg_option options[] = {
-    VDBS_OPTIONS_COMMON,          {"--camera", VDBS_ARG_VALUE},    {"--size", VDBS_ARG_VALUE},
-    {"--mode", VDBS_ARG_VALUE},       {"--exposure", VDBS_ARG_VALUE},  {"--spp", VDBS_ARG_VALUE},
-    {"--time", VDBS_ARG_VALUE},       {"--tolerance", VDBS_ARG_VALUE}, {"--max-bounces", VDBS_ARG_VALUE},
-    {"--seed", VDBS_ARG_VALUE},       {"--env-nee", VDBS_ARG_VALUE},   {"--relight", VDBS_ARG_FLAG},
-    {"--max-memory", VDBS_ARG_VALUE}, {NULL, VDBS_ARG_FLAG},
+    VDBS_OPTIONS_COMMON,
+    {"--camera", VDBS_ARG_VALUE},
+    {"--size", VDBS_ARG_VALUE},
+    {"--mode", VDBS_ARG_VALUE},
+    {"--exposure", VDBS_ARG_VALUE},
+    {"--spp", VDBS_ARG_VALUE},
+    {"--time", VDBS_ARG_VALUE},
+    {"--tolerance", VDBS_ARG_VALUE},
+    {"--max-bounces", VDBS_ARG_VALUE},
+    {"--seed", VDBS_ARG_VALUE},
+    {"--env-nee", VDBS_ARG_VALUE},
+    {"--relight", VDBS_ARG_FLAG},
+    {"--max-memory", VDBS_ARG_VALUE},
+    {NULL, VDBS_ARG_FLAG},
 };
 
 typedef struct render_args {
@@ -146,7 +156,8 @@ static vdbs_status parse_args(const vdbs_options_args *args, render_args *r, vdb
             return st;
         r->size_given = 1;
     }
-    if ((v = vdbs_options_value(args, "--camera")) && (st = vdbs_options_camera(v, &r->camera, err)) != VDBS_OK)
+    if ((v = vdbs_options_value(args, "--camera")) &&
+        (st = vdbs_options_camera(v, &r->camera, err)) != VDBS_OK)
         return st;
     r->spp = 64;
     if ((v = vdbs_options_value(args, "--spp"))) {
@@ -174,7 +185,8 @@ static vdbs_status parse_args(const vdbs_options_args *args, render_args *r, vdb
     r->relight = vdbs_options_flag(args, "--relight");
     r->max_bounces = 1000;
     if ((v = vdbs_options_value(args, "--max-bounces")) &&
-        (st = vdbs_options_integer("--max-bounces", v, 1, 1000000000L, &r->max_bounces, err)) != VDBS_OK)
+        (st = vdbs_options_integer("--max-bounces", v, 1, 1000000000L, &r->max_bounces, err)) !=
+            VDBS_OK)
         return st;
     r->seed = 1;
     if ((v = vdbs_options_value(args, "--seed"))) {
@@ -252,8 +264,8 @@ static void print_json(const char *input, const render_args *r, const vdbs_rende
     }
     const char *const stages[] = {"load", "render", "write"};
     const int64_t peaks[] = {rep->peak_load, rep->peak_render, rep->peak_write};
-    vdbs_options_json_memory(j, rep->memory_limit, rep->memory_baseline, &rep->memory_estimate, stages,
-                    peaks, 3, rep->peak_per_stage);
+    vdbs_options_json_memory(j, rep->memory_limit, rep->memory_baseline, &rep->memory_estimate,
+                             stages, peaks, 3, rep->peak_per_stage);
     char *text = cJSON_Print(j);
     vdbs_command_out("%s\n", text);
     free(text);
@@ -358,9 +370,10 @@ int vdbs_command_render(int argc, char **argv)
             snprintf(detail, sizeof detail, "quality %s, S1 %s%s", rep.quality,
                      strcmp(rep.s1, "stored") == 0 ? "from the stored depths" : rep.s1,
                      r.relight ? ", relit" : "");
-        vdbs_message_emitf(VDBS_MESSAGE_NOTE, "rendered %dx%d of '%s' (%s, %s) on %s in %.2fs -> %s\n", rep.width,
-                rep.height, rep.grid, rep.mode, detail, rep.backend, rep.seconds_render,
-                r.output ? r.output : "(kept)");
+        vdbs_message_emitf(VDBS_MESSAGE_NOTE,
+                           "rendered %dx%d of '%s' (%s, %s) on %s in %.2fs -> %s\n", rep.width,
+                           rep.height, rep.grid, rep.mode, detail, rep.backend, rep.seconds_render,
+                           r.output ? r.output : "(kept)");
     }
     free(scene); /* after print_json: input may be scene->volume_file */
     return vdbs_command_interrupted("render", VDBS_EXIT_OK); /* a signal after the rename */

@@ -59,7 +59,8 @@ int vdbs_command_sample(int argc, char **argv)
         return vdbs_command_fail("sample", 2, "missing -o OUT.vdb");
     long res = 64, seed = 1;
     const char *v;
-    if ((v = vdbs_options_value(&args, "--res")) && vdbs_options_integer("--res", v, 1, 1024, &res, &err) != VDBS_OK)
+    if ((v = vdbs_options_value(&args, "--res")) &&
+        vdbs_options_integer("--res", v, 1, 1024, &res, &err) != VDBS_OK)
         return vdbs_command_fail("sample", 2, err.message);
     if ((v = vdbs_options_value(&args, "--seed")) &&
         vdbs_options_integer("--seed", v, 0, 4294967295L, &seed, &err) != VDBS_OK)

@@ -240,7 +240,8 @@ int vdbs_command_tradeoff(int argc, char **argv)
     d.input = args.positional_count ? args.positional[0] : scene->volume_file;
     if (!d.input[0]) {
         free(scene);
-        return vdbs_command_fail("tradeoff", 2, "no input VDB (give IN.vdb or volume.file in --scene)");
+        return vdbs_command_fail("tradeoff", 2,
+                                 "no input VDB (give IN.vdb or volume.file in --scene)");
     }
     int quiet = vdbs_options_flag(&args, "-q");
     d.scene = scene;
@@ -260,9 +261,10 @@ int vdbs_command_tradeoff(int argc, char **argv)
     if (vdbs_options_flag(&args, "--json"))
         print_json(&rep);
     else if (!quiet)
-        vdbs_command_out("tradeoff: %d runs against a %d-spp reference (noise %.4f%s) in %.1f s: %s\n",
-               rep.row_count, rep.reference_spp, rep.reference_noise,
-               rep.reference_cached ? ", cached" : "", rep.seconds_total, rep.markdown);
+        vdbs_command_out(
+            "tradeoff: %d runs against a %d-spp reference (noise %.4f%s) in %.1f s: %s\n",
+            rep.row_count, rep.reference_spp, rep.reference_noise,
+            rep.reference_cached ? ", cached" : "", rep.seconds_total, rep.markdown);
     vdbs_tradeoff_report_free(&rep);
     return vdbs_command_interrupted("tradeoff", VDBS_EXIT_OK);
 }

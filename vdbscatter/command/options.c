@@ -16,7 +16,8 @@
 #include "vdbscatter/solver.h"
 #include "vdbscatter/suggest.h"
 
-static const vdbs_arg_option *find_option(const vdbs_arg_option *options, const char *name, size_t len)
+static const vdbs_arg_option *find_option(const vdbs_arg_option *options, const char *name,
+                                          size_t len)
 {
     for (const vdbs_arg_option *o = options; o->name; ++o)
         if (strlen(o->name) == len && strncmp(o->name, name, len) == 0)
@@ -42,8 +43,8 @@ static vdbs_status unknown_option(const vdbs_arg_option *options, const char *ar
     return vdbs_error_set(err, VDBS_ERR_INPUT, "unknown option '%s' (see --help)", word);
 }
 
-vdbs_status vdbs_options_parse(int argc, char **argv, const vdbs_arg_option *options, vdbs_options_args *out,
-                      vdbs_error *err)
+vdbs_status vdbs_options_parse(int argc, char **argv, const vdbs_arg_option *options,
+                               vdbs_options_args *out, vdbs_error *err)
 {
     memset(out, 0, sizeof *out);
     for (int i = 0; i < argc; ++i) {
@@ -83,7 +84,8 @@ vdbs_status vdbs_options_parse(int argc, char **argv, const vdbs_arg_option *opt
     return VDBS_OK;
 }
 
-int vdbs_command_open(const vdbs_command_spec *command, int argc, char **argv, vdbs_options_args *args)
+int vdbs_command_open(const vdbs_command_spec *command, int argc, char **argv,
+                      vdbs_options_args *args)
 {
     vdbs_error err;
     if (vdbs_options_parse(argc, argv, command->options, args, &err) != VDBS_OK)
@@ -141,7 +143,7 @@ vdbs_status vdbs_options_number(const char *flag, const char *text, double *out,
 }
 
 vdbs_status vdbs_options_integer(const char *flag, const char *text, long lo, long hi, long *out,
-                        vdbs_error *err)
+                                 vdbs_error *err)
 {
     char *end = NULL;
     errno = 0;
@@ -155,7 +157,7 @@ vdbs_status vdbs_options_integer(const char *flag, const char *text, long lo, lo
 }
 
 vdbs_status vdbs_options_triple(const char *flag, const char *text, int allow_scalar, double out[3],
-                       vdbs_error *err)
+                                vdbs_error *err)
 {
     char buf[256];
     if (strlen(text) >= sizeof buf)
@@ -370,8 +372,8 @@ static const scene_flag *find_scene_flag(const char *name)
     return NULL;
 }
 
-vdbs_status vdbs_options_build_scene(const vdbs_options_args *args, vdbs_scene *scene, int allow_no_lights,
-                            vdbs_error *err)
+vdbs_status vdbs_options_build_scene(const vdbs_options_args *args, vdbs_scene *scene,
+                                     int allow_no_lights, vdbs_error *err)
 {
     vdbs_status st;
     vdbs_scene_init(scene);
@@ -394,8 +396,8 @@ vdbs_status vdbs_options_build_scene(const vdbs_options_args *args, vdbs_scene *
     return vdbs_scene_validate_opt(scene, allow_no_lights, err);
 }
 
-vdbs_status vdbs_options_scene_occluders(const char *command, const vdbs_options_args *args, const vdbs_scene *scene,
-                                int quiet, vdbs_error *err)
+vdbs_status vdbs_options_scene_occluders(const char *command, const vdbs_options_args *args,
+                                         const vdbs_scene *scene, int quiet, vdbs_error *err)
 {
     int count = scene->occluder_count;
     if (count == 0 && !scene->fog.present)
@@ -432,7 +434,8 @@ void vdbs_command_warn(void *quiet, const char *message)
     vdbs_message_emitf(VDBS_MESSAGE_WARNING, "vdbscatter: warning: %s\n", message);
 }
 
-vdbs_status vdbs_options_s1(const vdbs_options_args *args, int *march, int *oversample, vdbs_error *err)
+vdbs_status vdbs_options_s1(const vdbs_options_args *args, int *march, int *oversample,
+                            vdbs_error *err)
 {
     *march = 0;
     *oversample = 0;
@@ -465,8 +468,8 @@ vdbs_status vdbs_options_max_memory(const vdbs_options_args *args, int64_t *byte
 }
 
 void vdbs_options_json_memory(cJSON *j, int64_t limit, int64_t baseline,
-                     const vdbs_memory_estimate *estimate, const char *const stages[],
-                     const int64_t peaks[], int stage_count, int per_stage)
+                              const vdbs_memory_estimate *estimate, const char *const stages[],
+                              const int64_t peaks[], int stage_count, int per_stage)
 {
     cJSON *m = cJSON_AddObjectToObject(j, "memory");
     if (limit > 0)
@@ -591,14 +594,14 @@ int vdbs_options_add_solver_flags(vdbs_arg_option *options, int count, int max)
     const vdbs_solver *s;
     for (int m = 0; (s = vdbs_solver_at(m)) != NULL; ++m)
         for (int i = 0; i < s->option_count && count + 1 < max; ++i)
-            options[count++] =
-                (vdbs_arg_option){s->options[i].flag, s->options[i].syntax ? VDBS_ARG_VALUE : VDBS_ARG_FLAG};
+            options[count++] = (vdbs_arg_option){
+                s->options[i].flag, s->options[i].syntax ? VDBS_ARG_VALUE : VDBS_ARG_FLAG};
     options[count] = (vdbs_arg_option){NULL, VDBS_ARG_FLAG};
     return count;
 }
 
-vdbs_status vdbs_options_solver_flag(const char *name, const char *value, vdbs_scene *scene, int *handled,
-                            vdbs_error *err)
+vdbs_status vdbs_options_solver_flag(const char *name, const char *value, vdbs_scene *scene,
+                                     int *handled, vdbs_error *err)
 {
     const vdbs_solver_option *o = vdbs_solver_option_by_flag(name, NULL);
     *handled = o != NULL;

@@ -33,8 +33,8 @@ typedef struct vdbs_options_args {
 
 /* Splits argv (after the command name) by the option table; unknown options, missing
  * values and values given to flags are errors naming the option. */
-vdbs_status vdbs_options_parse(int argc, char **argv, const vdbs_arg_option *options, vdbs_options_args *out,
-                      vdbs_error *err);
+vdbs_status vdbs_options_parse(int argc, char **argv, const vdbs_arg_option *options,
+                               vdbs_options_args *out, vdbs_error *err);
 
 /* What a command's opening needs to know of it (vdbs_command_open). */
 typedef struct vdbs_command_spec {
@@ -52,7 +52,8 @@ typedef struct vdbs_command_spec {
 /* The opening every command shares: parses argv (after the command name) by its options
  * into args, prints the help for --help and checks the count of positional arguments.
  * Returns VDBS_COMMAND_CONTINUE, or the exit status to return (a usage error printed). */
-int vdbs_command_open(const vdbs_command_spec *command, int argc, char **argv, vdbs_options_args *args);
+int vdbs_command_open(const vdbs_command_spec *command, int argc, char **argv,
+                      vdbs_options_args *args);
 
 /* Last value given for an option name, or NULL. */
 const char *vdbs_options_value(const vdbs_options_args *args, const char *name);
@@ -63,10 +64,10 @@ const char *vdbs_options_output(const vdbs_options_args *args);
 /* Whole-string numbers: finite doubles, integers within [lo, hi]. */
 vdbs_status vdbs_options_number(const char *flag, const char *text, double *out, vdbs_error *err);
 vdbs_status vdbs_options_integer(const char *flag, const char *text, long lo, long hi, long *out,
-                        vdbs_error *err);
+                                 vdbs_error *err);
 /* "X,Y,Z" (or one number repeated when allow_scalar). */
 vdbs_status vdbs_options_triple(const char *flag, const char *text, int allow_scalar, double out[3],
-                       vdbs_error *err);
+                                vdbs_error *err);
 /* --camera PX,PY,PZ:TX,TY,TZ:FOV_DEG: position, target, vertical field of view; up is +Y
  * unless the view is vertical (then -Z is up). width and height stay 0. */
 vdbs_status vdbs_options_camera(const char *text, vdbs_camera *camera, vdbs_error *err);
@@ -76,8 +77,8 @@ vdbs_status vdbs_options_camera(const char *text, vdbs_camera *camera, vdbs_erro
  * command's option table lists those it takes (render all but --method).
  * Loads --scene first, then applies the flags in order; light flags replace the scene's
  * lights. Validates the result (at least one light unless allow_no_lights). */
-vdbs_status vdbs_options_build_scene(const vdbs_options_args *args, vdbs_scene *scene, int allow_no_lights,
-                            vdbs_error *err);
+vdbs_status vdbs_options_build_scene(const vdbs_options_args *args, vdbs_scene *scene,
+                                     int allow_no_lights, vdbs_error *err);
 
 /* 1 when path ends in ext (case-insensitive) after a non-empty file name. */
 int vdbs_options_has_extension(const char *path, const char *ext);
@@ -93,8 +94,8 @@ unsigned vdbs_options_scene_flags(const vdbs_options_args *args);
  * OBJ occluder once, so that a missing or malformed file is an error before any work
  * ("scene FILE: occluders[I].file: OBJ:LINE: ..."), then warns once (unless quiet) that
  * `command` ignores the occluders and the fog. Nothing happens for a scene without them. */
-vdbs_status vdbs_options_scene_occluders(const char *command, const vdbs_options_args *args, const vdbs_scene *scene,
-                                int quiet, vdbs_error *err);
+vdbs_status vdbs_options_scene_occluders(const char *command, const vdbs_options_args *args,
+                                         const vdbs_scene *scene, int quiet, vdbs_error *err);
 
 /* JSON pieces of the bake and render reports. */
 struct cJSON;
@@ -104,22 +105,24 @@ void vdbs_options_json_light_grids(struct cJSON *j, const vdbs_light_grid_stats 
 
 /* The options bake and render share: the output, the backend, the scene and its flags
  * (vdbs_options_build_scene), S1 (vdbs_options_s1), --json and -q. */
-#define VDBS_OPTIONS_COMMON                                                                         \
-    {"-o", VDBS_ARG_VALUE}, {"--output", VDBS_ARG_VALUE}, {"--backend", VDBS_ARG_VALUE}, {"--json", VDBS_ARG_FLAG},    \
-        {"-q", VDBS_ARG_FLAG}, {"--scene", VDBS_ARG_VALUE}, {"--grid", VDBS_ARG_VALUE},                           \
-        {"--density-scale", VDBS_ARG_VALUE}, {"--albedo", VDBS_ARG_VALUE}, {"--g", VDBS_ARG_VALUE},               \
-        {"--sun", VDBS_ARG_LIST}, {"--point", VDBS_ARG_LIST}, {"--env", VDBS_ARG_LIST},                        \
-        {"--quality", VDBS_ARG_VALUE}, {"--sky-directions", VDBS_ARG_VALUE}, {"--s1", VDBS_ARG_VALUE},            \
+#define VDBS_OPTIONS_COMMON                                                                        \
+    {"-o", VDBS_ARG_VALUE}, {"--output", VDBS_ARG_VALUE}, {"--backend", VDBS_ARG_VALUE},           \
+        {"--json", VDBS_ARG_FLAG}, {"-q", VDBS_ARG_FLAG}, {"--scene", VDBS_ARG_VALUE},             \
+        {"--grid", VDBS_ARG_VALUE}, {"--density-scale", VDBS_ARG_VALUE},                           \
+        {"--albedo", VDBS_ARG_VALUE}, {"--g", VDBS_ARG_VALUE}, {"--sun", VDBS_ARG_LIST},           \
+        {"--point", VDBS_ARG_LIST}, {"--env", VDBS_ARG_LIST}, {"--quality", VDBS_ARG_VALUE},       \
+        {"--sky-directions", VDBS_ARG_VALUE}, {"--s1", VDBS_ARG_VALUE},                            \
     {                                                                                              \
-        "--s1-oversample", VDBS_ARG_VALUE                                                               \
+        "--s1-oversample", VDBS_ARG_VALUE                                                          \
     }
 
 /* --s1 grid|march and --s1-oversample F (1..16): *march 1 for "march", *oversample 0 when
  * not given (the default). */
-vdbs_status vdbs_options_s1(const vdbs_options_args *args, int *march, int *oversample, vdbs_error *err);
+vdbs_status vdbs_options_s1(const vdbs_options_args *args, int *march, int *oversample,
+                            vdbs_error *err);
 
 /* The help lines of those two flags (bake and render). */
-#define VDBS_OPTIONS_S1_HELP                                                                                \
+#define VDBS_OPTIONS_S1_HELP                                                                       \
     "  --s1 grid|march          single scattering from light grids (default): one\n"               \
     "                           transmittance sweep per light direction, then a lookup per\n"      \
     "                           point; or by the exact march to every light (the oracle)\n"        \
@@ -130,7 +133,7 @@ vdbs_status vdbs_options_s1(const vdbs_options_args *args, int *march, int *over
  * -1 for none. */
 vdbs_status vdbs_options_max_memory(const vdbs_options_args *args, int64_t *bytes, vdbs_error *err);
 
-#define VDBS_OPTIONS_MAX_MEMORY_HELP                                                                        \
+#define VDBS_OPTIONS_MAX_MEMORY_HELP                                                               \
     "  --max-memory SIZE        refuse, before the large allocations, work estimated to need\n"    \
     "                           more memory than SIZE (512M, 8G, 8GiB, bytes; none: no\n"          \
     "                           limit; default: 75% of the machine's or the cgroup's)\n"
@@ -138,8 +141,8 @@ vdbs_status vdbs_options_max_memory(const vdbs_options_args *args, int64_t *byte
 /* "memory": the limit, the resident set the estimate starts from, the estimate by part and
  * each stage's peak resident set (bytes), into j. */
 void vdbs_options_json_memory(struct cJSON *j, int64_t limit, int64_t baseline,
-                     const vdbs_memory_estimate *estimate, const char *const stages[],
-                     const int64_t peaks[], int stage_count, int per_stage);
+                              const vdbs_memory_estimate *estimate, const char *const stages[],
+                              const int64_t peaks[], int stage_count, int per_stage);
 
 /* Says "vdbscatter CMD: message" (an ERROR message) and returns the exit status for status
  * (a vdbs_status or an exit status: 2, VDBS_ERR_INPUT, is a usage error). */
@@ -158,8 +161,8 @@ int vdbs_options_add_solver_flags(vdbs_arg_option *options, int count, int max);
 
 /* Applies `name VALUE` if name is a solver's flag: *handled 1, and the value checked against
  * the option's range (errors name the flag); *handled 0 for any other name. */
-vdbs_status vdbs_options_solver_flag(const char *name, const char *value, vdbs_scene *scene, int *handled,
-                            vdbs_error *err);
+vdbs_status vdbs_options_solver_flag(const char *name, const char *value, vdbs_scene *scene,
+                                     int *handled, vdbs_error *err);
 
 /* bake --help's list of methods and each one's options, as OUTPUT. */
 void vdbs_options_solver_help(void);

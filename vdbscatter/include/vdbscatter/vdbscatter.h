@@ -43,7 +43,7 @@ typedef struct vdbs_command_result {
     /* The CLI's exit status: 0 success, 1 failure while working, 2 bad input or usage,
      * 128 + N when cancelled. */
     int exit_status;
-    vdbs_status status; /* VDBS_OK, or the kind of failure (VDBS_ERR_INPUT: bad input) */
+    vdbs_status status;         /* VDBS_OK, or the kind of failure (VDBS_ERR_INPUT: bad input) */
     char error[VDBS_ERROR_MAX]; /* the ERROR message without its "vdbscatter CMD: " */
     char *output;               /* every OUTPUT text in order, NUL-terminated (never NULL) */
     size_t output_size;
@@ -82,9 +82,9 @@ VDBS_API vdbs_status vdbs_command_option_get(const char *command, int index,
 /* A grid of a VDB file copied into a dense array over its active bounding box. */
 typedef struct vdbs_dense_grid {
     char name[256];
-    int channels;   /* 1 (float) or 3 (vec3s) */
-    int origin[3];  /* index of values[0]: the active bounding box's minimum (x, y, z) */
-    int size[3];    /* voxels along x, y, z; 0 for an empty grid */
+    int channels;  /* 1 (float) or 3 (vec3s) */
+    int origin[3]; /* index of values[0]: the active bounding box's minimum (x, y, z) */
+    int size[3];   /* voxels along x, y, z; 0 for an empty grid */
     /* index (x, y, z, 1) -> world: rows of the affine map */
     double index_to_world[3][4];
     /* size[2] x size[1] x size[0] x channels floats, x varying fastest; inactive voxels hold
