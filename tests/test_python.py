@@ -727,10 +727,17 @@ class ReadLit(Base):
                 assert_bits_equal(self, grid.values, zyx, name)
 
     def test_memory_limit(self):
+        grids = vdbscatter.read_lit(LIT)
+        total = sum(g.values.nbytes for g in grids.values())
+        largest = max(grids.values(), key=lambda g: g.values.nbytes)
+        # The limit holds all copies together: the largest alone fits, all of them do not.
         with self.assertRaises(vdbscatter.InputError) as caught:
-            vdbscatter.read_lit(LIT, max_memory=64)
-        self.assertIn("max_memory", caught.exception.message)
-        self.assertIn("density", caught.exception.message)
+            vdbscatter.read_lit(LIT, max_memory=total - 1)
+        message = caught.exception.message
+        self.assertIn("max_memory", message)
+        self.assertIn(f"{len(grids)} grids", message)
+        self.assertIn(f"'{largest.name}'", message)
+        self.assertEqual(len(vdbscatter.read_lit(LIT, max_memory=total)), len(grids))
 
 
 class Lookup(Base):

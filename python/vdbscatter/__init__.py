@@ -412,44 +412,44 @@ name: the grid's name; values: numpy float32 (z, y, x) or (z, y, x, 3), inactive
 holding 0; origin: the index (x, y, z) of values[0, 0, 0]; index_to_world: 4x4 numpy array
 mapping index (x, y, z, 1) to world space."""
 
-_DENSE_TYPES = ("float", "vec3s")  # what vdbs_dense_read copies
+def _raise_dense(status, err):
+    kind = InputError if status == _lib.ERR_INPUT else Error
+    raise kind(err.message.decode("utf-8", "replace"), status,
+               2 if status == _lib.ERR_INPUT else 1)
 
 
-def _read_grid(path, name, max_memory):
-    grid = _lib.DenseGrid()
-    err = _lib.Error()
-    limit = 0 if max_memory is None else int(max_memory)
-    status = _LIB.vdbs_dense_read(os.fsencode(path), name.encode(), limit, ctypes.byref(grid),
-                                  ctypes.byref(err))
-    if status != _lib.OK:
-        kind = InputError if status == _lib.ERR_INPUT else Error
-        raise kind(err.message.decode("utf-8", "replace"), status,
-                   2 if status == _lib.ERR_INPUT else 1)
-    try:
-        sx, sy, sz = grid.size
-        shape = (sz, sy, sx) + ((3,) if grid.channels == 3 else ())
-        if grid.values:
-            values = np.ctypeslib.as_array(grid.values, shape=shape).copy()
-        else:
-            values = np.zeros(shape, np.float32)
-        index_to_world = np.array([list(row) for row in grid.index_to_world] + [[0, 0, 0, 1]],
-                                  dtype=np.float64)
-        return Grid(grid.name.decode("utf-8", "replace"), values, tuple(grid.origin),
-                    index_to_world)
-    finally:
-        _LIB.vdbs_dense_free(ctypes.byref(grid))
+def _grid_from(grid):
+    """A Grid holding copies of a vdbs_dense_grid's values and transform."""
+    sx, sy, sz = grid.size
+    shape = (sz, sy, sx) + ((3,) if grid.channels == 3 else ())
+    if grid.values:
+        values = np.ctypeslib.as_array(grid.values, shape=shape).copy()
+    else:
+        values = np.zeros(shape, np.float32)
+    index_to_world = np.array([list(row) for row in grid.index_to_world] + [[0, 0, 0, 1]],
+                              dtype=np.float64)
+    return Grid(grid.name.decode("utf-8", "replace"), values, tuple(grid.origin), index_to_world)
 
 
 def read_lit(path, max_memory=None):
     """Every float and vec3s grid of the VDB `path` (a lit VDB from bake, or any other) as
-    {name: Grid}; grids of other types are left out, and of two grids with one name the
-    first is read. Each copy must fit in max_memory bytes (None: the library's default
-    limit, 75% of the machine's memory; a negative number: no limit)."""
-    grids = {}
-    for entry in info(path)["grids"]:
-        if entry["type"] in _DENSE_TYPES and entry["name"] not in grids:
-            grids[entry["name"]] = _read_grid(path, entry["name"], max_memory)
-    return grids
+    {name: Grid}, from one reading of the file; grids of other types are left out, and of two
+    grids with one name the first is read. The copies together must fit in max_memory bytes
+    (None: the library's default limit, 75% of the machine's memory; a negative number: no
+    limit)."""
+    grids = ctypes.POINTER(_lib.DenseGrid)()
+    count = ctypes.c_int(0)
+    err = _lib.Error()
+    limit = 0 if max_memory is None else int(max_memory)
+    status = _LIB.vdbs_dense_read_all(os.fsencode(path), limit, ctypes.byref(grids),
+                                      ctypes.byref(count), ctypes.byref(err))
+    if status != _lib.OK:
+        _raise_dense(status, err)
+    try:
+        return {grids[i].name.decode("utf-8", "replace"): _grid_from(grids[i])
+                for i in range(count.value)}
+    finally:
+        _LIB.vdbs_dense_free_all(grids, count)
 
 
 __all__ = ["Error", "InputError", "VdbscatterWarning", "Grid", "bake", "render", "compare",

@@ -141,10 +141,11 @@ def load():
     lib.vdbs_command_option_get.argtypes = [ctypes.c_char_p, ctypes.c_int,
                                             ctypes.POINTER(ArgOption)]
     lib.vdbs_command_option_get.restype = ctypes.c_int
-    lib.vdbs_dense_read.argtypes = [ctypes.c_char_p, ctypes.c_char_p, ctypes.c_int64,
-                                    ctypes.POINTER(DenseGrid), ctypes.POINTER(Error)]
-    lib.vdbs_dense_read.restype = ctypes.c_int
-    lib.vdbs_dense_free.argtypes = [ctypes.POINTER(DenseGrid)]
-    lib.vdbs_dense_free.restype = None
+    lib.vdbs_dense_read_all.argtypes = [ctypes.c_char_p, ctypes.c_int64,
+                                        ctypes.POINTER(ctypes.POINTER(DenseGrid)),
+                                        ctypes.POINTER(ctypes.c_int), ctypes.POINTER(Error)]
+    lib.vdbs_dense_read_all.restype = ctypes.c_int
+    lib.vdbs_dense_free_all.argtypes = [ctypes.POINTER(DenseGrid), ctypes.c_int]
+    lib.vdbs_dense_free_all.restype = None
     lib.path = path
     return lib

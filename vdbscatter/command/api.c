@@ -122,99 +122,133 @@ vdbs_status vdbs_command_option_get(const char *command, int index, vdbs_arg_opt
     return VDBS_OK;
 }
 
-/* Reads the dense copy voxel by voxel through the lit reader's cached accessors. */
-static vdbs_status copy_dense(const char *path, const vdbio_lit *lit, vdbs_dense_grid *out,
-                              vdbs_error *err)
+/* Channels of a grid type that dense copies take: 1, 3, or 0 for any other. */
+static int dense_channels(const char *value_type)
 {
-    const int nx = out->size[0], ny = out->size[1], nz = out->size[2];
-    vdbs_status failed = VDBS_OK;
-#pragma omp parallel for schedule(dynamic, 1)
-    for (int z = 0; z < nz; ++z) {
-        vdbs_error inner;
-        for (int y = 0; y < ny && failed == VDBS_OK; ++y)
-            for (int x = 0; x < nx; ++x) {
-                const int ijk[3] = {out->origin[0] + x, out->origin[1] + y, out->origin[2] + z};
-                float *v = out->values + (((size_t)z * ny + y) * nx + x) * (size_t)out->channels;
-                vdbs_status st = out->channels == 3
-                                     ? vdbio_lit_vec3(lit, out->name, ijk, v, &inner)
-                                     : vdbio_lit_float(lit, out->name, ijk, v, &inner);
-                if (st != VDBS_OK) {
-#pragma omp critical(vdbs_dense_error)
-                    if (failed == VDBS_OK) {
-                        failed = st;
-                        vdbs_error_set(err, st, "%s: grid '%s': %s", path, out->name,
-                                       inner.message);
-                    }
-                    break;
-                }
-            }
+    return strcmp(value_type, "float") == 0 ? 1 : strcmp(value_type, "vec3s") == 0 ? 3 : 0;
+}
+
+static int64_t dense_floats(const vdbs_dense_grid *g)
+{
+    return (int64_t)g->size[0] * g->size[1] * g->size[2] * g->channels;
+}
+
+/* The grid's name, channels, transform and active bounding box from its summary. */
+static void dense_describe(const vdbio_grid_summary *s, vdbs_dense_grid *g)
+{
+    memset(g, 0, sizeof *g);
+    snprintf(g->name, sizeof g->name, "%s", s->name);
+    g->channels = dense_channels(s->value_type);
+    memcpy(g->index_to_world, s->transform.m, sizeof g->index_to_world);
+    for (int a = 0; a < 3; ++a) {
+        g->origin[a] = s->bbox_min[a];
+        g->size[a] = s->bbox_max[a] >= s->bbox_min[a] ? s->bbox_max[a] - s->bbox_min[a] + 1 : 0;
     }
-    return failed;
+}
+
+/* Checks the copies against the limit, then fills them from one opening of the file. */
+static vdbs_status dense_fill(const char *path, int64_t max_memory, vdbs_dense_grid *grids,
+                              int count, vdbs_error *err)
+{
+    int64_t floats = 0;
+    int largest = 0;
+    for (int i = 0; i < count; ++i) {
+        floats += dense_floats(&grids[i]);
+        if (dense_floats(&grids[i]) > dense_floats(&grids[largest]))
+            largest = i;
+    }
+    const int64_t limit = max_memory > 0    ? max_memory
+                          : max_memory == 0 ? vdbs_memory_default_limit()
+                                            : 0;
+    if (limit > 0 && floats * (int64_t)sizeof(float) > limit) {
+        const vdbs_dense_grid *g = &grids[largest];
+        char need[32], cap[32];
+        vdbs_memory_format(floats * (int64_t)sizeof(float), need, sizeof need);
+        vdbs_memory_format(limit, cap, sizeof cap);
+        return vdbs_error_set(err, VDBS_ERR_INPUT,
+                              "%s: the dense copies of %d grid%s need %s (the largest: '%s', "
+                              "%d x %d x %d voxels) over the %s limit (%s)",
+                              path, count, count == 1 ? "" : "s", need, g->name, g->size[0],
+                              g->size[1], g->size[2], cap,
+                              max_memory > 0 ? "max_memory" : VDBS_MEMORY_DEFAULT_SOURCE);
+    }
+    vdbs_status st;
+    vdbio_lit *lit = NULL;
+    if ((st = vdbio_lit_open(path, &lit, err)) != VDBS_OK)
+        return st;
+    for (int i = 0; i < count && st == VDBS_OK; ++i) {
+        vdbs_dense_grid *g = &grids[i];
+        if (dense_floats(g) == 0)
+            continue;
+        g->values = malloc((size_t)dense_floats(g) * sizeof(float));
+        st = g->values ? vdbio_lit_dense(lit, g->name, g->origin, g->size, g->values, err)
+                       : vdbs_error_set(err, VDBS_ERR_NOMEM, "%s: out of memory for grid '%s'",
+                                        path, g->name);
+    }
+    vdbio_lit_close(lit);
+    return st;
 }
 
 vdbs_status vdbs_dense_read(const char *path, const char *name, int64_t max_memory,
                             vdbs_dense_grid *out, vdbs_error *err)
 {
     memset(out, 0, sizeof *out);
-    vdbio_grid_summary *grids = NULL;
+    vdbio_grid_summary *summaries = NULL;
     int count = 0;
-    vdbs_status st = vdbio_list_grids(path, &grids, &count, err);
+    vdbs_status st = vdbio_list_grids(path, &summaries, &count, err);
     if (st != VDBS_OK)
         return st;
-    const vdbio_grid_summary *g = NULL;
-    for (int i = 0; i < count && !g; ++i)
-        if (!name || strcmp(grids[i].name, name) == 0)
-            g = &grids[i];
-    if (!g) {
+    const vdbio_grid_summary *s = NULL;
+    for (int i = 0; i < count && !s; ++i)
+        if (!name || strcmp(summaries[i].name, name) == 0)
+            s = &summaries[i];
+    if (!s)
         st = vdbs_error_set(err, VDBS_ERR_INPUT, "%s: no grid '%s'", path, name ? name : "");
-        free(grids);
-        return st;
-    }
-    if (strcmp(g->value_type, "float") == 0)
-        out->channels = 1;
-    else if (strcmp(g->value_type, "vec3s") == 0)
-        out->channels = 3;
-    else {
+    else if (!dense_channels(s->value_type))
         st = vdbs_error_set(err, VDBS_ERR_INPUT,
                             "%s: grid '%s' is of type %s (dense copies take float and vec3s)", path,
-                            g->name, g->value_type);
-        free(grids);
-        return st;
-    }
-    snprintf(out->name, sizeof out->name, "%s", g->name);
-    memcpy(out->index_to_world, g->transform.m, sizeof out->index_to_world);
-    int64_t voxels = 1;
-    for (int a = 0; a < 3; ++a) {
-        out->origin[a] = g->bbox_min[a];
-        out->size[a] = g->bbox_max[a] >= g->bbox_min[a] ? g->bbox_max[a] - g->bbox_min[a] + 1 : 0;
-        voxels *= out->size[a];
-    }
-    free(grids);
-    if (voxels == 0)
-        return VDBS_OK;
-    vdbs_memory_estimate estimate = {0};
-    vdbs_memory_add(&estimate, "dense copy", voxels * out->channels * (int64_t)sizeof(float));
-    const int64_t limit = max_memory > 0    ? max_memory
-                          : max_memory == 0 ? vdbs_memory_default_limit()
-                                            : 0;
-    char what[320];
-    snprintf(what, sizeof what, "grid '%.200s', %d x %d x %d voxels", out->name, out->size[0],
-             out->size[1], out->size[2]);
-    if ((st = vdbs_memory_check(&estimate, limit,
-                                max_memory > 0 ? "max_memory" : VDBS_MEMORY_DEFAULT_SOURCE, what,
-                                "max_memory", err)) != VDBS_OK)
-        return st;
-    out->values = malloc((size_t)voxels * (size_t)out->channels * sizeof(float));
-    if (!out->values)
-        return vdbs_error_set(err, VDBS_ERR_NOMEM, "%s: out of memory for %s", path, what);
-    vdbio_lit *lit = NULL;
-    if ((st = vdbio_lit_open(path, &lit, err)) == VDBS_OK) {
-        st = copy_dense(path, lit, out, err);
-        vdbio_lit_close(lit);
-    }
+                            s->name, s->value_type);
+    else
+        dense_describe(s, out);
+    free(summaries);
+    if (st == VDBS_OK)
+        st = dense_fill(path, max_memory, out, 1, err);
     if (st != VDBS_OK)
         vdbs_dense_free(out);
     return st;
+}
+
+vdbs_status vdbs_dense_read_all(const char *path, int64_t max_memory, vdbs_dense_grid **grids,
+                                int *count, vdbs_error *err)
+{
+    *grids = NULL;
+    *count = 0;
+    vdbio_grid_summary *summaries = NULL;
+    int n = 0;
+    vdbs_status st = vdbio_list_grids(path, &summaries, &n, err);
+    if (st != VDBS_OK)
+        return st;
+    vdbs_dense_grid *all = calloc(n > 0 ? (size_t)n : 1, sizeof *all);
+    if (!all) {
+        free(summaries);
+        return vdbs_error_set(err, VDBS_ERR_NOMEM, "%s: out of memory", path);
+    }
+    int kept = 0;
+    for (int i = 0; i < n; ++i) {
+        int seen = 0; /* the reader finds the first of two grids with one name */
+        for (int k = 0; k < kept && !seen; ++k)
+            seen = strcmp(all[k].name, summaries[i].name) == 0;
+        if (!seen && dense_channels(summaries[i].value_type))
+            dense_describe(&summaries[i], &all[kept++]);
+    }
+    free(summaries);
+    if ((st = dense_fill(path, max_memory, all, kept, err)) != VDBS_OK) {
+        vdbs_dense_free_all(all, kept);
+        return st;
+    }
+    *grids = all;
+    *count = kept;
+    return VDBS_OK;
 }
 
 void vdbs_dense_free(vdbs_dense_grid *grid)
@@ -223,4 +257,11 @@ void vdbs_dense_free(vdbs_dense_grid *grid)
         return;
     free(grid->values);
     grid->values = NULL;
+}
+
+void vdbs_dense_free_all(vdbs_dense_grid *grids, int count)
+{
+    for (int i = 0; grids && i < count; ++i)
+        vdbs_dense_free(&grids[i]);
+    free(grids);
 }

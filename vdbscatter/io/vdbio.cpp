@@ -11,6 +11,7 @@
 #include <openvdb/io/io.h>
 #include <openvdb/io/Stream.h>
 #include <openvdb/math/Transform.h>
+#include <openvdb/tools/Dense.h>
 #include <openvdb/tools/LevelSetUtil.h>
 #include <openvdb/tools/Morphology.h>
 #include <nanovdb/util/IO.h>
@@ -314,8 +315,7 @@ class ArchiveInput : public openvdb::io::Archive
     void check_grid_meta_ahead(const openvdb::io::GridDescriptor &gd)
     {
         const std::streamoff start = is_.tellg();
-        const uint64_t end =
-            inputHasGridOffsets() ? static_cast<uint64_t>(gd.getEndPos()) : size_;
+        const uint64_t end = inputHasGridOffsets() ? static_cast<uint64_t>(gd.getEndPos()) : size_;
         if (fileVersion() >= openvdb::OPENVDB_FILE_VERSION_NODE_MASK_COMPRESSION)
             is_.seekg(start + static_cast<std::streamoff>(sizeof(uint32_t)));
         check_meta_ahead(end, "grid");
@@ -1891,6 +1891,33 @@ vdbs_status vdbio_lit_float(const vdbio_lit *lit, const char *grid, const int ij
             fail(VDBS_ERR_INTERNAL, "vdbio_lit_float: NULL argument");
         const FloatGrid &g = lit_typed<FloatGrid>(lit, grid, "float");
         *out = lit_lookup(lit, g, ijk);
+    });
+}
+
+vdbs_status vdbio_lit_dense(const vdbio_lit *lit, const char *grid, const int origin[3],
+                            const int size[3], float *values, vdbs_error *err)
+{
+    return guarded(err, [&] {
+        if (!lit || !grid || !origin || !size || !values)
+            fail(VDBS_ERR_INTERNAL, "vdbio_lit_dense: NULL argument");
+        const GridBase *g = lit_find(lit, grid);
+        if (!g)
+            fail(VDBS_ERR_INPUT, format("%s: no grid named \"%s\"", lit->path.c_str(), grid));
+        const Coord lo(origin[0], origin[1], origin[2]);
+        const openvdb::CoordBBox box(lo, lo + Coord(size[0] - 1, size[1] - 1, size[2] - 1));
+        using openvdb::tools::LayoutXYZ;
+        if (const auto *f = dynamic_cast<const FloatGrid *>(g)) {
+            openvdb::tools::Dense<float, LayoutXYZ> dense(box, values);
+            openvdb::tools::copyToDense(*f, dense);
+        } else if (const auto *v = dynamic_cast<const openvdb::Vec3SGrid *>(g)) {
+            static_assert(sizeof(openvdb::Vec3s) == 3 * sizeof(float), "Vec3s is 3 floats");
+            openvdb::tools::Dense<openvdb::Vec3s, LayoutXYZ> dense(
+                box, reinterpret_cast<openvdb::Vec3s *>(values));
+            openvdb::tools::copyToDense(*v, dense);
+        } else {
+            fail(VDBS_ERR_INPUT, format("%s: grid \"%s\" holds %s values, not float or vec3s",
+                                        lit->path.c_str(), grid, g->valueType().c_str()));
+        }
     });
 }
 

@@ -199,6 +199,11 @@ vdbs_status vdbio_lit_vec3(const vdbio_lit *lit, const char *grid, const int ijk
 /* Value of a float grid at index coordinates (0 where inactive). */
 vdbs_status vdbio_lit_float(const vdbio_lit *lit, const char *grid, const int ijk[3], float *out,
                             vdbs_error *err);
+/* Copies a float or vec3s grid's values over the index box [origin, origin + size) into values
+ * (x varying fastest; 1 or 3 floats a voxel), as the tree holds them, active or not: one
+ * threaded pass over the tree. Errors: no such grid, another type (VDBS_ERR_INPUT). */
+vdbs_status vdbio_lit_dense(const vdbio_lit *lit, const char *grid, const int origin[3],
+                            const int size[3], float *values, vdbs_error *err);
 /* NanoVDB Vec3f grid of a vec3s grid of the file (one grid in the buffer), with the same
  * allocation convention as vdbio_density_to_nanovdb (32-byte aligned, free with free()).
  * Errors: no such grid, not a vec3s grid (VDBS_ERR_INPUT). */

@@ -87,8 +87,8 @@ typedef struct vdbs_dense_grid {
     int size[3];   /* voxels along x, y, z; 0 for an empty grid */
     /* index (x, y, z, 1) -> world: rows of the affine map */
     double index_to_world[3][4];
-    /* size[2] x size[1] x size[0] x channels floats, x varying fastest; inactive voxels hold
-     * 0 (a lit VDB's background). NULL for an empty grid. */
+    /* size[2] x size[1] x size[0] x channels floats, x varying fastest: the grid's values,
+     * active or not (a lit VDB holds 0 outside its active voxels). NULL for an empty grid. */
     float *values;
 } vdbs_dense_grid;
 
@@ -100,6 +100,13 @@ typedef struct vdbs_dense_grid {
 VDBS_API vdbs_status vdbs_dense_read(const char *path, const char *name, int64_t max_memory,
                                      vdbs_dense_grid *out, vdbs_error *err);
 VDBS_API void vdbs_dense_free(vdbs_dense_grid *grid);
+
+/* Every float and vec3s grid of the file (the first of two with one name), in file order, from
+ * one reading of it: *grids is an array of *count, freed by vdbs_dense_free_all. All copies
+ * together must fit in max_memory. Errors as vdbs_dense_read's. */
+VDBS_API vdbs_status vdbs_dense_read_all(const char *path, int64_t max_memory,
+                                         vdbs_dense_grid **grids, int *count, vdbs_error *err);
+VDBS_API void vdbs_dense_free_all(vdbs_dense_grid *grids, int count);
 
 #ifdef __cplusplus
 }
