@@ -24,26 +24,30 @@ void vdbs_message_emit(vdbs_message_kind kind, const char *text)
     }
 }
 
-void vdbs_message_emitf(vdbs_message_kind kind, const char *fmt, ...)
+void vdbs_message_emitv(vdbs_message_kind kind, const char *fmt, va_list ap)
 {
     char small[1024];
+    va_list again;
+    va_copy(again, ap);
+    int n = vsnprintf(small, sizeof small, fmt, ap);
+    if (n >= 0 && (size_t)n < sizeof small) {
+        vdbs_message_emit(kind, small);
+    } else if (n >= 0) {
+        /* A long report or table: formatted again into a buffer of its size. */
+        char *big = malloc((size_t)n + 1);
+        if (big) {
+            vsnprintf(big, (size_t)n + 1, fmt, again);
+            vdbs_message_emit(kind, big);
+            free(big);
+        }
+    }
+    va_end(again);
+}
+
+void vdbs_message_emitf(vdbs_message_kind kind, const char *fmt, ...)
+{
     va_list ap;
     va_start(ap, fmt);
-    int n = vsnprintf(small, sizeof small, fmt, ap);
+    vdbs_message_emitv(kind, fmt, ap);
     va_end(ap);
-    if (n < 0)
-        return;
-    if ((size_t)n < sizeof small) {
-        vdbs_message_emit(kind, small);
-        return;
-    }
-    /* A long report or table: formatted again into a buffer of its size. */
-    char *big = malloc((size_t)n + 1);
-    if (!big)
-        return;
-    va_start(ap, fmt);
-    vsnprintf(big, (size_t)n + 1, fmt, ap);
-    va_end(ap);
-    vdbs_message_emit(kind, big);
-    free(big);
 }

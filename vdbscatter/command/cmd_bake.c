@@ -203,7 +203,7 @@ static cJSON *report_json(const char *input, const char *output, const vdbs_scen
     return j;
 }
 
-/* The report: into --report's file, on stdout with --json, else a summary on stderr unless
+/* The report: into --report's file, as OUTPUT with --json, else a summary NOTE unless
  * -q. Returns the exit status (1 when the --report file cannot be written). */
 static int print_report(const vdbs_options_args *args, cJSON *j, const vdbs_scene *scene,
                         const vdbs_bake_report *report, const char *out)
@@ -244,7 +244,7 @@ static int print_report(const vdbs_options_args *args, cJSON *j, const vdbs_scen
     return status;
 }
 
-/* --dry-run: the plan on stdout, as JSON with --json. */
+/* --dry-run: the plan as OUTPUT, as JSON with --json. */
 static int print_plan(const vdbs_options_args *args, const vdbs_bake_report *report)
 {
     char *text = vdbs_plan_json(&report->plan, &report->plan_features);

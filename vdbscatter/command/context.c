@@ -68,25 +68,10 @@ void vdbs_command_context_end(vdbs_command_context *c, int exit_status)
 
 void vdbs_command_out(const char *fmt, ...)
 {
-    char small[1024];
     va_list ap;
     va_start(ap, fmt);
-    int n = vsnprintf(small, sizeof small, fmt, ap);
+    vdbs_message_emitv(VDBS_MESSAGE_OUTPUT, fmt, ap);
     va_end(ap);
-    if (n < 0)
-        return;
-    if ((size_t)n < sizeof small) {
-        vdbs_message_emit(VDBS_MESSAGE_OUTPUT, small);
-        return;
-    }
-    char *big = malloc((size_t)n + 1);
-    if (!big)
-        return;
-    va_start(ap, fmt);
-    vsnprintf(big, (size_t)n + 1, fmt, ap);
-    va_end(ap);
-    vdbs_message_emit(VDBS_MESSAGE_OUTPUT, big);
-    free(big);
 }
 
 void vdbs_command_error(const char *command, int status, const char *message)

@@ -4,6 +4,8 @@
 #ifndef VDBSCATTER_MESSAGE_H
 #define VDBSCATTER_MESSAGE_H
 
+#include <stdarg.h>
+
 #include "vdbscatter/status.h"
 
 #ifdef __cplusplus
@@ -19,6 +21,8 @@ typedef struct vdbs_message_sink {
 vdbs_message_sink vdbs_message_sink_set(const vdbs_message_sink *sink);
 
 void vdbs_message_emit(vdbs_message_kind kind, const char *text);
+/* Formats a message of any length. */
+void vdbs_message_emitv(vdbs_message_kind kind, const char *fmt, va_list ap);
 void vdbs_message_emitf(vdbs_message_kind kind, const char *fmt, ...)
 #if defined(__GNUC__)
     __attribute__((format(printf, 2, 3)))
