@@ -36,33 +36,35 @@ static int run(vdbs_command_desc *desc, vdbs_command_result *result, const char 
     return vdbs_command_run(desc, result);
 }
 
+/* Runs words that must succeed, with no callback. */
+static void run_ok(const char *const *words)
+{
+    vdbs_command_desc desc = {0};
+    vdbs_command_result r;
+    assert_int_equal(run(&desc, &r, words), 0);
+    vdbs_command_result_free(&r);
+}
+
+/* The tests' volume and its lit VDB, made once per program. */
 static const char *cloud(void)
 {
-    static int made;
-    const char *path = test_tmp_path("api_cloud.vdb");
-    if (!made) {
+    static char path[4096]; /* test_tmp_path's buffers are reused */
+    if (!path[0]) {
+        snprintf(path, sizeof path, "%s", test_tmp_path("api_cloud.vdb"));
         const char *words[] = {"sample", "cloud", "-o", path, "--res", "24", "-q", NULL};
-        vdbs_command_desc desc = {0};
-        vdbs_command_result r;
-        assert_int_equal(run(&desc, &r, words), 0);
-        vdbs_command_result_free(&r);
-        made = 1;
+        run_ok(words);
     }
     return path;
 }
 
 static const char *lit(void)
 {
-    static int made;
-    const char *path = test_tmp_path("api_lit.vdb");
-    if (!made) {
+    static char path[4096]; /* test_tmp_path's buffers are reused */
+    if (!path[0]) {
+        snprintf(path, sizeof path, "%s", test_tmp_path("api_lit.vdb"));
         const char *words[] = {"bake",  cloud(),       "-o",        path,  "--sun", "0.3,-1,0.2",
                                "--env", "0.2,0.3,0.5", "--backend", "cpu", "-q",    NULL};
-        vdbs_command_desc desc = {0};
-        vdbs_command_result r;
-        assert_int_equal(run(&desc, &r, words), 0);
-        vdbs_command_result_free(&r);
-        made = 1;
+        run_ok(words);
     }
     return path;
 }

@@ -16,28 +16,18 @@
 #define VDBSCATTER_VERSION "0"
 #endif
 
-typedef struct command_entry {
-    const char *name;
-    int (*run)(int argc, char **argv);
-    const vdbs_arg_option *(*options)(void);
-} command_entry;
-
-static const command_entry commands[] = {
-    {"bake", vdbs_command_bake, vdbs_command_bake_options},
-    {"render", vdbs_command_render, vdbs_command_render_options},
-    {"compare", vdbs_command_compare, vdbs_command_compare_options},
-    {"info", vdbs_command_info, vdbs_command_info_options},
-    {"sample", vdbs_command_sample, vdbs_command_sample_options},
-    {"tradeoff", vdbs_command_tradeoff, vdbs_command_tradeoff_options},
-    {"phase-svd", vdbs_command_phase_svd, vdbs_command_phase_svd_options},
+/* The commands, in the order of vdbs_command_names (a test holds the two together). */
+static const vdbs_command_spec *(*const commands[])(void) = {
+    vdbs_command_bake,   vdbs_command_render,   vdbs_command_compare,   vdbs_command_info,
+    vdbs_command_sample, vdbs_command_tradeoff, vdbs_command_phase_svd,
 };
 #define COMMAND_COUNT ((int)(sizeof commands / sizeof commands[0]))
 
-static const command_entry *find_command(const char *name)
+static const vdbs_command_spec *find_command(const char *name)
 {
     for (int i = 0; name && i < COMMAND_COUNT; ++i)
-        if (strcmp(commands[i].name, name) == 0)
-            return &commands[i];
+        if (strcmp(commands[i]()->name, name) == 0)
+            return commands[i]();
     return NULL;
 }
 
@@ -59,11 +49,14 @@ int vdbs_command_run(const vdbs_command_desc *desc, vdbs_command_result *result)
         result->status = VDBS_ERR_NOMEM;
         result->exit_status = VDBS_EXIT_FAILURE;
     } else {
-        const command_entry *command = find_command(desc->argv[0]);
+        const vdbs_command_spec *command = find_command(desc->argv[0]);
         int status;
         if (command) {
             /* The commands read argv and never write it. */
-            status = command->run(desc->argc - 1, (char **)desc->argv + 1);
+            vdbs_options_args args;
+            status = vdbs_command_open(command, desc->argc - 1, (char **)desc->argv + 1, &args);
+            if (status == VDBS_COMMAND_CONTINUE)
+                status = command->run(&args);
         } else {
             char message[256];
             snprintf(message, sizeof message, "unknown command '%.64s' (try --help)",
@@ -104,11 +97,11 @@ const char *const *vdbs_command_names(void)
 
 int vdbs_command_option_count(const char *command)
 {
-    const command_entry *c = find_command(command);
+    const vdbs_command_spec *c = find_command(command);
     if (!c)
         return -1;
     int n = 0;
-    for (const vdbs_arg_option *o = c->options(); o->name; ++o)
+    for (const vdbs_arg_option *o = c->options; o->name; ++o)
         ++n;
     return n;
 }
@@ -118,7 +111,7 @@ vdbs_status vdbs_command_option_get(const char *command, int index, vdbs_arg_opt
     const int n = vdbs_command_option_count(command);
     if (!option || index < 0 || index >= n)
         return VDBS_ERR_INPUT;
-    *option = find_command(command)->options()[index];
+    *option = find_command(command)->options[index];
     return VDBS_OK;
 }
 

@@ -104,16 +104,6 @@ static void fill_options(void)
     vdbs_options_add_solver_flags(all_options, own, VDBS_OPTIONS_MAX);
 }
 
-/* bake's options, then every solver's own flags from the solver table: built once (commands
- * may run on several threads), after any solver the program registers before its first
- * command. */
-const vdbs_arg_option *vdbs_command_bake_options(void)
-{
-    static pthread_once_t once = PTHREAD_ONCE_INIT;
-    pthread_once(&once, fill_options);
-    return all_options;
-}
-
 /* The light grids' sizes and times per kind of light (those with lights). */
 static cJSON *kinds_json(const vdbs_s1_kind_stats kinds[VDBS_S1_KINDS])
 {
@@ -303,18 +293,23 @@ static void print_solver_help(void)
     vdbs_options_solver_help();
 }
 
-int vdbs_command_bake(int argc, char **argv)
+static int run(const vdbs_options_args *args);
+
+static const vdbs_command_spec command = {
+    .name = "bake",
+    .run = run,
+    .options = all_options,
+    .help = help,
+    .more_help = print_solver_help,
+    .max_positional = 1,
+    .positional_error = "expected one input VDB",
+};
+
+static int run(const vdbs_options_args *args)
 {
-    const vdbs_command_spec command = {
-        "bake", vdbs_command_bake_options(), help, print_solver_help, 0,
-        1,      "expected one input VDB"};
-    vdbs_options_args args;
     vdbs_error err;
     vdbs_status st;
-    int opened = vdbs_command_open(&command, argc, argv, &args);
-    if (opened != VDBS_COMMAND_CONTINUE)
-        return opened;
-    const char *out = vdbs_options_output(&args);
+    const char *out = vdbs_options_output(args);
     if (!out)
         return vdbs_command_fail("bake", 2, "missing -o OUT.vdb");
     vdbs_scene scene;
@@ -326,12 +321,12 @@ int vdbs_command_bake(int argc, char **argv)
         return vdbs_command_fail("bake", 2, "-o: expected .vdb or .nvdb");
     /* Lights are checked after the input file and grid (vdbs_bake), so that a missing file is
      * not reported as a missing light. */
-    if ((st = vdbs_options_build_scene(&args, &scene, 1, &err)) != VDBS_OK)
+    if ((st = vdbs_options_build_scene(args, &scene, 1, &err)) != VDBS_OK)
         return vdbs_command_fail("bake", st, err.message);
-    if ((st = vdbs_options_scene_occluders("bake", &args, &scene, vdbs_options_flag(&args, "-q"),
+    if ((st = vdbs_options_scene_occluders("bake", args, &scene, vdbs_options_flag(args, "-q"),
                                            &err)) != VDBS_OK)
         return vdbs_command_fail("bake", st, err.message);
-    const char *camera = vdbs_options_value(&args, "--camera");
+    const char *camera = vdbs_options_value(args, "--camera");
     if (camera) {
         vdbs_camera c;
         if ((st = vdbs_options_camera(camera, &c, &err)) != VDBS_OK)
@@ -343,10 +338,10 @@ int vdbs_command_bake(int argc, char **argv)
         scene.camera = c;
     }
     /* IN.vdb overrides the scene file's volume, in the bake and in the scene it records. */
-    if (args.positional_count) {
-        if (strlen(args.positional[0]) >= sizeof scene.volume_file)
+    if (args->positional_count) {
+        if (strlen(args->positional[0]) >= sizeof scene.volume_file)
             return vdbs_command_fail("bake", 2, "IN.vdb: the path is too long");
-        snprintf(scene.volume_file, sizeof scene.volume_file, "%s", args.positional[0]);
+        snprintf(scene.volume_file, sizeof scene.volume_file, "%s", args->positional[0]);
     }
     const char *input = scene.volume_file;
     if (!input[0])
@@ -355,13 +350,13 @@ int vdbs_command_bake(int argc, char **argv)
     o.input = input;
     o.output = out;
     o.scene = &scene;
-    const char *backend = vdbs_options_value(&args, "--backend");
+    const char *backend = vdbs_options_value(args, "--backend");
     if (backend && (st = vdbs_backend_parse(backend, &o.backend, &err)) != VDBS_OK)
         return vdbs_command_fail("bake", st, err.message);
-    int quiet = vdbs_options_flag(&args, "-q");
-    if ((st = vdbs_options_s1(&args, &o.s1_march, &o.s1_oversample, &err)) != VDBS_OK)
+    int quiet = vdbs_options_flag(args, "-q");
+    if ((st = vdbs_options_s1(args, &o.s1_march, &o.s1_oversample, &err)) != VDBS_OK)
         return vdbs_command_fail("bake", st, err.message);
-    const char *sky_spacing = vdbs_options_value(&args, "--s1-sky-spacing");
+    const char *sky_spacing = vdbs_options_value(args, "--s1-sky-spacing");
     if (sky_spacing) {
         if ((st = vdbs_options_number("--s1-sky-spacing", sky_spacing, &o.s1_sky_spacing, &err)) !=
             VDBS_OK)
@@ -369,18 +364,18 @@ int vdbs_command_bake(int argc, char **argv)
         if (!(o.s1_sky_spacing > 0.0 && o.s1_sky_spacing <= 64.0))
             return vdbs_command_fail("bake", 2, "--s1-sky-spacing: expected a number in (0, 64]");
     }
-    o.from_levelset = vdbs_options_flag(&args, "--from-levelset");
-    o.half = vdbs_options_flag(&args, "--half");
-    const char *store = vdbs_options_value(&args, "--store");
+    o.from_levelset = vdbs_options_flag(args, "--from-levelset");
+    o.half = vdbs_options_flag(args, "--half");
+    const char *store = vdbs_options_value(args, "--store");
     if (store && strcmp(store, "lights") != 0 && strcmp(store, "none") != 0)
         return vdbs_command_fail("bake", 2, "--store: expected lights or none");
     o.store = store && strcmp(store, "none") == 0 ? VDBS_STORE_NONE : VDBS_STORE_LIGHTS;
-    const char *method = vdbs_options_value(&args, "--method");
-    const char *tolerance = vdbs_options_value(&args, "--tolerance");
+    const char *method = vdbs_options_value(args, "--method");
+    const char *tolerance = vdbs_options_value(args, "--tolerance");
     int automatic = method && strcmp(method, "auto") == 0;
     if (tolerance && !automatic)
         return vdbs_command_fail("bake", 2, "--tolerance needs --method auto");
-    o.dry_run = vdbs_options_flag(&args, "--dry-run");
+    o.dry_run = vdbs_options_flag(args, "--dry-run");
     if (o.dry_run && !automatic)
         return vdbs_command_fail("bake", 2, "--dry-run needs --method auto");
     if (automatic) {
@@ -391,10 +386,10 @@ int vdbs_command_bake(int argc, char **argv)
         if (!(o.tolerance > 0.0 && o.tolerance < 1.0))
             return vdbs_command_fail("bake", 2, "--tolerance: expected a relative RMSE 0 < E < 1");
     }
-    if ((st = vdbs_options_max_memory(&args, &o.max_memory, &err)) != VDBS_OK)
+    if ((st = vdbs_options_max_memory(args, &o.max_memory, &err)) != VDBS_OK)
         return vdbs_command_fail("bake", st, err.message);
-    o.keep_state = vdbs_options_flag(&args, "--keep-state");
-    o.warm_start = vdbs_options_value(&args, "--warm-start");
+    o.keep_state = vdbs_options_flag(args, "--keep-state");
+    o.warm_start = vdbs_options_value(args, "--warm-start");
     o.progress = !quiet && vdbs_command_progress();
     o.warn = vdbs_command_warn;
     o.warn_user = &quiet;
@@ -406,7 +401,7 @@ int vdbs_command_bake(int argc, char **argv)
                                         : vdbs_command_fail("bake", st, err.message);
 
     if (o.dry_run)
-        return print_plan(&args, &report);
+        return print_plan(args, &report);
     /* The report's scene is the one baked: the plan's method, quality and lights. */
     if (report.planned && (st = vdbs_plan_apply(&report.plan, &scene, &err)) != VDBS_OK)
         return vdbs_command_fail("bake", st, err.message);
@@ -419,7 +414,17 @@ int vdbs_command_bake(int argc, char **argv)
         cJSON_AddNumberToObject(j, "density_target_depth", target_depth);
     cJSON_AddNumberToObject(j, "mean_optical_depth", report.advice.mean_depth);
     cJSON_AddNumberToObject(j, "ms_to_ss_estimate", report.advice.ms_to_ss);
-    int status = print_report(&args, j, &scene, &report, out);
+    int status = print_report(args, j, &scene, &report, out);
     cJSON_Delete(j);
     return vdbs_command_interrupted("bake", status); /* a signal after the new file was in place */
+}
+
+/* bake's options are its own, then every solver's flags from the solver table: filled once
+ * (commands may run on several threads), after any solver the program registers before its
+ * first command. */
+const vdbs_command_spec *vdbs_command_bake(void)
+{
+    static pthread_once_t once = PTHREAD_ONCE_INIT;
+    pthread_once(&once, fill_options);
+    return &command;
 }

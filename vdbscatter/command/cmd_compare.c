@@ -50,7 +50,10 @@ typedef struct metric {
     int integer; /* printed without exponent however large */
 } metric;
 
+static int run(const vdbs_options_args *args);
+
 static const vdbs_command_spec command = {
+    .run = run,
     .name = "compare",
     .options = options,
     .help = help,
@@ -59,27 +62,18 @@ static const vdbs_command_spec command = {
     .positional_error = "expected two images: A and the reference B",
 };
 
-const vdbs_arg_option *vdbs_command_compare_options(void)
+static int run(const vdbs_options_args *args)
 {
-    return options;
-}
-
-int vdbs_command_compare(int argc, char **argv)
-{
-    vdbs_options_args args;
     vdbs_error err;
     vdbs_status st;
-    int status = vdbs_command_open(&command, argc, argv, &args);
-    if (status != VDBS_COMMAND_CONTINUE)
-        return status;
     double mask_below = 0.0;
-    const char *v = vdbs_options_value(&args, "--mask-below");
+    const char *v = vdbs_options_value(args, "--mask-below");
     if (v && (st = vdbs_options_number("--mask-below", v, &mask_below, &err)) != VDBS_OK)
         return vdbs_command_fail("compare", st, err.message);
     if (mask_below < 0.0)
         return vdbs_command_fail("compare", 2, "--mask-below must be >= 0");
 
-    const char *path_a = args.positional[0], *path_b = args.positional[1];
+    const char *path_a = args->positional[0], *path_b = args->positional[1];
     vdbs_image a, b;
     if ((st = vdbs_image_read(path_a, &a, &err)) != VDBS_OK)
         return vdbs_command_fail("compare", st, err.message);
@@ -117,7 +111,7 @@ int vdbs_command_compare(int argc, char **argv)
         {"se_b", m.se_image_b, se_b, 0},
     };
     const size_t count = sizeof list / sizeof list[0];
-    if (vdbs_options_flag(&args, "--json")) {
+    if (vdbs_options_flag(args, "--json")) {
         cJSON *j = cJSON_CreateObject();
         for (size_t i = 0; i < count; ++i) {
             if (!list[i].shown)
@@ -143,4 +137,9 @@ int vdbs_command_compare(int argc, char **argv)
         }
     }
     return VDBS_EXIT_OK;
+}
+
+const vdbs_command_spec *vdbs_command_compare(void)
+{
+    return &command;
 }

@@ -302,7 +302,10 @@ static void print_text(const cJSON *root, const info_request *r)
     print_thickness(cJSON_GetObjectItem(root, "optical_thickness"), r);
 }
 
+static int run(const vdbs_options_args *args);
+
 static const vdbs_command_spec command = {
+    .run = run,
     .name = "info",
     .options = options,
     .help = help,
@@ -310,28 +313,19 @@ static const vdbs_command_spec command = {
     .positional_error = "expected one FILE.vdb",
 };
 
-const vdbs_arg_option *vdbs_command_info_options(void)
+static int run(const vdbs_options_args *args)
 {
-    return options;
-}
-
-int vdbs_command_info(int argc, char **argv)
-{
-    vdbs_options_args args;
     vdbs_error err;
     vdbs_status st;
-    int status = vdbs_command_open(&command, argc, argv, &args);
-    if (status != VDBS_COMMAND_CONTINUE)
-        return status;
-    if (args.positional_count == 0 &&
-        !vdbs_options_flag(&args, "--gpu")) /* FILE optional with --gpu */
+    if (args->positional_count == 0 &&
+        !vdbs_options_flag(args, "--gpu")) /* FILE optional with --gpu */
         return vdbs_command_fail("info", 2, command.positional_error);
     info_request r;
-    if ((st = parse_request(&args, &r, &err)) != VDBS_OK)
+    if ((st = parse_request(args, &r, &err)) != VDBS_OK)
         return vdbs_command_fail("info", st, err.message);
 
     cJSON *root = cJSON_CreateObject();
-    status = VDBS_EXIT_OK;
+    int status = VDBS_EXIT_OK;
     if (r.want_gpu) {
         int ok;
         char message[VDBS_ERROR_MAX];
@@ -343,8 +337,8 @@ int vdbs_command_info(int argc, char **argv)
         if (!ok)
             status = VDBS_EXIT_FAILURE;
     }
-    if (args.positional_count == 1 &&
-        (st = file_json(root, args.positional[0], &r, &err)) != VDBS_OK) {
+    if (args->positional_count == 1 &&
+        (st = file_json(root, args->positional[0], &r, &err)) != VDBS_OK) {
         cJSON_Delete(root);
         return vdbs_command_fail("info", st, err.message);
     }
@@ -357,4 +351,9 @@ int vdbs_command_info(int argc, char **argv)
     }
     cJSON_Delete(root);
     return status;
+}
+
+const vdbs_command_spec *vdbs_command_info(void)
+{
+    return &command;
 }

@@ -34,7 +34,10 @@ static const vdbs_arg_option options[] = {
     {NULL, VDBS_ARG_FLAG},
 };
 
+static int run(const vdbs_options_args *args);
+
 static const vdbs_command_spec command = {
+    .run = run,
     .name = "phase-svd",
     .options = options,
     .help = help,
@@ -42,20 +45,11 @@ static const vdbs_command_spec command = {
     .positional_error = "takes no positional arguments",
 };
 
-const vdbs_arg_option *vdbs_command_phase_svd_options(void)
+static int run(const vdbs_options_args *args)
 {
-    return options;
-}
-
-int vdbs_command_phase_svd(int argc, char **argv)
-{
-    vdbs_options_args args;
     vdbs_error err;
-    int status = vdbs_command_open(&command, argc, argv, &args);
-    if (status != VDBS_COMMAND_CONTINUE)
-        return status;
-    const char *gv = vdbs_options_value(&args, "--g"),
-               *dv = vdbs_options_value(&args, "--directions");
+    const char *gv = vdbs_options_value(args, "--g"),
+               *dv = vdbs_options_value(args, "--directions");
     if (!gv || !dv)
         return vdbs_command_fail("phase-svd", 2, "--g and --directions are required");
     double g = 0.0;
@@ -65,7 +59,7 @@ int vdbs_command_phase_svd(int argc, char **argv)
         vdbs_options_integer("--directions", dv, 2, VDBS_PHASEMAT_MAX_DIRECTIONS, &d, &err) !=
             VDBS_OK)
         return vdbs_command_fail("phase-svd", 2, err.message);
-    const char *mode = vdbs_options_value(&args, "--delta-m");
+    const char *mode = vdbs_options_value(args, "--delta-m");
     if (mode) {
         static const char *const names[3] = {"off", "auto", "on"};
         int found = 0;
@@ -83,7 +77,7 @@ int vdbs_command_phase_svd(int argc, char **argv)
     vdbs_status st = vdbs_phasemat_build(&desc, &m, &err);
     if (st != VDBS_OK)
         return vdbs_command_fail("phase-svd", st, err.message);
-    if (vdbs_options_flag(&args, "--json")) {
+    if (vdbs_options_flag(args, "--json")) {
         cJSON *j = cJSON_CreateObject(), *rows = NULL;
         cJSON_AddNumberToObject(j, "g", g);
         cJSON_AddNumberToObject(j, "directions", (double)d);
@@ -108,4 +102,9 @@ int vdbs_command_phase_svd(int argc, char **argv)
     }
     vdbs_phasemat_free(&m);
     return VDBS_EXIT_OK;
+}
+
+const vdbs_command_spec *vdbs_command_phase_svd(void)
+{
+    return &command;
 }

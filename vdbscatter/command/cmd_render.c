@@ -272,7 +272,10 @@ static void print_json(const char *input, const render_args *r, const vdbs_rende
     cJSON_Delete(j);
 }
 
+static int run(const vdbs_options_args *args);
+
 static const vdbs_command_spec command = {
+    .run = run,
     .name = "render",
     .options = options,
     .help = help,
@@ -280,52 +283,43 @@ static const vdbs_command_spec command = {
     .positional_error = "expected one input VDB",
 };
 
-const vdbs_arg_option *vdbs_command_render_options(void)
+static int run(const vdbs_options_args *args)
 {
-    return options;
-}
-
-int vdbs_command_render(int argc, char **argv)
-{
-    vdbs_options_args args;
     vdbs_error err;
     vdbs_status st;
-    int status = vdbs_command_open(&command, argc, argv, &args);
-    if (status != VDBS_COMMAND_CONTINUE)
-        return status;
     render_args r;
-    if ((st = parse_args(&args, &r, &err)) != VDBS_OK)
+    if ((st = parse_args(args, &r, &err)) != VDBS_OK)
         return vdbs_command_fail("render", st, err.message);
-    int quiet = vdbs_options_flag(&args, "-q");
+    int quiet = vdbs_options_flag(args, "-q");
     vdbs_scene *scene = malloc(sizeof *scene);
     if (!scene)
         return vdbs_command_fail("render", 1, "out of memory");
-    if ((st = vdbs_options_build_scene(&args, scene, 1, &err)) != VDBS_OK) {
+    if ((st = vdbs_options_build_scene(args, scene, 1, &err)) != VDBS_OK) {
         free(scene);
         return vdbs_command_fail("render", st, err.message);
     }
-    if ((st = vdbs_options_scene_occluders("render", &args, scene, quiet, &err)) != VDBS_OK) {
+    if ((st = vdbs_options_scene_occluders("render", args, scene, quiet, &err)) != VDBS_OK) {
         free(scene);
         return vdbs_command_fail("render", st, err.message);
     }
-    const char *input = args.positional_count ? args.positional[0] : scene->volume_file;
+    const char *input = args->positional_count ? args->positional[0] : scene->volume_file;
     if (r.mode != VDBS_RENDER_REFERENCE) {
         static const char *const ref_only[] = {"--spp",  "--time",    "--tolerance",
                                                "--seed", "--env-nee", "--max-bounces"};
         for (int i = 0; i < 6; ++i)
-            if (vdbs_options_value(&args, ref_only[i]))
+            if (vdbs_options_value(args, ref_only[i]))
                 warn_line(quiet, "%s applies to --mode reference only; ignored", ref_only[i]);
     }
 
     vdbs_render_desc desc = {0};
-    if ((st = vdbs_options_max_memory(&args, &desc.max_memory, &err)) != VDBS_OK) {
+    if ((st = vdbs_options_max_memory(args, &desc.max_memory, &err)) != VDBS_OK) {
         free(scene);
         return vdbs_command_fail("render", st, err.message);
     }
     desc.input = input;
     desc.output = r.output;
     desc.scene = scene;
-    desc.scene_set = vdbs_options_scene_flags(&args);
+    desc.scene_set = vdbs_options_scene_flags(args);
     desc.mode = r.mode;
     desc.backend = r.backend;
     desc.s1_march = r.s1_march;
@@ -360,7 +354,7 @@ int vdbs_command_render(int argc, char **argv)
         vdbs_command_give_image(kept.width, kept.height, kept.rgb, kept.se);
     if (r.relight && strcmp(rep.mode, "baked") != 0)
         warn_line(quiet, "%s applies to a lit VDB only; ignored", "--relight");
-    if (vdbs_options_flag(&args, "--json")) {
+    if (vdbs_options_flag(args, "--json")) {
         print_json(input, &r, &rep);
     } else if (!quiet) {
         char detail[96];
@@ -377,4 +371,9 @@ int vdbs_command_render(int argc, char **argv)
     }
     free(scene); /* after print_json: input may be scene->volume_file */
     return vdbs_command_interrupted("render", VDBS_EXIT_OK); /* a signal after the rename */
+}
+
+const vdbs_command_spec *vdbs_command_render(void)
+{
+    return &command;
 }

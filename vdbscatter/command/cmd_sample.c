@@ -33,7 +33,10 @@ static const vdbs_arg_option options[] = {
     {"--seed", VDBS_ARG_VALUE}, {"-q", VDBS_ARG_FLAG},        {NULL, VDBS_ARG_FLAG},
 };
 
+static int run(const vdbs_options_args *args);
+
 static const vdbs_command_spec command = {
+    .run = run,
     .name = "sample",
     .options = options,
     .help = help,
@@ -42,32 +45,23 @@ static const vdbs_command_spec command = {
     .positional_error = "expected one sample NAME (cloud, smoke, sphere, slab, cube, sky)",
 };
 
-const vdbs_arg_option *vdbs_command_sample_options(void)
+static int run(const vdbs_options_args *args)
 {
-    return options;
-}
-
-int vdbs_command_sample(int argc, char **argv)
-{
-    vdbs_options_args args;
     vdbs_error err;
-    int status = vdbs_command_open(&command, argc, argv, &args);
-    if (status != VDBS_COMMAND_CONTINUE)
-        return status;
-    const char *out = vdbs_options_output(&args);
+    const char *out = vdbs_options_output(args);
     if (!out)
         return vdbs_command_fail("sample", 2, "missing -o OUT.vdb");
     long res = 64, seed = 1;
     const char *v;
-    if ((v = vdbs_options_value(&args, "--res")) &&
+    if ((v = vdbs_options_value(args, "--res")) &&
         vdbs_options_integer("--res", v, 1, 1024, &res, &err) != VDBS_OK)
         return vdbs_command_fail("sample", 2, err.message);
-    if ((v = vdbs_options_value(&args, "--seed")) &&
+    if ((v = vdbs_options_value(args, "--seed")) &&
         vdbs_options_integer("--seed", v, 0, 4294967295L, &seed, &err) != VDBS_OK)
         return vdbs_command_fail("sample", 2, err.message);
-    int quiet = vdbs_options_flag(&args, "-q");
+    int quiet = vdbs_options_flag(args, "-q");
 
-    if (strcmp(args.positional[0], "sky") == 0) {
+    if (strcmp(args->positional[0], "sky") == 0) {
         vdbs_image image;
         vdbs_status st = vdbs_envmap_test_sky((int)res, &image, &err);
         if (st == VDBS_OK)
@@ -77,14 +71,14 @@ int vdbs_command_sample(int argc, char **argv)
     }
     vdbio_density *density = NULL;
     vdbs_status st =
-        vdbs_sample_create(args.positional[0], (int)res, (uint32_t)seed, &density, &err);
+        vdbs_sample_create(args->positional[0], (int)res, (uint32_t)seed, &density, &err);
     if (st != VDBS_OK)
         return vdbs_command_fail("sample", st, err.message);
     char res_text[16], seed_text[16];
     snprintf(res_text, sizeof res_text, "%ld", res);
     snprintf(seed_text, sizeof seed_text, "%ld", seed);
     vdbio_meta meta[] = {
-        {"vdbscatter_sample", args.positional[0]},
+        {"vdbscatter_sample", args->positional[0]},
         {"vdbscatter_sample_res", res_text},
         {"vdbscatter_sample_seed", seed_text},
     };
@@ -99,4 +93,9 @@ int vdbs_command_sample(int argc, char **argv)
     if (st != VDBS_OK)
         return vdbs_command_fail("sample", st, err.message);
     return VDBS_EXIT_OK;
+}
+
+const vdbs_command_spec *vdbs_command_sample(void)
+{
+    return &command;
 }

@@ -79,7 +79,10 @@ static const vdbs_arg_option options[] = {
     {NULL, VDBS_ARG_FLAG},
 };
 
+static int run(const vdbs_options_args *args);
+
 static const vdbs_command_spec command = {
+    .run = run,
     .name = "tradeoff",
     .options = options,
     .help = help,
@@ -209,41 +212,32 @@ static void print_json(const vdbs_tradeoff_report *rep)
     cJSON_Delete(j);
 }
 
-const vdbs_arg_option *vdbs_command_tradeoff_options(void)
+static int run(const vdbs_options_args *args)
 {
-    return options;
-}
-
-int vdbs_command_tradeoff(int argc, char **argv)
-{
-    vdbs_options_args args;
     vdbs_error err;
     vdbs_status st;
-    int opened = vdbs_command_open(&command, argc, argv, &args);
-    if (opened != VDBS_COMMAND_CONTINUE)
-        return opened;
-    const char *out = vdbs_options_output(&args);
+    const char *out = vdbs_options_output(args);
     if (!out)
         return vdbs_command_fail("tradeoff", 2, "missing -o DIR");
     vdbs_tradeoff_desc d = {0};
     vdbs_camera camera;
     char methods[512];
-    if ((st = parse(&args, &d, &camera, methods, sizeof methods, &err)) != VDBS_OK)
+    if ((st = parse(args, &d, &camera, methods, sizeof methods, &err)) != VDBS_OK)
         return vdbs_command_fail("tradeoff", st, err.message);
     vdbs_scene *scene = malloc(sizeof *scene);
     if (!scene)
         return vdbs_command_fail("tradeoff", 1, "out of memory");
-    if ((st = vdbs_options_build_scene(&args, scene, 0, &err)) != VDBS_OK) {
+    if ((st = vdbs_options_build_scene(args, scene, 0, &err)) != VDBS_OK) {
         free(scene);
         return vdbs_command_fail("tradeoff", st, err.message);
     }
-    d.input = args.positional_count ? args.positional[0] : scene->volume_file;
+    d.input = args->positional_count ? args->positional[0] : scene->volume_file;
     if (!d.input[0]) {
         free(scene);
         return vdbs_command_fail("tradeoff", 2,
                                  "no input VDB (give IN.vdb or volume.file in --scene)");
     }
-    int quiet = vdbs_options_flag(&args, "-q");
+    int quiet = vdbs_options_flag(args, "-q");
     d.scene = scene;
     d.dir = out;
     d.progress = !quiet && vdbs_command_progress();
@@ -258,7 +252,7 @@ int vdbs_command_tradeoff(int argc, char **argv)
         return st == VDBS_ERR_CANCELLED ? vdbs_command_interrupted("tradeoff", VDBS_EXIT_FAILURE)
                                         : vdbs_command_fail("tradeoff", st, err.message);
     }
-    if (vdbs_options_flag(&args, "--json"))
+    if (vdbs_options_flag(args, "--json"))
         print_json(&rep);
     else if (!quiet)
         vdbs_command_out(
@@ -267,4 +261,9 @@ int vdbs_command_tradeoff(int argc, char **argv)
             rep.reference_cached ? ", cached" : "", rep.seconds_total, rep.markdown);
     vdbs_tradeoff_report_free(&rep);
     return vdbs_command_interrupted("tradeoff", VDBS_EXIT_OK);
+}
+
+const vdbs_command_spec *vdbs_command_tradeoff(void)
+{
+    return &command;
 }

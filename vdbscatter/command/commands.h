@@ -1,24 +1,17 @@
 /* The vdbscatter commands inside the library (vdbs_command_run, api.c): each runs from
- * its words after the command name and returns the exit status; each has its option table. */
+ * its words after the command name and returns the exit status. */
 #ifndef VDBSCATTER_COMMAND_COMMANDS_H
 #define VDBSCATTER_COMMAND_COMMANDS_H
 
 #include "options.h"
 
-int vdbs_command_info(int argc, char **argv);
-int vdbs_command_sample(int argc, char **argv);
-int vdbs_command_bake(int argc, char **argv);
-int vdbs_command_render(int argc, char **argv);
-int vdbs_command_compare(int argc, char **argv);
-int vdbs_command_phase_svd(int argc, char **argv);
-int vdbs_command_tradeoff(int argc, char **argv);
-
-const vdbs_arg_option *vdbs_command_info_options(void);
-const vdbs_arg_option *vdbs_command_sample_options(void);
-const vdbs_arg_option *vdbs_command_bake_options(void);
-const vdbs_arg_option *vdbs_command_render_options(void);
-const vdbs_arg_option *vdbs_command_compare_options(void);
-const vdbs_arg_option *vdbs_command_phase_svd_options(void);
-const vdbs_arg_option *vdbs_command_tradeoff_options(void);
+/* Each command's spec: its name, run, option table and help (options.h). */
+const vdbs_command_spec *vdbs_command_bake(void);
+const vdbs_command_spec *vdbs_command_render(void);
+const vdbs_command_spec *vdbs_command_compare(void);
+const vdbs_command_spec *vdbs_command_info(void);
+const vdbs_command_spec *vdbs_command_sample(void);
+const vdbs_command_spec *vdbs_command_tradeoff(void);
+const vdbs_command_spec *vdbs_command_phase_svd(void);
 
 #endif

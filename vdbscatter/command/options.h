@@ -39,6 +39,8 @@ vdbs_status vdbs_options_parse(int argc, char **argv, const vdbs_arg_option *opt
 /* What a command's opening needs to know of it (vdbs_command_open). */
 typedef struct vdbs_command_spec {
     const char *name; /* "bake": errors read "vdbscatter bake: ..." */
+    /* The command, from its parsed words (vdbs_command_open); returns the exit status. */
+    int (*run)(const vdbs_options_args *args);
     const vdbs_arg_option *options;
     const char *help;        /* the OUTPUT of --help or -h */
     void (*more_help)(void); /* what --help says after help, or NULL */
