@@ -408,9 +408,10 @@ del _function, _command
 
 Grid = collections.namedtuple("Grid", "name values origin index_to_world")
 Grid.__doc__ = """One grid of a VDB as a dense array over its active bounding box.
-name: the grid's name; values: numpy float32 (z, y, x) or (z, y, x, 3), inactive voxels
-holding 0; origin: the index (x, y, z) of values[0, 0, 0]; index_to_world: 4x4 numpy array
-mapping index (x, y, z, 1) to world space."""
+name: the grid's name; values: numpy float32 (z, y, x) or (z, y, x, 3), the grid's values
+active or not (0 outside a lit VDB's active voxels); origin: the index (x, y, z) of
+values[0, 0, 0]; index_to_world: 4x4 numpy array mapping index (x, y, z, 1) to world space."""
+
 
 def _raise_dense(status, err):
     kind = InputError if status == _lib.ERR_INPUT else Error
