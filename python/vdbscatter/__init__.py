@@ -128,7 +128,7 @@ def _run(words, on_message=None, progress=False, keep_image=False):
             _LIB.vdbs_command_result_free(ctypes.byref(result))
             finished.set()
 
-    worker = threading.Thread(target=work, name=f"vdbscatter {words[0]}")
+    worker = threading.Thread(target=work, name=" ".join(["vdbscatter", *words[:1]]))
     worker.start()
     try:
         # Short timed waits, so that Ctrl-C is seen while the command works. On an Event,

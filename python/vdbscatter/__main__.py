@@ -5,24 +5,7 @@ import os
 import signal
 import sys
 
-from . import _lib, __version__, _run
-
-# The CLI's own usage text (cli/main.c); tests/test_python.py checks that the two agree.
-USAGE = """\
-usage: vdbscatter COMMAND [options]
-
-commands:
-  bake IN.vdb -o OUT.vdb     light a density VDB and write a lit VDB
-  render IN.vdb -o IMG.exr   ray-march or path-trace a picture of a volume
-  compare A B                error metrics of image A against reference B
-  info FILE.vdb              list grids, sizes, value ranges, optical thickness
-  sample NAME -o OUT.vdb     write a procedural sample volume
-  tradeoff IN.vdb -o DIR     every method's error against time on your scene
-  phase-svd --g G --directions D   the phase matrix's factorisation error per term
-
-Run 'vdbscatter COMMAND --help' for the options of a command.
-Exit status: 0 success, 1 failure while working, 2 bad input or usage.
-"""
+from . import _lib, _run
 
 
 def _write(kind, text):
@@ -32,16 +15,8 @@ def _write(kind, text):
 
 
 def main(argv):
-    if not argv:
-        sys.stderr.write(USAGE)
-        return 2
-    if argv[0] in ("--help", "-h", "help"):
-        sys.stdout.write(USAGE)
-        return 0
-    if argv[0] == "--version":
-        print(f"vdbscatter {__version__}")
-        return 0
-    # Progress lines, as the CLI: only to a terminal, and not with -q.
+    # Every word goes to the library, the usage, --help and --version too. Progress lines, as
+    # the CLI: only to a terminal, and not with -q.
     progress = sys.stderr.isatty() and "-q" not in argv[1:]
     try:
         return _run(argv, _write, progress=progress).exit_status

@@ -2,6 +2,7 @@
  * copies of a VDB's grids. */
 #include "vdbscatter/vdbscatter.h"
 
+#include <pthread.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -16,7 +17,7 @@
 #define VDBSCATTER_VERSION "0"
 #endif
 
-/* The commands, in the order of vdbs_command_names (a test holds the two together). */
+/* The commands; vdbs_command_names lists them in this order. */
 static const vdbs_command_spec *(*const commands[])(void) = {
     vdbs_command_bake,   vdbs_command_render,   vdbs_command_compare,   vdbs_command_info,
     vdbs_command_sample, vdbs_command_tradeoff, vdbs_command_phase_svd,
@@ -25,10 +26,55 @@ static const vdbs_command_spec *(*const commands[])(void) = {
 
 static const vdbs_command_spec *find_command(const char *name)
 {
-    for (int i = 0; name && i < COMMAND_COUNT; ++i)
-        if (strcmp(commands[i]()->name, name) == 0)
-            return commands[i]();
+    for (int i = 0; name && i < COMMAND_COUNT; ++i) {
+        const vdbs_command_spec *spec = commands[i]();
+        if (strcmp(spec->name, name) == 0)
+            return spec;
+    }
     return NULL;
+}
+
+/* What `vdbscatter --help` prints, and without a command `vdbscatter` alone (on stderr). */
+static const char usage[] =
+    "usage: vdbscatter COMMAND [options]\n"
+    "\n"
+    "commands:\n"
+    "  bake IN.vdb -o OUT.vdb     light a density VDB and write a lit VDB\n"
+    "  render IN.vdb -o IMG.exr   ray-march or path-trace a picture of a volume\n"
+    "  compare A B                error metrics of image A against reference B\n"
+    "  info FILE.vdb              list grids, sizes, value ranges, optical thickness\n"
+    "  sample NAME -o OUT.vdb     write a procedural sample volume\n"
+    "  tradeoff IN.vdb -o DIR     every method's error against time on your scene\n"
+    "  phase-svd --g G --directions D   the phase matrix's factorisation error per term\n"
+    "\n"
+    "Run 'vdbscatter COMMAND --help' for the options of a command.\n"
+    "Exit status: 0 success, 1 failure while working, 2 bad input or usage.\n";
+
+/* The words before any command: none (the usage on stderr), --help, --version, or an unknown
+ * command. Returns the exit status. */
+static int run_top_level(const vdbs_command_desc *desc, vdbs_command_result *result)
+{
+    const char *word = desc->argc > 0 ? desc->argv[0] : NULL;
+    if (!word) {
+        vdbs_message_emit(VDBS_MESSAGE_NOTE, usage);
+        snprintf(result->error, sizeof result->error, "no command given");
+        result->status = VDBS_ERR_INPUT;
+        return VDBS_EXIT_USAGE;
+    }
+    if (strcmp(word, "--help") == 0 || strcmp(word, "-h") == 0 || strcmp(word, "help") == 0) {
+        vdbs_command_out("%s", usage);
+        return VDBS_EXIT_OK;
+    }
+    if (strcmp(word, "--version") == 0) {
+        vdbs_command_out("vdbscatter %s\n", VDBSCATTER_VERSION);
+        return VDBS_EXIT_OK;
+    }
+    char message[256];
+    snprintf(message, sizeof message, "unknown command '%.64s' (try --help)", word);
+    vdbs_message_emitf(VDBS_MESSAGE_ERROR, "vdbscatter: %s\n", message);
+    snprintf(result->error, sizeof result->error, "%s", message);
+    result->status = VDBS_ERR_INPUT;
+    return VDBS_EXIT_USAGE;
 }
 
 const char *vdbs_version(void)
@@ -40,8 +86,8 @@ int vdbs_command_run(const vdbs_command_desc *desc, vdbs_command_result *result)
 {
     memset(result, 0, sizeof *result);
     vdbs_command_context *context = NULL;
-    if (!desc || desc->argc < 1 || !desc->argv || !desc->argv[0]) {
-        snprintf(result->error, sizeof result->error, "no command given");
+    if (!desc || desc->argc < 0 || (desc->argc > 0 && !desc->argv)) {
+        snprintf(result->error, sizeof result->error, "no command words given");
         result->status = VDBS_ERR_INPUT;
         result->exit_status = VDBS_EXIT_USAGE;
     } else if (vdbs_command_context_begin(desc, result, &context) != VDBS_OK) {
@@ -49,7 +95,7 @@ int vdbs_command_run(const vdbs_command_desc *desc, vdbs_command_result *result)
         result->status = VDBS_ERR_NOMEM;
         result->exit_status = VDBS_EXIT_FAILURE;
     } else {
-        const vdbs_command_spec *command = find_command(desc->argv[0]);
+        const vdbs_command_spec *command = desc->argc > 0 ? find_command(desc->argv[0]) : NULL;
         int status;
         if (command) {
             /* The commands read argv and never write it. */
@@ -58,13 +104,7 @@ int vdbs_command_run(const vdbs_command_desc *desc, vdbs_command_result *result)
             if (status == VDBS_COMMAND_CONTINUE)
                 status = command->run(&args);
         } else {
-            char message[256];
-            snprintf(message, sizeof message, "unknown command '%.64s' (try --help)",
-                     desc->argv[0]);
-            vdbs_message_emitf(VDBS_MESSAGE_ERROR, "vdbscatter: %s\n", message);
-            snprintf(result->error, sizeof result->error, "%s", message);
-            result->status = VDBS_ERR_INPUT;
-            status = VDBS_EXIT_USAGE;
+            status = run_top_level(desc, result);
         }
         if (status == VDBS_EXIT_OK)
             result->status = VDBS_OK;
@@ -88,11 +128,19 @@ void vdbs_command_result_free(vdbs_command_result *result)
     result->rgb = result->se = NULL;
 }
 
+static const char *command_names[COMMAND_COUNT + 1];
+
+static void fill_command_names(void)
+{
+    for (int i = 0; i < COMMAND_COUNT; ++i)
+        command_names[i] = commands[i]()->name;
+}
+
 const char *const *vdbs_command_names(void)
 {
-    static const char *const names[] = {"bake",   "render",   "compare",   "info",
-                                        "sample", "tradeoff", "phase-svd", NULL};
-    return names;
+    static pthread_once_t once = PTHREAD_ONCE_INIT;
+    pthread_once(&once, fill_command_names);
+    return command_names;
 }
 
 int vdbs_command_option_count(const char *command)

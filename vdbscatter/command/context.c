@@ -55,7 +55,7 @@ void vdbs_command_context_end(vdbs_command_context *c, int exit_status)
     vdbs_command_result *r = c->result;
     /* A cancel that came after the command's last poll (or to a command that never polls)
      * still ends it as interrupted, as the CLI's signal would. */
-    if (exit_status < 128)
+    if (exit_status < 128 && c->desc->argc > 0)
         exit_status = vdbs_command_interrupted(c->desc->argv[0], exit_status);
     r->exit_status = exit_status;
     fclose(c->output);

@@ -25,8 +25,10 @@ VDBS_API const char *vdbs_version(void);
 
 /* Zero-initialise; 0 means "choose the default". */
 typedef struct vdbs_command_desc {
-    /* The command's words: argv[0] is the command ("bake", "render", "compare", "info",
-     * "sample", "phase-svd", "tradeoff"), then its arguments as on the command line. */
+    /* The words after `vdbscatter` on a command line: argv[0] is the command ("bake",
+     * "render", "compare", "info", "sample", "phase-svd", "tradeoff"), then its arguments.
+     * As the CLI: "--help" says the usage as OUTPUT, "--version" the version, and no words
+     * (argc 0) the usage as a NOTE with exit status 2. */
     int argc;
     const char *const *argv;
     vdbs_message_fn message; /* NULL: nothing is passed on (OUTPUT is still collected) */
