@@ -22,7 +22,9 @@ int main(int argc, char **argv)
     desc.argv = (const char *const *)argv + 1;
     desc.message = print_message;
     desc.cancel = cli_interrupt_install();
-    desc.progress = isatty(STDERR_FILENO);
+    /* a farm's log gets timestamped lines; --progress overrides */
+    desc.progress =
+        isatty(STDERR_FILENO) ? VDBS_COMMAND_PROGRESS_TERMINAL : VDBS_COMMAND_PROGRESS_PLAIN;
     vdbs_command_result result;
     int status = vdbs_command_run(&desc, &result);
     vdbs_command_result_free(&result);

@@ -59,7 +59,7 @@ foreach(t ${VDBS_STATIC_TARGETS})
   endif()
 endforeach()
 execute_process(
-  COMMAND ${PKG_CONFIG_EXECUTABLE} --libs epoxy egl libcjson OpenEXR stb lapacke tbb
+  COMMAND ${PKG_CONFIG_EXECUTABLE} --libs epoxy egl libcjson OpenEXR stb lapacke libxxhash tbb
   OUTPUT_VARIABLE VDBS_PC_DEPS_LIBS OUTPUT_STRIP_TRAILING_WHITESPACE
   RESULT_VARIABLE rc)
 if(NOT rc EQUAL 0)

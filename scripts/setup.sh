@@ -9,7 +9,7 @@ packages=(
   libopenvdb-dev libnanovdb-dev libopenvdb-tools python3 python3-openvdb libboost-iostreams-dev
   libegl-dev libegl-mesa0 libgl1-mesa-dri libgl-dev libepoxy-dev
   libglfw3-dev xvfb xauth libpng-dev libstb-dev libopenexr-dev openexr
-  liblapacke-dev libopenblas0-pthread libcjson-dev libcmocka-dev
+  liblapacke-dev libopenblas0-pthread libcjson-dev libcmocka-dev libxxhash-dev
   python3-matplotlib python3-numpy
   help2man man-db
   clang libclang-rt-14-dev llvm

@@ -25,7 +25,7 @@
 
 /* The lit VDB's fixed metadata, the stored lights', then the solver state's. */
 #define BAKE_META_FIXED 13
-#define BAKE_META_MAX (BAKE_META_FIXED + 2 + 8)
+#define BAKE_META_MAX (BAKE_META_FIXED + 2 + 8 + VDBS_BAKE_EXTRA_META_MAX)
 
 /* The optical depths toward every light that --store lights keeps, and their metadata. */
 typedef struct stored_lights {
@@ -510,7 +510,10 @@ static vdbs_status write_lit(bake_job *j, vdbs_bake_report *report, vdbs_error *
     if (j->plan_json)
         meta[meta_count++] = (vdbio_meta){"vdbscatter_plan", j->plan_json};
     if (j->keep)
-        meta_count += state->meta(j->keep, meta + meta_count, BAKE_META_MAX - meta_count);
+        meta_count += state->meta(j->keep, meta + meta_count,
+                                  BAKE_META_MAX - VDBS_BAKE_EXTRA_META_MAX - meta_count);
+    for (int i = 0; i < o->extra_meta_count && i < VDBS_BAKE_EXTRA_META_MAX; ++i)
+        meta[meta_count++] = o->extra_meta[i];
     const vdbio_vec3_grid fixed[] = {
         {"radiance", j->out.radiance}, {"ms", j->out.ms},
         {"ms_l1x", j->out.ms_l1[0]},   {"ms_l1y", j->out.ms_l1[1]},
@@ -601,6 +604,19 @@ static void report_setup(const bake_job *j, vdbs_bake_report *report)
                                                    : j->quality->s1_oversample;
 }
 
+/* A stage's line in a farm's log (progress.h; nothing on a terminal): said when the stage is
+ * done, so that input refused while loading says nothing but its error. */
+static void stage_done(const vdbs_bake_options *o, const char *stage, double seconds,
+                       const char *detail)
+{
+    if (!o->progress)
+        return;
+    char text[256], fields[96];
+    snprintf(text, sizeof text, "done in %.2fs%s%s", seconds, detail[0] ? ", " : "", detail);
+    snprintf(fields, sizeof fields, "\"seconds\": %.3f", seconds);
+    vdbs_progress_event("stage", stage, text, fields);
+}
+
 vdbs_status vdbs_bake(const vdbs_bake_options *o, vdbs_bake_report *report, vdbs_error *err)
 {
     memset(report, 0, sizeof *report);
@@ -627,6 +643,11 @@ vdbs_status vdbs_bake(const vdbs_bake_options *o, vdbs_bake_report *report, vdbs
         st = check_memory(&j, report, err);
     }
     if (st == VDBS_OK) {
+        char detail[96];
+        snprintf(detail, sizeof detail, "%llu active voxels", report->active_voxels);
+        stage_done(o, "load", report->seconds_load, detail);
+    }
+    if (st == VDBS_OK) {
         report->peak_load = vdbs_memory_peak();
         report->peak_per_stage = vdbs_memory_reset_peak();
         st = alloc_outputs(&j, err);
@@ -638,6 +659,11 @@ vdbs_status vdbs_bake(const vdbs_bake_options *o, vdbs_bake_report *report, vdbs
         report->seconds_solve = vdbs_now() - t_solve;
         report->peak_solve = vdbs_memory_peak();
         report->peak_per_stage &= vdbs_memory_reset_peak();
+        if (st == VDBS_OK) {
+            char label[64];
+            snprintf(label, sizeof label, "solve %s", j.solver->name);
+            stage_done(o, label, report->seconds_solve, "");
+        }
     }
     if (st == VDBS_OK) {
         for (size_t v = 0; v < j.volume.coord_count; ++v)
@@ -647,6 +673,8 @@ vdbs_status vdbs_bake(const vdbs_bake_options *o, vdbs_bake_report *report, vdbs
         report->stored_sky = j.stored.count - j.stored.direct;
         st = write_lit(&j, report, err);
         report->peak_write = vdbs_memory_peak();
+        if (st == VDBS_OK)
+            stage_done(o, "write", report->seconds_write, o->output ? o->output : "");
     }
     if (j.has_volume)
         report->seconds_total = vdbs_now() - t_start;

@@ -48,7 +48,8 @@ static const char usage[] =
     "  phase-svd --g G --directions D   the phase matrix's factorisation error per term\n"
     "\n"
     "Run 'vdbscatter COMMAND --help' for the options of a command.\n"
-    "Exit status: 0 success, 1 failure while working, 2 bad input or usage.\n";
+    "Exit status: 0 success, 1 failure while working, 2 bad input or usage, 3 a frame\n"
+    "sequence done in part (docs/sequences.md).\n";
 
 /* The words before any command: none (the usage on stderr), --help, --version, or an unknown
  * command. Returns the exit status. */
@@ -101,7 +102,8 @@ int vdbs_command_run(const vdbs_command_desc *desc, vdbs_command_result *result)
             /* The commands read argv and never write it. */
             vdbs_options_args args;
             status = vdbs_command_open(command, desc->argc - 1, (char **)desc->argv + 1, &args);
-            if (status == VDBS_COMMAND_CONTINUE)
+            if (status == VDBS_COMMAND_CONTINUE &&
+                (status = vdbs_command_run_options(command->name, &args)) == VDBS_EXIT_OK)
                 status = command->run(&args);
         } else {
             status = run_top_level(desc, result);

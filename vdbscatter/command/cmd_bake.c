@@ -15,6 +15,7 @@
 
 #include "commands.h"
 #include "options.h"
+#include "sequence.h"
 #include "vdbscatter/bake.h"
 #include "vdbscatter/plan.h"
 #include "vdbscatter/quality.h"
@@ -23,6 +24,7 @@
 
 static const char help[] =
     "usage: vdbscatter bake IN.vdb -o OUT.vdb|OUT.nvdb [options]\n"
+    "       vdbscatter bake IN.####.vdb -o OUT.####.vdb [--frames 1-240] [options]\n"
     "\n"
     "Computes the in-scattered radiance of sun, point and sky lights in a density\n"
     "volume and writes a lit VDB with grids density, radiance, ms, ms_l1x, ms_l1y,\n"
@@ -75,9 +77,28 @@ static const char help[] =
     "                           need no light sweeps (docs/lit-vdb.md); none: radiance and\n"
     "                           the multiple-scattering grids only\n" VDBS_OPTIONS_MAX_MEMORY_HELP
     "  --report FILE.json       write timings per stage, parameters, output grids and\n"
-    "                           memory (the estimate and each stage's peak)\n"
+    "                           memory (the estimate and each stage's peak); for a\n"
+    "                           sequence one per frame: FILE.####.json\n"
     "  --json                   print the report as JSON on stdout\n"
-    "  -q                       no progress, summary or warnings\n";
+    "  -q                       no progress, summary or warnings\n" VDBS_OPTIONS_RUN_HELP "\n"
+    "frame sequences (docs/sequences.md): a frame number in IN and -o, as ####\n"
+    "(padded to the count of #), $F or $F4 (Houdini), or %d or %04d:\n"
+    "  --frames LIST            1-240, 1-240x2 (every 2nd), 1,5,9, or a mix; default:\n"
+    "                           the input frames on disk\n"
+    "  --skip-missing           bake the frames whose input is there (default: refuse\n"
+    "                           the sequence, listing the missing ones)\n"
+    "  --fps R                  the frame rate, into each output's metadata\n"
+    "  --force                  bake every frame (default: skip a frame whose output\n"
+    "                           carries the hash of this bake's scene, options, tool\n"
+    "                           version and input)\n"
+    "  --hash-inputs            the input's identity in the hash is its bytes' hash\n"
+    "                           (default: its size and modification time)\n"
+    "  --verify                 bake nothing: check that every frame is done with this\n"
+    "                           bake's hash (exit 0, else 3)\n"
+    "  --summary FILE.json      the sequence summary, rewritten after every frame\n"
+    "  --no-warm-start          start svd and fld cold on every frame (default: from the\n"
+    "                           previous frame's state, kept in its .vdb)\n"
+    "exit status: 0 done, 1 failure, 2 bad input, 3 a sequence done in part\n";
 
 static const vdbs_arg_option own_options[] = {
     VDBS_OPTIONS_COMMON,
@@ -93,6 +114,11 @@ static const vdbs_arg_option own_options[] = {
     {"--dry-run", VDBS_ARG_FLAG},
     {"--s1-sky-spacing", VDBS_ARG_VALUE},
     {"--max-memory", VDBS_ARG_VALUE},
+    VDBS_SEQUENCE_OPTIONS,
+    {"--force", VDBS_ARG_FLAG},
+    {"--verify", VDBS_ARG_FLAG},
+    {"--hash-inputs", VDBS_ARG_FLAG},
+    {"--no-warm-start", VDBS_ARG_FLAG},
 };
 
 static vdbs_arg_option all_options[VDBS_OPTIONS_MAX];
@@ -305,14 +331,29 @@ static const vdbs_command_spec command = {
     .positional_error = "expected one input VDB",
 };
 
-static int run(const vdbs_options_args *args)
+/* What every frame of a bake shares: the scene, the options, and the sequence flags. */
+typedef struct bake_request {
+    const vdbs_options_args *args;
+    vdbs_scene scene; /* volume_file: the input (a pattern for a sequence) */
+    vdbs_bake_options options;
+    const char *out;
+    int quiet;
+    int sequence_warm; /* a sequence's frames warm-start from the previous frame's state */
+    int hash_inputs;
+    const char *backend;
+} bake_request;
+
+/* The words into the request (everything but the frame's input and output). */
+static int prepare(const vdbs_options_args *args, bake_request *r)
 {
     vdbs_error err;
     vdbs_status st;
-    const char *out = vdbs_options_output(args);
+    memset(r, 0, sizeof *r);
+    r->args = args;
+    const char *out = r->out = vdbs_options_output(args);
     if (!out)
         return vdbs_command_fail("bake", 2, "missing -o OUT.vdb");
-    vdbs_scene scene;
+    vdbs_scene *scene = &r->scene;
     struct stat out_stat;
     int out_is_dir = stat(out, &out_stat) == 0 && S_ISDIR(out_stat.st_mode);
     /* a folder: the write says so */
@@ -321,9 +362,9 @@ static int run(const vdbs_options_args *args)
         return vdbs_command_fail("bake", 2, "-o: expected .vdb or .nvdb");
     /* Lights are checked after the input file and grid (vdbs_bake), so that a missing file is
      * not reported as a missing light. */
-    if ((st = vdbs_options_build_scene(args, &scene, 1, &err)) != VDBS_OK)
+    if ((st = vdbs_options_build_scene(args, scene, 1, &err)) != VDBS_OK)
         return vdbs_command_fail("bake", st, err.message);
-    if ((st = vdbs_options_scene_occluders("bake", args, &scene, vdbs_options_flag(args, "-q"),
+    if ((st = vdbs_options_scene_occluders("bake", args, scene, vdbs_options_flag(args, "-q"),
                                            &err)) != VDBS_OK)
         return vdbs_command_fail("bake", st, err.message);
     const char *camera = vdbs_options_value(args, "--camera");
@@ -333,68 +374,156 @@ static int run(const vdbs_options_args *args)
             return vdbs_command_fail("bake", st, err.message);
         /* The render of the lit VDB frames with it: keep the scene's size, else the render's
          * default. */
-        c.width = scene.camera.present ? scene.camera.width : 640;
-        c.height = scene.camera.present ? scene.camera.height : 480;
-        scene.camera = c;
+        c.width = scene->camera.present ? scene->camera.width : 640;
+        c.height = scene->camera.present ? scene->camera.height : 480;
+        scene->camera = c;
     }
     /* IN.vdb overrides the scene file's volume, in the bake and in the scene it records. */
     if (args->positional_count) {
-        if (strlen(args->positional[0]) >= sizeof scene.volume_file)
+        if (strlen(args->positional[0]) >= sizeof scene->volume_file)
             return vdbs_command_fail("bake", 2, "IN.vdb: the path is too long");
-        snprintf(scene.volume_file, sizeof scene.volume_file, "%s", args->positional[0]);
+        snprintf(scene->volume_file, sizeof scene->volume_file, "%s", args->positional[0]);
     }
-    const char *input = scene.volume_file;
-    if (!input[0])
+    if (!scene->volume_file[0])
         return vdbs_command_fail("bake", 2, "no input VDB (give IN.vdb or volume.file in --scene)");
-    vdbs_bake_options o = {0};
-    o.input = input;
-    o.output = out;
-    o.scene = &scene;
-    const char *backend = vdbs_options_value(args, "--backend");
-    if (backend && (st = vdbs_backend_parse(backend, &o.backend, &err)) != VDBS_OK)
+    vdbs_bake_options *o = &r->options;
+    o->scene = scene;
+    r->backend = vdbs_options_value(args, "--backend");
+    if (r->backend && (st = vdbs_backend_parse(r->backend, &o->backend, &err)) != VDBS_OK)
         return vdbs_command_fail("bake", st, err.message);
-    int quiet = vdbs_options_flag(args, "-q");
-    if ((st = vdbs_options_s1(args, &o.s1_march, &o.s1_oversample, &err)) != VDBS_OK)
+    int quiet = r->quiet = vdbs_options_flag(args, "-q");
+    if ((st = vdbs_options_s1(args, &o->s1_march, &o->s1_oversample, &err)) != VDBS_OK)
         return vdbs_command_fail("bake", st, err.message);
     const char *sky_spacing = vdbs_options_value(args, "--s1-sky-spacing");
     if (sky_spacing) {
-        if ((st = vdbs_options_number("--s1-sky-spacing", sky_spacing, &o.s1_sky_spacing, &err)) !=
+        if ((st = vdbs_options_number("--s1-sky-spacing", sky_spacing, &o->s1_sky_spacing, &err)) !=
             VDBS_OK)
             return vdbs_command_fail("bake", st, err.message);
-        if (!(o.s1_sky_spacing > 0.0 && o.s1_sky_spacing <= 64.0))
+        if (!(o->s1_sky_spacing > 0.0 && o->s1_sky_spacing <= 64.0))
             return vdbs_command_fail("bake", 2, "--s1-sky-spacing: expected a number in (0, 64]");
     }
-    o.from_levelset = vdbs_options_flag(args, "--from-levelset");
-    o.half = vdbs_options_flag(args, "--half");
+    o->from_levelset = vdbs_options_flag(args, "--from-levelset");
+    o->half = vdbs_options_flag(args, "--half");
     const char *store = vdbs_options_value(args, "--store");
     if (store && strcmp(store, "lights") != 0 && strcmp(store, "none") != 0)
         return vdbs_command_fail("bake", 2, "--store: expected lights or none");
-    o.store = store && strcmp(store, "none") == 0 ? VDBS_STORE_NONE : VDBS_STORE_LIGHTS;
+    o->store = store && strcmp(store, "none") == 0 ? VDBS_STORE_NONE : VDBS_STORE_LIGHTS;
     const char *method = vdbs_options_value(args, "--method");
     const char *tolerance = vdbs_options_value(args, "--tolerance");
     int automatic = method && strcmp(method, "auto") == 0;
     if (tolerance && !automatic)
         return vdbs_command_fail("bake", 2, "--tolerance needs --method auto");
-    o.dry_run = vdbs_options_flag(args, "--dry-run");
-    if (o.dry_run && !automatic)
+    o->dry_run = vdbs_options_flag(args, "--dry-run");
+    if (o->dry_run && !automatic)
         return vdbs_command_fail("bake", 2, "--dry-run needs --method auto");
     if (automatic) {
-        o.tolerance = 0.1;
+        o->tolerance = 0.1;
         if (tolerance &&
-            (st = vdbs_options_number("--tolerance", tolerance, &o.tolerance, &err)) != VDBS_OK)
+            (st = vdbs_options_number("--tolerance", tolerance, &o->tolerance, &err)) != VDBS_OK)
             return vdbs_command_fail("bake", st, err.message);
-        if (!(o.tolerance > 0.0 && o.tolerance < 1.0))
+        if (!(o->tolerance > 0.0 && o->tolerance < 1.0))
             return vdbs_command_fail("bake", 2, "--tolerance: expected a relative RMSE 0 < E < 1");
     }
-    if ((st = vdbs_options_max_memory(args, &o.max_memory, &err)) != VDBS_OK)
+    if ((st = vdbs_options_max_memory(args, &o->max_memory, &err)) != VDBS_OK)
         return vdbs_command_fail("bake", st, err.message);
-    o.keep_state = vdbs_options_flag(args, "--keep-state");
-    o.warm_start = vdbs_options_value(args, "--warm-start");
-    o.progress = !quiet && vdbs_command_progress();
-    o.warn = vdbs_command_warn;
-    o.warn_user = &quiet;
-    o.cancel = vdbs_command_cancel();
+    o->keep_state = vdbs_options_flag(args, "--keep-state");
+    o->warm_start = vdbs_options_value(args, "--warm-start");
+    o->progress = !quiet && vdbs_command_progress();
+    o->warn = vdbs_command_warn;
+    o->warn_user = &r->quiet;
+    o->cancel = vdbs_command_cancel();
+    r->hash_inputs = vdbs_options_flag(args, "--hash-inputs");
+    return VDBS_EXIT_OK;
+}
 
+/* A file's identity in the hash: its size and modification time, or its bytes' hash. */
+static int file_identity(const bake_request *r, const char *what, const char *path, char *out,
+                         size_t size)
+{
+    struct stat st;
+    if (stat(path, &st) != 0) {
+        snprintf(out, size, "%s %s: none\n", what, path);
+        return VDBS_EXIT_OK;
+    }
+    if (r->hash_inputs) {
+        char hash[VDBS_SEQUENCE_HASH_SIZE];
+        vdbs_error err;
+        if (vdbs_sequence_hash_file(path, hash, &err) != VDBS_OK)
+            return vdbs_command_fail("bake", 2, err.message);
+        snprintf(out, size, "%s %s: xxh3 %s\n", what, path, hash);
+    } else {
+        snprintf(out, size, "%s %s: %lld bytes, modified %lld.%09ld\n", what, path,
+                 (long long)st.st_size, (long long)st.st_mtim.tv_sec, st.st_mtim.tv_nsec);
+    }
+    return VDBS_EXIT_OK;
+}
+
+/* The determinants hash of the bake of `input` (docs/sequences.md, "Resumable"): the tool's
+ * version, the resolved scene with its solver settings, the bake's options, the frame rate,
+ * and the identity of the input and of every file the scene reads. */
+static int request_hash(const bake_request *r, const char *input, double fps,
+                        char hash[VDBS_SEQUENCE_HASH_SIZE])
+{
+    vdbs_scene scene = r->scene;
+    snprintf(scene.volume_file, sizeof scene.volume_file, "%s", input);
+    char *scene_text = vdbs_scene_to_json(&scene);
+    if (!scene_text)
+        return vdbs_command_fail("bake", 1, "out of memory");
+    const vdbs_bake_options *o = &r->options;
+    const size_t size = strlen(scene_text) + 16384;
+    char *text = malloc(size);
+    if (!text) {
+        free(scene_text);
+        return vdbs_command_fail("bake", 1, "out of memory");
+    }
+    size_t n = (size_t)snprintf(
+        text, size,
+        "vdbscatter %s\n%s\ns1 march %d oversample %d sky spacing %.17g\nlevelset %d half %d "
+        "store %d tolerance %.17g keep state %d backend %s fps %.17g\n",
+        vdbs_version(), scene_text, o->s1_march, o->s1_oversample, o->s1_sky_spacing,
+        o->from_levelset, o->half, (int)o->store, o->tolerance, o->keep_state || r->sequence_warm,
+        r->backend ? r->backend : "auto", fps);
+    free(scene_text);
+    int status = file_identity(r, "input", input, text + n, size - n);
+    /* the maps and meshes the scene reads */
+    for (const char *p = r->scene.env_paths; status == VDBS_EXIT_OK && *p; p += strlen(p) + 1)
+        if ((n = strlen(text)) + 4200 < size)
+            status = file_identity(r, "map", p, text + n, size - n);
+    for (const char *p = r->scene.occluder_paths; status == VDBS_EXIT_OK && *p; p += strlen(p) + 1)
+        if ((n = strlen(text)) + 4200 < size)
+            status = file_identity(r, "mesh", p, text + n, size - n);
+    if (status == VDBS_EXIT_OK)
+        vdbs_sequence_hash_text(text, hash);
+    free(text);
+    return status;
+}
+
+/* The frame's metadata: its hash always; with a sequence its number, rate and warm start. */
+typedef struct frame_meta {
+    char hash[VDBS_SEQUENCE_HASH_SIZE], frame[24], fps[32], warm[VDBS_SEQUENCE_PATH_MAX];
+    vdbio_meta items[VDBS_BAKE_EXTRA_META_MAX];
+    int count;
+} frame_meta;
+
+/* Bakes one input into one output; the report into *report_out (a sequence's frame), or
+ * printed (a single bake). Returns the exit status. */
+static int bake_one(bake_request *r, const char *input, const char *output, const frame_meta *meta,
+                    cJSON **report_out)
+{
+    const vdbs_options_args *args = r->args;
+    vdbs_error err;
+    vdbs_status st;
+    vdbs_scene scene = r->scene;
+    snprintf(scene.volume_file, sizeof scene.volume_file, "%s", input);
+    vdbs_bake_options o = r->options;
+    o.input = input;
+    o.output = output;
+    o.scene = &scene;
+    o.warn_user = &r->quiet;
+    if (meta) {
+        o.extra_meta = meta->items;
+        o.extra_meta_count = meta->count;
+    }
     vdbs_bake_report report;
     if ((st = vdbs_bake(&o, &report, &err)) != VDBS_OK)
         return st == VDBS_ERR_CANCELLED ? vdbs_command_interrupted("bake", VDBS_EXIT_FAILURE)
@@ -408,15 +537,144 @@ static int run(const vdbs_options_args *args)
     double target_depth = scene.density_target_depth;
     scene.density_scale = report.density_scale; /* as resolved (auto:TAU) */
     scene.density_target_depth = 0.0;
-    cJSON *j = report_json(input, out, &scene, &report);
+    cJSON *j = report_json(input, output, &scene, &report);
     cJSON_AddNumberToObject(j, "density_scale", report.density_scale);
     if (target_depth > 0.0)
         cJSON_AddNumberToObject(j, "density_target_depth", target_depth);
     cJSON_AddNumberToObject(j, "mean_optical_depth", report.advice.mean_depth);
     cJSON_AddNumberToObject(j, "ms_to_ss_estimate", report.advice.ms_to_ss);
-    int status = print_report(args, j, &scene, &report, out);
+    if (meta) {
+        cJSON_AddStringToObject(j, "hash", meta->hash);
+        if (report_out) {
+            cJSON_AddNumberToObject(j, "frame", strtod(meta->frame, NULL));
+            cJSON_AddStringToObject(j, "warm_start_from", meta->warm);
+        }
+    }
+    if (report_out) {
+        *report_out = j;
+        return VDBS_EXIT_OK;
+    }
+    int status = print_report(args, j, &scene, &report, output);
     cJSON_Delete(j);
     return vdbs_command_interrupted("bake", status); /* a signal after the new file was in place */
+}
+
+/* ---- sequences ---- */
+
+static void meta_add(frame_meta *m, const char *key, const char *value)
+{
+    m->items[m->count++] = (vdbio_meta){key, value};
+}
+
+static int frame_hash(void *user, vdbs_sequence_frame *frame)
+{
+    return request_hash(user, frame->input, frame->fps, frame->hash);
+}
+
+static int frame_run(void *user, const vdbs_sequence_frame *frame, cJSON **report)
+{
+    bake_request *r = user;
+    frame_meta meta = {0};
+    snprintf(meta.hash, sizeof meta.hash, "%s", frame->hash);
+    snprintf(meta.frame, sizeof meta.frame, "%ld", frame->frame);
+    meta_add(&meta, VDBS_SEQUENCE_META_HASH, meta.hash);
+    meta_add(&meta, VDBS_SEQUENCE_META_FRAME, meta.frame);
+    if (frame->fps > 0.0) {
+        snprintf(meta.fps, sizeof meta.fps, "%.17g", frame->fps);
+        meta_add(&meta, VDBS_SEQUENCE_META_FPS, meta.fps);
+    }
+    /* Warm from the previous frame's file, never from memory: a run resumed after a kill
+     * then bakes every frame from the same start as an uninterrupted one. */
+    const vdbs_bake_options saved = r->options;
+    if (r->sequence_warm) {
+        r->options.keep_state = 1;
+        r->options.warm_start = frame->previous_output;
+        if (frame->previous_output) {
+            const char *slash = strrchr(frame->previous_output, '/');
+            snprintf(meta.warm, sizeof meta.warm, "%s", slash ? slash + 1 : frame->previous_output);
+        }
+        meta_add(&meta, "vdbscatter_warm_start", meta.warm);
+    }
+    int status = bake_one(r, frame->input, frame->output, &meta, report);
+    r->options = saved;
+    return status;
+}
+
+/* Flags that only a sequence takes. */
+static int refuse_sequence_flags(const vdbs_options_args *args)
+{
+    static const char *const flags[] = {"--skip-missing", "--fps",    "--summary",
+                                        "--force",        "--verify", "--no-warm-start"};
+    for (size_t i = 0; i < sizeof flags / sizeof flags[0]; ++i)
+        if (vdbs_options_value(args, flags[i]) || vdbs_options_flag(args, flags[i])) {
+            char message[160];
+            snprintf(message, sizeof message,
+                     "%s works on frame sequences (give --frames, or a frame number in IN and "
+                     "-o: smoke.####.vdb)",
+                     flags[i]);
+            return vdbs_command_fail("bake", 2, message);
+        }
+    return VDBS_EXIT_OK;
+}
+
+static int run_sequence(bake_request *r)
+{
+    const vdbs_options_args *args = r->args;
+    if (r->options.dry_run)
+        return vdbs_command_fail("bake", 2,
+                                 "--dry-run plans one bake: give one input, not a "
+                                 "sequence");
+    const char *report = vdbs_options_value(args, "--report");
+    vdbs_frame_token token;
+    vdbs_error err;
+    if (report &&
+        (vdbs_frame_token_find(report, "--report", &token, &err) != VDBS_OK || !token.length))
+        return vdbs_command_fail("bake", 2,
+                                 token.length ? err.message
+                                              : "--report: a sequence writes a report per "
+                                                "frame: give a frame number (report.####.json)");
+    const vdbs_solver *solver = vdbs_solver_find(r->scene.method);
+    /* Warm starts need the state inside the lit VDB (.vdb) and a solver that keeps one. */
+    r->sequence_warm = solver && solver->state && r->options.tolerance <= 0.0 &&
+                       !r->options.warm_start && !vdbs_options_flag(args, "--no-warm-start") &&
+                       vdbs_options_has_extension(r->out, ".vdb");
+    vdbs_sequence *sequence = NULL;
+    int status = vdbs_sequence_open("bake", args, r->scene.volume_file, r->out, &sequence);
+    if (status != VDBS_EXIT_OK)
+        return status;
+    vdbs_sequence_step step = {0};
+    step.command = "bake";
+    step.hash = frame_hash;
+    step.run = frame_run;
+    step.user = r;
+    step.force = vdbs_options_flag(args, "--force");
+    step.verify = vdbs_options_flag(args, "--verify");
+    step.quiet = r->quiet;
+    step.report_pattern = report;
+    status = vdbs_sequence_run(sequence, &step);
+    vdbs_sequence_close(sequence);
+    return status;
+}
+
+static int run(const vdbs_options_args *args)
+{
+    bake_request *r = malloc(sizeof *r); /* the scene is large for a stack */
+    if (!r)
+        return vdbs_command_fail("bake", 1, "out of memory");
+    int status = prepare(args, r);
+    if (status == VDBS_EXIT_OK && vdbs_sequence_requested(args, r->scene.volume_file, r->out)) {
+        status = run_sequence(r);
+    } else if (status == VDBS_EXIT_OK && (status = refuse_sequence_flags(args)) == VDBS_EXIT_OK) {
+        /* One bake: its hash too, so that a sequence later finds it done. */
+        frame_meta meta = {0};
+        status = request_hash(r, r->scene.volume_file, 0.0, meta.hash);
+        if (status == VDBS_EXIT_OK) {
+            meta_add(&meta, VDBS_SEQUENCE_META_HASH, meta.hash);
+            status = bake_one(r, r->scene.volume_file, r->out, &meta, NULL);
+        }
+    }
+    free(r);
+    return status;
 }
 
 /* bake's options are its own, then every solver's flags from the solver table: filled once

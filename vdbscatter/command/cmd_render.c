@@ -11,6 +11,7 @@
 
 #include "commands.h"
 #include "options.h"
+#include "sequence.h"
 #include "vdbscatter/message.h"
 #include "vdbscatter/runner.h"
 #include "vdbscatter/render.h"
@@ -18,6 +19,7 @@
 
 static const char help[] =
     "usage: vdbscatter render IN.vdb -o IMAGE.exr|IMAGE.png [options]\n"
+    "       vdbscatter render IN.####.vdb -o IMAGE.####.exr [--frames 1-240] [options]\n"
     "\n"
     "Renders a picture of a density VDB or of a lit VDB written by `vdbscatter bake`.\n"
     "Per pixel L = integral T sigma_s S(x, wo) dt + T * background (the env colour).\n"
@@ -82,7 +84,13 @@ static const char help[] =
     "encoding\n" VDBS_OPTIONS_MAX_MEMORY_HELP
     "  --json                   print a summary as JSON on stdout (memory: the estimate\n"
     "                           and each stage's peak)\n"
-    "  -q                       no progress, summary or warnings\n";
+    "  -q                       no progress, summary or warnings\n" VDBS_OPTIONS_RUN_HELP "\n"
+    "frame sequences (docs/sequences.md): a frame number in IN and -o (####, $F4,\n"
+    "%04d) renders every frame:\n"
+    "  --frames LIST            1-240, 1-240x2, 1,5,9 (default: the input frames on disk)\n"
+    "  --skip-missing           render the frames whose input is there\n"
+    "  --fps R                  the frame rate, into the summary\n"
+    "  --summary FILE.json      the sequence summary, rewritten after every frame\n";
 
 static const vdbs_arg_option options[] = {
     VDBS_OPTIONS_COMMON,
@@ -98,6 +106,7 @@ static const vdbs_arg_option options[] = {
     {"--env-nee", VDBS_ARG_VALUE},
     {"--relight", VDBS_ARG_FLAG},
     {"--max-memory", VDBS_ARG_VALUE},
+    VDBS_SEQUENCE_OPTIONS,
     {NULL, VDBS_ARG_FLAG},
 };
 
@@ -214,12 +223,13 @@ static void warn_line(int quiet, const char *fmt, const char *arg)
     vdbs_command_warn(&quiet, line);
 }
 
-static void print_json(const char *input, const render_args *r, const vdbs_render_report *rep)
+static cJSON *render_json(const char *input, const char *output, const render_args *r,
+                          const vdbs_render_report *rep)
 {
     cJSON *j = cJSON_CreateObject();
     cJSON_AddStringToObject(j, "input", input);
-    if (r->output)
-        cJSON_AddStringToObject(j, "output", r->output);
+    if (output)
+        cJSON_AddStringToObject(j, "output", output);
     else
         cJSON_AddNullToObject(j, "output");
     cJSON_AddStringToObject(j, "grid", rep->grid);
@@ -266,10 +276,7 @@ static void print_json(const char *input, const render_args *r, const vdbs_rende
     const int64_t peaks[] = {rep->peak_load, rep->peak_render, rep->peak_write};
     vdbs_options_json_memory(j, rep->memory_limit, rep->memory_baseline, &rep->memory_estimate,
                              stages, peaks, 3, rep->peak_per_stage);
-    char *text = cJSON_Print(j);
-    vdbs_command_out("%s\n", text);
-    free(text);
-    cJSON_Delete(j);
+    return j;
 }
 
 static int run(const vdbs_options_args *args);
@@ -283,94 +290,152 @@ static const vdbs_command_spec command = {
     .positional_error = "expected one input VDB",
 };
 
+/* What every frame of a render shares. */
+typedef struct render_request {
+    const vdbs_options_args *args;
+    render_args r;
+    vdbs_render_desc desc; /* all but the input and output */
+    int quiet;
+} render_request;
+
+/* Renders input into output (NULL: kept for the caller); the report into *report_out (a
+ * sequence's frame), or printed. Returns the exit status. */
+static int render_one(render_request *q, const char *input, const char *output, cJSON **report_out)
+{
+    vdbs_error err;
+    const render_args *r = &q->r;
+    vdbs_render_desc desc = q->desc;
+    desc.input = input;
+    desc.output = output;
+    desc.warn_user = &q->quiet;
+    vdbs_image kept = {0};
+    if (vdbs_command_keeps_image() && !report_out)
+        desc.keep_image = &kept;
+    vdbs_render_report rep;
+    vdbs_status st = vdbs_render(&desc, &rep, &err);
+    if (st != VDBS_OK)
+        return st == VDBS_ERR_CANCELLED ? vdbs_command_interrupted("render", VDBS_EXIT_FAILURE)
+                                        : vdbs_command_fail("render", st, err.message);
+    if (desc.keep_image)
+        vdbs_command_give_image(kept.width, kept.height, kept.rgb, kept.se);
+    if (r->relight && strcmp(rep.mode, "baked") != 0)
+        warn_line(q->quiet, "%s applies to a lit VDB only; ignored", "--relight");
+    if (report_out) {
+        *report_out = render_json(input, output, r, &rep);
+        return VDBS_EXIT_OK;
+    }
+    if (vdbs_options_flag(q->args, "--json")) {
+        cJSON *j = render_json(input, output, r, &rep);
+        char *text = cJSON_Print(j);
+        vdbs_command_out("%s\n", text);
+        free(text);
+        cJSON_Delete(j);
+    } else if (!q->quiet) {
+        char detail[96];
+        if (r->mode == VDBS_RENDER_REFERENCE)
+            snprintf(detail, sizeof detail, "%d spp, relative noise %.3g", rep.spp, rep.noise);
+        else
+            snprintf(detail, sizeof detail, "quality %s, S1 %s%s", rep.quality,
+                     strcmp(rep.s1, "stored") == 0 ? "from the stored depths" : rep.s1,
+                     r->relight ? ", relit" : "");
+        vdbs_message_emitf(VDBS_MESSAGE_NOTE,
+                           "rendered %dx%d of '%s' (%s, %s) on %s in %.2fs -> %s\n", rep.width,
+                           rep.height, rep.grid, rep.mode, detail, rep.backend, rep.seconds_render,
+                           output ? output : "(kept)");
+    }
+    return vdbs_command_interrupted("render", VDBS_EXIT_OK); /* a signal after the rename */
+}
+
+static int frame_run(void *user, const vdbs_sequence_frame *frame, cJSON **report)
+{
+    render_request *q = user;
+    int status = render_one(q, frame->input, frame->output, report);
+    if (status == VDBS_EXIT_OK && *report)
+        cJSON_AddNumberToObject(*report, "frame", (double)frame->frame);
+    return status;
+}
+
+/* A sequence: every frame rendered (pictures are cheap next to bakes: none is skipped). */
+static int run_sequence(render_request *q, const char *input)
+{
+    if (!q->r.output)
+        return vdbs_command_fail("render", 2, "a sequence needs -o IMAGE.####.exr");
+    vdbs_sequence *sequence = NULL;
+    int status = vdbs_sequence_open("render", q->args, input, q->r.output, &sequence);
+    if (status != VDBS_EXIT_OK)
+        return status;
+    vdbs_sequence_step step = {0};
+    step.command = "render";
+    step.run = frame_run;
+    step.user = q;
+    step.quiet = q->quiet;
+    status = vdbs_sequence_run(sequence, &step);
+    vdbs_sequence_close(sequence);
+    return status;
+}
+
 static int run(const vdbs_options_args *args)
 {
     vdbs_error err;
     vdbs_status st;
-    render_args r;
-    if ((st = parse_args(args, &r, &err)) != VDBS_OK)
-        return vdbs_command_fail("render", st, err.message);
-    int quiet = vdbs_options_flag(args, "-q");
+    render_request *q = calloc(1, sizeof *q);
     vdbs_scene *scene = malloc(sizeof *scene);
-    if (!scene)
+    if (!q || !scene) {
+        free(q);
+        free(scene);
         return vdbs_command_fail("render", 1, "out of memory");
-    if ((st = vdbs_options_build_scene(args, scene, 1, &err)) != VDBS_OK) {
-        free(scene);
-        return vdbs_command_fail("render", st, err.message);
     }
-    if ((st = vdbs_options_scene_occluders("render", args, scene, quiet, &err)) != VDBS_OK) {
-        free(scene);
-        return vdbs_command_fail("render", st, err.message);
-    }
+    q->args = args;
+    render_args *r = &q->r;
+    int status = VDBS_EXIT_OK;
+    const int quiet = q->quiet = vdbs_options_flag(args, "-q");
+    if ((st = parse_args(args, r, &err)) != VDBS_OK ||
+        (st = vdbs_options_build_scene(args, scene, 1, &err)) != VDBS_OK ||
+        (st = vdbs_options_scene_occluders("render", args, scene, quiet, &err)) != VDBS_OK ||
+        (st = vdbs_options_max_memory(args, &q->desc.max_memory, &err)) != VDBS_OK)
+        status = vdbs_command_fail("render", st, err.message);
     const char *input = args->positional_count ? args->positional[0] : scene->volume_file;
-    if (r.mode != VDBS_RENDER_REFERENCE) {
+    if (status == VDBS_EXIT_OK && r->mode != VDBS_RENDER_REFERENCE) {
         static const char *const ref_only[] = {"--spp",  "--time",    "--tolerance",
                                                "--seed", "--env-nee", "--max-bounces"};
         for (int i = 0; i < 6; ++i)
             if (vdbs_options_value(args, ref_only[i]))
                 warn_line(quiet, "%s applies to --mode reference only; ignored", ref_only[i]);
     }
-
-    vdbs_render_desc desc = {0};
-    if ((st = vdbs_options_max_memory(args, &desc.max_memory, &err)) != VDBS_OK) {
-        free(scene);
-        return vdbs_command_fail("render", st, err.message);
-    }
-    desc.input = input;
-    desc.output = r.output;
-    desc.scene = scene;
-    desc.scene_set = vdbs_options_scene_flags(args);
-    desc.mode = r.mode;
-    desc.backend = r.backend;
-    desc.s1_march = r.s1_march;
-    desc.s1_oversample = r.s1_oversample;
-    desc.relight = r.relight;
-    desc.camera = r.camera.present ? &r.camera : NULL;
-    desc.width = r.size_given ? r.width : 0;
-    desc.height = r.size_given ? r.height : 0;
-    desc.exposure = r.exposure;
-    desc.spp = (int)r.spp;
-    desc.time_limit = r.time_limit;
-    desc.tolerance = r.tolerance;
-    desc.max_bounces = (int)r.max_bounces;
-    desc.seed = r.seed;
-    desc.no_env_nee = r.no_env_nee;
-    desc.progress = !quiet && vdbs_command_progress();
-    desc.warn = vdbs_command_warn;
-    desc.warn_user = &quiet;
-    desc.cancel = vdbs_command_cancel();
-    vdbs_image kept = {0};
-    if (vdbs_command_keeps_image())
-        desc.keep_image = &kept;
-    vdbs_render_report rep;
-    st = vdbs_render(&desc, &rep, &err);
-    if (st != VDBS_OK) {
-        free(scene);
-        return st == VDBS_ERR_CANCELLED ? vdbs_command_interrupted("render", VDBS_EXIT_FAILURE)
-                                        : vdbs_command_fail("render", st, err.message);
-    }
-
-    if (desc.keep_image)
-        vdbs_command_give_image(kept.width, kept.height, kept.rgb, kept.se);
-    if (r.relight && strcmp(rep.mode, "baked") != 0)
-        warn_line(quiet, "%s applies to a lit VDB only; ignored", "--relight");
-    if (vdbs_options_flag(args, "--json")) {
-        print_json(input, &r, &rep);
-    } else if (!quiet) {
-        char detail[96];
-        if (r.mode == VDBS_RENDER_REFERENCE)
-            snprintf(detail, sizeof detail, "%d spp, relative noise %.3g", rep.spp, rep.noise);
-        else
-            snprintf(detail, sizeof detail, "quality %s, S1 %s%s", rep.quality,
-                     strcmp(rep.s1, "stored") == 0 ? "from the stored depths" : rep.s1,
-                     r.relight ? ", relit" : "");
-        vdbs_message_emitf(VDBS_MESSAGE_NOTE,
-                           "rendered %dx%d of '%s' (%s, %s) on %s in %.2fs -> %s\n", rep.width,
-                           rep.height, rep.grid, rep.mode, detail, rep.backend, rep.seconds_render,
-                           r.output ? r.output : "(kept)");
-    }
-    free(scene); /* after print_json: input may be scene->volume_file */
-    return vdbs_command_interrupted("render", VDBS_EXIT_OK); /* a signal after the rename */
+    vdbs_render_desc *desc = &q->desc;
+    desc->scene = scene;
+    desc->scene_set = vdbs_options_scene_flags(args);
+    desc->mode = r->mode;
+    desc->backend = r->backend;
+    desc->s1_march = r->s1_march;
+    desc->s1_oversample = r->s1_oversample;
+    desc->relight = r->relight;
+    desc->camera = r->camera.present ? &r->camera : NULL;
+    desc->width = r->size_given ? r->width : 0;
+    desc->height = r->size_given ? r->height : 0;
+    desc->exposure = r->exposure;
+    desc->spp = (int)r->spp;
+    desc->time_limit = r->time_limit;
+    desc->tolerance = r->tolerance;
+    desc->max_bounces = (int)r->max_bounces;
+    desc->seed = r->seed;
+    desc->no_env_nee = r->no_env_nee;
+    desc->progress = !quiet && vdbs_command_progress();
+    desc->warn = vdbs_command_warn;
+    desc->cancel = vdbs_command_cancel();
+    if (status == VDBS_EXIT_OK && vdbs_sequence_requested(args, input, r->output))
+        status = run_sequence(q, input);
+    else if (status == VDBS_EXIT_OK &&
+             (vdbs_options_value(args, "--summary") || vdbs_options_value(args, "--fps") ||
+              vdbs_options_flag(args, "--skip-missing")))
+        status = vdbs_command_fail("render", 2,
+                                   "--summary, --fps and --skip-missing work on frame sequences "
+                                   "(give --frames, or a frame number in IN and -o)");
+    else if (status == VDBS_EXIT_OK)
+        status = render_one(q, input, r->output, NULL);
+    free(scene); /* after the report: input may be scene->volume_file */
+    free(q);
+    return status;
 }
 
 const vdbs_command_spec *vdbs_command_render(void)

@@ -52,7 +52,7 @@ static const char help[] =
     "path)\n" VDBS_OPTIONS_MAX_MEMORY_HELP
     "                           (each bake and render; one over it stops the run)\n"
     "  --json                   print the table as JSON on stdout\n"
-    "  -q                       no progress, summary or warnings\n";
+    "  -q                       no progress, summary or warnings\n" VDBS_OPTIONS_RUN_HELP;
 
 static const vdbs_arg_option options[] = {
     {"-o", VDBS_ARG_VALUE},

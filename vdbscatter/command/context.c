@@ -6,7 +6,17 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include <omp.h>
+
+#include "options.h"
 #include "vdbscatter/message.h"
+#include "vdbscatter/progress.h"
+#include "vdbscatter/vdbio.h"
+
+/* OpenBLAS's own pool (the LAPACK behind the phase matrix's SVD), when the LAPACK the
+ * program runs with is OpenBLAS; weak, so that any other LAPACK links too. */
+extern void openblas_set_num_threads(int threads) __attribute__((weak));
+extern int openblas_get_num_threads(void) __attribute__((weak));
 
 struct vdbs_command_context {
     const vdbs_command_desc *desc;
@@ -15,6 +25,8 @@ struct vdbs_command_context {
     char *output_text;
     size_t output_size;
     vdbs_message_sink previous;
+    vdbs_progress_style progress;
+    int threads_before, blas_threads_before; /* 0: --threads not given */
 };
 
 /* One command per thread (a binding runs its command on a worker thread). */
@@ -45,6 +57,11 @@ vdbs_status vdbs_command_context_begin(const vdbs_command_desc *desc, vdbs_comma
     }
     const vdbs_message_sink sink = {on_message, c};
     c->previous = vdbs_message_sink_set(&sink);
+    c->progress = desc->progress >= VDBS_COMMAND_PROGRESS_TERMINAL &&
+                          desc->progress <= VDBS_COMMAND_PROGRESS_JSON
+                      ? (vdbs_progress_style)desc->progress
+                      : VDBS_PROGRESS_NONE;
+    vdbs_progress_set_style(c->progress, desc->argc > 0 ? desc->argv[0] : NULL);
     current = c;
     *context = c;
     return VDBS_OK;
@@ -58,6 +75,13 @@ void vdbs_command_context_end(vdbs_command_context *c, int exit_status)
     if (exit_status < 128 && c->desc->argc > 0)
         exit_status = vdbs_command_interrupted(c->desc->argv[0], exit_status);
     r->exit_status = exit_status;
+    if (c->threads_before > 0) {
+        omp_set_num_threads(c->threads_before);
+        vdbio_thread_limit(0);
+        if (openblas_set_num_threads && c->blas_threads_before > 0)
+            openblas_set_num_threads(c->blas_threads_before);
+    }
+    vdbs_progress_set_style(VDBS_PROGRESS_NONE, NULL);
     fclose(c->output);
     r->output = c->output_text;
     r->output_size = c->output_size;
@@ -97,7 +121,46 @@ const vdbs_cancel *vdbs_command_cancel(void)
 
 int vdbs_command_progress(void)
 {
-    return current && current->desc->progress;
+    return current && current->progress != VDBS_PROGRESS_NONE;
+}
+
+int vdbs_command_run_options(const char *command, const vdbs_options_args *args)
+{
+    const char *progress = vdbs_options_value(args, "--progress");
+    if (progress && current) {
+        static const struct {
+            const char *name;
+            vdbs_progress_style style;
+        } styles[] = {{"plain", VDBS_PROGRESS_PLAIN},
+                      {"json", VDBS_PROGRESS_JSON},
+                      {"none", VDBS_PROGRESS_NONE}};
+        int found = strcmp(progress, "auto") == 0;
+        for (size_t i = 0; i < sizeof styles / sizeof styles[0] && !found; ++i)
+            if (strcmp(progress, styles[i].name) == 0) {
+                current->progress = styles[i].style;
+                found = 1;
+            }
+        if (!found)
+            return vdbs_command_fail(command, VDBS_EXIT_USAGE,
+                                     "--progress: expected auto, plain, json or none");
+        vdbs_progress_set_style(current->progress, command);
+    }
+    const char *threads = vdbs_options_value(args, "--threads");
+    if (threads && current) {
+        long n;
+        vdbs_error err;
+        if (vdbs_options_integer("--threads", threads, 1, 4096, &n, &err) != VDBS_OK)
+            return vdbs_command_fail(command, VDBS_EXIT_USAGE, err.message);
+        /* OpenMP's count is this thread's own; TBB's and OpenBLAS's are the process's */
+        current->threads_before = omp_get_max_threads();
+        omp_set_num_threads((int)n);
+        vdbio_thread_limit((int)n);
+        if (openblas_set_num_threads && openblas_get_num_threads) {
+            current->blas_threads_before = openblas_get_num_threads();
+            openblas_set_num_threads((int)n);
+        }
+    }
+    return VDBS_EXIT_OK;
 }
 
 int vdbs_command_keeps_image(void)

@@ -9,6 +9,7 @@
 #define VDBS_EXIT_OK 0
 #define VDBS_EXIT_FAILURE 1
 #define VDBS_EXIT_USAGE 2
+#define VDBS_EXIT_PARTIAL 3 /* a frame sequence done in part */
 
 typedef struct vdbs_command_context vdbs_command_context;
 
@@ -30,7 +31,7 @@ void vdbs_command_out(const char *fmt, ...)
 void vdbs_command_error(const char *command, int status, const char *message);
 /* The caller's cancel flag (NULL: never). */
 const vdbs_cancel *vdbs_command_cancel(void);
-/* Whether the caller wants PROGRESS messages (the CLI: stderr is a terminal). */
+/* Whether the caller wants PROGRESS messages (their style: progress.h). */
 int vdbs_command_progress(void);
 /* Whether the caller wants render's picture back (vdbs_command_desc.keep_image). */
 int vdbs_command_keeps_image(void);

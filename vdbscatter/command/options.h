@@ -109,6 +109,7 @@ void vdbs_options_json_light_grids(struct cJSON *j, const vdbs_light_grid_stats 
  * (vdbs_options_build_scene), S1 (vdbs_options_s1), --json and -q. */
 #define VDBS_OPTIONS_COMMON                                                                        \
     {"-o", VDBS_ARG_VALUE}, {"--output", VDBS_ARG_VALUE}, {"--backend", VDBS_ARG_VALUE},           \
+        {"--progress", VDBS_ARG_VALUE}, {"--threads", VDBS_ARG_VALUE},                             \
         {"--json", VDBS_ARG_FLAG}, {"-q", VDBS_ARG_FLAG}, {"--scene", VDBS_ARG_VALUE},             \
         {"--grid", VDBS_ARG_VALUE}, {"--density-scale", VDBS_ARG_VALUE},                           \
         {"--albedo", VDBS_ARG_VALUE}, {"--g", VDBS_ARG_VALUE}, {"--sun", VDBS_ARG_LIST},           \
@@ -139,6 +140,18 @@ vdbs_status vdbs_options_max_memory(const vdbs_options_args *args, int64_t *byte
     "  --max-memory SIZE        refuse, before the large allocations, work estimated to need\n"    \
     "                           more memory than SIZE (512M, 8G, 8GiB, bytes; none: no\n"          \
     "                           limit; default: 75% of the machine's or the cgroup's)\n"
+
+/* --progress and --threads of a command's parsed words, applied to the running command's
+ * context until it ends (context.c). Returns VDBS_EXIT_OK, or the exit status of a bad value
+ * (said). */
+int vdbs_command_run_options(const char *command, const vdbs_options_args *args);
+
+/* --progress and --threads (read by vdbs_command_run for every command that has them). */
+#define VDBS_OPTIONS_RUN_HELP                                                                      \
+    "  --progress auto|plain|json|none   progress on stderr: auto (default) rewrites a line\n"     \
+    "                           on a terminal and prints timestamped lines otherwise;\n"          \
+    "                           json: one JSON object a line\n"                                   \
+    "  --threads N              worker threads at most (default: every core)\n"
 
 /* "memory": the limit, the resident set the estimate starts from, the estimate by part and
  * each stage's peak resident set (bytes), into j. */

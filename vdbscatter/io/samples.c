@@ -198,17 +198,39 @@ static float cloud_value(const cloud_params *cp, double x, double y, double z)
 
 typedef struct smoke_params {
     uint32_t sway_x_seed, sway_z_seed, shape_seed, detail_seed;
+    /* The plume at time t in [0, 1] (vdbs_sample_fill_at), or the still sample (t < 0):
+     * the head stands at `head_y` with half-axes head_r across and head_h up, and the
+     * noise has risen by `rise`. */
+    double head_y, head_r, head_h, rise;
 } smoke_params;
 
 #define SMOKE_Y0 (-0.85)
 #define SMOKE_Y1 0.55
 
-static void smoke_init(smoke_params *sp, uint32_t seed)
+/* Speed of the rising billows, per unit of time. */
+#define SMOKE_RISE_SPEED 0.5
+
+static void smoke_init(smoke_params *sp, uint32_t seed, double time)
 {
     sp->sway_x_seed = hash4(1, 0, 0, seed);
     sp->sway_z_seed = hash4(2, 0, 0, seed);
     sp->shape_seed = hash4(3, 0, 0, seed);
     sp->detail_seed = hash4(4, 0, 0, seed);
+    sp->head_y = SMOKE_Y1 + 0.02;
+    sp->head_r = 0.52;
+    sp->head_h = 0.28;
+    sp->rise = 0.0;
+    if (time >= 0.0) {
+        /* The head climbs from 30% of the final height to all of it; the column below it is
+         * the still plume's, so the box grows from frame to frame.
+         * The head stays wider than the column under it (r(t) = 0.09 + 0.40 t^1.5 below), so
+         * cutting the column at the head leaves the surface continuous. */
+        const double h = 0.3 + 0.7 * (time > 1.0 ? 1.0 : time);
+        sp->head_y = SMOKE_Y0 + h * (sp->head_y - SMOKE_Y0);
+        sp->head_r = 0.11 + 0.41 * h * sqrt(h);
+        sp->head_h = 0.28 * (0.5 + 0.5 * h);
+        sp->rise = SMOKE_RISE_SPEED * time;
+    }
 }
 
 /* Per-height quantities: the centre line drifts more the higher the smoke has risen. */
@@ -230,13 +252,13 @@ static smoke_row smoke_row_at(const smoke_params *sp, double y)
 
 static float smoke_value(const smoke_params *sp, const smoke_row *row, double x, double y, double z)
 {
-    const double head_y = SMOKE_Y1 + 0.02;
+    const double head_y = sp->head_y;
     double dx = x - row->cx, dz = z - row->cz;
     double q = sqrt(dx * dx + dz * dz) / row->r;
     /* The column ends in a wider billowing head (an oblate ellipsoid). At y = head_y the
      * head is wider than the column (0.52 > r = 0.50), so cutting the column there leaves
      * max(s_col, s_head) continuous. */
-    double hx = dx / 0.52, hy = (y - head_y) / 0.28, hz = dz / 0.52;
+    double hx = dx / sp->head_r, hy = (y - head_y) / sp->head_h, hz = dz / sp->head_r;
     double s_col = y <= head_y ? 1.0 - q : -1.0;
     double s_head = 1.0 - sqrt(hx * hx + hy * hy + hz * hz);
     double s = fmax(s_col, s_head);
@@ -244,14 +266,14 @@ static float smoke_value(const smoke_params *sp, const smoke_row *row, double x,
     if (s < -0.5 || y < SMOKE_Y0 - 0.03)
         return 0.0f;
     /* Vertically stretched noise, so the billows look drawn upwards. */
-    double n = fbm(3.2 * x, 2.2 * y, 3.2 * z, sp->shape_seed, 5);
+    double n = fbm(3.2 * x, 2.2 * (y - sp->rise), 3.2 * z, sp->shape_seed, 5);
     double field = s + 0.5 * n;
     double source = smoothstep(SMOKE_Y0 - 0.03, SMOKE_Y0 + 0.05, y);
     double thin = 1.0 - 0.2 * (row->t < 0.0 ? 0.0 : (row->t > 1.0 ? 1.0 : row->t));
     double d = smoothstep(0.0, 0.4, field) * source * thin * border_fade(x, y, z);
     if (d <= 0.0)
         return 0.0f;
-    double detail = fbm(8.0 * x, 6.0 * y, 8.0 * z, sp->detail_seed, 3);
+    double detail = fbm(8.0 * x, 6.0 * (y - sp->rise), 8.0 * z, sp->detail_seed, 3);
     return (float)(d * (0.8 + 0.2 * detail));
 }
 
@@ -293,17 +315,27 @@ static vdbs_status check_args(const char *name, int res, int *kind, vdbs_error *
 vdbs_status vdbs_sample_fill(const char *name, int res, uint32_t seed, float *values,
                              vdbs_error *err)
 {
+    return vdbs_sample_fill_at(name, res, seed, -1.0, values, err);
+}
+
+vdbs_status vdbs_sample_fill_at(const char *name, int res, uint32_t seed, double time,
+                                float *values, vdbs_error *err)
+{
     int kind;
     vdbs_status st = check_args(name, res, &kind, err);
     if (st != VDBS_OK)
         return st;
+    if (time >= 0.0 && kind != SAMPLE_SMOKE)
+        return vdbs_error_set(err, VDBS_ERR_INPUT, "sample: --time: only smoke moves");
+    if (time > 1.0 || (time < 0.0 && time != -1.0) || time != time)
+        return vdbs_error_set(err, VDBS_ERR_INPUT, "sample: --time: expected a time in [0, 1]");
     if (!values)
         return vdbs_error_set(err, VDBS_ERR_INTERNAL, "sample: no output array");
 
     cloud_params cp;
     smoke_params sp;
     cloud_init(&cp, seed);
-    smoke_init(&sp, seed);
+    smoke_init(&sp, seed, time);
     const size_t n = (size_t)res;
 
     /* Every voxel is a pure function of its position: threads cannot change results. */
@@ -358,6 +390,12 @@ void vdbs_sample_transform(int res, vdbio_transform *transform)
 vdbs_status vdbs_sample_create(const char *name, int res, uint32_t seed, vdbio_density **out,
                                vdbs_error *err)
 {
+    return vdbs_sample_create_at(name, res, seed, -1.0, out, err);
+}
+
+vdbs_status vdbs_sample_create_at(const char *name, int res, uint32_t seed, double time,
+                                  vdbio_density **out, vdbs_error *err)
+{
     vdbio_transform xf;
     vdbs_status st;
     float *values;
@@ -368,7 +406,7 @@ vdbs_status vdbs_sample_create(const char *name, int res, uint32_t seed, vdbio_d
     values = malloc((size_t)res * (size_t)res * (size_t)res * sizeof *values);
     if (!values)
         return vdbs_error_set(err, VDBS_ERR_NOMEM, "sample: out of memory for %d^3 voxels", res);
-    st = vdbs_sample_fill(name, res, seed, values, err);
+    st = vdbs_sample_fill_at(name, res, seed, time, values, err);
     if (st == VDBS_OK) {
         const int dims[3] = {res, res, res};
         const int origin[3] = {0, 0, 0};

@@ -17,6 +17,7 @@
 #include <nanovdb/util/IO.h>
 #include <nanovdb/util/OpenToNanoVDB.h>
 #include <tbb/blocked_range.h>
+#include <tbb/global_control.h>
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
@@ -1690,6 +1691,57 @@ vdbs_status vdbio_list_grids(const char *path, vdbio_grid_summary **grids, int *
         *grids = list;
         *count = static_cast<int>(n);
     });
+}
+
+vdbs_status vdbio_file_meta(const char *path, const char *key, char **value, vdbs_error *err)
+{
+    if (value)
+        *value = nullptr;
+    return guarded(err, [&] {
+        if (!path || !key || !value)
+            fail(VDBS_ERR_INTERNAL, "vdbio_file_meta: NULL argument");
+        ChildResult *raw = nullptr;
+        contained(
+            path,
+            [&](ChildLog &) -> std::function<void(std::ostream &)> {
+                Reader r;
+                r.open(path, /*load_all=*/false); /* the header: no grid is read */
+                auto meta = r.file_meta.getMetadata<openvdb::StringMetadata>(key);
+                const bool found = static_cast<bool>(meta);
+                const std::string text = found ? meta->value() : std::string();
+                return [found, text](std::ostream &os) {
+                    put_u64(os, found ? 1 : 0);
+                    put_str(os, text);
+                };
+            },
+            raw);
+        std::unique_ptr<ChildResult> result(raw);
+        result->replay(nullptr, nullptr);
+        const uint64_t found = result->u64();
+        const std::string text = result->str();
+        if (!found)
+            return;
+        *value = static_cast<char *>(malloc(text.size() + 1));
+        if (!*value)
+            throw std::bad_alloc();
+        memcpy(*value, text.c_str(), text.size() + 1);
+    });
+}
+
+/* --threads: the most worker threads TBB's pool may use, process-wide (0: no limit). */
+void vdbio_thread_limit(int threads)
+{
+    static std::mutex lock;
+    static std::unique_ptr<tbb::global_control> limit;
+    std::lock_guard<std::mutex> hold(lock);
+    try {
+        limit.reset();
+        if (threads > 0)
+            limit = std::make_unique<tbb::global_control>(
+                tbb::global_control::max_allowed_parallelism, static_cast<size_t>(threads));
+    } catch (...) {
+        /* out of memory: no limit */
+    }
 }
 
 vdbs_status vdbio_density_read(const char *path, const vdbio_read_options *options,

@@ -25,6 +25,8 @@ typedef enum vdbs_bake_store {
     VDBS_STORE_NONE         /* nothing more: renders relight the single scattering */
 } vdbs_bake_store;
 
+#define VDBS_BAKE_EXTRA_META_MAX 4
+
 typedef struct vdbs_bake_options {
     const char *input;       /* density VDB; scene->volume_file when NULL */
     const char *output;      /* lit VDB */
@@ -58,6 +60,10 @@ typedef struct vdbs_bake_options {
      * holds once the volume is loaded, exceeds it is VDBS_ERR_INPUT before the solve's
      * allocations, naming --max-memory. 0: vdbs_memory_default_limit(); < 0: no limit. */
     int64_t max_memory;
+    /* More string metadata for the lit VDB (a sequence's frame, rate and hash), at most
+     * VDBS_BAKE_EXTRA_META_MAX. */
+    const vdbio_meta *extra_meta;
+    int extra_meta_count;
 } vdbs_bake_options;
 
 typedef struct vdbs_bake_report {

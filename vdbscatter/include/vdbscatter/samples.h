@@ -23,6 +23,13 @@ extern const char *const vdbs_sample_names[];
 vdbs_status vdbs_sample_fill(const char *name, int res, uint32_t seed, float *values,
                              vdbs_error *err);
 
+/* The same at time `time` in [0, 1] (smoke only: the plume rising, its head climbing from
+ * 30% of the still plume's height to all of it while its billows rise, so that the box grows
+ * from frame to frame; a coherent sequence for tests and benches), or -1 for the still
+ * sample. */
+vdbs_status vdbs_sample_fill_at(const char *name, int res, uint32_t seed, double time,
+                                float *values, vdbs_error *err);
+
 /* The transform of a sample grid of resolution res: index (0,0,0) is the voxel whose
  * centre is (-1 + h/2, -1 + h/2, -1 + h/2), h = 2/res. */
 void vdbs_sample_transform(int res, vdbio_transform *transform);
@@ -30,6 +37,9 @@ void vdbs_sample_transform(int res, vdbio_transform *transform);
 /* vdbs_sample_fill + vdbio_density_from_dense (grid name "density"). */
 vdbs_status vdbs_sample_create(const char *name, int res, uint32_t seed, vdbio_density **out,
                                vdbs_error *err);
+/* The same at a time (vdbs_sample_fill_at). */
+vdbs_status vdbs_sample_create_at(const char *name, int res, uint32_t seed, double time,
+                                  vdbio_density **out, vdbs_error *err);
 
 #ifdef __cplusplus
 }

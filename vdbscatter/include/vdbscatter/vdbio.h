@@ -36,6 +36,14 @@ typedef struct vdbio_grid_summary {
     double value_max;
 } vdbio_grid_summary;
 
+/* A string item of a file's metadata, read from its header alone (no grid is loaded):
+ * *value malloc'd, or NULL when the file has no such string. Errors as vdbio_list_grids. */
+vdbs_status vdbio_file_meta(const char *path, const char *key, char **value, vdbs_error *err);
+
+/* The most worker threads OpenVDB's TBB pool may use from now on, process-wide; 0 lifts the
+ * limit (--threads). */
+void vdbio_thread_limit(int threads);
+
 /* Lists every grid of a file, in file order (duplicate names appear as often as they
  * occur). *grids is malloc'd (free with free()).
  * Errors: missing file, not a VDB, truncated or unreadable file. */

@@ -36,14 +36,26 @@ typedef struct vdbs_command_desc {
     /* Polled by long work (cancel.h). Once set the command stops, leaves no partial output
      * and exits 128 + the flag's value (a signal number; 130 for 2, as after SIGINT). */
     const vdbs_cancel *cancel;
-    int progress; /* 1: PROGRESS messages during long work (the CLI: stderr is a terminal) */
+    /* PROGRESS messages during long work, a VDBS_COMMAND_PROGRESS_* (the CLI: TERMINAL when
+     * stderr is a terminal, else PLAIN); a command's --progress overrides it. */
+    int progress;
     /* render: also return the picture in the result; -o becomes optional. */
     int keep_image;
 } vdbs_command_desc;
 
+/* vdbs_command_desc.progress: none; a line rewritten in place; timestamped lines (farm logs);
+ * one JSON object a line. */
+enum {
+    VDBS_COMMAND_PROGRESS_NONE = 0,
+    VDBS_COMMAND_PROGRESS_TERMINAL = 1,
+    VDBS_COMMAND_PROGRESS_PLAIN = 2,
+    VDBS_COMMAND_PROGRESS_JSON = 3
+};
+
 typedef struct vdbs_command_result {
-    /* The CLI's exit status: 0 success, 1 failure while working, 2 bad input or usage,
-     * 128 + N when cancelled. */
+    /* The CLI's exit status: 0 success, 1 failure while working, 2 bad input or usage, 3 a
+     * frame sequence done in part (some frames failed, or are missing or stale), 128 + N when
+     * cancelled. */
     int exit_status;
     vdbs_status status;         /* VDBS_OK, or the kind of failure (VDBS_ERR_INPUT: bad input) */
     char error[VDBS_ERROR_MAX]; /* the ERROR message without its "vdbscatter CMD: " */
