@@ -235,8 +235,9 @@ static const vdbs_report_field report[] = {
 static void report_text(const void *stats, char *text, size_t size)
 {
     const vdbs_fld_stats *f = stats;
-    snprintf(text, size, "%d cells across, %d CG iterations, residual %.2g", f->resolution,
-             f->cg_iterations, f->residual);
+    snprintf(text, size, "%d cells across, %d CG iterations in %d solves%s, residual %.2g",
+             f->resolution, f->cg_iterations, f->updates, f->warm_start ? " (warm)" : "",
+             f->residual);
 }
 
 const vdbs_solver vdbs_solver_fld = {

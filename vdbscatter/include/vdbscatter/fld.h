@@ -28,8 +28,9 @@ extern "C" {
 
 /* The solved fluence phi at the output voxels, trilinear from the cells: what --keep-state
  * writes into the lit VDB (grid fld_phi, metadata vdbscatter_fld_state = "phi") and
- * --warm-start reads back (each cell the mean of the voxels in it that the file has a value
- * for; cells with none start from 0). */
+ * --warm-start reads back (the cells whose trilinear samples give it, by back-projection from
+ * the voxels the file has a value for; cells no such voxel weighs filled from their
+ * neighbours: fld.c's phi_from_voxels). */
 typedef struct vdbs_fld_state {
     float *phi; /* 3 floats (R, G, B) per output voxel, coords order; NULL until solved */
     size_t voxels;
