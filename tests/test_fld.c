@@ -1,9 +1,9 @@
 /* Flux-limited diffusion (vdbscatter/fld.h): the energy balance of the discrete system
  * (source = absorbed + leaked) on a heterogeneous medium with and without the limiter and with
- * albedo 1; the point source in a homogeneous medium against the lattice Green's function
- * (an independent Fourier evaluation written here) and against the continuum's
- * P exp(-r / L) / (4 pi D r); the limiter in empty space around a dense block; the power
- * absorbed in a high-albedo medium on cells thin against the mean free path against an
+ * albedo 1, and a warm start from its converged phi; the point source in a homogeneous medium
+ * against the lattice Green's function (an independent Fourier evaluation written here) and against
+ * the continuum's P exp(-r / L) / (4 pi D r); the limiter in empty space around a dense block; the
+ * power absorbed in a high-albedo medium on cells thin against the mean free path against an
  * independent double-precision solve. */
 #include <math.h>
 #include <stdint.h>
@@ -169,6 +169,54 @@ static void test_energy_balance(void **state)
     free(source);
     free(mono);
     free(phi);
+}
+
+/* A first guess (the bake's --warm-start): from the converged phi of the same system the
+ * solve says it was warm, needs a fraction of the cold CG iterations and solves (the first
+ * limiter comes from the guess, and its update changes phi by less than the settled 1%), and
+ * ends where the cold solve did, to the limiter's own settling (the updates stop once phi
+ * changes by under 1%, so two runs stop at different points of them). A zero guess is cold.
+ * Measured: 2 solves and 15 CG iterations against 5 and 57, phi within 1.1e-3 of the peak. */
+static void test_warm_start(void **state)
+{
+    (void)state;
+    float *sigma = malloc(sizeof *sigma * E_CELLS);
+    double *source = malloc(sizeof *source * 3 * E_CELLS);
+    double *cold = malloc(sizeof *cold * 3 * E_CELLS);
+    double *warm = malloc(sizeof *warm * 3 * E_CELLS);
+    assert_true(sigma && source && cold && warm);
+    energy_medium(sigma, source);
+    vdbs_fld_grid grid = {
+        {E_N0, E_N1, E_N2}, {0.25, 0.25, 0.25}, sigma, {0.99, 0.9, 0.7}, 0.6, source, NULL, NULL};
+    vdbs_fld_desc desc = {0};
+    desc.tolerance = 1e-6;
+    vdbs_fld_stats cold_stats, warm_stats;
+    solve(&grid, &desc, cold, NULL, &cold_stats);
+    assert_int_equal(cold_stats.warm_start, 0);
+    memcpy(warm, cold, sizeof *warm * 3 * E_CELLS);
+    memset(&warm_stats, 0, sizeof warm_stats);
+    vdbs_error err;
+    if (vdbs_fld_solve_grid(test_runner(VDBS_BACKEND_CPU), &grid, &desc, warm, NULL, &warm_stats,
+                            &err) != VDBS_OK)
+        fail_msg("%s", err.message);
+    check_balance("warm", &warm_stats);
+    double worst = 0.0, peak = 0.0;
+    for (size_t v = 0; v < 3 * E_CELLS; ++v) {
+        worst = fmax(worst, fabs(warm[v] - cold[v]));
+        peak = fmax(peak, cold[v]);
+    }
+    print_message("cold: %d solves, %d CG iterations; warm: %d solves, %d CG iterations; "
+                  "largest difference %.2e of the peak\n",
+                  cold_stats.updates, cold_stats.cg_iterations, warm_stats.updates,
+                  warm_stats.cg_iterations, worst / peak);
+    assert_int_equal(warm_stats.warm_start, 1);
+    assert_true(warm_stats.updates <= 2 && warm_stats.updates < cold_stats.updates);
+    assert_true(warm_stats.cg_iterations <= cold_stats.cg_iterations / 3);
+    assert_true(worst <= 1e-2 * peak);
+    free(sigma);
+    free(source);
+    free(cold);
+    free(warm);
 }
 
 /* With the first moment M = g Q d of a point source in a homogeneous medium (limiter off, the
@@ -661,6 +709,7 @@ int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_energy_balance),
+        cmocka_unit_test(test_warm_start),
         cmocka_unit_test(test_first_moment_shift),
         cmocka_unit_test(test_point_source),
         cmocka_unit_test(test_limiter_empty_space),

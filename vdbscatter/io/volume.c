@@ -4,7 +4,7 @@
 #include <stdlib.h>
 #include <string.h>
 
-static int invert_affine(const double m[3][4], double inv[3][4])
+int vdbs_affine_invert(const double m[3][4], double inv[3][4])
 {
     double a = m[0][0], b = m[0][1], c = m[0][2];
     double d = m[1][0], e = m[1][1], f = m[1][2];
@@ -33,7 +33,7 @@ vdbs_status vdbs_volume_from_density(vdbio_density *density, vdbs_volume *volume
     volume->density = density;
     volume->info = *vdbio_density_get_info(density);
     memcpy(volume->index_to_world, volume->info.transform.m, sizeof volume->index_to_world);
-    if (!invert_affine(volume->index_to_world, volume->world_to_index)) {
+    if (!vdbs_affine_invert(volume->index_to_world, volume->world_to_index)) {
         vdbs_volume_free(volume);
         return vdbs_error_set(err, VDBS_ERR_INPUT, "grid '%s' has a singular transform",
                               volume->info.name);

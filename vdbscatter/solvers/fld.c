@@ -27,6 +27,9 @@
  * has settled once phi changes by less than FLD_SETTLED between solves. */
 #define FLD_EARLY_TOLERANCE 1e-3
 #define FLD_SETTLED 1e-2
+/* Back-projection passes of a warm start's phi from the voxels into the cells
+ * (phi_from_voxels). */
+#define FLD_WARM_PASSES 6
 /* The multigrid preconditioner's damped Jacobi smoother: its weight (near 6/7, the best for
  * the 7-point Laplacian), sweeps before and after each coarse correction, and sweeps that
  * stand in for a solve on the coarsest grid (at most FLD_COARSEST cells along each axis). */
@@ -754,6 +757,7 @@ vdbs_status vdbs_fld_solve_grid(vdbs_runner *runner, const vdbs_fld_grid *grid,
     int have_phi = 0;
     for (size_t v = 0; v < n3 && !have_phi; ++v)
         have_phi = phi[v] != 0.0;
+    stats->warm_start = have_phi;
     const int cap = 200 * largest + 200;
     stats->cg_iterations = 0;
     fld_cost cost = {0, 0};
@@ -841,6 +845,122 @@ static void gather_source(const vdbs_solve *s, const vdbs_coarse_frame *f, const
     }
 }
 
+/* --warm-start: the cell values whose trilinear samples at the voxels (phi_to_voxels) give
+ * the kept phi there, by back-projection: the residual at each voxel splatted into its cells
+ * with the sampling's weights, each cell moved by the weighted mean, FLD_WARM_PASSES times. One
+ * pass (the weighted mean of the kept values) smooths phi across the cells: on the cloud sample
+ * (low, g 0.85) a warm start from the same volume then saved 6 of 57 CG iterations, six passes
+ * 24. Voxels the file had no value for (exactly 0: beyond the frame it was baked for, where
+ * phi, positive wherever light reaches, would have one) take no part. Cells that no such voxel
+ * weighs (no medium near them, or new since the file) are filled from the weighed ones
+ * outwards, each the mean of its face neighbours one step nearer: left at 0, with one pass,
+ * the first solve began at a relative residual of 3 (a cold start's is 1), the zeros beside
+ * lit cells spoiling the first limiter's gradient. */
+static void phi_from_voxels(const vdbs_volume *volume, const vdbs_coarse_frame *f,
+                            const float *voxels, double *phi)
+{
+    const int64_t cells = vdbs_coarse_cells(f);
+    double *acc = malloc(sizeof *acc * 4 * (size_t)cells);
+    float *guess = calloc(3 * (size_t)cells, sizeof *guess);
+    int *layer = malloc(sizeof *layer * (size_t)cells);
+    int64_t *queue = malloc(sizeof *queue * (size_t)cells);
+    if (!acc || !guess || !layer || !queue) {
+        free(acc);
+        free(guess);
+        free(layer);
+        free(queue);
+        return; /* a cold start: the solve still converges */
+    }
+    for (int pass = 0; pass < FLD_WARM_PASSES; ++pass) {
+        memset(acc, 0, sizeof *acc * 4 * (size_t)cells);
+        for (size_t n = 0; n < volume->coord_count; ++n) {
+            const float *v = voxels + 3 * n;
+            if (v[0] == 0.0f && v[1] == 0.0f && v[2] == 0.0f)
+                continue;
+            double w[3], r[4] = {0.0, 0.0, 0.0, 1.0};
+            vdbs_volume_voxel_point(volume, n, w);
+            if (pass > 0)
+                vdbs_coarse_sample(f, guess, 3, w, r);
+            for (int ch = 0; ch < 3; ++ch)
+                r[ch] = v[ch] - (pass > 0 ? r[ch] : 0.0);
+            vdbs_coarse_splat(f, acc, 4, w, r, 1.0);
+        }
+        for (int64_t c = 0; c < cells; ++c)
+            for (int ch = 0; acc[4 * c + 3] > 0.0 && ch < 3; ++ch) {
+                phi[3 * c + ch] += acc[4 * c + ch] / acc[4 * c + 3];
+                guess[3 * c + ch] = (float)phi[3 * c + ch];
+            }
+    }
+    /* Breadth first from the weighed cells (layer 0): a cell of layer L takes the mean of its
+     * face neighbours of layer L - 1, all done before the first of layer L is taken. */
+    int64_t head = 0, tail = 0;
+    for (int64_t c = 0; c < cells; ++c) {
+        layer[c] = acc[4 * c + 3] > 0.0 ? 0 : -1;
+        if (!layer[c])
+            queue[tail++] = c;
+    }
+    const int64_t stride[3] = {1, f->n[0], (int64_t)f->n[0] * f->n[1]};
+    while (head < tail) {
+        const int64_t c = queue[head++];
+        int at[3], count = 0;
+        double sum[3] = {0.0, 0.0, 0.0};
+        at[0] = (int)(c % f->n[0]);
+        at[1] = (int)((c / f->n[0]) % f->n[1]);
+        at[2] = (int)(c / stride[2]);
+        for (int a = 0; a < 3; ++a)
+            for (int side = -1; side <= 1; side += 2) {
+                if (at[a] + side < 0 || at[a] + side >= f->n[a])
+                    continue;
+                const int64_t nb = c + side * stride[a];
+                if (layer[nb] < 0) {
+                    layer[nb] = layer[c] + 1;
+                    queue[tail++] = nb;
+                } else if (layer[c] > 0 && layer[nb] == layer[c] - 1) {
+                    ++count;
+                    for (int ch = 0; ch < 3; ++ch)
+                        sum[ch] += phi[3 * nb + ch];
+                }
+            }
+        for (int ch = 0; count && ch < 3; ++ch)
+            phi[3 * c + ch] = sum[ch] / count;
+    }
+    free(acc);
+    free(guess);
+    free(layer);
+    free(queue);
+}
+
+/* --keep-state: phi at every output voxel, trilinear from the cells (the transpose of the
+ * splat, as the cells of a warm start gather it back). */
+static vdbs_status phi_to_voxels(const vdbs_volume *volume, const vdbs_coarse_frame *f,
+                                 const double *phi, vdbs_fld_state *keep, vdbs_error *err)
+{
+    const int64_t cells = vdbs_coarse_cells(f);
+    float *cell_phi = malloc(sizeof *cell_phi * 3 * (size_t)cells);
+    float *voxels = malloc(sizeof *voxels * 3 * (volume->coord_count ? volume->coord_count : 1));
+    if (!cell_phi || !voxels) {
+        free(cell_phi);
+        free(voxels);
+        return vdbs_error_set(err, VDBS_ERR_NOMEM, "out of memory for FLD's kept state");
+    }
+    for (size_t v = 0; v < 3 * (size_t)cells; ++v)
+        cell_phi[v] = (float)phi[v];
+    const int64_t count = (int64_t)volume->coord_count;
+#pragma omp parallel for schedule(static)
+    for (int64_t n = 0; n < count; ++n) {
+        double w[3], p[3];
+        vdbs_volume_voxel_point(volume, (size_t)n, w);
+        vdbs_coarse_sample(f, cell_phi, 3, w, p);
+        for (int ch = 0; ch < 3; ++ch)
+            voxels[3 * n + ch] = (float)p[ch];
+    }
+    free(cell_phi);
+    free(keep->phi);
+    keep->phi = voxels;
+    keep->voxels = volume->coord_count;
+    return VDBS_OK;
+}
+
 vdbs_status vdbs_fld_solve(const vdbs_solve *s, const vdbs_fld_desc *desc, vdbs_fld_stats *stats,
                            vdbs_error *err)
 {
@@ -891,6 +1011,8 @@ vdbs_status vdbs_fld_solve(const vdbs_solve *s, const vdbs_fld_desc *desc, vdbs_
     if (st == VDBS_OK) {
         vdbs_coarse_sigma(&f, s->volume, &box, s->scene->density_scale, sigma);
         gather_source(s, &f, d.collisions, d.collision_flux, source, moment);
+        if (d.warm && d.warm->phi && d.warm->voxels == s->volume->coord_count)
+            phi_from_voxels(s->volume, &f, d.warm->phi, phi);
         /* A uniform radiance L arrives through every face as the current pi L. */
         double inflow[18];
         for (int i = 0; d.sky_floor && i < 18; ++i)
@@ -919,6 +1041,8 @@ vdbs_status vdbs_fld_solve(const vdbs_solve *s, const vdbs_fld_desc *desc, vdbs_
                                   VDBS_COARSE_BSPLINE_INTERP, s->ms, s->ms_l1, s->radiance, err);
         if (st == VDBS_OK && d.sky_floor)
             vdbs_sky_floor_remove(d.sky_floor, s->volume->coord_count, s->ms, s->radiance);
+        if (st == VDBS_OK && d.keep)
+            st = phi_to_voxels(s->volume, &f, phi, d.keep, err);
         stats->seconds_upsample = vdbs_now() - t2;
     }
     vdbs_medium_box_free(&box);

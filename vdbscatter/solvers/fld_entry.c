@@ -1,4 +1,6 @@
-/* The flux-limited diffusion solver's entry (solver.h): its options, report block and run. */
+/* The flux-limited diffusion solver's entry (solver.h): its options, report block, state
+ * (--keep-state writes the solved fluence phi into the lit VDB, --warm-start reads it back)
+ * and run. */
 #include <stddef.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -71,6 +73,92 @@ static int option_int(const vdbs_scene *scene, int i)
     return (int)vdbs_scene_solver_value(scene, options[i].key);
 }
 
+/* ---- state: the fluence phi ---- */
+
+#define FLD_STATE_GRID "fld_phi"
+#define FLD_STATE_KEY "vdbscatter_fld_state"
+#define FLD_STATE_VALUE "phi"
+
+static void *state_create(void)
+{
+    return calloc(1, sizeof(vdbs_fld_state));
+}
+
+static void state_destroy(void *state)
+{
+    vdbs_fld_state *s = state;
+    if (!s)
+        return;
+    free(s->phi);
+    free(s);
+}
+
+static vdbs_status state_read(const char *path, const vdbs_volume *volume, const vdbs_scene *scene,
+                              void **out, vdbs_error *err)
+{
+    (void)scene; /* phi is a first guess: any medium or options converge from it */
+    vdbs_fld_state *s = state_create();
+    if (!s)
+        return vdbs_error_set(err, VDBS_ERR_NOMEM, "out of memory for the warm start");
+    vdbio_lit *lit = NULL;
+    vdbs_status st = vdbio_lit_open(path, &lit, err);
+    const char *kind = st == VDBS_OK ? vdbio_lit_meta(lit, FLD_STATE_KEY) : NULL;
+    if (st == VDBS_OK &&
+        (!kind || strcmp(kind, FLD_STATE_VALUE) != 0 || !vdbio_lit_has_grid(lit, FLD_STATE_GRID)))
+        st = vdbs_error_set(err, VDBS_ERR_INPUT,
+                            "--warm-start %s: no flux-limited diffusion state in it (bake it with "
+                            "--method fld --keep-state)",
+                            path);
+    if (st == VDBS_OK) {
+        s->voxels = volume->coord_count;
+        s->phi = malloc(sizeof *s->phi * 3 * (s->voxels ? s->voxels : 1));
+        if (!s->phi)
+            st = vdbs_error_set(err, VDBS_ERR_NOMEM, "out of memory for the warm start");
+    }
+    if (st == VDBS_OK)
+        st = vdbs_solve_state_vec3(lit, FLD_STATE_GRID, volume, s->phi, err);
+    if (lit)
+        vdbio_lit_close(lit);
+    if (st != VDBS_OK) {
+        state_destroy(s);
+        return st;
+    }
+    *out = s;
+    return VDBS_OK;
+}
+
+static int state_grids(const void *state, vdbio_vec3_grid *grids, int max)
+{
+    const vdbs_fld_state *s = state;
+    if (!s->phi)
+        return 0; /* not solved (yet) */
+    if (!grids)
+        return 1;
+    if (max < 1)
+        return 0;
+    grids[0] = (vdbio_vec3_grid){FLD_STATE_GRID, s->phi};
+    return 1;
+}
+
+static int state_meta(const void *state, vdbio_meta *meta, int max)
+{
+    const vdbs_fld_state *s = state;
+    if (max < 1 || !s->phi)
+        return 0;
+    meta[0] = (vdbio_meta){FLD_STATE_KEY, FLD_STATE_VALUE};
+    return 1;
+}
+
+static const vdbs_solver_state state = {
+    .create = state_create,
+    .read = state_read,
+    .grids = state_grids,
+    .meta = state_meta,
+    .destroy = state_destroy,
+};
+
+/* ---- run and report ---- */
+
 /* The S1 pass's per-light callback: every light's first collisions, a sky ordinate's less
  * the sky's uniform part, which enters through the boundary (skyfloor.h). */
 typedef struct fld_first {
@@ -114,6 +202,8 @@ static vdbs_status run_fld(const vdbs_solve *s, void *stats, vdbs_error *err)
         desc.collisions = first.sum.total;
         desc.collision_flux = first.sum.flux;
         desc.sky_floor = vdbs_sky_floor_active(&first.floor) ? &first.floor : NULL;
+        desc.warm = s->warm;
+        desc.keep = s->keep;
         st = vdbs_fld_solve(s, &desc, stats, err);
     }
     vdbs_collision_sum_free(&first.sum);
@@ -130,6 +220,7 @@ static const vdbs_report_field report[] = {
     {"mean_sigma_tr", VDBS_REPORT_DOUBLE, offsetof(vdbs_fld_stats, mean_sigma_tr)},
     {"cells", VDBS_REPORT_INT64, offsetof(vdbs_fld_stats, cells)},
     {"cell_side", VDBS_REPORT_DOUBLE, offsetof(vdbs_fld_stats, cell_side)},
+    {"warm_start", VDBS_REPORT_BOOL, offsetof(vdbs_fld_stats, warm_start)},
     {"updates", VDBS_REPORT_INT, offsetof(vdbs_fld_stats, updates)},
     {"cg_iterations", VDBS_REPORT_INT, offsetof(vdbs_fld_stats, cg_iterations)},
     {"levels", VDBS_REPORT_INT, offsetof(vdbs_fld_stats, levels)},
@@ -144,8 +235,9 @@ static const vdbs_report_field report[] = {
 static void report_text(const void *stats, char *text, size_t size)
 {
     const vdbs_fld_stats *f = stats;
-    snprintf(text, size, "%d cells across, %d CG iterations, residual %.2g", f->resolution,
-             f->cg_iterations, f->residual);
+    snprintf(text, size, "%d cells across, %d CG iterations in %d solves%s, residual %.2g",
+             f->resolution, f->cg_iterations, f->updates, f->warm_start ? " (warm)" : "",
+             f->residual);
 }
 
 const vdbs_solver vdbs_solver_fld = {
@@ -159,5 +251,6 @@ const vdbs_solver vdbs_solver_fld = {
     .report = report,
     .report_count = (int)(sizeof report / sizeof report[0]),
     .report_text = report_text,
+    .state = &state,
     .cost = {8.03, 23.4, 280, 1.04e+03}, /* bench/cost.md */
 };

@@ -1,5 +1,6 @@
 #include "vdbscatter/solve.h"
 
+#include <math.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -51,4 +52,42 @@ vdbs_status vdbs_solve_s1(const vdbs_solve *s, vdbs_s1_light_fn light_depth, voi
     out.radiance = NULL;
     return vdbs_single_scatter_grids_out(s->runner, s->volume, s->scene, s->lights, &grids, &out,
                                          NULL, NULL, err);
+}
+
+vdbs_status vdbs_solve_state_vec3(const vdbio_lit *lit, const char *grid, const vdbs_volume *volume,
+                                  float *out, vdbs_error *err)
+{
+    if (!vdbio_lit_has_grid(lit, grid))
+        return vdbs_error_set(err, VDBS_ERR_INPUT, "--warm-start: no grid '%s'", grid);
+    vdbio_transform file;
+    vdbs_status st = vdbio_lit_transform(lit, grid, &file, err);
+    if (st != VDBS_OK)
+        return st;
+    /* The same map (the same sequence frame, or one whose grid stayed put): by index, exact. */
+    const int same = memcmp(file.m, volume->index_to_world, sizeof file.m) == 0;
+    double to_file[3][4];
+    if (!same && !vdbs_affine_invert(file.m, to_file))
+        return vdbs_error_set(err, VDBS_ERR_INPUT,
+                              "--warm-start: grid '%s' has a singular transform", grid);
+    for (size_t n = 0; n < volume->coord_count && st == VDBS_OK; ++n) {
+        int ijk[3], inside = 1;
+        if (same) {
+            memcpy(ijk, volume->coords + 3 * n, sizeof ijk);
+        } else {
+            double w[3];
+            vdbs_volume_voxel_point(volume, n, w);
+            for (int r = 0; r < 3; ++r) {
+                const double x = to_file[r][0] * w[0] + to_file[r][1] * w[1] +
+                                 to_file[r][2] * w[2] + to_file[r][3];
+                /* Beyond int's range the file has no voxel to find. */
+                inside = inside && fabs(x) < 2e9;
+                ijk[r] = inside ? (int)floor(x + 0.5) : 0;
+            }
+        }
+        if (inside)
+            st = vdbio_lit_vec3(lit, grid, ijk, out + 3 * n, err);
+        else
+            memset(out + 3 * n, 0, 3 * sizeof *out);
+    }
+    return st;
 }

@@ -255,6 +255,7 @@ static void stats_begin(const vdbs_svd_grid *grid, vdbs_svd_stats *stats)
     stats->delta_m_f = pm->f;
     stats->g_scaled = pm->g_scaled;
     stats->factor_rmse = vdbs_phasemat_rmse(pm, grid->terms);
+    stats->warm_start = grid->warm != NULL;
     stats->iterations = 0;
     stats->converged = 0;
     stats->balance = 0.0;

@@ -154,8 +154,7 @@ static vdbs_status state_read(const char *path, const vdbs_volume *volume, const
                                     err);
     for (int k = 0; k < terms && st == VDBS_OK; ++k) {
         grid_name(k, name, sizeof name);
-        for (size_t n = 0; n < volume->coord_count && st == VDBS_OK; ++n)
-            st = vdbio_lit_vec3(lit, name, volume->coords + 3 * n, m->voxels[k] + 3 * n, err);
+        st = vdbs_solve_state_vec3(lit, name, volume, m->voxels[k], err);
     }
     if (lit)
         vdbio_lit_close(lit);
@@ -256,6 +255,7 @@ static const vdbs_report_field report[] = {
     {"resolution", VDBS_REPORT_INT, offsetof(vdbs_svd_stats, resolution)},
     {"cells", VDBS_REPORT_INT64, offsetof(vdbs_svd_stats, cells)},
     {"cell_side", VDBS_REPORT_DOUBLE, offsetof(vdbs_svd_stats, cell_side)},
+    {"warm_start", VDBS_REPORT_BOOL, offsetof(vdbs_svd_stats, warm_start)},
     {"iterations", VDBS_REPORT_INT, offsetof(vdbs_svd_stats, iterations)},
     {"residual", VDBS_REPORT_DOUBLE, offsetof(vdbs_svd_stats, residual)},
     {"contraction", VDBS_REPORT_DOUBLE, offsetof(vdbs_svd_stats, contraction)},

@@ -26,6 +26,16 @@
 extern "C" {
 #endif
 
+/* The solved fluence phi at the output voxels, trilinear from the cells: what --keep-state
+ * writes into the lit VDB (grid fld_phi, metadata vdbscatter_fld_state = "phi") and
+ * --warm-start reads back (the cells whose trilinear samples give it, by back-projection from
+ * the voxels the file has a value for; cells no such voxel weighs filled from their
+ * neighbours: fld.c's phi_from_voxels). */
+typedef struct vdbs_fld_state {
+    float *phi; /* 3 floats (R, G, B) per output voxel, coords order; NULL until solved */
+    size_t voxels;
+} vdbs_fld_state;
+
 /* Zero-initialise; 0 means the default. */
 typedef struct vdbs_fld_desc {
     int resolution;   /* cells across the largest extent (--fld-res); default: from the
@@ -60,6 +70,12 @@ typedef struct vdbs_fld_desc {
     const vdbs_sky_floor *sky_floor;
     const vdbs_cancel *cancel; /* polled every CG iteration: VDBS_ERR_CANCELLED once set;
                                   NULL: never (the bake's is its progress's) */
+    /* --warm-start (vdbs_fld_solve): phi to start from, the first solve's first guess and the
+     * first limiter's phi, or NULL (a cold start: classic diffusion first). */
+    const vdbs_fld_state *warm;
+    /* --keep-state (vdbs_fld_solve): filled with the solved phi (phi malloc'd here, the
+     * caller frees it), or NULL. */
+    vdbs_fld_state *keep;
 } vdbs_fld_desc;
 
 /* What a quality chooses. The grid comes from the medium: cells_per_path cells per mean
@@ -101,6 +117,8 @@ typedef struct vdbs_fld_stats {
     double mean_sigma_tr; /* what a default resolution came from (0 with --fld-res) */
     int64_t cells;
     double cell_side;
+    int warm_start;            /* 1: the first solve started from a given phi (a warm start
+                                  that covered any cell), its limiter from that phi */
     int updates;               /* solves run (limiter updates + 1) */
     int cg_iterations;         /* summed over channels and solves */
     int levels;                /* of the multigrid preconditioner, the system's own grid included */

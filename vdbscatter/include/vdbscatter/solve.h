@@ -12,6 +12,7 @@
 #include "vdbscatter/scene.h"
 #include "vdbscatter/single.h"
 #include "vdbscatter/status.h"
+#include "vdbscatter/vdbio.h"
 #include "vdbscatter/volume.h"
 
 #ifdef __cplusplus
@@ -50,6 +51,15 @@ typedef struct vdbs_solve {
  * march (then a second, light-grid pass gives the outputs the march has none of). */
 vdbs_status vdbs_solve_s1(const vdbs_solve *solve, vdbs_s1_light_fn light_depth, void *light_user,
                           vdbs_error *err);
+
+/* --warm-start: vec3 grid `grid` of a --keep-state bake's lit VDB at every output voxel of
+ * `volume` into `out` (3 floats per voxel, coords order; (0, 0, 0) where the file has no
+ * value). By index where the file's grid has the volume's transform; else at the file's voxel
+ * nearest each output voxel's world centre, so that frames whose grid origin moves (the same
+ * voxel size, another index of the same world point) still line up. Errors (VDBS_ERR_INPUT,
+ * naming --warm-start): no such grid, a singular transform. */
+vdbs_status vdbs_solve_state_vec3(const vdbio_lit *lit, const char *grid, const vdbs_volume *volume,
+                                  float *out, vdbs_error *err);
 
 #ifdef __cplusplus
 }

@@ -138,6 +138,7 @@ typedef struct vdbs_svd_stats {
     double delta_m_f, g_scaled; /* 0 and g without delta-M */
     double factor_rmse;         /* of the N-term factorisation */
     int chunk, steps_per_sweep;
+    int warm_start; /* 1: the iteration started from a --warm-start's moments */
     int iterations;
     double residual;    /* the estimated relative distance from the converged fluence (desc) */
     double contraction; /* the mean ratio of successive changes over the last 4 iterations:

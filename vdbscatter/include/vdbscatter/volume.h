@@ -41,6 +41,10 @@ int64_t vdbs_volume_leaf_count(const vdbs_volume *volume);
 /* The same for OpenVDB's nodes of each level, leaves first: 8^3, 128^3 and 4096^3 voxels. */
 void vdbs_volume_node_counts(const vdbs_volume *volume, int64_t counts[3]);
 
+/* The inverse of an affine index-to-world map (vdbio_transform's layout); 0 when it is
+ * singular (inv untouched). */
+int vdbs_affine_invert(const double m[3][4], double inv[3][4]);
+
 /* Index-space image of a world-space vector (linear part of the inverse map). */
 void vdbs_volume_index_vector(const vdbs_volume *volume, const double world[3], double index[3]);
 void vdbs_volume_index_point(const vdbs_volume *volume, const double world[3], double index[3]);
