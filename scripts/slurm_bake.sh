@@ -261,8 +261,9 @@ exec$quoted_bake --frames \"\$frames\"$threads_words --summary $(printf %q "$log
 "
 
 verify_script="#!/bin/bash
-# Written by scripts/slurm_bake.sh: checks every frame's output after the array.
-exec$quoted_bake --frames $all_frames --threads 1 --verify --summary $(printf %q "$logs/summary.json")
+# Written by scripts/slurm_bake.sh: checks every frame's output after the array, with the
+# tasks' words (--threads included) but for --frames, --verify and --summary.
+exec$quoted_bake --frames $all_frames$threads_words --verify --summary $(printf %q "$logs/summary.json")
 "
 
 array_spec=$array${max_running:+%$max_running}
@@ -270,7 +271,7 @@ array_cmd=(sbatch --parsable --job-name=vdbscatter-bake "--array=$array_spec"
   "--cpus-per-task=$cpus" "--chdir=$PWD"
   "--output=$logs/bake_%A_%a.out" "--error=$logs/bake_%A_%a.err"
   "${sbatch_more[@]}" "$logs/bake.sbatch")
-verify_cmd=(sbatch --parsable --job-name=vdbscatter-verify --cpus-per-task=1 "--chdir=$PWD"
+verify_cmd=(sbatch --parsable --job-name=vdbscatter-verify "--cpus-per-task=$cpus" "--chdir=$PWD"
   "--output=$logs/verify_%j.out" "--error=$logs/verify_%j.err"
   "${sbatch_more[@]}" "$logs/verify.sbatch")
 
