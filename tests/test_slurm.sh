@@ -54,7 +54,8 @@ chmod 755 "$tmp"
 cluster=$tmp/cluster
 work=$tmp/work
 logs=$work/logs
-mkdir -p "$cluster/munge" "$cluster/state" "$cluster/spool" "$cluster/log" "$work"
+mkdir -p "$cluster/munge" "$cluster/munge-socket" "$cluster/state" "$cluster/spool" \
+  "$cluster/log" "$work"
 chmod 700 "$cluster/munge"
 daemons=() # "name pid", stopped in reverse order
 
@@ -135,7 +136,7 @@ wait_for() {
 step "munged, slurmctld and slurmd in $tmp"
 dd if=/dev/urandom of="$cluster/munge/munge.key" bs=1024 count=1 status=none
 chmod 400 "$cluster/munge/munge.key"
-socket=$cluster/munge/munge.socket
+socket=$cluster/munge-socket/munge.socket
 munged --foreground --force --socket="$socket" --key-file="$cluster/munge/munge.key" \
   --pid-file="$cluster/munge/munged.pid" --log-file="$cluster/munge/munged.log" \
   --seed-file="$cluster/munge/munged.seed" >"$cluster/log/munged.out" 2>&1 &
