@@ -1,6 +1,10 @@
 #!/usr/bin/env bash
 # Installs every Debian 12 package vdbscatter needs to build, test, run and bench (plots).
 # Safe to run again: apt-get skips what is already installed.
+# munge and Slurm are for tests/test_slurm.sh, which runs daemons of its own (own key, socket,
+# ports, config). The packages' services: slurmctld and slurmd do not start without
+# /etc/slurm/slurm.conf; munged may start (under systemd, or through /etc/init.d where no
+# policy-rc.d forbids it) with the package's generated key on /run/munge: harmless, unused.
 # --blender also installs Blender (large; for tests/test_blender.py and docs/handoff.md).
 set -euo pipefail
 
@@ -13,6 +17,7 @@ packages=(
   python3-matplotlib python3-numpy
   help2man man-db
   clang libclang-rt-14-dev llvm
+  munge slurmctld slurmd slurm-client
 )
 for arg in "$@"; do
   case "$arg" in
