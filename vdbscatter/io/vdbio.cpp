@@ -1872,7 +1872,8 @@ vdbs_status vdbio_write(const char *path, const char *input_path,
     return guarded(err, [&] { vdb_write(path, input_path, request); });
 }
 
-vdbs_status vdbio_lit_open(const char *path, vdbio_lit **out, vdbs_error *err)
+/* The lit VDB at path with every grid, or those whose names start with `prefix`. */
+static vdbs_status lit_open(const char *path, const char *prefix, vdbio_lit **out, vdbs_error *err)
 {
     if (out)
         *out = nullptr;
@@ -1884,10 +1885,16 @@ vdbs_status vdbio_lit_open(const char *path, vdbio_lit **out, vdbs_error *err)
             path,
             [&](ChildLog &) -> std::function<void(std::ostream &)> {
                 auto r = std::make_shared<Reader>();
-                r->open(path, /*load_all=*/true);
+                r->open(path, /*load_all=*/!prefix);
+                const std::string start = prefix ? prefix : "";
+                for (size_t i = 0; prefix && i < r->entries.size(); ++i)
+                    if (r->entries[i].gd.gridName().compare(0, start.size(), start) == 0)
+                        r->load(i);
                 return [r](std::ostream &os) {
                     openvdb::GridCPtrVec grids;
                     for (const Reader::Entry &e : r->entries) {
+                        if (!e.loaded)
+                            continue;
                         e.grid->setName(e.gd.gridName());
                         grids.push_back(e.grid);
                     }
@@ -1916,6 +1923,17 @@ vdbs_status vdbio_lit_open(const char *path, vdbio_lit **out, vdbs_error *err)
     });
 }
 
+vdbs_status vdbio_lit_open(const char *path, vdbio_lit **out, vdbs_error *err)
+{
+    return lit_open(path, nullptr, out, err);
+}
+
+vdbs_status vdbio_lit_open_prefix(const char *path, const char *prefix, vdbio_lit **out,
+                                  vdbs_error *err)
+{
+    return lit_open(path, prefix ? prefix : "", out, err);
+}
+
 int vdbio_lit_has_grid(const vdbio_lit *lit, const char *name)
 {
     return lit_find(lit, name) != nullptr;
@@ -1932,6 +1950,24 @@ vdbs_status vdbio_lit_vec3(const vdbio_lit *lit, const char *grid, const int ijk
         out[0] = v.x();
         out[1] = v.y();
         out[2] = v.z();
+    });
+}
+
+vdbs_status vdbio_lit_vec3_many(const vdbio_lit *lit, const char *grid, const int *ijk,
+                                size_t count, float *out, vdbs_error *err)
+{
+    return guarded(err, [&] {
+        if ((!ijk || !out) && count)
+            fail(VDBS_ERR_INTERNAL, "vdbio_lit_vec3_many: NULL argument");
+        const Vec3SGrid &g = lit_typed<Vec3SGrid>(lit, grid, "vec3s");
+        openvdb::tree::ValueAccessor<const Vec3STree, false> acc(g.tree());
+        for (size_t n = 0; n < count; ++n) {
+            const Coord c(ijk[3 * n], ijk[3 * n + 1], ijk[3 * n + 2]);
+            const openvdb::Vec3s v = acc.isValueOn(c) ? acc.getValue(c) : openvdb::Vec3s(0.0f);
+            out[3 * n] = v.x();
+            out[3 * n + 1] = v.y();
+            out[3 * n + 2] = v.z();
+        }
     });
 }
 

@@ -101,7 +101,7 @@ static vdbs_status state_read(const char *path, const vdbs_volume *volume, const
     if (!s)
         return vdbs_error_set(err, VDBS_ERR_NOMEM, "out of memory for the warm start");
     vdbio_lit *lit = NULL;
-    vdbs_status st = vdbio_lit_open(path, &lit, err);
+    vdbs_status st = vdbio_lit_open_prefix(path, FLD_STATE_GRID, &lit, err);
     const char *kind = st == VDBS_OK ? vdbio_lit_meta(lit, FLD_STATE_KEY) : NULL;
     if (st == VDBS_OK &&
         (!kind || strcmp(kind, FLD_STATE_VALUE) != 0 || !vdbio_lit_has_grid(lit, FLD_STATE_GRID)))

@@ -69,25 +69,24 @@ vdbs_status vdbs_solve_state_vec3(const vdbio_lit *lit, const char *grid, const 
     if (!same && !vdbs_affine_invert(file.m, to_file))
         return vdbs_error_set(err, VDBS_ERR_INPUT,
                               "--warm-start: grid '%s' has a singular transform", grid);
-    for (size_t n = 0; n < volume->coord_count && st == VDBS_OK; ++n) {
-        int ijk[3], inside = 1;
-        if (same) {
-            memcpy(ijk, volume->coords + 3 * n, sizeof ijk);
-        } else {
-            double w[3];
-            vdbs_volume_voxel_point(volume, n, w);
-            for (int r = 0; r < 3; ++r) {
-                const double x = to_file[r][0] * w[0] + to_file[r][1] * w[1] +
-                                 to_file[r][2] * w[2] + to_file[r][3];
-                /* Beyond int's range the file has no voxel to find. */
-                inside = inside && fabs(x) < 2e9;
-                ijk[r] = inside ? (int)floor(x + 0.5) : 0;
-            }
+    if (same)
+        return vdbio_lit_vec3_many(lit, grid, volume->coords, volume->coord_count, out, err);
+    int *ijk = malloc(sizeof *ijk * 3 * (volume->coord_count ? volume->coord_count : 1));
+    if (!ijk)
+        return vdbs_error_set(err, VDBS_ERR_NOMEM, "out of memory for the warm start");
+    for (size_t n = 0; n < volume->coord_count; ++n) {
+        double w[3];
+        int inside = 1;
+        vdbs_volume_voxel_point(volume, n, w);
+        for (int r = 0; r < 3; ++r) {
+            const double x =
+                to_file[r][0] * w[0] + to_file[r][1] * w[1] + to_file[r][2] * w[2] + to_file[r][3];
+            /* Beyond int's range the file has no voxel to find: one far off reads 0. */
+            inside = inside && fabs(x) < 1e9;
+            ijk[3 * n + r] = inside ? (int)floor(x + 0.5) : 1000000000;
         }
-        if (inside)
-            st = vdbio_lit_vec3(lit, grid, ijk, out + 3 * n, err);
-        else
-            memset(out + 3 * n, 0, 3 * sizeof *out);
     }
+    st = vdbio_lit_vec3_many(lit, grid, ijk, volume->coord_count, out, err);
+    free(ijk);
     return st;
 }

@@ -615,7 +615,8 @@ void vdbs_svd_light_depth(void *user, int light, const float *depth)
     }
 }
 
-/* --warm-start: each cell the mean of the voxels whose centres lie in it. */
+/* --warm-start: each cell the mean of the voxels whose centres lie in it (0 where none has a
+ * value: there the iteration starts cold). */
 static void moments_from_voxels(const vdbs_volume *volume, const vdbs_coarse_frame *f, int terms,
                                 const float *const *voxels, float *cells_out)
 {
@@ -635,7 +636,13 @@ static void moments_from_voxels(const vdbs_volume *volume, const vdbs_coarse_fra
             at[a] = (int)floor((w[a] - f->origin[a]) / f->side[a]);
             inside &= at[a] >= 0 && at[a] < f->n[a];
         }
-        if (!inside)
+        /* A voxel the file had no value for (new since it was baked: a sequence's box
+         * grows) reads all 0: it says nothing of its cell, which keeps the others' mean. */
+        int known = 0;
+        for (int k = 0; k < terms && !known; ++k)
+            known = voxels[k][3 * n] != 0.0f || voxels[k][3 * n + 1] != 0.0f ||
+                    voxels[k][3 * n + 2] != 0.0f;
+        if (!inside || !known)
             continue;
         size_t cell = ((size_t)at[2] * f->n[1] + at[1]) * f->n[0] + at[0];
         ++count[cell];

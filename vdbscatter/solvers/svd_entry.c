@@ -108,9 +108,12 @@ typedef struct svd_state {
     char directions[16], terms[16];
 } svd_state;
 
+/* The state's grids: svd_m0000, svd_m0001, ... */
+#define STATE_PREFIX "svd_m"
+
 static void grid_name(int k, char *name, size_t size)
 {
-    snprintf(name, size, "svd_m%04d", k);
+    snprintf(name, size, STATE_PREFIX "%04d", k);
 }
 
 static void *state_create(void)
@@ -136,7 +139,7 @@ static vdbs_status state_read(const char *path, const vdbs_volume *volume, const
         return vdbs_error_set(err, VDBS_ERR_NOMEM, "out of memory for the warm start");
     vdbs_svd_moments *m = &s->moments;
     vdbio_lit *lit = NULL;
-    vdbs_status st = vdbio_lit_open(path, &lit, err);
+    vdbs_status st = vdbio_lit_open_prefix(path, STATE_PREFIX, &lit, err);
     const char *dt = st == VDBS_OK ? vdbio_lit_meta(lit, "vdbscatter_svd_directions") : NULL;
     const char *nt = st == VDBS_OK ? vdbio_lit_meta(lit, "vdbscatter_svd_terms") : NULL;
     const char *gt = st == VDBS_OK ? vdbio_lit_meta(lit, "vdbscatter_g") : NULL;

@@ -200,10 +200,18 @@ int64_t vdbio_write_bytes(const int64_t nodes[3], int vec3_grids, int float_grid
  * vdbio_lit may be shared by many threads. With duplicate names the first grid wins. */
 typedef struct vdbio_lit vdbio_lit;
 vdbs_status vdbio_lit_open(const char *path, vdbio_lit **out, vdbs_error *err);
+/* The same with only the grids whose names start with `prefix` (a solver's state: reading a
+ * warm start then costs its own grids, not the whole lit VDB); the metadata is all there. */
+vdbs_status vdbio_lit_open_prefix(const char *path, const char *prefix, vdbio_lit **out,
+                                  vdbs_error *err);
 int vdbio_lit_has_grid(const vdbio_lit *lit, const char *name);
 /* Value of a vec3s grid at index coordinates ((0,0,0) where inactive). */
 vdbs_status vdbio_lit_vec3(const vdbio_lit *lit, const char *grid, const int ijk[3], float out[3],
                            vdbs_error *err);
+/* The same at `count` voxels (3 ints each) into out (3 floats each): one lookup of the grid
+ * and one accessor for all of them. */
+vdbs_status vdbio_lit_vec3_many(const vdbio_lit *lit, const char *grid, const int *ijk,
+                                size_t count, float *out, vdbs_error *err);
 /* Value of a float grid at index coordinates (0 where inactive). */
 vdbs_status vdbio_lit_float(const vdbio_lit *lit, const char *grid, const int ijk[3], float *out,
                             vdbs_error *err);
