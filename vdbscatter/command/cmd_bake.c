@@ -646,6 +646,7 @@ static int run_sequence(bake_request *r)
         return status;
     vdbs_sequence_step step = {0};
     step.command = "bake";
+    step.worked = "baked";
     step.hash = frame_hash;
     step.run = frame_run;
     step.user = r;

@@ -366,6 +366,7 @@ static int run_sequence(render_request *q, const char *input)
         return status;
     vdbs_sequence_step step = {0};
     step.command = "render";
+    step.worked = "rendered";
     step.run = frame_run;
     step.user = q;
     step.quiet = q->quiet;

@@ -28,8 +28,15 @@ struct vdbs_sequence {
     int json, quiet;
 };
 
-static const char *const status_names[] = {"pending", "done",    "up-to-date",
+static const char *const status_names[] = {"pending", "worked",  "up-to-date",
                                            "failed",  "missing", "stale"};
+
+/* A frame's status as the summary and the progress lines name it: a worked frame is
+ * "baked" or "rendered" (the step's word). */
+static const char *status_name(const vdbs_sequence_step *step, vdbs_frame_status status)
+{
+    return status == VDBS_FRAME_DONE && step->worked ? step->worked : status_names[status];
+}
 
 int vdbs_sequence_requested(const vdbs_options_args *args, const char *input, const char *output)
 {
@@ -262,7 +269,7 @@ static cJSON *summary_json(const vdbs_sequence *s, const vdbs_sequence_step *ste
         char path[VDBS_SEQUENCE_PATH_MAX];
         vdbs_error err;
         cJSON_AddNumberToObject(f, "frame", (double)s->list.frames[i]);
-        cJSON_AddStringToObject(f, "status", status_names[s->status[i]]);
+        cJSON_AddStringToObject(f, "status", status_name(step, s->status[i]));
         if (vdbs_frame_path(s->input, &s->input_token, s->list.frames[i], path, sizeof path,
                             &err) == VDBS_OK)
             cJSON_AddStringToObject(f, "input", path);
@@ -312,20 +319,21 @@ static int write_summary(const vdbs_sequence *s, const vdbs_sequence_step *step,
 }
 
 /* The frame's line: what happened, and the estimate of what is left. */
-static void frame_line(const vdbs_sequence *s, int i, double left)
+static void frame_line(const vdbs_sequence *s, const vdbs_sequence_step *step, int i,
+                       double left)
 {
     char label[48], text[256], fields[256];
     snprintf(label, sizeof label, "frame %ld", s->list.frames[i]);
     const int remaining = s->list.count - i - 1;
     if (s->status[i] == VDBS_FRAME_DONE || s->status[i] == VDBS_FRAME_FAILED)
         snprintf(text, sizeof text, "%s in %.2fs (%d/%d; %d left, about %.0fs)",
-                 status_names[s->status[i]], s->seconds[i], i + 1, s->list.count, remaining, left);
+                 status_name(step, s->status[i]), s->seconds[i], i + 1, s->list.count, remaining, left);
     else
-        snprintf(text, sizeof text, "%s (%d/%d)", status_names[s->status[i]], i + 1, s->list.count);
+        snprintf(text, sizeof text, "%s (%d/%d)", status_name(step, s->status[i]), i + 1, s->list.count);
     snprintf(fields, sizeof fields,
              "\"frame\": %ld, \"status\": \"%s\", \"index\": %d, \"frames_total\": %d, "
              "\"seconds\": %.3f, \"seconds_left_estimate\": %.3f",
-             s->list.frames[i], status_names[s->status[i]], i + 1, s->list.count, s->seconds[i],
+             s->list.frames[i], status_name(step, s->status[i]), i + 1, s->list.count, s->seconds[i],
              left);
     vdbs_progress_event("frame", label, text, fields);
 }
@@ -416,7 +424,7 @@ int vdbs_sequence_run(vdbs_sequence *s, const vdbs_sequence_step *step)
             remaining += s->status[k] == VDBS_FRAME_PENDING;
         const double left = worked ? worked_seconds / worked * remaining : 0.0;
         if (lines)
-            frame_line(s, i, left);
+            frame_line(s, step, i, left);
         int st = write_summary(s, step, vdbs_now() - started, left, 0);
         if (st != VDBS_EXIT_OK)
             return st;

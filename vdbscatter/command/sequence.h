@@ -48,6 +48,7 @@ typedef struct vdbs_sequence_frame {
 
 typedef struct vdbs_sequence_step {
     const char *command; /* "bake" */
+    const char *worked;  /* a worked frame's status: "baked" */
     /* The hash of everything that determines the frame's output, into frame->hash; NULL: a
      * command whose outputs are never skipped. Returns an exit status (the error said). */
     int (*hash)(void *user, vdbs_sequence_frame *frame);
