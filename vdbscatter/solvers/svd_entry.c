@@ -105,7 +105,7 @@ static double option(const vdbs_scene *scene, int i)
 typedef struct svd_state {
     vdbs_svd_moments moments; /* first: the solver reads the state as its moments */
     char (*names)[24];        /* "svd_m0000" ... per term */
-    char directions[16], terms[16];
+    char directions[16], terms[16], contraction[32];
 } svd_state;
 
 /* The state's grids: svd_m0000, svd_m0001, ... */
@@ -143,6 +143,7 @@ static vdbs_status state_read(const char *path, const vdbs_volume *volume, const
     const char *dt = st == VDBS_OK ? vdbio_lit_meta(lit, "vdbscatter_svd_directions") : NULL;
     const char *nt = st == VDBS_OK ? vdbio_lit_meta(lit, "vdbscatter_svd_terms") : NULL;
     const char *gt = st == VDBS_OK ? vdbio_lit_meta(lit, "vdbscatter_g") : NULL;
+    const char *ct = st == VDBS_OK ? vdbio_lit_meta(lit, "vdbscatter_svd_contraction") : NULL;
     int directions = dt ? atoi(dt) : 0, terms = nt ? atoi(nt) : 0;
     char name[32];
     grid_name(terms > 0 ? terms - 1 : 0, name, sizeof name);
@@ -159,6 +160,8 @@ static vdbs_status state_read(const char *path, const vdbs_volume *volume, const
         grid_name(k, name, sizeof name);
         st = vdbs_solve_state_vec3(lit, name, volume, m->voxels[k], err);
     }
+    if (st == VDBS_OK && ct) /* older states have none: 0, unknown */
+        m->contraction = strtod(ct, NULL);
     if (lit)
         vdbio_lit_close(lit);
     if (st == VDBS_OK)
@@ -190,13 +193,15 @@ static int state_grids(const void *state, vdbio_vec3_grid *grids, int max)
 static int state_meta(const void *state, vdbio_meta *meta, int max)
 {
     svd_state *s = (svd_state *)state;
-    if (max < 2 || s->moments.terms == 0)
+    if (max < 3 || s->moments.terms == 0)
         return 0;
     snprintf(s->directions, sizeof s->directions, "%d", s->moments.directions);
     snprintf(s->terms, sizeof s->terms, "%d", s->moments.terms);
+    snprintf(s->contraction, sizeof s->contraction, "%.17g", s->moments.contraction);
     meta[0] = (vdbio_meta){"vdbscatter_svd_directions", s->directions};
     meta[1] = (vdbio_meta){"vdbscatter_svd_terms", s->terms};
-    return 2;
+    meta[2] = (vdbio_meta){"vdbscatter_svd_contraction", s->contraction};
+    return 3;
 }
 
 static const vdbs_solver_state state = {

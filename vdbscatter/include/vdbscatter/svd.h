@@ -76,6 +76,9 @@ typedef struct vdbs_svd_moments {
     int terms;      /* N */
     double g;       /* the medium's g they were solved for */
     float **voxels; /* N arrays of 3 floats per output voxel (coords order) */
+    /* The contraction (ratio of successive changes) of the solve that made them when it
+     * stopped; 0: unknown. A warm start's error estimate needs it (vdbs_svd_grid). */
+    double contraction;
 } vdbs_svd_moments;
 
 /* Allocates N zeroed arrays for `voxels` output voxels. Errors: out of memory. */
@@ -129,6 +132,11 @@ typedef struct vdbs_svd_grid {
                             or NULL */
     double inflow[3];    /* the radiance entering every boundary face from outside in every
                             direction (the sky's uniform part, skyfloor.h); 0: vacuum */
+    /* With warm: the contraction of the solve it came from (0: unknown). The error estimate
+     * uses the larger of it and the ratio seen so far: started near the answer, the first
+     * few changes shrink with the faster modes and understate the slowest one, which the
+     * last frame's solve measured. */
+    double warm_contraction;
 } vdbs_svd_grid;
 
 typedef struct vdbs_svd_stats {

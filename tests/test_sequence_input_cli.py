@@ -1,0 +1,187 @@
+#!/usr/bin/python3
+"""Frame sequences (docs/sequences.md) on small frames of `sample smoke --time` (the light
+twin of test_sequence_cli, also run under the sanitizers): frame numbers and rates in the
+metadata, missing frames listed (exit 2, no output) or skipped, a corrupt frame (exit 3, the
+others baked), --verify after a failed frame (exit 3), malformed patterns, lists and flags
+(one line, exit 2), and the render of a sequence."""
+import json
+import os
+import re
+import resource
+import shutil
+import signal
+import subprocess
+import tempfile
+import time
+import unittest
+
+import numpy as np
+import pyopenvdb as vdb
+
+EXE = os.environ["VDBSCATTER"]
+FRAMES = 6
+RES = 32
+SCENE = ["--method", "svd", "--quality", "low", "--sun", "0.3,-1,0.2:3,3,3", "--env",
+         "0.2,0.3,0.5", "--albedo", "0.99", "--g", "0.5", "--density-scale", "30"]
+# The metadata that differs between two bakes of the same frame: the solve's timing.
+VARYING = {"vdbscatter_solve_seconds"}
+
+
+def run(*args, check=0, **kw):
+    kw.setdefault("stdout", subprocess.PIPE)
+    kw.setdefault("stderr", subprocess.PIPE)
+    p = subprocess.run([EXE, *map(str, args)], text=True, timeout=900, **kw)
+    if check is not None and p.returncode != check:
+        raise AssertionError(f"{args}: exit {p.returncode} (expected {check}): {p.stderr}")
+    return p
+
+
+def grids(path):
+    """{name: (active count, bbox, dense values)} of every grid, and the file's metadata."""
+    all_grids, meta = vdb.readAll(path)
+    out = {}
+    for g in all_grids:
+        lo, hi = g.evalActiveVoxelBoundingBox()
+        shape = tuple(b - a + 1 for a, b in zip(lo, hi))
+        if g.valueTypeName == "vec3s":
+            shape = shape + (3,)
+        values = np.zeros(shape, dtype=np.float32)
+        g.copyToArray(values, ijk=lo)
+        out[g.name] = (g.activeVoxelCount(), (tuple(lo), tuple(hi)), values)
+    return out, dict(meta)
+
+
+def ms_rms(a, b):
+    """The RMS of the difference of the ms grids of two lit VDBs of one frame, relative to
+    the RMS of b's."""
+    ga, _ = grids(a)
+    gb, _ = grids(b)
+    va, vb = ga["ms"][2], gb["ms"][2]
+    assert va.shape == vb.shape
+    return float(np.sqrt(np.mean((va - vb) ** 2)) / np.sqrt(np.mean(vb ** 2)))
+
+
+class Sequence(unittest.TestCase):
+    @classmethod
+    def setUpClass(cls):
+        cls.tmp = tempfile.mkdtemp(prefix="vdbscatter-seq-", dir=os.environ.get("VDBSCATTER_TMP"))
+        cls.input = os.path.join(cls.tmp, "smoke.####.vdb")
+        for f in range(1, FRAMES + 1):
+            run("sample", "smoke", "--res", RES, "--time", (f - 1) / (FRAMES - 1), "-o",
+                os.path.join(cls.tmp, f"smoke.{f:04d}.vdb"))
+        cls.cold = cls.bake_sequence("cold", "--no-warm-start")
+
+    @classmethod
+    def tearDownClass(cls):
+        shutil.rmtree(cls.tmp, ignore_errors=True)
+
+    @classmethod
+    def out(cls, folder, pattern="lit.####.vdb"):
+        return os.path.join(cls.tmp, folder, pattern)
+
+    @classmethod
+    def bake_sequence(cls, folder, *extra, check=0):
+        os.makedirs(os.path.join(cls.tmp, folder), exist_ok=True)
+        summary = os.path.join(cls.tmp, folder, "summary.json")
+        run("bake", cls.input, "-o", cls.out(folder), *SCENE, *extra, "--summary", summary,
+            "-q", check=check)
+        with open(summary) as f:
+            return json.load(f)
+
+    def test_metadata_carries_frame_rate_and_hash(self):
+        folder = "fps"
+        os.makedirs(os.path.join(self.tmp, folder))
+        run("bake", self.input, "-o", self.out(folder, "lit.$F.vdb"), *SCENE, "--frames",
+            "2-6x4", "--fps", "24", "-q")
+        self.assertEqual(sorted(os.listdir(os.path.join(self.tmp, folder))),
+                         ["lit.2.vdb", "lit.6.vdb"])
+        _, meta = grids(self.out(folder, "lit.6.vdb"))
+        self.assertEqual((meta["vdbscatter_frame"], meta["vdbscatter_fps"]), ("6", "24"))
+        self.assertRegex(meta["vdbscatter_hash"], r"^[0-9a-f]{32}$")
+        # frame 6 started from frame 2, the previous frame of the list
+        self.assertEqual(meta["vdbscatter_warm_start"], "lit.2.vdb")
+
+    def test_missing_frames_are_listed(self):
+        folder = os.path.join(self.tmp, "missing")
+        os.makedirs(folder)
+        for f in (1, 2, 4):
+            shutil.copy(os.path.join(self.tmp, f"smoke.{f:04d}.vdb"), folder)
+        inp = os.path.join(folder, "smoke.%04d.vdb")
+        out = os.path.join(folder, "lit.%04d.vdb")
+        p = run("bake", inp, "-o", out, *SCENE, "--frames", "1-6", check=2)
+        self.assertEqual(len(p.stderr.splitlines()), 1, p.stderr)
+        self.assertIn("3 of 6 input frames missing: 3,5-6", p.stderr)
+        self.assertFalse([n for n in os.listdir(folder) if n.startswith("lit")])
+        p = run("bake", inp, "-o", out, *SCENE, "--frames", "1-6", "--skip-missing", "--json",
+                "-q")
+        s = json.loads(p.stdout)
+        self.assertEqual((s["done"], s["missing"]), (3, 3))
+        # frame 4 follows a missing frame: it starts cold
+        self.assertFalse(s["frames"][3]["report"]["svd"]["warm_start"])
+        self.assertTrue(s["frames"][1]["report"]["svd"]["warm_start"])
+        # without --frames: the frames on disk
+        p = run("bake", inp, "-o", out, *SCENE, "--json", "-q")
+        s = json.loads(p.stdout)
+        self.assertEqual((s["frame_list"], s["skipped"]), ("1-2,4", 3))
+
+    def test_a_corrupt_frame_is_a_partial_sequence(self):
+        folder = os.path.join(self.tmp, "corrupt")
+        os.makedirs(folder)
+        for f in (1, 2, 3):
+            shutil.copy(os.path.join(self.tmp, f"smoke.{f:04d}.vdb"), folder)
+        with open(os.path.join(folder, "smoke.0002.vdb"), "r+b") as f:
+            f.truncate(200)
+        inp, out = os.path.join(folder, "smoke.####.vdb"), os.path.join(folder, "lit.####.vdb")
+        p = run("bake", inp, "-o", out, *SCENE, "--json", check=3)
+        s = json.loads(p.stdout)
+        self.assertEqual([f["status"] for f in s["frames"]], ["baked", "failed", "baked"])
+        self.assertIn("smoke.0002.vdb", p.stderr)
+        self.assertFalse(os.path.exists(os.path.join(folder, "lit.0002.vdb")))
+        # --verify: one missing, exit 3; after the frame is replaced and baked, 0
+        run("bake", inp, "-o", out, *SCENE, "--verify", "-q", check=3)
+        shutil.copy(os.path.join(self.tmp, "smoke.0002.vdb"), folder)
+        p = run("bake", inp, "-o", out, *SCENE, "--json", "-q")
+        self.assertEqual(json.loads(p.stdout)["worked"], 1)
+        run("bake", inp, "-o", out, *SCENE, "--verify", "-q")
+
+    def test_bad_words(self):
+        out = self.out("bad")
+        cases = [
+            (["--frames", "5-1"], "runs backwards"),
+            (["--frames", "1-3,2"], "listed twice"),
+            (["--frames", "x"], "--frames"),
+            (["--fps", "0", "--frames", "1"], "--fps"),
+        ]
+        for extra, needle in cases:
+            p = run("bake", self.input, "-o", out, *SCENE, *extra, check=2)
+            self.assertIn(needle, p.stderr)
+            self.assertEqual(len(p.stderr.splitlines()), 1, p.stderr)
+        one = os.path.join(self.tmp, "smoke.0001.vdb")
+        for words, needle in [
+            (["bake", self.input, "-o", os.path.join(self.tmp, "single.vdb")], "-o:"),
+            (["bake", one, "-o", out, "--frames", "1-2"], "frame number in IN"),
+            (["bake", os.path.join(self.tmp, "s.####.$F.vdb"), "-o", out], "more than one"),
+            (["bake", one, "-o", os.path.join(self.tmp, "x.vdb"), "--verify"], "--verify"),
+            (["bake", self.input, "-o", out, "--report", "r.json"], "--report"),
+            (["bake", self.input, "-o", out, "--progress", "loud"], "--progress"),
+            (["bake", self.input, "-o", out, "--threads", "0"], "--threads"),
+        ]:
+            p = run(*words, *SCENE, check=2)
+            self.assertIn(needle, p.stderr, words)
+        self.assertFalse(os.path.exists(os.path.join(self.tmp, "bad")))
+
+    def test_render_sequence(self):
+        imgs = os.path.join(self.tmp, "img.####.png")
+        p = run("render", self.out("cold"), "-o", imgs, "--frames", "1-6x5",
+                "--size", "64x48", "--summary", os.path.join(self.tmp, "render.json"), "-q")
+        self.assertEqual(p.stderr, "")
+        with open(os.path.join(self.tmp, "render.json")) as f:
+            s = json.load(f)
+        self.assertEqual([(e["frame"], e["status"]) for e in s["frames"]],
+                         [(1, "rendered"), (6, "rendered")])
+        for f in (1, 6):
+            self.assertTrue(os.path.getsize(os.path.join(self.tmp, f"img.{f:04d}.png")) > 0)
+
+
+if __name__ == "__main__":
+    unittest.main()
