@@ -519,7 +519,9 @@ class Errors(Base):
             signal.signal(signal.SIGXFSZ, signal.SIG_IGN)
             resource.setrlimit(resource.RLIMIT_FSIZE, (4096, 4096))
 
-        p = cli("bake", CLOUD, "-o", out, "--sun", "0,-1,0", check=1, preexec_fn=limit)
+        # --progress none: the CLI's stderr, not a terminal, would also log each stage done
+        p = cli("bake", CLOUD, "-o", out, "--sun", "0,-1,0", "--progress", "none", check=1,
+                preexec_fn=limit)
         script = ("import json, sys, vdbscatter\n"
                   "try:\n"
                   "    vdbscatter.bake(sys.argv[1], sys.argv[2], sun=(0, -1, 0))\n"
@@ -783,6 +785,45 @@ class Lookup(Base):
                 self.skipTest("a libvdbscatter is installed on the system")
             p = self.import_from(site)
             self.assertIn("ImportError: vdbscatter: cannot find libvdbscatter.so.0", p.stderr)
+
+
+class Sequences(Base):
+    def test_bake_and_render_a_sequence(self):
+        """bake and render take the CLI's frame options: a pattern and frames=, fps=; bake
+        returns the sequence summary with each frame's report, a second bake (from Python or
+        the CLI: the same hash) skips every frame, render writes each frame's picture, a
+        missing frame is an InputError and a corrupt one a partial sequence (exit 3)."""
+        for f in (1, 2, 3):
+            vdbscatter.sample("smoke", self.path(f"s.{f:04d}.vdb"), res=16, time=(f - 1) / 2)
+        words = dict(sun=(0, -1, 0), albedo=0.9, density_scale=8)
+        s = vdbscatter.bake(self.path("s.####.vdb"), self.path("lit.$F4.vdb"), frames="1-3",
+                            fps=24, **words)
+        self.assertEqual((s["frames_total"], s["done"], s["worked"], s["fps"]), (3, 3, 3, 24))
+        self.assertEqual([(f["frame"], f["status"], f["report"]["frame"]) for f in s["frames"]],
+                         [(1, "baked", 1), (2, "baked", 2), (3, "baked", 3)])
+        again = vdbscatter.bake(self.path("s.####.vdb"), self.path("lit.$F4.vdb"),
+                                frames="1-3", fps=24, **words)
+        self.assertEqual((again["worked"], again["skipped"]), (0, 3))
+        cli_s = cli_json("bake", "s.####.vdb", "-o", "lit.$F4.vdb", "--frames", "1-3", "--fps",
+                         "24", "--sun", "0,-1,0", "--albedo", "0.9", "--density-scale", "8",
+                         cwd=self.dir)
+        self.assertEqual((cli_s["worked"], cli_s["skipped"]), (0, 3))
+        r = vdbscatter.render(self.path("lit.####.vdb"), self.path("img.####.png"),
+                              frames="1-3x2", size=(16, 12))
+        self.assertEqual([(f["frame"], f["status"]) for f in r["frames"]],
+                         [(1, "rendered"), (3, "rendered")])
+        for f in (1, 3):
+            self.assertTrue(os.path.getsize(self.path(f"img.{f:04d}.png")) > 0)
+        with self.assertRaises(vdbscatter.InputError) as e:
+            vdbscatter.bake(self.path("s.####.vdb"), self.path("lit.####.vdb"), frames="1-4",
+                            **words)
+        self.assertIn("missing: 4", str(e.exception))
+        with open(self.path("s.0002.vdb"), "r+b") as f:
+            f.truncate(100)
+        with self.assertRaises(vdbscatter.Error) as e:
+            vdbscatter.bake(self.path("s.####.vdb"), self.path("lit.####.vdb"), force=True,
+                            **words)
+        self.assertEqual(e.exception.exit_status, 3)
 
 
 if __name__ == "__main__":

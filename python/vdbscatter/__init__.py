@@ -331,7 +331,10 @@ def _report(outcome):
 def bake(input, output, *, progress=None, **options):
     """Bakes the in-scattered light of the density VDB `input` (None: the scene's volume)
     into the lit VDB `output` (`vdbscatter bake --json`); returns the JSON report as a
-    dict. progress(line), when given, receives each progress line as the bake works."""
+    dict. A frame sequence (a frame number in `input` and `output`, as "smoke.####.vdb", or
+    frames="1-240") returns the sequence summary instead, each frame's report in its
+    "frames" entry (docs/sequences.md). progress(line), when given, receives each progress
+    line as the bake works."""
     return _report(_call("bake", [input], {**options, "o": output, "json": True}, progress))
 
 
@@ -342,15 +345,19 @@ def render(input, output=None, *, return_se=False, return_report=False, progress
     writes `output` (.exr or .png) when given. return_se=True adds the per-pixel standard
     errors of mode='reference' (an array of the same shape; None in the other modes),
     return_report=True the --json summary (a dict): the result is then a tuple
-    (image[, se][, report]). progress(line), when given, receives each progress line."""
-    if return_report:
-        options = {**options, "json": True}
-    outcome = _call("render", [input], {**options, "o": output}, progress, keep_image=True)
+    (image[, se][, report]). A frame sequence (a frame number in `input` and `output`, or
+    frames=...) writes each frame's picture and returns the sequence summary (a dict).
+    progress(line), when given, receives each progress line."""
+    outcome = _call("render", [input], {**options, "o": output, "json": True}, progress,
+                    keep_image=True)
+    report = _report(outcome)
+    if outcome.rgb is None and "frames_total" in report:
+        return report
     if not (return_se or return_report):
         return outcome.rgb
     extra = [outcome.se] if return_se else []
     if return_report:
-        extra.append(_report(outcome))
+        extra.append(report)
     return (outcome.rgb, *extra)
 
 

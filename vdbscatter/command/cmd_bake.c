@@ -1,5 +1,5 @@
 /* vdbscatter bake IN.vdb -o OUT.vdb|OUT.nvdb: light a density volume and write a lit VDB. */
-#define _POSIX_C_SOURCE 200809L
+#define _XOPEN_SOURCE 700
 #include <pthread.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -467,15 +467,23 @@ static int request_hash(const bake_request *r, const char *input, double fps,
                         char hash[VDBS_SEQUENCE_HASH_SIZE])
 {
     vdbs_scene scene = r->scene;
+    /* The input by its real path: the same bake from another folder, or through a relative
+     * path, is the same bake. */
+    char *real = realpath(input, NULL);
+    if (real)
+        input = real;
     snprintf(scene.volume_file, sizeof scene.volume_file, "%s", input);
     char *scene_text = vdbs_scene_to_json(&scene);
-    if (!scene_text)
+    if (!scene_text) {
+        free(real);
         return vdbs_command_fail("bake", 1, "out of memory");
+    }
     const vdbs_bake_options *o = &r->options;
     const size_t size = strlen(scene_text) + 16384;
     char *text = malloc(size);
     if (!text) {
         free(scene_text);
+        free(real);
         return vdbs_command_fail("bake", 1, "out of memory");
     }
     size_t n = (size_t)snprintf(
@@ -497,6 +505,7 @@ static int request_hash(const bake_request *r, const char *input, double fps,
     if (status == VDBS_EXIT_OK)
         vdbs_sequence_hash_text(text, hash);
     free(text);
+    free(real);
     return status;
 }
 

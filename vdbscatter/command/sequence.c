@@ -319,22 +319,23 @@ static int write_summary(const vdbs_sequence *s, const vdbs_sequence_step *step,
 }
 
 /* The frame's line: what happened, and the estimate of what is left. */
-static void frame_line(const vdbs_sequence *s, const vdbs_sequence_step *step, int i,
-                       double left)
+static void frame_line(const vdbs_sequence *s, const vdbs_sequence_step *step, int i, double left)
 {
     char label[48], text[256], fields[256];
     snprintf(label, sizeof label, "frame %ld", s->list.frames[i]);
     const int remaining = s->list.count - i - 1;
     if (s->status[i] == VDBS_FRAME_DONE || s->status[i] == VDBS_FRAME_FAILED)
         snprintf(text, sizeof text, "%s in %.2fs (%d/%d; %d left, about %.0fs)",
-                 status_name(step, s->status[i]), s->seconds[i], i + 1, s->list.count, remaining, left);
+                 status_name(step, s->status[i]), s->seconds[i], i + 1, s->list.count, remaining,
+                 left);
     else
-        snprintf(text, sizeof text, "%s (%d/%d)", status_name(step, s->status[i]), i + 1, s->list.count);
+        snprintf(text, sizeof text, "%s (%d/%d)", status_name(step, s->status[i]), i + 1,
+                 s->list.count);
     snprintf(fields, sizeof fields,
              "\"frame\": %ld, \"status\": \"%s\", \"index\": %d, \"frames_total\": %d, "
              "\"seconds\": %.3f, \"seconds_left_estimate\": %.3f",
-             s->list.frames[i], status_name(step, s->status[i]), i + 1, s->list.count, s->seconds[i],
-             left);
+             s->list.frames[i], status_name(step, s->status[i]), i + 1, s->list.count,
+             s->seconds[i], left);
     vdbs_progress_event("frame", label, text, fields);
 }
 
