@@ -8,7 +8,6 @@
 
 #include <omp.h>
 
-#include "options.h"
 #include "vdbscatter/message.h"
 #include "vdbscatter/progress.h"
 #include "vdbscatter/vdbio.h"
@@ -124,43 +123,28 @@ int vdbs_command_progress(void)
     return current && current->progress != VDBS_PROGRESS_NONE;
 }
 
-int vdbs_command_run_options(const char *command, const vdbs_options_args *args)
+void vdbs_command_set_progress(vdbs_progress_style style)
 {
-    const char *progress = vdbs_options_value(args, "--progress");
-    if (progress && current) {
-        static const struct {
-            const char *name;
-            vdbs_progress_style style;
-        } styles[] = {{"plain", VDBS_PROGRESS_PLAIN},
-                      {"json", VDBS_PROGRESS_JSON},
-                      {"none", VDBS_PROGRESS_NONE}};
-        int found = strcmp(progress, "auto") == 0;
-        for (size_t i = 0; i < sizeof styles / sizeof styles[0] && !found; ++i)
-            if (strcmp(progress, styles[i].name) == 0) {
-                current->progress = styles[i].style;
-                found = 1;
-            }
-        if (!found)
-            return vdbs_command_fail(command, VDBS_EXIT_USAGE,
-                                     "--progress: expected auto, plain, json or none");
-        vdbs_progress_set_style(current->progress, command);
-    }
-    const char *threads = vdbs_options_value(args, "--threads");
-    if (threads && current) {
-        long n;
-        vdbs_error err;
-        if (vdbs_options_integer("--threads", threads, 1, 4096, &n, &err) != VDBS_OK)
-            return vdbs_command_fail(command, VDBS_EXIT_USAGE, err.message);
-        /* OpenMP's count is this thread's own; TBB's and OpenBLAS's are the process's */
+    if (!current)
+        return;
+    current->progress = style;
+    vdbs_progress_set_style(style, current->desc->argc > 0 ? current->desc->argv[0] : NULL);
+}
+
+void vdbs_command_set_threads(int threads)
+{
+    if (!current || threads < 1)
+        return;
+    /* OpenMP's count is this thread's own; TBB's and OpenBLAS's are the process's */
+    if (current->threads_before == 0)
         current->threads_before = omp_get_max_threads();
-        omp_set_num_threads((int)n);
-        vdbio_thread_limit((int)n);
-        if (openblas_set_num_threads && openblas_get_num_threads) {
+    omp_set_num_threads(threads);
+    vdbio_thread_limit(threads);
+    if (openblas_set_num_threads && openblas_get_num_threads) {
+        if (current->blas_threads_before == 0)
             current->blas_threads_before = openblas_get_num_threads();
-            openblas_set_num_threads((int)n);
-        }
+        openblas_set_num_threads(threads);
     }
-    return VDBS_EXIT_OK;
 }
 
 int vdbs_command_keeps_image(void)

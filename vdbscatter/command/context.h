@@ -3,6 +3,7 @@
 #ifndef VDBSCATTER_COMMAND_CONTEXT_H
 #define VDBSCATTER_COMMAND_CONTEXT_H
 
+#include "vdbscatter/progress.h"
 #include "vdbscatter/vdbscatter.h"
 
 /* Exit statuses of every command. */
@@ -33,6 +34,11 @@ void vdbs_command_error(const char *command, int status, const char *message);
 const vdbs_cancel *vdbs_command_cancel(void);
 /* Whether the caller wants PROGRESS messages (their style: progress.h). */
 int vdbs_command_progress(void);
+/* --progress: the command's style from now on (the caller's was desc.progress). */
+void vdbs_command_set_progress(vdbs_progress_style style);
+/* --threads: at most `threads` worker threads in every pool (OpenMP, OpenVDB's TBB,
+ * OpenBLAS) until the command ends. */
+void vdbs_command_set_threads(int threads);
 /* Whether the caller wants render's picture back (vdbs_command_desc.keep_image). */
 int vdbs_command_keeps_image(void);
 /* Hands the picture to the result: rgb and se (may be NULL) are taken over. */

@@ -650,3 +650,32 @@ void vdbs_options_solver_help(void)
         }
     }
 }
+
+int vdbs_command_run_options(const char *command, const vdbs_options_args *args)
+{
+    const char *progress = vdbs_options_value(args, "--progress");
+    if (progress && strcmp(progress, "auto") != 0) {
+        static const struct {
+            const char *name;
+            vdbs_progress_style style;
+        } styles[] = {{"plain", VDBS_PROGRESS_PLAIN},
+                      {"json", VDBS_PROGRESS_JSON},
+                      {"none", VDBS_PROGRESS_NONE}};
+        size_t i = 0;
+        while (i < sizeof styles / sizeof styles[0] && strcmp(progress, styles[i].name) != 0)
+            ++i;
+        if (i == sizeof styles / sizeof styles[0])
+            return vdbs_command_fail(command, VDBS_EXIT_USAGE,
+                                     "--progress: expected auto, plain, json or none");
+        vdbs_command_set_progress(styles[i].style);
+    }
+    const char *threads = vdbs_options_value(args, "--threads");
+    if (threads) {
+        long n;
+        vdbs_error err;
+        if (vdbs_options_integer("--threads", threads, 1, 4096, &n, &err) != VDBS_OK)
+            return vdbs_command_fail(command, VDBS_EXIT_USAGE, err.message);
+        vdbs_command_set_threads((int)n);
+    }
+    return VDBS_EXIT_OK;
+}
