@@ -192,8 +192,16 @@ class Images(Base):
         p = run("render", sample("cube.vdb"), "-o", png, *common, check=0)
         self.assertEqual(p.stdout, "")
         lines = p.stderr.strip().splitlines()
-        self.assertEqual(len(lines), 1, p.stderr)  # the summary; no progress off a terminal
+        # off a terminal: timestamped log lines (docs/sequences.md "Logs"), never a '\r'
+        # line, then the summary
         self.assertNotIn("\r", p.stderr)
+        stamp = r"^\d{4}-\d\d-\d\dT\d\d:\d\d:\d\dZ render: render: "
+        self.assertRegex(lines[0], stamp + "started$")
+        self.assertRegex(lines[-2], stamp + r"done in [0-9.]+s$")
+        self.assertIn("rendered 32x24", lines[-1])
+        p = run("render", sample("cube.vdb"), "-o", png, *common, "--progress", "none", check=0)
+        lines = p.stderr.strip().splitlines()
+        self.assertEqual(len(lines), 1, p.stderr)  # the summary alone
         self.assertIn("rendered 32x24", lines[0])
         width, height, rgb = read_png(png)
         self.assertEqual((width, height), (32, 24))

@@ -13,7 +13,6 @@ import json
 import os
 import re
 import resource
-import shutil
 import signal
 import subprocess
 import tempfile
@@ -21,99 +20,39 @@ import time
 import unittest
 
 import numpy as np
-import pyopenvdb as vdb
 
-EXE = os.environ["VDBSCATTER"]
-FRAMES = 24
-RES = 96
-SCENE = ["--method", "svd", "--quality", "low", "--sun", "0.3,-1,0.2:3,3,3", "--env",
-         "0.2,0.3,0.5", "--albedo", "0.99", "--g", "0.5", "--density-scale", "30"]
-# The metadata that differs between two bakes of the same frame: the solve's timing.
-VARYING = {"vdbscatter_solve_seconds"}
+from sequencelib import EXE, SCENE, VARYING, Shot, grids, ms_rms, run
 
+class Sequence(Shot):
+    FRAMES = 24
+    RES = 96
 
-def run(*args, check=0, **kw):
-    kw.setdefault("stdout", subprocess.PIPE)
-    kw.setdefault("stderr", subprocess.PIPE)
-    p = subprocess.run([EXE, *map(str, args)], text=True, timeout=900, **kw)
-    if check is not None and p.returncode != check:
-        raise AssertionError(f"{args}: exit {p.returncode} (expected {check}): {p.stderr}")
-    return p
-
-
-def grids(path):
-    """{name: (active count, bbox, dense values)} of every grid, and the file's metadata."""
-    all_grids, meta = vdb.readAll(path)
-    out = {}
-    for g in all_grids:
-        lo, hi = g.evalActiveVoxelBoundingBox()
-        shape = tuple(b - a + 1 for a, b in zip(lo, hi))
-        if g.valueTypeName == "vec3s":
-            shape = shape + (3,)
-        values = np.zeros(shape, dtype=np.float32)
-        g.copyToArray(values, ijk=lo)
-        out[g.name] = (g.activeVoxelCount(), (tuple(lo), tuple(hi)), values)
-    return out, dict(meta)
-
-
-def ms_rms(a, b):
-    """The RMS of the difference of the ms grids of two lit VDBs of one frame, relative to
-    the RMS of b's."""
-    ga, _ = grids(a)
-    gb, _ = grids(b)
-    va, vb = ga["ms"][2], gb["ms"][2]
-    assert va.shape == vb.shape
-    return float(np.sqrt(np.mean((va - vb) ** 2)) / np.sqrt(np.mean(vb ** 2)))
-
-
-class Sequence(unittest.TestCase):
     @classmethod
     def setUpClass(cls):
-        cls.tmp = tempfile.mkdtemp(prefix="vdbscatter-seq-", dir=os.environ.get("VDBSCATTER_TMP"))
-        cls.input = os.path.join(cls.tmp, "smoke.####.vdb")
-        for f in range(1, FRAMES + 1):
-            run("sample", "smoke", "--res", RES, "--time", (f - 1) / (FRAMES - 1), "-o",
-                os.path.join(cls.tmp, f"smoke.{f:04d}.vdb"))
+        super().setUpClass()
         # the uninterrupted warm run, and the cold baseline
         cls.warm = cls.bake_sequence("warm")
         cls.cold = cls.bake_sequence("cold", "--no-warm-start")
 
-    @classmethod
-    def tearDownClass(cls):
-        shutil.rmtree(cls.tmp, ignore_errors=True)
-
-    @classmethod
-    def out(cls, folder, pattern="lit.####.vdb"):
-        return os.path.join(cls.tmp, folder, pattern)
-
-    @classmethod
-    def bake_sequence(cls, folder, *extra, check=0):
-        os.makedirs(os.path.join(cls.tmp, folder), exist_ok=True)
-        summary = os.path.join(cls.tmp, folder, "summary.json")
-        run("bake", cls.input, "-o", cls.out(folder), *SCENE, *extra, "--summary", summary,
-            "-q", check=check)
-        with open(summary) as f:
-            return json.load(f)
-
     def test_warm_and_cold_both_bake_every_frame(self):
         for s in (self.warm, self.cold):
             self.assertEqual((s["frames_total"], s["done"], s["worked"], s["failed"]),
-                             (FRAMES, FRAMES, FRAMES, 0))
-            self.assertEqual([f["status"] for f in s["frames"]], ["baked"] * FRAMES)
-            self.assertEqual([f["frame"] for f in s["frames"]], list(range(1, FRAMES + 1)))
+                             (self.FRAMES, self.FRAMES, self.FRAMES, 0))
+            self.assertEqual([f["status"] for f in s["frames"]], ["baked"] * self.FRAMES)
+            self.assertEqual([f["frame"] for f in s["frames"]], list(range(1, self.FRAMES + 1)))
 
     def test_second_run_skips_every_frame_quickly(self):
         t0 = time.monotonic()
         p = run("bake", self.input, "-o", self.out("warm"), *SCENE, "--json", "-q")
         elapsed = time.monotonic() - t0
         s = json.loads(p.stdout)
-        self.assertEqual((s["done"], s["worked"], s["skipped"]), (FRAMES, 0, FRAMES))
-        self.assertLess(elapsed, 2.0, f"skipping {FRAMES} frames took {elapsed:.2f} s")
+        self.assertEqual((s["done"], s["worked"], s["skipped"]), (self.FRAMES, 0, self.FRAMES))
+        self.assertLess(elapsed, 2.0, f"skipping {self.FRAMES} frames took {elapsed:.2f} s")
         # --verify agrees; another albedo is another hash: every frame stale
         run("bake", self.input, "-o", self.out("warm"), *SCENE, "--verify", "-q")
         p = run("bake", self.input, "-o", self.out("warm"), *SCENE, "--albedo", "0.98",
                 "--verify", "--json", "-q", check=3)
-        self.assertEqual(json.loads(p.stdout)["stale"], FRAMES)
+        self.assertEqual(json.loads(p.stdout)["stale"], self.FRAMES)
 
     def test_killed_run_resumes_bit_identical(self):
         folder = os.path.join(self.tmp, "killed")
@@ -122,19 +61,20 @@ class Sequence(unittest.TestCase):
                                 stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
         deadline = time.monotonic() + 600
         done = lambda: [n for n in os.listdir(folder) if re.fullmatch(r"lit\.\d{4}\.vdb", n)]
-        while len(done()) < FRAMES // 2 and proc.poll() is None and time.monotonic() < deadline:
+        half = self.FRAMES // 2
+        while len(done()) < half and proc.poll() is None and time.monotonic() < deadline:
             time.sleep(0.05)
         proc.send_signal(signal.SIGKILL)
         proc.wait()
         killed_at = len(done())
-        self.assertGreaterEqual(killed_at, FRAMES // 2)
-        self.assertLess(killed_at, FRAMES, "the run ended before it could be killed")
+        self.assertGreaterEqual(killed_at, self.FRAMES // 2)
+        self.assertLess(killed_at, self.FRAMES, "the run ended before it could be killed")
         s = self.bake_sequence("killed")
         self.assertEqual((s["done"], s["skipped"], s["worked"]),
-                         (FRAMES, killed_at, FRAMES - killed_at))
+                         (self.FRAMES, killed_at, self.FRAMES - killed_at))
         leftovers = [n for n in os.listdir(folder) if ".tmp." in n]
         self.assertEqual(leftovers, [], "a killed write's temporary file stayed")
-        for f in range(1, FRAMES + 1):
+        for f in range(1, self.FRAMES + 1):
             a, meta_a = grids(self.out("killed", f"lit.{f:04d}.vdb"))
             b, meta_b = grids(self.out("warm", f"lit.{f:04d}.vdb"))
             self.assertEqual(sorted(a), sorted(b))
@@ -151,15 +91,16 @@ class Sequence(unittest.TestCase):
         cold = [f["report"]["svd"]["iterations"] for f in self.cold["frames"]]
         self.assertEqual(warm[0], cold[0])  # frame 1 has no previous frame
         self.assertEqual([f["report"]["svd"]["warm_start"] for f in self.warm["frames"]],
-                         [False] + [True] * (FRAMES - 1))
+                         [False] + [True] * (self.FRAMES - 1))
         # cold is the baseline: the measured saving is printed for the record
-        print(f"\nSVD iterations, frames 2-{FRAMES}: warm {sum(warm[1:])}, cold {sum(cold[1:])}")
+        print(f"\nSVD iterations, frames 2-{self.FRAMES}: warm {sum(warm[1:])}, "
+              f"cold {sum(cold[1:])}")
         self.assertLess(sum(warm[1:]), 0.5 * sum(cold[1:]))
-        for f in range(2, FRAMES + 1):
+        for f in range(2, self.FRAMES + 1):
             self.assertLessEqual(warm[f - 1], cold[f - 1], f"frame {f}")
         # A warm result is no farther from a tight bake than the default cold one, plus 10%:
         # frames early (a small plume), mid-way and last.
-        for f in (3, FRAMES // 2, FRAMES):
+        for f in (3, self.FRAMES // 2, self.FRAMES):
             inp = os.path.join(self.tmp, f"smoke.{f:04d}.vdb")
             tight = os.path.join(self.tmp, f"tight.{f:04d}.vdb")
             run("bake", inp, "-o", tight, *SCENE, "--residual", "1e-5", "-q")

@@ -290,7 +290,9 @@ static vdbs_status check_request(bake_job *j, vdbs_error *err)
         return vdbs_error_set(err, VDBS_ERR_INPUT,
                               "%s needs a method that keeps state (--method %s keeps none)",
                               o->keep_state ? "--keep-state" : "--warm-start", j->solver->name);
-    vdbs_status st = vdbio_check_output(o->output, j->input, err);
+    vdbs_status st = j->solver->check ? j->solver->check(scene, err) : VDBS_OK;
+    if (st == VDBS_OK)
+        st = vdbio_check_output(o->output, j->input, err);
     if (st != VDBS_OK)
         return st;
     j->quality = vdbs_quality_find(scene->quality);

@@ -649,10 +649,6 @@ static int run_sequence(bake_request *r)
     r->sequence_warm = solver && solver->state && r->options.tolerance <= 0.0 &&
                        !r->options.warm_start && !vdbs_options_flag(args, "--no-warm-start") &&
                        vdbs_options_has_extension(r->out, ".vdb");
-    vdbs_sequence *sequence = NULL;
-    int status = vdbs_sequence_open("bake", args, r->scene.volume_file, r->out, &sequence);
-    if (status != VDBS_EXIT_OK)
-        return status;
     vdbs_sequence_step step = {0};
     step.command = "bake";
     step.worked = "baked";
@@ -663,9 +659,7 @@ static int run_sequence(bake_request *r)
     step.verify = vdbs_options_flag(args, "--verify");
     step.quiet = r->quiet;
     step.report_pattern = report;
-    status = vdbs_sequence_run(sequence, &step);
-    vdbs_sequence_close(sequence);
-    return status;
+    return vdbs_sequence_run(args, r->scene.volume_file, r->out, &step);
 }
 
 static int run(const vdbs_options_args *args)

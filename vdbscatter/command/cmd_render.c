@@ -360,19 +360,13 @@ static int run_sequence(render_request *q, const char *input)
 {
     if (!q->r.output)
         return vdbs_command_fail("render", 2, "a sequence needs -o IMAGE.####.exr");
-    vdbs_sequence *sequence = NULL;
-    int status = vdbs_sequence_open("render", q->args, input, q->r.output, &sequence);
-    if (status != VDBS_EXIT_OK)
-        return status;
     vdbs_sequence_step step = {0};
     step.command = "render";
     step.worked = "rendered";
     step.run = frame_run;
     step.user = q;
     step.quiet = q->quiet;
-    status = vdbs_sequence_run(sequence, &step);
-    vdbs_sequence_close(sequence);
-    return status;
+    return vdbs_sequence_run(q->args, input, q->r.output, &step);
 }
 
 static int run(const vdbs_options_args *args)

@@ -15,7 +15,16 @@
 #include "vdbscatter/tempfile.h"
 #include "vdbscatter/vdbio.h"
 
-struct vdbs_sequence {
+typedef enum vdbs_frame_status {
+    VDBS_FRAME_PENDING = 0,
+    VDBS_FRAME_DONE,       /* worked in this run */
+    VDBS_FRAME_UP_TO_DATE, /* its output is there with the same hash: skipped */
+    VDBS_FRAME_FAILED,
+    VDBS_FRAME_MISSING, /* its input is missing (--skip-missing), or with --verify its output */
+    VDBS_FRAME_STALE    /* --verify: its output has another hash */
+} vdbs_frame_status;
+
+typedef struct vdbs_sequence {
     const char *command;
     const char *input, *output; /* the patterns */
     vdbs_frame_token input_token, output_token;
@@ -26,7 +35,7 @@ struct vdbs_sequence {
     const char *summary_path;
     double fps;
     int json, quiet;
-};
+} vdbs_sequence;
 
 static const char *const status_names[] = {"pending", "worked",  "up-to-date",
                                            "failed",  "missing", "stale"};
@@ -44,7 +53,7 @@ int vdbs_sequence_requested(const vdbs_options_args *args, const char *input, co
     vdbs_error err;
     if (vdbs_options_value(args, "--frames"))
         return 1;
-    /* a malformed token is reported by vdbs_sequence_open */
+    /* a malformed token is reported when the sequence opens */
     if (input && (vdbs_frame_token_find(input, "", &t, &err) != VDBS_OK || t.length))
         return 1;
     return output && (vdbs_frame_token_find(output, "", &t, &err) != VDBS_OK || t.length);
@@ -93,8 +102,13 @@ static int check_inputs(vdbs_sequence *s, int skip_missing)
     return status;
 }
 
-int vdbs_sequence_open(const char *command, const vdbs_options_args *args, const char *input,
-                       const char *output, vdbs_sequence **out)
+static void sequence_close(vdbs_sequence *s);
+
+/* Reads the frame list (--frames, or the input's frames on disk), checks the patterns and
+ * lists missing inputs (an error unless --skip-missing). Returns VDBS_EXIT_OK, or the exit
+ * status of bad input (said). */
+static int sequence_open(const char *command, const vdbs_options_args *args, const char *input,
+                         const char *output, vdbs_sequence **out)
 {
     *out = NULL;
     vdbs_error err;
@@ -140,14 +154,14 @@ int vdbs_sequence_open(const char *command, const vdbs_options_args *args, const
     if (status == VDBS_EXIT_OK)
         status = check_inputs(s, vdbs_options_flag(args, "--skip-missing"));
     if (status != VDBS_EXIT_OK) {
-        vdbs_sequence_close(s);
+        sequence_close(s);
         return status;
     }
     *out = s;
     return VDBS_EXIT_OK;
 }
 
-void vdbs_sequence_close(vdbs_sequence *s)
+static void sequence_close(vdbs_sequence *s)
 {
     if (!s)
         return;
@@ -356,7 +370,8 @@ static int write_report(const vdbs_sequence *s, const vdbs_sequence_step *step, 
     return status;
 }
 
-int vdbs_sequence_run(vdbs_sequence *s, const vdbs_sequence_step *step)
+/* Works (or checks) every frame; returns the exit status. */
+static int sequence_frames(vdbs_sequence *s, const vdbs_sequence_step *step)
 {
     const double started = vdbs_now();
     const int lines = !step->quiet;
@@ -462,4 +477,16 @@ int vdbs_sequence_run(vdbs_sequence *s, const vdbs_sequence_step *step)
     if (failed && done == 0)
         return last_failure;
     return failed || not_done ? VDBS_EXIT_PARTIAL : VDBS_EXIT_OK;
+}
+
+int vdbs_sequence_run(const vdbs_options_args *args, const char *input, const char *output,
+                      const vdbs_sequence_step *step)
+{
+    vdbs_sequence *sequence = NULL;
+    int status = sequence_open(step->command, args, input, output, &sequence);
+    if (status != VDBS_EXIT_OK)
+        return status;
+    status = sequence_frames(sequence, step);
+    sequence_close(sequence);
+    return status;
 }

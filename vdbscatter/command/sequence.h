@@ -25,15 +25,6 @@
         "--summary", VDBS_ARG_VALUE                                                                \
     }
 
-typedef enum vdbs_frame_status {
-    VDBS_FRAME_PENDING = 0,
-    VDBS_FRAME_DONE,       /* worked in this run */
-    VDBS_FRAME_UP_TO_DATE, /* its output is there with the same hash: skipped */
-    VDBS_FRAME_FAILED,
-    VDBS_FRAME_MISSING, /* its input is missing (--skip-missing), or with --verify its output */
-    VDBS_FRAME_STALE    /* --verify: its output has another hash */
-} vdbs_frame_status;
-
 /* One frame as the command's work sees it. */
 typedef struct vdbs_sequence_frame {
     long frame;
@@ -63,23 +54,17 @@ typedef struct vdbs_sequence_step {
     const char *report_pattern; /* --report with a frame number: one report per frame */
 } vdbs_sequence_step;
 
-typedef struct vdbs_sequence vdbs_sequence;
-
 /* Whether the words ask for a sequence: --frames, or a frame number in the input or output. */
 int vdbs_sequence_requested(const vdbs_options_args *args, const char *input, const char *output);
 
-/* Reads the frame list (--frames, or the input's frames on disk), checks the patterns and
- * lists missing inputs (an error unless --skip-missing). Returns VDBS_EXIT_OK, or the exit
- * status of bad input (said). */
-int vdbs_sequence_open(const char *command, const vdbs_options_args *args, const char *input,
-                       const char *output, vdbs_sequence **sequence);
-
-/* Works every frame (or checks, with step->verify), writing --summary after each and printing
- * it with --json. Returns the exit status: 0, 3 when some frames failed or (verify) are not
- * done, or a failure's status when no frame could be done. */
-int vdbs_sequence_run(vdbs_sequence *sequence, const vdbs_sequence_step *step);
-
-void vdbs_sequence_close(vdbs_sequence *sequence);
+/* The sequence of the words (--frames, or the input pattern's frames on disk; --skip-missing,
+ * --fps, --summary, --json, -q): checks the patterns, lists missing inputs (exit 2 unless
+ * --skip-missing), then works every frame through `step` (or checks it, with step->verify),
+ * writing --summary after each and printing it with --json. Returns the exit status: 0, 2,
+ * 3 when some frames failed or (verify) are not done, a failure's status when no frame could
+ * be done, or 128 + N when interrupted. */
+int vdbs_sequence_run(const vdbs_options_args *args, const char *input, const char *output,
+                      const vdbs_sequence_step *step);
 
 /* The 128-bit XXH3 hash of text, in hex. */
 void vdbs_sequence_hash_text(const char *text, char hash[VDBS_SEQUENCE_HASH_SIZE]);

@@ -532,6 +532,23 @@ static vdbs_status isotropic(pop_run *r, vdbs_error *err)
     return st;
 }
 
+vdbs_status vdbs_pop_check(const vdbs_pop_desc *desc, const vdbs_scene *scene, vdbs_error *err)
+{
+    if (desc->radial > 0 && desc->radial % 2 != 0)
+        return vdbs_error_set(err, VDBS_ERR_INPUT,
+                              "--pop-radial %d: the octahedral map needs an even resolution",
+                              desc->radial);
+    if (desc->decay == VDBS_POP_DECAY_PAPER && scene->g < 0.0)
+        return vdbs_error_set(err, VDBS_ERR_INPUT,
+                              "--pop-decay paper needs g >= 0 (g^(sigma_s t) is undefined for "
+                              "g = %g); use --pop-decay mean-cosine",
+                              scene->g);
+    if (desc->importance && !scene->camera.present)
+        return vdbs_error_set(err, VDBS_ERR_INPUT,
+                              "--pop-importance needs a camera (--camera or camera in --scene)");
+    return VDBS_OK;
+}
+
 /* desc's defaults from the quality, and the checks that need the scene. */
 static vdbs_status resolve_desc(pop_run *r, vdbs_error *err)
 {
@@ -544,22 +561,13 @@ static vdbs_status resolve_desc(pop_run *r, vdbs_error *err)
     if (r->desc.radial <= 0)
         r->desc.radial = radial;
     r->stats->radial = r->desc.radial;
-    if (r->desc.radial % 2 != 0)
-        return vdbs_error_set(err, VDBS_ERR_INPUT,
-                              "--pop-radial %d: the octahedral map needs an even resolution",
-                              r->desc.radial);
+    vdbs_status st = vdbs_pop_check(&r->desc, s->scene, err);
+    if (st != VDBS_OK)
+        return st;
     if (!(r->desc.epsilon_a > 0.0))
         r->desc.epsilon_a = POP_DEFAULT_EPSILON_A;
     if (!(r->desc.epsilon_l > 0.0))
         r->desc.epsilon_l = eps_l;
-    if (r->desc.decay == VDBS_POP_DECAY_PAPER && s->scene->g < 0.0)
-        return vdbs_error_set(err, VDBS_ERR_INPUT,
-                              "--pop-decay paper needs g >= 0 (g^(sigma_s t) is undefined for "
-                              "g = %g); use --pop-decay mean-cosine",
-                              s->scene->g);
-    if (r->desc.importance && !s->scene->camera.present)
-        return vdbs_error_set(err, VDBS_ERR_INPUT,
-                              "--pop-importance needs a camera (--camera or camera in --scene)");
     if (r->desc.resolution <= 0)
         r->desc.resolution = POP_DEFAULT_RESOLUTION;
     if (r->desc.max_iterations <= 0)

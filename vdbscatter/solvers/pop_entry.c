@@ -1,6 +1,7 @@
 /* The POP solver's entry (solver.h): its options, report block and run. */
 #include <stddef.h>
 #include <stdio.h>
+#include <string.h>
 
 #include "vdbscatter/pop.h"
 #include "vdbscatter/solver.h"
@@ -84,20 +85,33 @@ static int option_int(const vdbs_scene *scene, int i)
 }
 
 /* Exact S1, then POP's multiple scattering from suns, skies and points. */
+/* The solve's desc from the scene's options (0: the quality's defaults). */
+static void desc_of(const vdbs_scene *scene, vdbs_pop_desc *desc)
+{
+    memset(desc, 0, sizeof *desc);
+    desc->resolution = option_int(scene, OPT_RES);
+    desc->ordinates = option_int(scene, OPT_ORDINATES);
+    desc->max_iterations = option_int(scene, OPT_ITERATIONS);
+    desc->decay = option_int(scene, OPT_DECAY) ? VDBS_POP_DECAY_PAPER : VDBS_POP_DECAY_MEAN_COSINE;
+    desc->tally_cell = option_int(scene, OPT_TALLY);
+    desc->radial = option_int(scene, OPT_RADIAL);
+    desc->importance = option_int(scene, OPT_IMPORTANCE);
+}
+
+static vdbs_status check(const vdbs_scene *scene, vdbs_error *err)
+{
+    vdbs_pop_desc desc;
+    desc_of(scene, &desc);
+    return vdbs_pop_check(&desc, scene, err);
+}
+
 static vdbs_status run_pop(const vdbs_solve *s, void *stats, vdbs_error *err)
 {
     vdbs_status st = vdbs_solve_s1(s, NULL, NULL, err);
     if (st != VDBS_OK)
         return st;
-    vdbs_pop_desc desc = {0};
-    desc.resolution = option_int(s->scene, OPT_RES);
-    desc.ordinates = option_int(s->scene, OPT_ORDINATES);
-    desc.max_iterations = option_int(s->scene, OPT_ITERATIONS);
-    desc.decay =
-        option_int(s->scene, OPT_DECAY) ? VDBS_POP_DECAY_PAPER : VDBS_POP_DECAY_MEAN_COSINE;
-    desc.tally_cell = option_int(s->scene, OPT_TALLY);
-    desc.radial = option_int(s->scene, OPT_RADIAL);
-    desc.importance = option_int(s->scene, OPT_IMPORTANCE);
+    vdbs_pop_desc desc;
+    desc_of(s->scene, &desc);
     return vdbs_pop_solve(s, &desc, stats, err);
 }
 
@@ -144,6 +158,7 @@ const vdbs_solver vdbs_solver_pop = {
     .options = options,
     .option_count = (int)(sizeof options / sizeof options[0]),
     .run = run_pop,
+    .check = check,
     .stats_size = sizeof(vdbs_pop_stats),
     .report = report,
     .report_count = (int)(sizeof report / sizeof report[0]),

@@ -81,6 +81,10 @@ typedef struct vdbs_pop_stats {
     double seconds_importance; /* the importance grid's propagation and projection */
 } vdbs_pop_stats;
 
+/* What desc asks of the scene, checked before any work: an odd radial resolution,
+ * --pop-decay paper with g < 0, --pop-importance without a camera (VDBS_ERR_INPUT). */
+vdbs_status vdbs_pop_check(const vdbs_pop_desc *desc, const vdbs_scene *scene, vdbs_error *err);
+
 /* Adds POP's ms and ms_l1 to the solve's outputs (and ms to radiance); S1 is the caller's.
  * Errors: --pop-decay paper with g < 0, an odd radial resolution (VDBS_ERR_INPUT), out of
  * memory, GPU errors. */

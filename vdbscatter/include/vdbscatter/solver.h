@@ -96,6 +96,10 @@ typedef struct vdbs_solver {
     /* Checks between options that one option's range cannot say (terms <= directions);
      * errors name `prefix` + "solver.KEY". NULL: none. */
     vdbs_status (*validate)(const vdbs_scene *scene, const char *prefix, vdbs_error *err);
+    /* The scene as this solver will bake it (its camera and lights set): the refusals it can
+     * say before the volume loads, so that bad input costs no load and prints no progress
+     * (VDBS_ERR_INPUT). NULL: none. */
+    vdbs_status (*check)(const vdbs_scene *scene, vdbs_error *err);
     /* The report block: these fields of the stats (vdbs_solver_report_json), then the
      * options that have a report_key. */
     const vdbs_report_field *report;
