@@ -438,13 +438,12 @@ static int prepare(const vdbs_options_args *args, bake_request *r)
     return VDBS_EXIT_OK;
 }
 
-/* A file's identity in the hash: its size and modification time, or its bytes' hash. */
-static int file_identity(const bake_request *r, const char *what, const char *path, char *out,
-                         size_t size)
+/* A file's identity in the hash text: its size and modification time, or its bytes' hash. */
+static int file_identity(const bake_request *r, const char *what, const char *path, FILE *text)
 {
     struct stat st;
     if (stat(path, &st) != 0) {
-        snprintf(out, size, "%s %s: none\n", what, path);
+        fprintf(text, "%s %s: none\n", what, path);
         return VDBS_EXIT_OK;
     }
     if (r->hash_inputs) {
@@ -452,10 +451,10 @@ static int file_identity(const bake_request *r, const char *what, const char *pa
         vdbs_error err;
         if (vdbs_sequence_hash_file(path, hash, &err) != VDBS_OK)
             return vdbs_command_fail("bake", 2, err.message);
-        snprintf(out, size, "%s %s: xxh3 %s\n", what, path, hash);
+        fprintf(text, "%s %s: xxh3 %s\n", what, path, hash);
     } else {
-        snprintf(out, size, "%s %s: %lld bytes, modified %lld.%09ld\n", what, path,
-                 (long long)st.st_size, (long long)st.st_mtim.tv_sec, st.st_mtim.tv_nsec);
+        fprintf(text, "%s %s: %lld bytes, modified %lld.%09ld\n", what, path, (long long)st.st_size,
+                (long long)st.st_mtim.tv_sec, st.st_mtim.tv_nsec);
     }
     return VDBS_EXIT_OK;
 }
@@ -474,34 +473,31 @@ static int request_hash(const bake_request *r, const char *input, double fps,
         input = real;
     snprintf(scene.volume_file, sizeof scene.volume_file, "%s", input);
     char *scene_text = vdbs_scene_to_json(&scene);
-    if (!scene_text) {
-        free(real);
-        return vdbs_command_fail("bake", 1, "out of memory");
-    }
-    const vdbs_bake_options *o = &r->options;
-    const size_t size = strlen(scene_text) + 16384;
-    char *text = malloc(size);
-    if (!text) {
+    char *text = NULL;
+    size_t length = 0;
+    FILE *f = scene_text ? open_memstream(&text, &length) : NULL;
+    if (!f) {
         free(scene_text);
         free(real);
         return vdbs_command_fail("bake", 1, "out of memory");
     }
-    size_t n = (size_t)snprintf(
-        text, size,
-        "vdbscatter %s\n%s\ns1 march %d oversample %d sky spacing %.17g\nlevelset %d half %d "
-        "store %d tolerance %.17g keep state %d backend %s fps %.17g\n",
-        vdbs_version(), scene_text, o->s1_march, o->s1_oversample, o->s1_sky_spacing,
-        o->from_levelset, o->half, (int)o->store, o->tolerance, o->keep_state || r->sequence_warm,
-        r->backend ? r->backend : "auto", fps);
+    const vdbs_bake_options *o = &r->options;
+    fprintf(f,
+            "vdbscatter %s\n%s\ns1 march %d oversample %d sky spacing %.17g\nlevelset %d half %d "
+            "store %d tolerance %.17g keep state %d backend %s fps %.17g\n",
+            vdbs_version(), scene_text, o->s1_march, o->s1_oversample, o->s1_sky_spacing,
+            o->from_levelset, o->half, (int)o->store, o->tolerance,
+            o->keep_state || r->sequence_warm, r->backend ? r->backend : "auto", fps);
     free(scene_text);
-    int status = file_identity(r, "input", input, text + n, size - n);
+    int status = file_identity(r, "input", input, f);
     /* the maps and meshes the scene reads */
     for (const char *p = r->scene.env_paths; status == VDBS_EXIT_OK && *p; p += strlen(p) + 1)
-        if ((n = strlen(text)) + 4200 < size)
-            status = file_identity(r, "map", p, text + n, size - n);
+        status = file_identity(r, "map", p, f);
     for (const char *p = r->scene.occluder_paths; status == VDBS_EXIT_OK && *p; p += strlen(p) + 1)
-        if ((n = strlen(text)) + 4200 < size)
-            status = file_identity(r, "mesh", p, text + n, size - n);
+        status = file_identity(r, "mesh", p, f);
+    const int written = fclose(f) == 0;
+    if (status == VDBS_EXIT_OK && !written)
+        status = vdbs_command_fail("bake", 1, "out of memory");
     if (status == VDBS_EXIT_OK)
         vdbs_sequence_hash_text(text, hash);
     free(text);
@@ -664,7 +660,7 @@ static int run_sequence(bake_request *r)
 
 static int run(const vdbs_options_args *args)
 {
-    bake_request *r = malloc(sizeof *r); /* the scene is large for a stack */
+    bake_request *r = malloc(sizeof *r); /* its scene alone is 32 KB */
     if (!r)
         return vdbs_command_fail("bake", 1, "out of memory");
     int status = prepare(args, r);
