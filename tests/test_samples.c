@@ -205,6 +205,53 @@ static void test_smoke(void **state)
     check_procedural("smoke", 64);
 }
 
+/* The highest voxel row (j) with smoke, and the voxel count. */
+static void extent(const float *v, int res, int *top, size_t *count)
+{
+    *top = -1;
+    *count = count_nonzero(v, res);
+    for (size_t i = 0; i < (size_t)res * res * res; ++i)
+        if (v[i] != 0.0f && (int)(i / (size_t)res % (size_t)res) > *top)
+            *top = (int)(i / (size_t)res % (size_t)res);
+}
+
+/* smoke at a time: -1 is the still sample, bit for bit; the plume's top and voxel count grow
+ * with time (a sequence whose box grows); only smoke moves, and only in [0, 1]. */
+static void test_smoke_time(void **state)
+{
+    (void)state;
+    const int res = 48;
+    const size_t n = (size_t)res * res * res;
+    float *still = fill("smoke", res, 1), *at = malloc(n * sizeof *at);
+    vdbs_error err = {{0}};
+    assert_non_null(at);
+    assert_int_equal(vdbs_sample_fill_at("smoke", res, 1, -1.0, at, &err), VDBS_OK);
+    assert_memory_equal(at, still, n * sizeof *at);
+    int last_top = -1;
+    size_t last_count = 0;
+    for (int f = 0; f <= 4; ++f) {
+        assert_int_equal(vdbs_sample_fill_at("smoke", res, 1, f / 4.0, at, &err), VDBS_OK);
+        int top;
+        size_t count;
+        extent(at, res, &top, &count);
+        if (!(top > last_top && count > last_count))
+            fail_msg("time %g: top row %d, %zu voxels after %d, %zu", f / 4.0, top, count, last_top,
+                     last_count);
+        last_top = top;
+        last_count = count;
+    }
+    /* At its full height the plume reaches the still sample's top, within the two voxels
+     * its risen billows move the edge. */
+    int still_top;
+    size_t still_count;
+    extent(still, res, &still_top, &still_count);
+    assert_true(abs(last_top - still_top) <= 2);
+    assert_int_equal(vdbs_sample_fill_at("cloud", res, 1, 0.5, at, &err), VDBS_ERR_INPUT);
+    assert_int_equal(vdbs_sample_fill_at("smoke", res, 1, 1.5, at, &err), VDBS_ERR_INPUT);
+    free(at);
+    free(still);
+}
+
 /* The same seed gives the same shape at any resolution: a res-64 fill averaged over
  * 2x2x2 blocks correlates with the res-32 fill. */
 static void check_resolution(const char *name)
@@ -333,6 +380,7 @@ int main(void)
         cmocka_unit_test(test_cube),
         cmocka_unit_test(test_cloud),
         cmocka_unit_test(test_smoke),
+        cmocka_unit_test(test_smoke_time),
         cmocka_unit_test(test_resolution_independence),
         cmocka_unit_test(test_fingerprint),
         cmocka_unit_test(test_create),
