@@ -632,9 +632,10 @@ void vdbs_svd_light_depth(void *user, int light, const float *depth)
 }
 
 /* --warm-start: each cell the mean of the voxels whose centres lie in it (0 where none has a
- * value: there the iteration starts cold). */
-static void moments_from_voxels(const vdbs_volume *volume, const vdbs_coarse_frame *f, int terms,
-                                const float *const *voxels, float *cells_out)
+ * value: there the iteration starts cold). Returns the cells that got a value; 0 (no overlap
+ * with the file's volume, or out of memory) is a cold start. */
+static int64_t moments_from_voxels(const vdbs_volume *volume, const vdbs_coarse_frame *f, int terms,
+                                   const float *const *voxels, float *cells_out)
 {
     const int64_t cells = vdbs_coarse_cells(f);
     int *count = calloc((size_t)cells, sizeof *count);
@@ -642,7 +643,7 @@ static void moments_from_voxels(const vdbs_volume *volume, const vdbs_coarse_fra
     if (!count || !sum) {
         free(count);
         free(sum);
-        return; /* a cold start: the iteration still converges */
+        return 0;
     }
     for (size_t n = 0; n < volume->coord_count; ++n) {
         double w[3];
@@ -666,12 +667,16 @@ static void moments_from_voxels(const vdbs_volume *volume, const vdbs_coarse_fra
             for (int ch = 0; ch < 3; ++ch)
                 sum[vs_svd_moment_at((int)cell, terms, k, ch)] += voxels[k][3 * n + ch];
     }
-    for (int64_t c = 0; c < cells; ++c)
+    int64_t filled = 0;
+    for (int64_t c = 0; c < cells; ++c) {
+        filled += count[c] > 0;
         for (int v = 0; v < terms * 3; ++v)
             cells_out[(size_t)c * terms * 3 + v] =
                 count[c] ? (float)(sum[(size_t)c * terms * 3 + v] / count[c]) : 0.0f;
+    }
     free(count);
     free(sum);
+    return filled;
 }
 
 /* --keep-state: the moments at every output voxel, trilinear from the cells. */
@@ -804,9 +809,12 @@ vdbs_status vdbs_svd_begin(const vdbs_solve *s, const vdbs_svd_desc *desc, vdbs_
         r->lights[l].point = dl->type == VDBS_LIGHT_POINT;
         memcpy(r->lights[l].vec, dl->world, sizeof r->lights[l].vec);
     }
-    if (r->warm)
-        moments_from_voxels(s->volume, &r->f, r->terms, (const float *const *)d.warm->voxels,
-                            r->warm);
+    /* A file whose volume does not overlap this one's starts nothing: cold, and said so. */
+    if (r->warm && moments_from_voxels(s->volume, &r->f, r->terms,
+                                       (const float *const *)d.warm->voxels, r->warm) == 0) {
+        free(r->warm);
+        r->warm = NULL;
+    }
     *out = r;
     return VDBS_OK;
 }
