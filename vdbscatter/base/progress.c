@@ -21,6 +21,12 @@ vdbs_progress_style vdbs_progress_get_style(void)
     return thread_style;
 }
 
+/* Whether progress comes as whole lines (a log) rather than one line rewritten in place. */
+static int in_lines(void)
+{
+    return thread_style == VDBS_PROGRESS_PLAIN || thread_style == VDBS_PROGRESS_JSON;
+}
+
 /* UTC, to the second: what farm logs from many machines can be merged on. */
 static void timestamp(char *out, size_t size)
 {
@@ -112,7 +118,7 @@ void vdbs_progress_begin(vdbs_progress *progress, int enabled, const char *label
     progress->total = total;
     progress->started = vdbs_now();
     progress->last_print = 0.0;
-    if (enabled && (thread_style == VDBS_PROGRESS_PLAIN || thread_style == VDBS_PROGRESS_JSON)) {
+    if (enabled && in_lines()) {
         progress->last_print = progress->started;
         task_line(progress, "begin", -1.0, 0.0, 0.0);
     }
@@ -123,7 +129,7 @@ void vdbs_progress_update(vdbs_progress *progress, uint64_t done)
     if (!progress || !progress->enabled || progress->total == 0)
         return;
     double now = vdbs_now();
-    const int lines = thread_style == VDBS_PROGRESS_PLAIN || thread_style == VDBS_PROGRESS_JSON;
+    const int lines = in_lines();
     if (now - progress->last_print < (lines ? VDBS_PROGRESS_PLAIN_PERIOD : 0.25))
         return;
     progress->last_print = now;
@@ -142,7 +148,7 @@ void vdbs_progress_end(vdbs_progress *progress)
 {
     if (!progress || !progress->enabled)
         return;
-    if (thread_style == VDBS_PROGRESS_PLAIN || thread_style == VDBS_PROGRESS_JSON) {
+    if (in_lines()) {
         task_line(progress, "end", 1.0, vdbs_now() - progress->started, 0.0);
         return;
     }
