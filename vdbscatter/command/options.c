@@ -671,7 +671,7 @@ int vdbs_command_run_options(const char *command, const vdbs_options_args *args)
     }
     const char *threads = vdbs_options_value(args, "--threads");
     if (threads) {
-        long n;
+        long n = 0;
         vdbs_error err;
         if (vdbs_options_integer("--threads", threads, 1, 4096, &n, &err) != VDBS_OK)
             return vdbs_command_fail(command, VDBS_EXIT_USAGE, err.message);
