@@ -98,10 +98,21 @@ class Sequence(Shot):
             (["bake", self.input, "-o", out, "--report", "r.json"], "--report"),
             (["bake", self.input, "-o", out, "--progress", "loud"], "--progress"),
             (["bake", self.input, "-o", out, "--threads", "0"], "--threads"),
+            (["bake", one, "-o", os.path.join(self.tmp, "x.vdb"), "--summary",
+              os.path.join(self.tmp, "s.json")], "--summary"),
         ]:
             p = run(*words, *SCENE, check=2)
             self.assertIn(needle, p.stderr, words)
-        self.assertFalse(os.path.exists(os.path.join(self.tmp, "bad")))
+            self.assertEqual(len(p.stderr.splitlines()), 1, p.stderr)
+        # render's sequence-only flags without a sequence
+        lit = self.out("cold", "lit.0001.vdb")
+        for flag in (["--fps", "24"], ["--skip-missing"],
+                     ["--summary", os.path.join(self.tmp, "s.json")]):
+            p = run("render", lit, "-o", os.path.join(self.tmp, "x.png"), *flag, check=2)
+            self.assertIn(f"{flag[0]} works on frame sequences", p.stderr)
+            self.assertEqual(len(p.stderr.splitlines()), 1, p.stderr)
+        for name in ("bad", "single.vdb", "x.vdb", "x.png", "s.json"):
+            self.assertFalse(os.path.exists(os.path.join(self.tmp, name)), name)
 
     def test_render_sequence(self):
         imgs = os.path.join(self.tmp, "img.####.png")

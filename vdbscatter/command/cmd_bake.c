@@ -514,15 +514,15 @@ typedef struct frame_meta {
 
 /* Bakes one input into one output; the report into *report_out (a sequence's frame), or
  * printed (a single bake). Returns the exit status. */
-static int bake_one(bake_request *r, const char *input, const char *output, const frame_meta *meta,
-                    cJSON **report_out)
+static int bake_one(bake_request *r, const vdbs_bake_options *options, const char *input,
+                    const char *output, const frame_meta *meta, cJSON **report_out)
 {
     const vdbs_options_args *args = r->args;
     vdbs_error err;
     vdbs_status st;
     vdbs_scene scene = r->scene;
     snprintf(scene.volume_file, sizeof scene.volume_file, "%s", input);
-    vdbs_bake_options o = r->options;
+    vdbs_bake_options o = *options;
     o.input = input;
     o.output = output;
     o.scene = &scene;
@@ -592,37 +592,21 @@ static int frame_run(void *user, const vdbs_sequence_frame *frame, cJSON **repor
     }
     /* Warm from the previous frame's file, never from memory: a run resumed after a kill
      * then bakes every frame from the same start as an uninterrupted one. */
-    const vdbs_bake_options saved = r->options;
+    vdbs_bake_options options = r->options;
     if (r->sequence_warm) {
-        r->options.keep_state = 1;
-        r->options.warm_start = frame->previous_output;
+        options.keep_state = 1;
+        options.warm_start = frame->previous_output;
         if (frame->previous_output) {
             const char *slash = strrchr(frame->previous_output, '/');
             snprintf(meta.warm, sizeof meta.warm, "%s", slash ? slash + 1 : frame->previous_output);
         }
         meta_add(&meta, "vdbscatter_warm_start", meta.warm);
     }
-    int status = bake_one(r, frame->input, frame->output, &meta, report);
-    r->options = saved;
-    return status;
+    return bake_one(r, &options, frame->input, frame->output, &meta, report);
 }
 
-/* Flags that only a sequence takes. */
-static int refuse_sequence_flags(const vdbs_options_args *args)
-{
-    static const char *const flags[] = {"--skip-missing", "--fps",    "--summary",
-                                        "--force",        "--verify", "--no-warm-start"};
-    for (size_t i = 0; i < sizeof flags / sizeof flags[0]; ++i)
-        if (vdbs_options_value(args, flags[i]) || vdbs_options_flag(args, flags[i])) {
-            char message[160];
-            snprintf(message, sizeof message,
-                     "%s works on frame sequences (give --frames, or a frame number in IN and "
-                     "-o: smoke.####.vdb)",
-                     flags[i]);
-            return vdbs_command_fail("bake", 2, message);
-        }
-    return VDBS_EXIT_OK;
-}
+/* bake's flags that only a sequence takes, beside the common ones (sequence.h). */
+static const char *const own_sequence_flags[] = {"--force", "--verify", "--no-warm-start", NULL};
 
 static int run_sequence(bake_request *r)
 {
@@ -666,13 +650,14 @@ static int run(const vdbs_options_args *args)
     int status = prepare(args, r);
     if (status == VDBS_EXIT_OK && vdbs_sequence_requested(args, r->scene.volume_file, r->out)) {
         status = run_sequence(r);
-    } else if (status == VDBS_EXIT_OK && (status = refuse_sequence_flags(args)) == VDBS_EXIT_OK) {
+    } else if (status == VDBS_EXIT_OK && (status = vdbs_sequence_refuse_flags(
+                                              "bake", args, own_sequence_flags)) == VDBS_EXIT_OK) {
         /* One bake: its hash too, so that a sequence later finds it done. */
         frame_meta meta = {0};
         status = request_hash(r, r->scene.volume_file, 0.0, meta.hash);
         if (status == VDBS_EXIT_OK) {
             meta_add(&meta, VDBS_SEQUENCE_META_HASH, meta.hash);
-            status = bake_one(r, r->scene.volume_file, r->out, &meta, NULL);
+            status = bake_one(r, &r->options, r->scene.volume_file, r->out, &meta, NULL);
         }
     }
     free(r);

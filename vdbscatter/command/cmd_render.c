@@ -421,12 +421,7 @@ static int run(const vdbs_options_args *args)
     if (status == VDBS_EXIT_OK && vdbs_sequence_requested(args, input, r->output))
         status = run_sequence(q, input);
     else if (status == VDBS_EXIT_OK &&
-             (vdbs_options_value(args, "--summary") || vdbs_options_value(args, "--fps") ||
-              vdbs_options_flag(args, "--skip-missing")))
-        status = vdbs_command_fail("render", 2,
-                                   "--summary, --fps and --skip-missing work on frame sequences "
-                                   "(give --frames, or a frame number in IN and -o)");
-    else if (status == VDBS_EXIT_OK)
+             (status = vdbs_sequence_refuse_flags("render", args, NULL)) == VDBS_EXIT_OK)
         status = render_one(q, input, r->output, NULL);
     free(scene); /* after the report: input may be scene->volume_file */
     free(q);

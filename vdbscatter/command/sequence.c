@@ -490,3 +490,21 @@ int vdbs_sequence_run(const vdbs_options_args *args, const char *input, const ch
     sequence_close(sequence);
     return status;
 }
+
+int vdbs_sequence_refuse_flags(const char *command, const vdbs_options_args *args,
+                               const char *const *own)
+{
+    static const char *const common[] = {"--skip-missing", "--fps", "--summary", NULL};
+    const char *const *lists[] = {common, own};
+    for (int l = 0; l < 2; ++l)
+        for (const char *const *flag = lists[l]; flag && *flag; ++flag)
+            if (vdbs_options_value(args, *flag) || vdbs_options_flag(args, *flag)) {
+                char message[160];
+                snprintf(message, sizeof message,
+                         "%s works on frame sequences (give --frames, or a frame number in IN "
+                         "and -o: smoke.####.vdb)",
+                         *flag);
+                return fail(command, VDBS_EXIT_USAGE, message);
+            }
+    return VDBS_EXIT_OK;
+}

@@ -66,6 +66,12 @@ int vdbs_sequence_requested(const vdbs_options_args *args, const char *input, co
 int vdbs_sequence_run(const vdbs_options_args *args, const char *input, const char *output,
                       const vdbs_sequence_step *step);
 
+/* For words that are no sequence: refuses a sequence-only flag (--skip-missing, --fps,
+ * --summary, and the command's `own`, NULL-terminated or NULL) with exit 2, naming it.
+ * Returns VDBS_EXIT_OK when none is given. */
+int vdbs_sequence_refuse_flags(const char *command, const vdbs_options_args *args,
+                               const char *const *own);
+
 /* The 128-bit XXH3 hash of text, in hex. */
 void vdbs_sequence_hash_text(const char *text, char hash[VDBS_SEQUENCE_HASH_SIZE]);
 /* The same of a file's bytes (--hash-inputs); VDBS_ERR_IO when it cannot be read. */
