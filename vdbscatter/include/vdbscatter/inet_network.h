@@ -1,0 +1,71 @@
+/* The particles and the visibility network of the illumination-network solver
+ * (Szirmay-Kalos et al., docs/methods/inet.md; `--method inet`), built once per volume.
+ *
+ * Particles: N points sampled in proportion to sigma_t over the output voxels, stratified
+ * (the k-th at cumulative mass (k + xi_k) / N, xi_k from a seeded stream), each uniformly
+ * placed inside the voxel it fell in; every particle carries the same optical mass
+ * m = (sum of sigma_t over the voxels times the voxel volume) / N.
+ *
+ * The network: for each of D directions of travel w_d, the particles projected orthographically
+ * onto a window of M x M pixels that covers the particles' bounding sphere (side 2R,
+ * perpendicular to w_d) and ordered by depth along w_d in each pixel (a bucket sort, the
+ * paper's depth peeling on the C path). Each particle's upstream neighbour for w_d is the one
+ * before it in its pixel: the particle whose outgoing light along w_d reaches it. The pixel's
+ * area A = (2R / M)^2 is every particle's cross-section: its optical thickness is m / A, the
+ * same in every direction, so that a column of pixel area through the particles holds on
+ * average the optical depth of the medium along it. */
+#ifndef VDBSCATTER_INET_NETWORK_H
+#define VDBSCATTER_INET_NETWORK_H
+
+#include <stdint.h>
+
+#include "vdbscatter/status.h"
+#include "vdbscatter/volume.h"
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+/* Zero-initialise; 0 means the default. */
+typedef struct vdbs_inet_network_desc {
+    int64_t particles; /* N >= 1 (required) */
+    int window;        /* M: pixels across the window; 0: vdbs_inet_window_rule */
+    uint64_t seed;     /* of the particles' stream; 0 is a seed like any other */
+} vdbs_inet_network_desc;
+
+typedef struct vdbs_inet_network {
+    int64_t particles; /* N */
+    int directions;    /* D */
+    int window;        /* M */
+    double centre[3];  /* the bounding sphere of the particles (world) */
+    double radius;     /* R > 0 */
+    double mass;       /* m: every particle's optical mass, sigma_t times volume (world^2) */
+    double pixel_area; /* A = (2R / M)^2 (world^2) */
+    float *position;   /* 3 N: world positions */
+    int64_t *voxel;    /* N: the output voxel (coords index) each particle was sampled in */
+    /* N x D: upstream[p D + d], the particle just before p along direction d in p's pixel
+     * (the light travelling along w_d reaches p from it), or -1 where p is first. */
+    int32_t *upstream;
+    const double *dirs; /* 3 D unit directions of travel: the caller's, not owned */
+} vdbs_inet_network;
+
+/* The paper's window rule, D (R tau)^2 / pi >= M^2 with tau the mean sigma_t over the active
+ * voxels, further capped so that a pixel's column holds a few particles on average
+ * (M^2 <= N / 4) and kept in [1, 4096]. */
+int vdbs_inet_window_rule(int64_t particles, int directions, double radius, double mean_sigma_t);
+
+/* Samples the particles from the volume's density (times density_scale) and builds the network
+ * for D directions `dirs` (3 D doubles, unit; kept by pointer). Deterministic for a seed
+ * whatever the thread count. Errors: N < 1 or above INT32_MAX, D < 1, a volume without density
+ * (VDBS_ERR_INPUT), out of memory. */
+vdbs_status vdbs_inet_network_build(const vdbs_volume *volume, double density_scale,
+                                    const double *dirs, int directions,
+                                    const vdbs_inet_network_desc *desc, vdbs_inet_network *net,
+                                    vdbs_error *err);
+void vdbs_inet_network_free(vdbs_inet_network *net);
+
+#ifdef __cplusplus
+}
+#endif
+
+#endif
