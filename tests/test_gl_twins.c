@@ -8,7 +8,8 @@
  * iteration to 1e-5, and 30 iterations within the bound stated there); FLD's operator (to
  * 1e-5) and a converged FLD solve (within the bound stated there); the discrete ordinates'
  * sweep (one sweep to 1e-5, directions in chunks of 3 and whole octants, and 25 iterations
- * within the bound stated there). And that FLD and SVD on the GPU upload their solve's
+ * within the bound stated there); the illumination network's Jacobi sweep (one sweep and 20,
+ * to 1e-5). And that FLD and SVD on the GPU upload their solve's
  * constant inputs once, not per operator application or sweep: the runner's byte counts, exact
  * from the buffer sizes. */
 #include "testutil.h"
@@ -22,6 +23,7 @@
 #include "vdbscatter/envmap.h"
 #include "vdbscatter/fld.h"
 #include "vdbscatter/fog.h"
+#include "vdbscatter/inet.h"
 #include "vdbscatter/lightgrid.h"
 #include "vdbscatter/lights.h"
 #include "vdbscatter/march_session.h"
@@ -959,6 +961,89 @@ static void test_svd_sweeps(void **state)
     free(s);
 }
 
+/* ---- illumination networks ---- */
+
+/* A network on the procedural cloud (900 particles, 40 directions, g 0.8 without delta-M),
+ * albedo 0.95 / 0.9 / 0.6, a pseudo-random emission and start, a radiance entering the links
+ * without a source: the sweeps' slots. */
+typedef struct inet_scenario {
+    vdbs_volume volume;
+    vdbs_phasemat pm;
+    float *phase, *emission, *start;
+    vdbs_inet_network net;
+    vdbs_inet_links links;
+    vdbs_inet_problem pb;
+    int sweeps;
+    size_t floats;
+} inet_scenario;
+
+static void inet_scenario_make(inet_scenario *s)
+{
+    memset(s, 0, sizeof *s);
+    vdbs_error err;
+    test_sample_volume("cloud", 20, 7, &s->volume);
+    vdbs_phasemat_desc pd = {40, 0.8, -1};
+    vdbs_inet_network_desc nd = {.particles = 900, .seed = 1};
+    if (vdbs_phasemat_build(&pd, &s->pm, &err) != VDBS_OK ||
+        vdbs_inet_network_build(&s->volume, 5.0, s->pm.dirs, 40, &nd, &s->net, &err) != VDBS_OK ||
+        vdbs_inet_links_build(&s->net, &s->links, &err) != VDBS_OK)
+        fail_msg("%s", err.message);
+    s->floats = 3 * (size_t)(s->links.links + s->links.sinks);
+    const size_t e = 3 * (size_t)s->links.links;
+    s->phase = malloc(sizeof *s->phase * 40 * 40);
+    s->emission = malloc(sizeof *s->emission * e);
+    s->start = malloc(sizeof *s->start * s->floats);
+    assert_true(s->phase && s->emission && s->start);
+    for (int k = 0; k < 40 * 40; ++k)
+        s->phase[k] = (float)s->pm.p[k];
+    uint64_t rng = 17;
+    for (size_t k = 0; k < e; ++k)
+        s->emission[k] = (float)test_uniform(&rng);
+    for (size_t k = 0; k < s->floats; ++k)
+        s->start[k] = (float)(4.0 * test_uniform(&rng));
+    s->pb = (vdbs_inet_problem){.net = &s->net,
+                                .links = &s->links,
+                                .phase = s->phase,
+                                .opacity = vdbs_inet_opacity(&s->net),
+                                .albedo = {0.95, 0.9, 0.6},
+                                .emission = s->emission,
+                                .inflow = {0.3, 0.5, 0.2}};
+}
+
+static void inet_scenario_free(inet_scenario *s)
+{
+    vdbs_inet_links_free(&s->links);
+    vdbs_inet_network_free(&s->net);
+    vdbs_phasemat_free(&s->pm);
+    vdbs_volume_free(&s->volume);
+    free(s->phase);
+    free(s->emission);
+    free(s->start);
+}
+
+static vdbs_status run_inet(vdbs_runner *runner, const void *scenario, float *out, vdbs_error *err)
+{
+    const inet_scenario *s = scenario;
+    memcpy(out, s->start, sizeof *out * s->floats);
+    return vdbs_inet_iterate(runner, &s->pb, s->sweeps, 0.0, out, NULL, NULL, err);
+}
+
+static void test_inet_sweeps(void **state)
+{
+    (void)state;
+    inet_scenario *s = malloc(sizeof *s);
+    assert_non_null(s);
+    inet_scenario_make(s);
+    s->sweeps = 1;
+    free(test_twin("INET, one sweep", run_inet, s, s->floats));
+    /* Each slot's sum runs over the directions in one order on both paths with `precise`
+     * arithmetic, and the sweeps contract: 20 sweeps stay within the same 1e-5. */
+    s->sweeps = 20;
+    free(test_twin("INET, 20 sweeps", run_inet, s, s->floats));
+    inet_scenario_free(s);
+    free(s);
+}
+
 /* An SVD solve on the GPU uploads the sweep's constant inputs (parameters, direction and light
  * tables, medium, direct light) once, however many sweeps it runs: per sweep only the source
  * moments the host computed from the last one go up, with a control block per step, and the
@@ -1026,6 +1111,7 @@ int main(void)
         cmocka_unit_test(test_fld),
         cmocka_unit_test(test_fld_uploads_once),
         cmocka_unit_test(test_svd_sweeps),
+        cmocka_unit_test(test_inet_sweeps),
         cmocka_unit_test(test_svd_uploads_once),
     };
     /* VDBS_TEST_FILTER=test_svd* runs a part of the file. */

@@ -7,9 +7,10 @@
 #include <string.h>
 
 /* The table: one line per solver; each entry is defined in the solver's own file. */
-extern const vdbs_solver vdbs_solver_single, vdbs_solver_pop, vdbs_solver_fld, vdbs_solver_svd;
+extern const vdbs_solver vdbs_solver_single, vdbs_solver_pop, vdbs_solver_fld, vdbs_solver_svd,
+    vdbs_solver_inet;
 static const vdbs_solver *const table[] = {&vdbs_solver_single, &vdbs_solver_pop, &vdbs_solver_fld,
-                                           &vdbs_solver_svd};
+                                           &vdbs_solver_svd, &vdbs_solver_inet};
 
 #define TABLE_COUNT ((int)(sizeof table / sizeof table[0]))
 #define REGISTERED_MAX 8

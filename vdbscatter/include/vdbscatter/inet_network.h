@@ -54,6 +54,13 @@ typedef struct vdbs_inet_network {
  * (M^2 <= N / 4) and kept in [1, 4096]. */
 int vdbs_inet_window_rule(int64_t particles, int directions, double radius, double mean_sigma_t);
 
+/* The orthonormal basis (u, v) perpendicular to a unit direction of travel w that the window
+ * is laid out in: a particle at p is at x = (p - centre) . u, y = (p - centre) . v, pixel
+ * (floor((x + R) / (2 R) M), floor((y + R) / (2 R) M)) clamped to the window, row-major
+ * (iy M + ix), at depth (p - centre) . w (smaller is upstream). Exposed for the tests'
+ * brute-force oracle and the solver's gather. */
+void vdbs_inet_basis(const double w[3], double u[3], double v[3]);
+
 /* Samples the particles from the volume's density (times density_scale) and builds the network
  * for D directions `dirs` (3 D doubles, unit; kept by pointer). Deterministic for a seed
  * whatever the thread count. Errors: N < 1 or above INT32_MAX, D < 1, a volume without density

@@ -1,0 +1,102 @@
+/* Illumination networks (Szirmay-Kalos, Sbert, Umenhoffer; docs/methods/inet.md;
+ * `--method inet`): the multiply-scattered light as the incoming radiance of N particles from D
+ * global directions, iterated on the visibility network (inet_network.h) by Jacobi sweeps of
+ * the paper's Eq. 2 through the kernel runner (shaders/vs_inet.h, inet_sweep.comp).
+ *
+ * The scene's light enters as its first scattering from the exact S1 pass's light grids: per
+ * particle the light its voxel's medium collides (collision.h, cube-averaged), emitted by HG(g)
+ * exactly towards each direction and normalised on the directions, rather than the paper's
+ * light snapped to the nearest direction. The iteration then carries only scattered light; the
+ * particles' incoming radiance gives ms and ms_l1 per particle, splatted onto a coarse grid and
+ * reconstructed on the voxels as the other solvers' are (coarse.h). */
+#ifndef VDBSCATTER_INET_H
+#define VDBSCATTER_INET_H
+
+#include <stdint.h>
+
+#include "vdbscatter/inet_network.h"
+#include "vdbscatter/progress.h"
+#include "vdbscatter/runner.h"
+#include "vdbscatter/solve.h"
+#include "vdbscatter/status.h"
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+/* The slots of a network's state (shaders/vs_inet.h): the N D links, then a sink per particle
+ * and direction with nothing after it. source: per slot (links + sinks) its source particle
+ * (-1: none), then per sink its direction. */
+typedef struct vdbs_inet_links {
+    int64_t links, sinks;
+    int32_t *source;
+} vdbs_inet_links;
+
+vdbs_status vdbs_inet_links_build(const vdbs_inet_network *net, vdbs_inet_links *links,
+                                  vdbs_error *err);
+void vdbs_inet_links_free(vdbs_inet_links *links);
+
+/* One problem on a network. */
+typedef struct vdbs_inet_problem {
+    const vdbs_inet_network *net;
+    const vdbs_inet_links *links;
+    const float *phase;    /* D x D, row i the weights into w_i (phasemat.h's balanced P) */
+    double opacity;        /* alpha of every particle */
+    double albedo[3];      /* a per channel */
+    const float *emission; /* N D x 3: E per particle and direction, or NULL */
+    double inflow[3];      /* radiance entering along a link without a source */
+} vdbs_inet_problem;
+
+/* 1 - exp(-m / A): a particle's opacity for its mass and pixel area (inet_network.h). */
+double vdbs_inet_opacity(const vdbs_inet_network *net);
+
+/* Sweeps until the sum of the slots' changes (over channels) is at most `tolerance` or
+ * max_iterations have run; state (3 floats per slot) is the start in and the result out.
+ * result may be NULL. Errors: the runner's. */
+vdbs_status vdbs_inet_iterate(vdbs_runner *runner, const vdbs_inet_problem *pb, int max_iterations,
+                              double tolerance, float *state, vdbs_progress *progress,
+                              vdbs_kernel_result *result, vdbs_error *err);
+
+/* The power balance of one sweep from `before` to `after`, in double: what the slots hold
+ * after (links and sinks, less the inflow) against what the particles sent out, the radiance
+ * that reached them minus what they absorbed plus what they emitted. Returns
+ * |sent - held| / sent (0 when nothing was sent). */
+double vdbs_inet_balance(const vdbs_inet_problem *pb, const float *before, const float *after);
+
+/* Zero-initialise; 0 means the default. */
+typedef struct vdbs_inet_desc {
+    int64_t particles;  /* N (--inet-particles); default: the quality's */
+    int directions;     /* D (--inet-directions); default: the quality's */
+    int window;         /* M (--inet-window); default: vdbs_inet_window_rule */
+    int max_iterations; /* cap of sweeps (--inet-iterations); default 1000 */
+    double residual;    /* stop once a sweep's total change is at most this fraction of the
+                           first scattering's total (--inet-residual); default: the quality's */
+    uint64_t seed;
+    vdbs_progress *progress;
+} vdbs_inet_desc;
+
+typedef struct vdbs_inet_stats {
+    int64_t particles;
+    int directions, window, resolution;
+    double opacity, pixel_area;
+    int64_t links, sinks;
+    int iterations, converged;
+    double residual; /* the last sweep's change over the first scattering's total */
+    double first_total;
+    double seconds_network, seconds_emission, seconds_solve, seconds_splat;
+} vdbs_inet_stats;
+
+/* The bake's solver around the S1 pass, as the discrete ordinates' (svd.h): begin, the S1 pass
+ * with vdbs_inet_light_depth, finish (adds ms, ms_l1 and radiance), end. */
+typedef struct vdbs_inet_run vdbs_inet_run;
+vdbs_status vdbs_inet_begin(const vdbs_solve *s, const vdbs_inet_desc *desc, vdbs_inet_run **run,
+                            vdbs_error *err);
+void vdbs_inet_light_depth(void *run, int light, const float *depth);
+vdbs_status vdbs_inet_finish(vdbs_inet_run *run, vdbs_inet_stats *stats, vdbs_error *err);
+void vdbs_inet_end(vdbs_inet_run *run);
+
+#ifdef __cplusplus
+}
+#endif
+
+#endif

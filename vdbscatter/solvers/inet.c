@@ -1,0 +1,442 @@
+#include "vdbscatter/inet.h"
+
+#include <math.h>
+#include <stdint.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "base/vdbs_math.h"
+#include "vdbscatter/coarse.h"
+#include "vdbscatter/collision.h"
+#include "vdbscatter/medium.h"
+#include "vdbscatter/phasemat.h"
+
+#define PNANOVDB_C
+#include <nanovdb/PNanoVDB.h>
+
+#include "vs_common.h"
+#include "vs_inet.h"
+#include "vs_pass.h"
+#include "vs_phase.h"
+
+/* Default cap of sweeps. */
+#define INET_MAX_ITERATIONS 1000
+
+/* ---- the slots ---- */
+
+vdbs_status vdbs_inet_links_build(const vdbs_inet_network *net, vdbs_inet_links *links,
+                                  vdbs_error *err)
+{
+    memset(links, 0, sizeof *links);
+    const int64_t n = net->particles, dirs = net->directions, count = n * dirs;
+    /* A particle is a chain's end along d when no particle names it upstream for d. */
+    uint8_t *named = calloc((size_t)(count > 0 ? count : 1), 1);
+    if (!named)
+        return vdbs_error_set(err, VDBS_ERR_NOMEM, "out of memory for the network's links");
+    for (int64_t s = 0; s < count; ++s)
+        if (net->upstream[s] >= 0)
+            named[(int64_t)net->upstream[s] * dirs + s % dirs] = 1;
+    int64_t sinks = 0;
+    for (int64_t s = 0; s < count; ++s)
+        sinks += !named[s];
+    links->source = malloc(sizeof *links->source * (size_t)(count + 2 * sinks));
+    if (!links->source) {
+        free(named);
+        return vdbs_error_set(err, VDBS_ERR_NOMEM, "out of memory for the network's links");
+    }
+    memcpy(links->source, net->upstream, sizeof *links->source * (size_t)count);
+    int64_t k = 0;
+    for (int64_t s = 0; s < count; ++s)
+        if (!named[s]) {
+            links->source[count + k] = (int32_t)(s / dirs);
+            links->source[count + sinks + k] = (int32_t)(s % dirs);
+            ++k;
+        }
+    free(named);
+    links->links = count;
+    links->sinks = sinks;
+    return VDBS_OK;
+}
+
+void vdbs_inet_links_free(vdbs_inet_links *links)
+{
+    free(links->source);
+    memset(links, 0, sizeof *links);
+}
+
+double vdbs_inet_opacity(const vdbs_inet_network *net)
+{
+    return net->pixel_area > 0.0 ? -expm1(-net->mass / net->pixel_area) : 1.0;
+}
+
+/* ---- the sweep through the runner ---- */
+
+typedef struct inet_kernel {
+    uint32_t params[VS_INET_PARAM_WORDS];
+    const int32_t *source;
+    const float *phase, *emission;
+} inet_kernel;
+
+VS_CPU_CLONES static double inet_step(void *user, int step, const void *state_in, void *state_out,
+                                      uint64_t begin, uint64_t end)
+{
+    (void)step;
+    const inet_kernel *k = user;
+    const float *in = state_in;
+    float *out = state_out;
+    double change = 0.0;
+    for (uint64_t item = begin; item < end; ++item) {
+        const int s = (int)item;
+        pnanovdb_vec3_t l = vs_inet_slot(k->params, k->source, k->phase, k->emission, in, s);
+        out[3 * s] = l.x;
+        out[3 * s + 1] = l.y;
+        out[3 * s + 2] = l.z;
+        change += fabs((double)l.x - in[3 * s]) + fabs((double)l.y - in[3 * s + 1]) +
+                  fabs((double)l.z - in[3 * s + 2]);
+    }
+    return change;
+}
+
+static void put_float(uint32_t *words, int at, double value)
+{
+    float f = (float)value;
+    memcpy(&words[at], &f, sizeof f);
+}
+
+vdbs_status vdbs_inet_iterate(vdbs_runner *runner, const vdbs_inet_problem *pb, int max_iterations,
+                              double tolerance, float *state, vdbs_progress *progress,
+                              vdbs_kernel_result *result, vdbs_error *err)
+{
+    const vdbs_inet_network *net = pb->net;
+    const int64_t slots = pb->links->links + pb->links->sinks;
+    if (slots > INT32_MAX / 3)
+        return vdbs_error_set(err, VDBS_ERR_INPUT,
+                              "%lld particles x %d directions: more slots than a kernel indexes",
+                              (long long)net->particles, net->directions);
+    inet_kernel k = {.source = pb->links->source, .phase = pb->phase, .emission = pb->emission};
+    k.params[VS_INET_OFF_PARTICLES] = (uint32_t)net->particles;
+    k.params[VS_INET_OFF_DIRECTIONS] = (uint32_t)net->directions;
+    put_float(k.params, VS_INET_OFF_OPACITY, pb->opacity);
+    for (int ch = 0; ch < 3; ++ch) {
+        put_float(k.params, VS_INET_OFF_ALBEDO + ch, pb->albedo[ch]);
+        put_float(k.params, VS_INET_OFF_INFLOW + ch, pb->inflow[ch]);
+    }
+    k.params[VS_INET_OFF_EMISSION] = pb->emission ? 1u : 0u;
+    k.params[VS_INET_OFF_SINKS] = (uint32_t)pb->links->sinks;
+    const size_t d = (size_t)net->directions;
+    vdbs_kernel_desc kd = {0};
+    kd.items = (uint64_t)slots;
+    kd.user = &k;
+    kd.cpu_step = inet_step;
+    kd.cpu_chunk = 1024;
+    kd.shader = "inet_sweep.comp";
+    kd.inputs[1] = (vdbs_kernel_input){k.params, sizeof k.params, 0};
+    kd.inputs[2] = (vdbs_kernel_input){pb->links->source,
+                                       sizeof(int32_t) * (size_t)(slots + pb->links->sinks), 0};
+    kd.inputs[3] = (vdbs_kernel_input){pb->phase, sizeof(float) * d * d, 0};
+    if (pb->emission)
+        kd.inputs[4] =
+            (vdbs_kernel_input){pb->emission, sizeof(float) * 3 * (size_t)pb->links->links, 0};
+    kd.state = state;
+    kd.state_words = 3;
+    kd.max_iterations = max_iterations > 0 ? max_iterations : 1;
+    kd.tolerance = tolerance;
+    kd.reduce = VDBS_REDUCE_SUM;
+    kd.progress = progress;
+    kd.cancel = vdbs_progress_cancel(progress);
+    return vdbs_kernel_iterate(runner, &kd, result, err);
+}
+
+double vdbs_inet_balance(const vdbs_inet_problem *pb, const float *before, const float *after)
+{
+    const vdbs_inet_network *net = pb->net;
+    const int64_t links = pb->links->links, slots = links + pb->links->sinks;
+    const int dirs = net->directions;
+    double sent = 0.0, held = 0.0;
+    for (int64_t s = 0; s < slots; ++s)
+        for (int ch = 0; ch < 3; ++ch) {
+            if (pb->links->source[s] >= 0)
+                held += after[3 * s + ch];
+        }
+    for (int64_t p = 0; p < net->particles; ++p)
+        for (int ch = 0; ch < 3; ++ch) {
+            const double keep = 1.0 - pb->opacity * (1.0 - pb->albedo[ch]);
+            for (int i = 0; i < dirs; ++i) {
+                const int64_t at = 3 * (p * dirs + i) + ch;
+                sent += keep * before[at] + (pb->emission ? pb->emission[at] : 0.0);
+            }
+        }
+    return sent > 0.0 ? fabs(sent - held) / sent : 0.0;
+}
+
+/* ---- the bake's solve ---- */
+
+/* What a quality chooses: particles, directions, residual. */
+static const struct {
+    int64_t particles;
+    int directions;
+    double residual;
+} inet_presets[VDBS_QUALITY_COUNT] = {
+    {5000, 64, 1e-2}, {20000, 96, 3e-3}, {50000, 128, 1e-3}, {100000, 256, 3e-4}};
+
+struct vdbs_inet_run {
+    const vdbs_solve *s;
+    vdbs_inet_desc desc;
+    vdbs_inet_stats stats;
+    vdbs_phasemat pm;
+    double *dirs;
+    float *phase;
+    vdbs_inet_network net;
+    vdbs_inet_links links;
+    vdbs_voxel_faces faces;
+    double *scratch, *rate;
+    float *emission;
+    double t0;
+};
+
+void vdbs_inet_end(vdbs_inet_run *r)
+{
+    if (!r)
+        return;
+    vdbs_phasemat_free(&r->pm);
+    free(r->dirs);
+    free(r->phase);
+    vdbs_inet_network_free(&r->net);
+    vdbs_inet_links_free(&r->links);
+    vdbs_voxel_faces_free(&r->faces);
+    free(r->scratch);
+    free(r->rate);
+    free(r->emission);
+    free(r);
+}
+
+vdbs_status vdbs_inet_begin(const vdbs_solve *s, const vdbs_inet_desc *desc, vdbs_inet_run **out,
+                            vdbs_error *err)
+{
+    *out = NULL;
+    vdbs_inet_run *r = calloc(1, sizeof *r);
+    if (!r)
+        return vdbs_error_set(err, VDBS_ERR_NOMEM, "out of memory");
+    r->s = s;
+    r->desc = *desc;
+    r->t0 = vdbs_now();
+    const int q = vdbs_quality_level(s->quality ? s->quality->name : NULL);
+    vdbs_inet_desc *d = &r->desc;
+    if (d->particles <= 0)
+        d->particles = inet_presets[q].particles;
+    if (d->directions <= 0)
+        d->directions = inet_presets[q].directions;
+    if (!(d->residual > 0.0))
+        d->residual = inet_presets[q].residual;
+    if (d->max_iterations <= 0)
+        d->max_iterations = INET_MAX_ITERATIONS;
+    /* The paper's phase without delta-M: the balanced matrix keeps every collision's power. */
+    vdbs_phasemat_desc pdesc = {d->directions, s->scene->g, -1};
+    vdbs_status st = vdbs_phasemat_build(&pdesc, &r->pm, err);
+    const size_t D = (size_t)d->directions, voxels = s->volume->coord_count;
+    if (st == VDBS_OK) {
+        r->phase = malloc(sizeof *r->phase * D * D);
+        r->dirs = malloc(sizeof *r->dirs * 3 * D);
+        if (!r->phase || !r->dirs)
+            st = vdbs_error_set(err, VDBS_ERR_NOMEM, "out of memory for %d directions",
+                                d->directions);
+    }
+    if (st == VDBS_OK) {
+        for (size_t i = 0; i < D * D; ++i)
+            r->phase[i] = (float)r->pm.p[i];
+        memcpy(r->dirs, r->pm.dirs, sizeof *r->dirs * 3 * D);
+        vdbs_inet_network_desc nd = {d->particles, d->window, d->seed};
+        st = vdbs_inet_network_build(s->volume, s->scene->density_scale, r->dirs, d->directions,
+                                     &nd, &r->net, err);
+    }
+    if (st == VDBS_OK)
+        st = vdbs_inet_links_build(&r->net, &r->links, err);
+    r->stats.seconds_network = vdbs_now() - r->t0;
+    if (st == VDBS_OK)
+        st = vdbs_voxel_faces_build(s->volume, &r->faces, err);
+    if (st == VDBS_OK) {
+        r->scratch = malloc(sizeof *r->scratch * VDBS_COLLISION_SCRATCH * (voxels ? voxels : 1));
+        r->rate = malloc(sizeof *r->rate * 3 * (voxels ? voxels : 1));
+        r->emission = calloc(3 * (size_t)r->links.links, sizeof *r->emission);
+        if (!r->scratch || !r->rate || !r->emission)
+            st = vdbs_error_set(err, VDBS_ERR_NOMEM,
+                                "out of memory for %lld particles x %d directions",
+                                (long long)r->net.particles, d->directions);
+    }
+    if (st != VDBS_OK) {
+        vdbs_inet_end(r);
+        return st;
+    }
+    *out = r;
+    return VDBS_OK;
+}
+
+void vdbs_inet_light_depth(void *user, int light, const float *depth)
+{
+    vdbs_inet_run *r = user;
+    const vdbs_solve *s = r->s;
+    const double t0 = vdbs_now();
+    const double beam[3] = {1.0, 1.0, 1.0};
+    vdbs_first_collisions(s->volume, &r->faces, s->lights, light, depth, s->scene->density_scale,
+                          beam, r->scratch, r->rate, NULL);
+    const vdbs_inet_network *net = &r->net;
+    const int D = net->directions;
+    /* Per particle: the power its share of the voxel's medium scatters, a m (rate / sigma_t),
+     * as radiance over a link's cross-section A and solid angle 4 pi / D, spread over the
+     * directions by HG(g) about the light's travel there, normalised on the directions. */
+    const double scale = (double)D / (4.0 * VDBS_PI) * net->mass / net->pixel_area;
+    const float g = (float)s->scene->g;
+#pragma omp parallel for schedule(static)
+    for (int64_t p = 0; p < net->particles; ++p) {
+        const int64_t v = net->voxel[p];
+        const double sigma = s->scene->density_scale * (double)r->faces.density[v];
+        if (!(sigma > 0.0))
+            continue;
+        double w[3], color[3], travel[3];
+        for (int a = 0; a < 3; ++a)
+            w[a] = net->position[3 * p + a];
+        vdbs_lights_arrival(s->lights, light, w, color, travel);
+        pnanovdb_vec3_t t = vs_vec3((float)travel[0], (float)travel[1], (float)travel[2]);
+        double norm = 0.0;
+        for (int i = 0; i < D; ++i) {
+            const double *wi = r->dirs + 3 * i;
+            norm += vs_hg_dirs(g, t, vs_vec3((float)wi[0], (float)wi[1], (float)wi[2]));
+        }
+        if (!(norm > 0.0))
+            continue;
+        double power[3];
+        for (int ch = 0; ch < 3; ++ch)
+            power[ch] = s->scene->albedo[ch] * r->rate[3 * v + ch] / sigma * scale;
+        for (int i = 0; i < D; ++i) {
+            const double *wi = r->dirs + 3 * i;
+            const double share =
+                vs_hg_dirs(g, t, vs_vec3((float)wi[0], (float)wi[1], (float)wi[2])) / norm;
+            for (int ch = 0; ch < 3; ++ch)
+                r->emission[3 * (p * D + i) + ch] += (float)(power[ch] * share);
+        }
+    }
+    r->stats.seconds_emission += vdbs_now() - t0;
+}
+
+/* Per particle its incoming light's fluence (3) and net flux (9, x, y, z of R, G, B), splatted
+ * with equal weights onto the coarse frame and averaged per cell. */
+static vdbs_status splat_particles(const vdbs_inet_run *r, const float *state,
+                                   const vdbs_coarse_frame *f, double *fluence, double *flux,
+                                   vdbs_error *err)
+{
+    const vdbs_inet_network *net = &r->net;
+    const int64_t cells = vdbs_coarse_cells(f);
+    const int D = net->directions;
+    const double w = 4.0 * VDBS_PI / D;
+    double *acc = calloc(13 * (size_t)cells, sizeof *acc);
+    if (!acc)
+        return vdbs_error_set(err, VDBS_ERR_NOMEM, "out of memory for %lld cells",
+                              (long long)cells);
+    for (int64_t p = 0; p < net->particles; ++p) {
+        double v[13] = {0};
+        for (int i = 0; i < D; ++i) {
+            const float *l = state + 3 * (p * D + i);
+            const double *wi = r->dirs + 3 * i;
+            for (int ch = 0; ch < 3; ++ch) {
+                v[ch] += w * l[ch];
+                for (int a = 0; a < 3; ++a)
+                    v[3 + 3 * a + ch] += w * l[ch] * wi[a];
+            }
+        }
+        v[12] = 1.0;
+        double at[3] = {net->position[3 * p], net->position[3 * p + 1], net->position[3 * p + 2]};
+        vdbs_coarse_splat(f, acc, 13, at, v, 1.0);
+    }
+    for (int64_t c = 0; c < cells; ++c) {
+        const double *a = acc + 13 * c;
+        const double inv = a[12] > 0.0 ? 1.0 / a[12] : 0.0;
+        for (int k = 0; k < 3; ++k)
+            fluence[3 * c + k] = a[k] * inv;
+        for (int k = 0; k < 9; ++k)
+            flux[9 * c + k] = a[3 + k] * inv;
+    }
+    free(acc);
+    return VDBS_OK;
+}
+
+/* Coarse cells across the largest extent for N particles: about 8 to a cell. */
+static int splat_resolution(int64_t particles)
+{
+    int res = (int)lround(cbrt((double)particles / 8.0));
+    return res < 4 ? 4 : (res > 96 ? 96 : res);
+}
+
+vdbs_status vdbs_inet_finish(vdbs_inet_run *r, vdbs_inet_stats *stats, vdbs_error *err)
+{
+    const vdbs_solve *s = r->s;
+    const vdbs_inet_network *net = &r->net;
+    vdbs_inet_stats *st_out = &r->stats;
+    st_out->particles = net->particles;
+    st_out->directions = net->directions;
+    st_out->window = net->window;
+    st_out->pixel_area = net->pixel_area;
+    st_out->opacity = vdbs_inet_opacity(net);
+    st_out->links = r->links.links;
+    st_out->sinks = r->links.sinks;
+    double first = 0.0;
+    for (int64_t k = 0; k < 3 * r->links.links; ++k)
+        first += r->emission[k];
+    st_out->first_total = first;
+    const int64_t slots = r->links.links + r->links.sinks;
+    float *state = calloc(3 * (size_t)slots, sizeof *state);
+    if (!state)
+        return vdbs_error_set(err, VDBS_ERR_NOMEM, "out of memory for %lld network slots",
+                              (long long)slots);
+    vdbs_inet_problem pb = {.net = net,
+                            .links = &r->links,
+                            .phase = r->phase,
+                            .opacity = st_out->opacity,
+                            .emission = r->emission};
+    for (int ch = 0; ch < 3; ++ch)
+        pb.albedo[ch] = s->scene->albedo[ch];
+    const double t1 = vdbs_now();
+    vdbs_kernel_result kr = {0};
+    vdbs_status st = VDBS_OK;
+    if (first > 0.0) {
+        if (r->desc.progress)
+            vdbs_progress_begin(r->desc.progress, r->desc.progress->enabled, "inet sweeps",
+                                (uint64_t)r->desc.max_iterations);
+        st = vdbs_inet_iterate(s->runner, &pb, r->desc.max_iterations, r->desc.residual * first,
+                               state, r->desc.progress, &kr, err);
+    }
+    st_out->iterations = kr.iterations;
+    st_out->residual = first > 0.0 ? kr.reduction / first : 0.0;
+    st_out->converged = first > 0.0 ? st_out->residual <= r->desc.residual : 1;
+    st_out->seconds_solve = vdbs_now() - t1;
+    const double t2 = vdbs_now();
+    vdbs_coarse_frame f;
+    st_out->resolution =
+        vdbs_coarse_world_frame(s->volume, splat_resolution(net->particles), 1, &f);
+    const int64_t cells = vdbs_coarse_cells(&f);
+    double *fluence = malloc(sizeof *fluence * 3 * (size_t)cells);
+    double *flux = malloc(sizeof *flux * 9 * (size_t)cells);
+    double *values = malloc(sizeof *values * VDBS_COARSE_WIDTH * (size_t)cells);
+    vdbs_medium_box box = {0};
+    if (st == VDBS_OK && (!fluence || !flux || !values))
+        st = vdbs_error_set(err, VDBS_ERR_NOMEM, "out of memory for %lld cells", (long long)cells);
+    if (st == VDBS_OK)
+        st = splat_particles(r, state, &f, fluence, flux, err);
+    if (st == VDBS_OK) {
+        int block = (int)floor(f.h / s->volume->mean_voxel_size);
+        st = vdbs_medium_box_build(s->volume, block < 1 ? 1 : block, &box, err);
+    }
+    if (st == VDBS_OK) {
+        vdbs_coarse_ms_values(cells, fluence, flux, s->scene->g, values);
+        st = vdbs_coarse_upsample(&f, values, s->volume, &box, s->scene->density_scale,
+                                  VDBS_COARSE_BSPLINE_INTERP, s->ms, s->ms_l1, s->radiance, err);
+    }
+    vdbs_medium_box_free(&box);
+    free(fluence);
+    free(flux);
+    free(values);
+    free(state);
+    st_out->seconds_splat = vdbs_now() - t2;
+    if (stats)
+        *stats = *st_out;
+    return st;
+}

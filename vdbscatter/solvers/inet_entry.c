@@ -1,0 +1,117 @@
+/* The illumination-network solver's entry (solver.h): its options, report block and run. */
+#include <stddef.h>
+#include <stdio.h>
+
+#include "vdbscatter/inet.h"
+#include "vdbscatter/solver.h"
+
+enum { OPT_PARTICLES, OPT_DIRECTIONS, OPT_WINDOW, OPT_ITERATIONS, OPT_RESIDUAL };
+
+/* The presets are inet.c's (quality order). */
+static const vdbs_solver_option options[] = {
+    [OPT_PARTICLES] = {.key = "inet_particles",
+                       .flag = "--inet-particles",
+                       .syntax = "N",
+                       .min = 1,
+                       .max = 100000000,
+                       .help = "INET: particles, sampled in proportion to sigma_t\n"
+                               "(default 5000/20000/50000/100000 per quality)",
+                       .preset = {5000, 20000, 50000, 100000}},
+    [OPT_DIRECTIONS] = {.key = "inet_directions",
+                        .flag = "--inet-directions",
+                        .syntax = "D",
+                        .min = 2,
+                        .max = 4096,
+                        .help = "INET: global directions, a spherical Fibonacci set\n"
+                                "(default 64/96/128/256 per quality)",
+                        .preset = {64, 96, 128, 256}},
+    [OPT_WINDOW] = {.key = "inet_window",
+                    .flag = "--inet-window",
+                    .syntax = "M",
+                    .min = 1,
+                    .max = 4096,
+                    .help = "INET: pixels across each direction's window (default: the\n"
+                            "paper's rule, at most sqrt(N / 4))"},
+    [OPT_ITERATIONS] = {.key = "inet_iterations",
+                        .flag = "--inet-iterations",
+                        .syntax = "N",
+                        .min = 1,
+                        .max = 100000,
+                        .help = "INET: cap of Jacobi sweeps (default 1000)",
+                        .preset = {1000, 1000, 1000, 1000}},
+    [OPT_RESIDUAL] = {.key = "inet_residual",
+                      .flag = "--inet-residual",
+                      .kind = VDBS_OPTION_NUMBER,
+                      .syntax = "R",
+                      .min = 0,
+                      .max = 1,
+                      .help = "INET: stop once a sweep changes the network by at most R of\n"
+                              "the first scattering (default 1e-2/3e-3/1e-3/3e-4)",
+                      .preset = {1e-2, 3e-3, 1e-3, 3e-4}},
+};
+
+static double option(const vdbs_scene *scene, int i)
+{
+    return vdbs_scene_solver_value(scene, options[i].key);
+}
+
+static vdbs_status run_inet(const vdbs_solve *s, void *stats, vdbs_error *err)
+{
+    vdbs_inet_desc desc = {0};
+    desc.particles = (int64_t)option(s->scene, OPT_PARTICLES);
+    desc.directions = (int)option(s->scene, OPT_DIRECTIONS);
+    desc.window = (int)option(s->scene, OPT_WINDOW);
+    desc.max_iterations = (int)option(s->scene, OPT_ITERATIONS);
+    desc.residual = option(s->scene, OPT_RESIDUAL);
+    desc.progress = s->progress;
+    vdbs_inet_run *run = NULL;
+    vdbs_status st = vdbs_inet_begin(s, &desc, &run, err);
+    if (st == VDBS_OK)
+        st = vdbs_solve_s1(s, vdbs_inet_light_depth, run, err);
+    if (st == VDBS_OK)
+        st = vdbs_inet_finish(run, stats, err);
+    vdbs_inet_end(run);
+    return st;
+}
+
+static const vdbs_report_field report[] = {
+    {"network", VDBS_REPORT_SECONDS, offsetof(vdbs_inet_stats, seconds_network)},
+    {"emission", VDBS_REPORT_SECONDS, offsetof(vdbs_inet_stats, seconds_emission)},
+    {"solve", VDBS_REPORT_SECONDS, offsetof(vdbs_inet_stats, seconds_solve)},
+    {"splat", VDBS_REPORT_SECONDS, offsetof(vdbs_inet_stats, seconds_splat)},
+    {"particles", VDBS_REPORT_INT64, offsetof(vdbs_inet_stats, particles)},
+    {"directions", VDBS_REPORT_INT, offsetof(vdbs_inet_stats, directions)},
+    {"window", VDBS_REPORT_INT, offsetof(vdbs_inet_stats, window)},
+    {"pixel_area", VDBS_REPORT_DOUBLE, offsetof(vdbs_inet_stats, pixel_area)},
+    {"opacity", VDBS_REPORT_DOUBLE, offsetof(vdbs_inet_stats, opacity)},
+    {"links", VDBS_REPORT_INT64, offsetof(vdbs_inet_stats, links)},
+    {"sinks", VDBS_REPORT_INT64, offsetof(vdbs_inet_stats, sinks)},
+    {"resolution", VDBS_REPORT_INT, offsetof(vdbs_inet_stats, resolution)},
+    {"iterations", VDBS_REPORT_INT, offsetof(vdbs_inet_stats, iterations)},
+    {"residual", VDBS_REPORT_DOUBLE, offsetof(vdbs_inet_stats, residual)},
+    {"converged", VDBS_REPORT_BOOL, offsetof(vdbs_inet_stats, converged)},
+    {"first_total", VDBS_REPORT_DOUBLE, offsetof(vdbs_inet_stats, first_total)},
+};
+
+static void report_text(const void *stats, char *text, size_t size)
+{
+    const vdbs_inet_stats *v = stats;
+    snprintf(text, size, "N %lld, D %d, M %d, %d sweeps, residual %.2g%s", (long long)v->particles,
+             v->directions, v->window, v->iterations, v->residual,
+             v->converged ? "" : " (not converged)");
+}
+
+const vdbs_solver vdbs_solver_inet = {
+    .name = "inet",
+    .summary = "exact single scattering + illumination networks: particles iterated on a "
+               "visibility network (Szirmay-Kalos et al.)",
+    .writes_ms = 1,
+    .options = options,
+    .option_count = (int)(sizeof options / sizeof options[0]),
+    .run = run_inet,
+    .stats_size = sizeof(vdbs_inet_stats),
+    .report = report,
+    .report_count = (int)(sizeof report / sizeof report[0]),
+    .report_text = report_text,
+    .cost = {0, 0, 0, 0},
+};
