@@ -416,7 +416,8 @@ vdbs_status vdbs_coarse_upsample(const vdbs_coarse_frame *f, const double *value
                 /* The interpolating spline overshoots next to sharp changes: ms >= 0. */
                 float v = (float)fmax(x, 0.0);
                 ms[3 * n + ch] += v;
-                radiance[3 * n + ch] += v;
+                if (radiance)
+                    radiance[3 * n + ch] += v;
                 for (int a = 0; a < 3; ++a)
                     ms_l1[a][3 * n + ch] += (float)(out[VDBS_COARSE_L1 + 3 * a + ch] / wsum);
             }

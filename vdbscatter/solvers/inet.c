@@ -271,6 +271,34 @@ vdbs_status vdbs_inet_begin(const vdbs_solve *s, const vdbs_inet_desc *desc, vdb
     return VDBS_OK;
 }
 
+void vdbs_inet_emit(const vdbs_inet_network *net, double g, const double albedo[3], int64_t p,
+                    const double irradiance[3], const double travel[3], float *emission)
+{
+    const int D = net->directions;
+    /* The power the particle scatters, a m E, as radiance over a link's cross-section A and
+     * solid angle 4 pi / D, spread over the directions by HG(g) about the light's travel,
+     * normalised on the directions so that the power is kept. */
+    const double scale = (double)D / (4.0 * VDBS_PI) * net->mass / net->pixel_area;
+    pnanovdb_vec3_t t = vs_vec3((float)travel[0], (float)travel[1], (float)travel[2]);
+    double norm = 0.0;
+    for (int i = 0; i < D; ++i) {
+        const double *wi = net->dirs + 3 * i;
+        norm += vs_hg_dirs((float)g, t, vs_vec3((float)wi[0], (float)wi[1], (float)wi[2]));
+    }
+    if (!(norm > 0.0))
+        return;
+    double power[3];
+    for (int ch = 0; ch < 3; ++ch)
+        power[ch] = albedo[ch] * irradiance[ch] * scale / norm;
+    for (int i = 0; i < D; ++i) {
+        const double *wi = net->dirs + 3 * i;
+        const double share =
+            vs_hg_dirs((float)g, t, vs_vec3((float)wi[0], (float)wi[1], (float)wi[2]));
+        for (int ch = 0; ch < 3; ++ch)
+            emission[3 * (p * D + i) + ch] += (float)(power[ch] * share);
+    }
+}
+
 void vdbs_inet_light_depth(void *user, int light, const float *depth)
 {
     vdbs_inet_run *r = user;
@@ -280,51 +308,31 @@ void vdbs_inet_light_depth(void *user, int light, const float *depth)
     vdbs_first_collisions(s->volume, &r->faces, s->lights, light, depth, s->scene->density_scale,
                           beam, r->scratch, r->rate, NULL);
     const vdbs_inet_network *net = &r->net;
-    const int D = net->directions;
-    /* Per particle: the power its share of the voxel's medium scatters, a m (rate / sigma_t),
-     * as radiance over a link's cross-section A and solid angle 4 pi / D, spread over the
-     * directions by HG(g) about the light's travel there, normalised on the directions. */
-    const double scale = (double)D / (4.0 * VDBS_PI) * net->mass / net->pixel_area;
-    const float g = (float)s->scene->g;
+    /* Per particle the irradiance its voxel's medium collides, rate / sigma_t (the cube's
+     * average of E T: particles are spread over the voxel in proportion to sigma_t). */
 #pragma omp parallel for schedule(static)
     for (int64_t p = 0; p < net->particles; ++p) {
         const int64_t v = net->voxel[p];
         const double sigma = s->scene->density_scale * (double)r->faces.density[v];
         if (!(sigma > 0.0))
             continue;
-        double w[3], color[3], travel[3];
+        double w[3], color[3], travel[3], irradiance[3];
         for (int a = 0; a < 3; ++a)
             w[a] = net->position[3 * p + a];
         vdbs_lights_arrival(s->lights, light, w, color, travel);
-        pnanovdb_vec3_t t = vs_vec3((float)travel[0], (float)travel[1], (float)travel[2]);
-        double norm = 0.0;
-        for (int i = 0; i < D; ++i) {
-            const double *wi = r->dirs + 3 * i;
-            norm += vs_hg_dirs(g, t, vs_vec3((float)wi[0], (float)wi[1], (float)wi[2]));
-        }
-        if (!(norm > 0.0))
-            continue;
-        double power[3];
         for (int ch = 0; ch < 3; ++ch)
-            power[ch] = s->scene->albedo[ch] * r->rate[3 * v + ch] / sigma * scale;
-        for (int i = 0; i < D; ++i) {
-            const double *wi = r->dirs + 3 * i;
-            const double share =
-                vs_hg_dirs(g, t, vs_vec3((float)wi[0], (float)wi[1], (float)wi[2])) / norm;
-            for (int ch = 0; ch < 3; ++ch)
-                r->emission[3 * (p * D + i) + ch] += (float)(power[ch] * share);
-        }
+            irradiance[ch] = r->rate[3 * v + ch] / sigma;
+        vdbs_inet_emit(net, s->scene->g, s->scene->albedo, p, irradiance, travel, r->emission);
     }
     r->stats.seconds_emission += vdbs_now() - t0;
 }
 
 /* Per particle its incoming light's fluence (3) and net flux (9, x, y, z of R, G, B), splatted
  * with equal weights onto the coarse frame and averaged per cell. */
-static vdbs_status splat_particles(const vdbs_inet_run *r, const float *state,
+static vdbs_status splat_particles(const vdbs_inet_network *net, const float *state,
                                    const vdbs_coarse_frame *f, double *fluence, double *flux,
                                    vdbs_error *err)
 {
-    const vdbs_inet_network *net = &r->net;
     const int64_t cells = vdbs_coarse_cells(f);
     const int D = net->directions;
     const double w = 4.0 * VDBS_PI / D;
@@ -336,7 +344,7 @@ static vdbs_status splat_particles(const vdbs_inet_run *r, const float *state,
         double v[13] = {0};
         for (int i = 0; i < D; ++i) {
             const float *l = state + 3 * (p * D + i);
-            const double *wi = r->dirs + 3 * i;
+            const double *wi = net->dirs + 3 * i;
             for (int ch = 0; ch < 3; ++ch) {
                 v[ch] += w * l[ch];
                 for (int a = 0; a < 3; ++a)
@@ -364,6 +372,41 @@ static int splat_resolution(int64_t particles)
 {
     int res = (int)lround(cbrt((double)particles / 8.0));
     return res < 4 ? 4 : (res > 96 ? 96 : res);
+}
+
+vdbs_status vdbs_inet_to_voxels(const vdbs_inet_network *net, const float *state,
+                                const vdbs_volume *volume, double density_scale, double g,
+                                float *ms, float *const ms_l1[3], float *radiance, int *resolution,
+                                vdbs_error *err)
+{
+    vdbs_coarse_frame f;
+    const int res = vdbs_coarse_world_frame(volume, splat_resolution(net->particles), 1, &f);
+    if (resolution)
+        *resolution = res;
+    const int64_t cells = vdbs_coarse_cells(&f);
+    double *fluence = malloc(sizeof *fluence * 3 * (size_t)cells);
+    double *flux = malloc(sizeof *flux * 9 * (size_t)cells);
+    double *values = malloc(sizeof *values * VDBS_COARSE_WIDTH * (size_t)cells);
+    vdbs_medium_box box = {0};
+    vdbs_status st = VDBS_OK;
+    if (!fluence || !flux || !values)
+        st = vdbs_error_set(err, VDBS_ERR_NOMEM, "out of memory for %lld cells", (long long)cells);
+    if (st == VDBS_OK)
+        st = splat_particles(net, state, &f, fluence, flux, err);
+    if (st == VDBS_OK) {
+        int block = (int)floor(f.h / volume->mean_voxel_size);
+        st = vdbs_medium_box_build(volume, block < 1 ? 1 : block, &box, err);
+    }
+    if (st == VDBS_OK) {
+        vdbs_coarse_ms_values(cells, fluence, flux, g, values);
+        st = vdbs_coarse_upsample(&f, values, volume, &box, density_scale,
+                                  VDBS_COARSE_BSPLINE_INTERP, ms, ms_l1, radiance, err);
+    }
+    vdbs_medium_box_free(&box);
+    free(fluence);
+    free(flux);
+    free(values);
+    return st;
 }
 
 vdbs_status vdbs_inet_finish(vdbs_inet_run *r, vdbs_inet_stats *stats, vdbs_error *err)
@@ -409,31 +452,9 @@ vdbs_status vdbs_inet_finish(vdbs_inet_run *r, vdbs_inet_stats *stats, vdbs_erro
     st_out->converged = first > 0.0 ? st_out->residual <= r->desc.residual : 1;
     st_out->seconds_solve = vdbs_now() - t1;
     const double t2 = vdbs_now();
-    vdbs_coarse_frame f;
-    st_out->resolution =
-        vdbs_coarse_world_frame(s->volume, splat_resolution(net->particles), 1, &f);
-    const int64_t cells = vdbs_coarse_cells(&f);
-    double *fluence = malloc(sizeof *fluence * 3 * (size_t)cells);
-    double *flux = malloc(sizeof *flux * 9 * (size_t)cells);
-    double *values = malloc(sizeof *values * VDBS_COARSE_WIDTH * (size_t)cells);
-    vdbs_medium_box box = {0};
-    if (st == VDBS_OK && (!fluence || !flux || !values))
-        st = vdbs_error_set(err, VDBS_ERR_NOMEM, "out of memory for %lld cells", (long long)cells);
     if (st == VDBS_OK)
-        st = splat_particles(r, state, &f, fluence, flux, err);
-    if (st == VDBS_OK) {
-        int block = (int)floor(f.h / s->volume->mean_voxel_size);
-        st = vdbs_medium_box_build(s->volume, block < 1 ? 1 : block, &box, err);
-    }
-    if (st == VDBS_OK) {
-        vdbs_coarse_ms_values(cells, fluence, flux, s->scene->g, values);
-        st = vdbs_coarse_upsample(&f, values, s->volume, &box, s->scene->density_scale,
-                                  VDBS_COARSE_BSPLINE_INTERP, s->ms, s->ms_l1, s->radiance, err);
-    }
-    vdbs_medium_box_free(&box);
-    free(fluence);
-    free(flux);
-    free(values);
+        st = vdbs_inet_to_voxels(net, state, s->volume, s->scene->density_scale, s->scene->g,
+                                 s->ms, s->ms_l1, s->radiance, &st_out->resolution, err);
     free(state);
     st_out->seconds_splat = vdbs_now() - t2;
     if (stats)

@@ -98,8 +98,8 @@ typedef enum vdbs_coarse_kernel {
 /* Joint bilateral upsampling of `values` (VDBS_COARSE_WIDTH per cell of f) to the output
  * voxels: the kernel's weights (cells beyond the grid clamped to its edge) times a Gaussian on
  * sigma_t, the cell's box-filtered value against the voxel's (width half the mean non-zero
- * cell value, plus 1e-3 so that no weight vanishes), renormalised. Adds ms to ms and radiance,
- * and the moments to ms_l1. */
+ * cell value, plus 1e-3 so that no weight vanishes), renormalised. Adds ms to ms and radiance
+ * (NULL: none), and the moments to ms_l1. */
 vdbs_status vdbs_coarse_upsample(const vdbs_coarse_frame *f, const double *values,
                                  const vdbs_volume *volume, const vdbs_medium_box *box,
                                  double density_scale, vdbs_coarse_kernel kernel, float *ms,

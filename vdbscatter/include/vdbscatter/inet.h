@@ -63,6 +63,23 @@ vdbs_status vdbs_inet_iterate(vdbs_runner *runner, const vdbs_inet_problem *pb, 
  * |sent - held| / sent (0 when nothing was sent). */
 double vdbs_inet_balance(const vdbs_inet_problem *pb, const float *before, const float *after);
 
+/* Adds particle p's first scattering of light arriving with `irradiance` (E T, per channel)
+ * travelling along `travel` (unit) into `emission` (N D x 3): its power a m E spread over the
+ * directions by HG(g), normalised on them (power kept), as link radiance (over the pixel area
+ * A and 4 pi / D). Not thread-safe for one p. */
+void vdbs_inet_emit(const vdbs_inet_network *net, double g, const double albedo[3], int64_t p,
+                    const double irradiance[3], const double travel[3], float *emission);
+
+/* The particles' incoming radiance (`state`'s links) as docs/design.md's ms and ms_l1 on the
+ * output voxels: per particle the fluence and net flux over the D directions, averaged onto a
+ * coarse world grid (about 8 particles to a cell; its resolution out, may be NULL) and
+ * reconstructed by the interpolating B-spline with the joint bilateral weights (coarse.h).
+ * Adds to ms, ms_l1 and radiance (which may be NULL). Errors: out of memory. */
+vdbs_status vdbs_inet_to_voxels(const vdbs_inet_network *net, const float *state,
+                                const vdbs_volume *volume, double density_scale, double g,
+                                float *ms, float *const ms_l1[3], float *radiance, int *resolution,
+                                vdbs_error *err);
+
 /* Zero-initialise; 0 means the default. */
 typedef struct vdbs_inet_desc {
     int64_t particles;  /* N (--inet-particles); default: the quality's */
