@@ -3,7 +3,8 @@
 output voxels on the C path, per method and quality, on the bundled cloud under
 samples/cloud.json's lights (a sun and a constant sky), median of --runs runs.
 
-usage: bench/bench_cost.py BUILD [--res 48] [--runs 3] [--out bench/cost.md]
+usage: bench/bench_cost.py BUILD [--res 48] [--runs 3] [--methods a,b] [--out bench/cost.md]
+(--methods: only these rows are measured; the others are kept from the existing table)
 Writes a table and the C initialisers to paste into the entries. A hint, not a promise: the
 cost follows sky directions, cells and iterations, which differ from scene to scene."""
 import argparse
@@ -25,7 +26,18 @@ def main():
     ap.add_argument("--res", type=int, default=48)
     ap.add_argument("--runs", type=int, default=3)
     ap.add_argument("--out", default=os.path.join(HERE, "cost.md"))
+    ap.add_argument("--methods", default="single,pop,fld,svd,inet")
     args = ap.parse_args()
+    measured = args.methods.split(",")
+    kept = {}  # rows of the existing table for the methods not measured now
+    if os.path.exists(args.out):
+        for line in open(args.out):
+            cells = [c.strip() for c in line.strip().strip("|").split("|")]
+            if len(cells) == 5 and cells[0] not in ("method", "---") and not cells[0].startswith("-"):
+                try:
+                    kept[cells[0]] = [float(c) for c in cells[1:]]
+                except ValueError:
+                    pass
     exe = os.path.join(args.build, "vdbscatter")
     tmp = tempfile.mkdtemp(prefix="bench-cost-")
     cloud = os.path.join(tmp, "cloud.vdb")
@@ -33,7 +45,11 @@ def main():
                    capture_output=True)
     scene = os.path.join(ROOT, "samples", "cloud.json")
     rows = []
-    for method in ("single", "pop", "fld", "svd"):
+    for method in ("single", "pop", "fld", "svd", "inet"):
+        if method not in measured:
+            if method in kept:
+                rows.append((method, kept[method]))
+            continue
         row = []
         for q in QUALITIES:
             secs, voxels = [], 0

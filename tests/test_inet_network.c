@@ -448,21 +448,23 @@ static void test_network_invariants(void **state)
 static void test_window_rule(void **state)
 {
     (void)state;
-    /* Paper bound: sqrt(64) * 1 * 10 / sqrt(pi) = 45.135; count bound sqrt(250000) = 500. */
-    assert_int_equal(vdbs_inet_window_rule(1000000, 64, 1.0, 10.0), 45);
-    /* sqrt(16) * 2 * 3 / sqrt(pi) = 13.541 */
-    assert_int_equal(vdbs_inet_window_rule(1000000, 16, 2.0, 3.0), 13);
-    /* Count bound: sqrt(400 / 4) = 10 exactly, sqrt(399 / 4) = 9.987. */
-    assert_int_equal(vdbs_inet_window_rule(400, 64, 1.0, 10.0), 10);
-    assert_int_equal(vdbs_inet_window_rule(399, 64, 1.0, 10.0), 9);
-    /* Clamped to 1: a thin medium (8 * 0.1 * 0.1 / 1.77 = 0.045) and a single particle. */
-    assert_int_equal(vdbs_inet_window_rule(1000000, 64, 0.1, 0.1), 1);
-    assert_int_equal(vdbs_inet_window_rule(1, 64, 1.0, 10.0), 1);
-    assert_int_equal(vdbs_inet_window_rule(1000000, 64, 1.0, 0.0), 1);
-    /* Clamped to 4096: 100 * 100 * 100 / 1.77 and sqrt(1e12 / 4) = 500000. */
-    assert_int_equal(vdbs_inet_window_rule(1000000000000LL, 10000, 100.0, 100.0), 4096);
-    /* A boundless paper bound leaves the count's. */
-    assert_int_equal(vdbs_inet_window_rule(10000, 64, 1.0, INFINITY), 50);
+    /* The paper's bound: sqrt(64) * 1 * 10 / sqrt(pi) = 45.135; sqrt(16) * 2 * 3 / sqrt(pi) =
+     * 13.541. */
+    assert_int_equal(vdbs_inet_paper_window(64, 1.0, 10.0), 45);
+    assert_int_equal(vdbs_inet_paper_window(16, 2.0, 3.0), 13);
+    /* Clamped to 1 (a thin medium, 8 * 0.1 * 0.1 / 1.77 = 0.045; no medium) and to 4096
+     * (100 * 100 * 100 / 1.77; unbounded). */
+    assert_int_equal(vdbs_inet_paper_window(64, 0.1, 0.1), 1);
+    assert_int_equal(vdbs_inet_paper_window(64, 1.0, 0.0), 1);
+    assert_int_equal(vdbs_inet_paper_window(10000, 100.0, 100.0), 4096);
+    assert_int_equal(vdbs_inet_paper_window(64, 1.0, INFINITY), 4096);
+    /* The default: sqrt(400 / 4) = 10 exactly, sqrt(399 / 4) = 9.987, sqrt(1e6 / 4) = 500, one
+     * particle 1, sqrt(1e12 / 4) = 500000 clamped to 4096. */
+    assert_int_equal(vdbs_inet_window_rule(400), 10);
+    assert_int_equal(vdbs_inet_window_rule(399), 9);
+    assert_int_equal(vdbs_inet_window_rule(1000000), 500);
+    assert_int_equal(vdbs_inet_window_rule(1), 1);
+    assert_int_equal(vdbs_inet_window_rule(1000000000000LL), 4096);
 }
 
 static void test_errors(void **state)

@@ -6,6 +6,7 @@
 #include <stdio.h>
 #include <string.h>
 
+#include "vdbscatter/inet.h"
 #include "vdbscatter/pop.h"
 #include "vdbscatter/scene.h"
 #include "vdbscatter/solver.h"
@@ -45,6 +46,11 @@ static void test_presets_are_the_solvers(void **state)
         assert_true(preset("svd_directions", level) == svd.directions);
         assert_true(preset("svd_res", level) == svd.resolution);
         assert_true(preset("svd_residual", level) == svd.residual);
+        vdbs_inet_preset inet;
+        vdbs_inet_quality(q[level].name, &inet);
+        assert_true(preset("inet_particles", level) == (double)inet.particles);
+        assert_true(preset("inet_directions", level) == inet.directions);
+        assert_true(preset("inet_residual", level) == inet.residual);
         /* the solver's own rule: no preset */
         assert_true(preset("fld_res", level) == 0.0);
         assert_true(preset("svd_terms", level) == 0.0);
@@ -68,7 +74,7 @@ static void test_keys_and_flags_unique(void **state)
             vdbs_solver_option_help(o, help, sizeof help);
             assert_non_null(strstr(help, o->flag));
         }
-    assert_int_equal(options, 21);
+    assert_int_equal(options, 27);
     /* cost hints: measured, and a higher quality never costs less */
     for (int m = 0; (s = vdbs_solver_at(m)) != NULL; ++m)
         for (int q = 0; q < VDBS_QUALITY_COUNT; ++q) {
@@ -157,7 +163,7 @@ static void test_register_refuses_clashes(void **state)
     assert_ptr_equal(vdbs_solver_option_by_flag("--extra-n", NULL), &fresh[0]);
     char names[256];
     vdbs_solver_names(names, sizeof names);
-    assert_string_equal(names, "single, pop, fld, svd, extra");
+    assert_string_equal(names, "single, pop, fld, svd, inet, extra");
 }
 
 int main(void)

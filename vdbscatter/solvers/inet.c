@@ -171,13 +171,15 @@ double vdbs_inet_balance(const vdbs_inet_problem *pb, const float *before, const
 
 /* ---- the bake's solve ---- */
 
-/* What a quality chooses: particles, directions, residual. */
-static const struct {
-    int64_t particles;
-    int directions;
-    double residual;
-} inet_presets[VDBS_QUALITY_COUNT] = {
-    {5000, 64, 1e-2}, {20000, 96, 3e-3}, {50000, 128, 1e-3}, {100000, 256, 3e-4}};
+/* What a quality chooses (docs/methods/inet.md, "Presets": the error fell with N to 100000 on
+ * the cloud sample; 64 directions measured no worse than 96, 128 or 256). */
+static const vdbs_inet_preset inet_presets[VDBS_QUALITY_COUNT] = {
+    {5000, 64, 1e-2}, {20000, 64, 3e-3}, {50000, 64, 1e-3}, {100000, 64, 1e-3}};
+
+void vdbs_inet_quality(const char *quality, vdbs_inet_preset *preset)
+{
+    *preset = inet_presets[vdbs_quality_level(quality)];
+}
 
 struct vdbs_inet_run {
     const vdbs_solve *s;
@@ -220,14 +222,15 @@ vdbs_status vdbs_inet_begin(const vdbs_solve *s, const vdbs_inet_desc *desc, vdb
     r->s = s;
     r->desc = *desc;
     r->t0 = vdbs_now();
-    const int q = vdbs_quality_level(s->quality ? s->quality->name : NULL);
+    vdbs_inet_preset preset;
+    vdbs_inet_quality(s->quality ? s->quality->name : NULL, &preset);
     vdbs_inet_desc *d = &r->desc;
     if (d->particles <= 0)
-        d->particles = inet_presets[q].particles;
+        d->particles = preset.particles;
     if (d->directions <= 0)
-        d->directions = inet_presets[q].directions;
+        d->directions = preset.directions;
     if (!(d->residual > 0.0))
-        d->residual = inet_presets[q].residual;
+        d->residual = preset.residual;
     if (d->max_iterations <= 0)
         d->max_iterations = INET_MAX_ITERATIONS;
     /* The paper's phase without delta-M: the balanced matrix keeps every collision's power. */
@@ -367,11 +370,44 @@ static vdbs_status splat_particles(const vdbs_inet_network *net, const float *st
     return VDBS_OK;
 }
 
-/* Coarse cells across the largest extent for N particles: about 8 to a cell. */
-static int splat_resolution(int64_t particles)
+/* The splat grid: refined while its occupied cells hold at least this many particles on average
+ * (a particle's incoming radiance is a noisy estimate, its own column through each direction),
+ * and never past INET_MAX_SPLAT_RES cells across; both measured on the cloud sample, where 22
+ * cells were worse than 16 even at 50000 particles (docs/methods/inet.md, "Reconstruction"). */
+#define INET_PARTICLES_PER_CELL 8.0
+#define INET_MAX_SPLAT_RES 16
+
+/* The finest resolution (cells across the largest extent) whose occupied cells hold on average
+ * at least INET_PARTICLES_PER_CELL particles. */
+static int splat_resolution(const vdbs_inet_network *net, const vdbs_volume *volume)
 {
-    int res = (int)lround(cbrt((double)particles / 8.0));
-    return res < 4 ? 4 : (res > 96 ? 96 : res);
+    int best = 2;
+    uint8_t *seen = malloc((size_t)INET_MAX_SPLAT_RES * INET_MAX_SPLAT_RES * INET_MAX_SPLAT_RES);
+    if (!seen)
+        return 8;
+    for (int res = 3; res <= INET_MAX_SPLAT_RES; ++res) {
+        vdbs_coarse_frame f;
+        if (vdbs_coarse_world_frame(volume, res, 1, &f) != res)
+            break; /* never finer than the voxels */
+        memset(seen, 0, (size_t)f.n[0] * f.n[1] * f.n[2]);
+        int64_t occupied = 0;
+        for (int64_t p = 0; p < net->particles; ++p) {
+            int64_t c = 0;
+            for (int a = 2; a >= 0; --a) {
+                double x = ((double)net->position[3 * p + a] - f.origin[a]) / f.side[a];
+                int i = (int)floor(x);
+                i = i < 0 ? 0 : (i >= f.n[a] ? f.n[a] - 1 : i);
+                c = c * f.n[a] + i;
+            }
+            occupied += !seen[c];
+            seen[c] = 1;
+        }
+        if ((double)net->particles / (double)occupied < INET_PARTICLES_PER_CELL)
+            break;
+        best = res;
+    }
+    free(seen);
+    return best;
 }
 
 vdbs_status vdbs_inet_to_voxels(const vdbs_inet_network *net, const float *state,
@@ -380,7 +416,7 @@ vdbs_status vdbs_inet_to_voxels(const vdbs_inet_network *net, const float *state
                                 vdbs_error *err)
 {
     vdbs_coarse_frame f;
-    const int res = vdbs_coarse_world_frame(volume, splat_resolution(net->particles), 1, &f);
+    const int res = vdbs_coarse_world_frame(volume, splat_resolution(net, volume), 1, &f);
     if (resolution)
         *resolution = res;
     const int64_t cells = vdbs_coarse_cells(&f);
@@ -417,6 +453,7 @@ vdbs_status vdbs_inet_finish(vdbs_inet_run *r, vdbs_inet_stats *stats, vdbs_erro
     st_out->particles = net->particles;
     st_out->directions = net->directions;
     st_out->window = net->window;
+    st_out->paper_window = net->paper_window;
     st_out->pixel_area = net->pixel_area;
     st_out->opacity = vdbs_inet_opacity(net);
     st_out->links = r->links.links;
@@ -453,8 +490,8 @@ vdbs_status vdbs_inet_finish(vdbs_inet_run *r, vdbs_inet_stats *stats, vdbs_erro
     st_out->seconds_solve = vdbs_now() - t1;
     const double t2 = vdbs_now();
     if (st == VDBS_OK)
-        st = vdbs_inet_to_voxels(net, state, s->volume, s->scene->density_scale, s->scene->g,
-                                 s->ms, s->ms_l1, s->radiance, &st_out->resolution, err);
+        st = vdbs_inet_to_voxels(net, state, s->volume, s->scene->density_scale, s->scene->g, s->ms,
+                                 s->ms_l1, s->radiance, &st_out->resolution, err);
     free(state);
     st_out->seconds_splat = vdbs_now() - t2;
     if (stats)

@@ -35,22 +35,24 @@ static double hashed_uniform(uint64_t seed, int64_t particle, int stream)
     return (double)(h >> 11) * (1.0 / 9007199254740992.0);
 }
 
-int vdbs_inet_window_rule(int64_t particles, int directions, double radius, double mean_sigma_t)
+/* A bound in doubles to the window's range: a huge or non-finite one clamps, never overflows. */
+static int window_clamp(double m)
 {
-    /* D (R tau)^2 / pi >= M^2 and M^2 <= N / 4, in doubles before any conversion so that
-     * a huge or non-finite bound clamps instead of overflowing. */
-    double paper = floor(sqrt((double)directions) * radius * mean_sigma_t / sqrt(VDBS_PI));
-    double count = floor(sqrt((double)particles / 4.0));
-    if (isnan(paper))
-        paper = 1.0;
-    if (isnan(count))
-        count = 1.0;
-    const double m = fmin(paper, count);
     if (!(m >= 1.0))
         return 1;
     if (m >= INET_WINDOW_MAX)
         return INET_WINDOW_MAX;
     return (int)m;
+}
+
+int vdbs_inet_paper_window(int directions, double radius, double mean_sigma_t)
+{
+    return window_clamp(floor(sqrt((double)directions) * radius * mean_sigma_t / sqrt(VDBS_PI)));
+}
+
+int vdbs_inet_window_rule(int64_t particles)
+{
+    return window_clamp(floor(sqrt((double)particles / 4.0)));
 }
 
 void vdbs_inet_basis(const double w[3], double u[3], double v[3])
@@ -372,9 +374,8 @@ vdbs_status vdbs_inet_network_build(const vdbs_volume *volume, double density_sc
     free(prefix);
     net->mass = total / (double)n_part;
     bounding_sphere(net->position, n_part, volume->mean_voxel_size, net->centre, &net->radius);
-    net->window = desc->window > 0
-                      ? desc->window
-                      : vdbs_inet_window_rule(n_part, directions, net->radius, mean_sigma_t);
+    net->window = desc->window > 0 ? desc->window : vdbs_inet_window_rule(n_part);
+    net->paper_window = vdbs_inet_paper_window(directions, net->radius, mean_sigma_t);
     const double side = 2.0 * net->radius / net->window;
     net->pixel_area = side * side;
     if (!link_all(net)) {

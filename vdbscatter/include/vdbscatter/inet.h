@@ -80,6 +80,16 @@ vdbs_status vdbs_inet_to_voxels(const vdbs_inet_network *net, const float *state
                                 float *ms, float *const ms_l1[3], float *radiance, int *resolution,
                                 vdbs_error *err);
 
+/* What a quality chooses. */
+typedef struct vdbs_inet_preset {
+    int64_t particles; /* 5000 / 20000 / 50000 / 100000 */
+    int directions;    /* 64 at every quality */
+    double residual;   /* 1e-2 / 3e-3 / 1e-3 / 1e-3 */
+} vdbs_inet_preset;
+
+/* The preset of a quality name (medium's for an unknown one or NULL). */
+void vdbs_inet_quality(const char *quality, vdbs_inet_preset *preset);
+
 /* Zero-initialise; 0 means the default. */
 typedef struct vdbs_inet_desc {
     int64_t particles;  /* N (--inet-particles); default: the quality's */
@@ -88,13 +98,14 @@ typedef struct vdbs_inet_desc {
     int max_iterations; /* cap of sweeps (--inet-iterations); default 1000 */
     double residual;    /* stop once a sweep's total change is at most this fraction of the
                            first scattering's total (--inet-residual); default: the quality's */
-    uint64_t seed;
+    uint64_t seed;      /* of the particles (--inet-seed) */
     vdbs_progress *progress;
 } vdbs_inet_desc;
 
 typedef struct vdbs_inet_stats {
     int64_t particles;
     int directions, window, resolution;
+    int paper_window; /* the paper's bound on the window (inet_network.h), reported */
     double opacity, pixel_area;
     int64_t links, sinks;
     int iterations, converged;
