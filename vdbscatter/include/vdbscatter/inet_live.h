@@ -1,8 +1,13 @@
 /* Live multiple scattering on an illumination network (inet.h): the network, its links and the
  * phase matrix built once for a volume and medium, the first scattering E seeded per particle
  * for a set of lights, and the state kept between calls so that new lights start from the old
- * solution (a warm start) and a few Jacobi sweeps a frame walk it to the new one. The viewer
- * shows the state of every frame (vdbs_inet_live_ms) while it converges.
+ * solution (a warm start) and a few sweeps a frame walk it to the new one. The viewer shows
+ * the state of every frame (vdbs_inet_live_ms) while it converges.
+ *
+ * The cold solve is the bake's Jacobi iteration through the runner; the warm sweeps are
+ * Gauss-Seidel line sweeps on the C path (the directions in turn, each direction's chains
+ * walked downstream with the newest values), which reach the same fixed point in a few
+ * sweeps where Jacobi needs tens.
  *
  * The network matches the bake's for the same volume, medium, quality and solver.inet_*
  * options (seed 0), but E comes from marching the transmittance from each particle to each
@@ -32,8 +37,8 @@ typedef struct vdbs_inet_live_desc {
     const vdbs_scene *scene;
     const char *quality;     /* the bake's quality: the same presets; default the scene's,
                                 else medium */
-    vdbs_runner *runner;     /* the sweeps' (the viewer's, a GPU in its GL context); NULL: a
-                                C-path runner of the object's own */
+    vdbs_runner *runner;     /* the cold solve's (the viewer's, a GPU in its GL context);
+                                NULL: a C-path runner of the object's own */
     vdbs_progress *progress; /* the cold solve's; may be NULL */
 } vdbs_inet_live_desc;
 
@@ -56,8 +61,9 @@ vdbs_status vdbs_inet_live_create(const vdbs_inet_live_desc *desc, vdbs_inet_liv
  * so a moved sun costs N transmittance marches per direct light. */
 vdbs_status vdbs_inet_live_set_lights(vdbs_inet_live *live, const vdbs_scene *scene,
                                       vdbs_error *err);
-/* Runs `sweeps` warm Jacobi sweeps (0: none, only the status), stopping early once converged.
- * status may be NULL. Errors: the runner's. */
+/* Runs `sweeps` warm line sweeps (0: none, only the status), stopping once converged (a sweep
+ * changed the state by at most the residual of the first scattering's total). status may be
+ * NULL. Errors: none yet (the sweeps are the C path's). */
 vdbs_status vdbs_inet_live_sweep(vdbs_inet_live *live, int sweeps, vdbs_inet_live_status *status,
                                  vdbs_error *err);
 /* The state as ms and ms_l1 on the output voxels (3 floats per voxel each; zeroed, then filled
