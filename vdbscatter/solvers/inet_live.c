@@ -173,14 +173,14 @@ static vdbs_status seed(vdbs_inet_live *l, const vdbs_scene *scene, int keep_sky
 }
 
 /* The outgoing radiance of particle q along direction i (vs_inet.h's Eq. 2): its incoming
- * light along i, `through` (the new state's on a line sweep), passed on with 1 - alpha, plus
- * its first scattering and the scattering of the previous state's incoming light. */
-static void outgoing(const vdbs_inet_live *l, const float *old, const float *through, int64_t q,
+ * light along i, `through`, passed on with 1 - alpha, plus its first scattering and the
+ * scattering of its incoming light in `state` (the line sweep's newest values). */
+static void outgoing(const vdbs_inet_live *l, const float *state, const float *through, int64_t q,
                      int i, float alpha, const float keep[3], float *out)
 {
     const int D = l->net.directions;
     const float *row = l->phase + (size_t)i * (size_t)D;
-    const float *in = old + 3 * q * D;
+    const float *in = state + 3 * q * D;
     float r = 0.0f, g = 0.0f, b = 0.0f;
     for (int d = 0; d < D; ++d) {
         r += row[d] * in[3 * d];
