@@ -243,6 +243,56 @@ class Occluders(Base):
                           occluders=[{"type": "sphere", "center": [0, 0, 0], "radius": 1, "colour": 1}])
 
 
+class LiveInet(Base):
+    """A VDB baked with inet keeps its multiple scattering live (inet_live.h): viewed with a
+    moved sun, every frame runs --inet-sweeps warm sweeps from the baked lights' solution. The
+    pictures after 1, 2 and 5 frames (one sweep each) against two targets: the render of a
+    fresh bake for the new sun, and the viewer's own converged live picture for it (the fresh
+    bake opened with its own lights given as flags, 30 frames), which leaves out the small
+    difference between the bake's first scattering (cube-averaged collisions from the S1
+    light grids) and the live one's (the transmittance marched from each particle)."""
+
+    SUN = ["--sun", "-0.6,-0.6,0.5:3,2.9,2.7", "--env", "0.2,0.3,0.5"]
+    SMALL = ["--size", "96x72", "--backend", "cpu", "--no-interleave", "-q"]
+
+    def shot(self, lit, name, *extra):
+        out = self.path(name + ".exr")
+        p = view(lit, *self.SUN, "--screenshot", out, *self.SMALL, "--json", *extra, check=0)
+        return out, json.loads(p.stdout)
+
+    def test_light_move_converges_in_a_few_frames(self):
+        lit, fresh = self.path("inet_a.vdb"), self.path("inet_b.vdb")
+        bake = ["bake", "--scene", sample("cloud.json"), "--method", "inet", "--quality", "low", "-q"]
+        run(*bake, "-o", lit, check=0)
+        run(*bake, *self.SUN, "-o", fresh, check=0)
+        baked = self.path("inet_fresh.exr")
+        run("render", fresh, "--mode", "baked", "-o", baked, "--size", "96x72", "-q", check=0)
+        live_target, info = self.shot(fresh, "inet_live_target", "--warmup-frames", "30")
+        self.assertTrue(info["ms_live"] and info["live_converged"], info)
+        errors = {}
+        for frames in (1, 2, 5):
+            out, info = self.shot(lit, f"inet_{frames}", "--warmup-frames", str(frames), "--inet-sweeps", "1")
+            self.assertEqual((info["ms_live"], info["inet_sweeps"]), (1, 1), info)
+            self.assertEqual(info["live_sweeps"], frames, info)
+            errors[frames] = (relrmse(out, baked), relrmse(out, live_target), info)
+        stale, info = self.shot(lit, "inet_stale", "--inet-sweeps", "0")
+        self.assertEqual(info["ms_live"], 0, info)
+        stale_errors = (relrmse(stale, baked), relrmse(stale, live_target))
+        print("\nlive inet ms after a sun move, relative RMSE against the fresh bake's render / the "
+              "converged live picture:")
+        for frames, (e_bake, e_live, info) in errors.items():
+            print(f"  {frames} frame(s): {e_bake:.2e} / {e_live:.2e}  (change {info['live_change']:.2e}, "
+                  f"frame {info['frame_ms']:.1f} ms, sweep+ms {info['live_update_ms']:.1f} ms)")
+        print(f"  stale (--inet-sweeps 0): {stale_errors[0]:.2e} / {stale_errors[1]:.2e}")
+        for k in (0, 1):
+            self.assertLessEqual(errors[5][k], 0.25 * stale_errors[k])
+        # Against the converged live picture the error falls frame by frame; against the bake it
+        # reaches the floor of the two first scatterings' difference at once.
+        self.assertGreater(errors[1][1], errors[2][1])
+        self.assertGreater(errors[2][1], errors[5][1])
+        self.assertLessEqual(errors[5][0], 0.03)
+
+
 class BadInput(Base):
     def refuse(self, *args, needle=None):
         out = self.path("never.png")
@@ -289,6 +339,7 @@ class BadInput(Base):
         p = view(lit, "--screenshot", self.path("x.jpg"), display=False)
         self.assertEqual(p.returncode, 2)
         self.assertIn(".jpg", p.stderr)
+        self.refuse(lit, "--inet-sweeps", "-1", needle="--inet-sweeps")
         p = view(lit, "--warmup-frames", "3", display=False)
         self.assertEqual(p.returncode, 2)
         self.assertIn("--screenshot", p.stderr)

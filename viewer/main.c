@@ -2,7 +2,9 @@
  * kernel of `render --mode baked` (vdbs_march_session: the same kernel text, C path or
  * compute shader in the window's own GL context), shown with exposure; the camera orbits,
  * the light moves (its light grids rebuilt), and a key re-bakes the multiple scattering in
- * the background with the library. --screenshot renders in a hidden window and saves. */
+ * the background with the library; a VDB baked with inet keeps its multiple scattering live
+ * instead (inet_live.h: a few warm sweeps a frame). --screenshot renders in a hidden window
+ * and saves. */
 #define _POSIX_C_SOURCE 200809L
 #include <epoxy/gl.h>
 
@@ -24,11 +26,13 @@
 #include "vdbscatter/bake.h"
 #include "vdbscatter/camera.h"
 #include "vdbscatter/fog.h"
+#include "vdbscatter/inet_live.h"
 #include "vdbscatter/runner.h"
 #include "vdbscatter/litvdb.h"
 #include "vdbscatter/march_session.h"
 #include "vdbscatter/mesh.h"
 #include "vdbscatter/render.h"
+#include "vdbscatter/scene_file.h"
 #include "vdbscatter/vdbio.h"
 
 #define PROGRAM "vdbscatter-view"
@@ -36,6 +40,7 @@
 #define MOVING_SECONDS 0.25 /* input this recent: draw with coarser steps */
 #define SHADOW_MAP_RES 1024 /* a sun's map; a point light's cube faces are half as wide */
 #define FOG_STEPS 64        /* shadow-map tests along a view ray through the fog */
+#define DEFAULT_INET_SWEEPS 1
 
 static const char help[] =
     "usage: vdbscatter-view LIT.vdb [options]\n"
@@ -44,7 +49,9 @@ static const char help[] =
     "`vdbscatter render --mode baked` (single scattering toward the camera from light grids\n"
     "plus the baked multiple scattering). A density-only VDB opens too, single scattering\n"
     "only. Moving a light rebuilds its light grids at once; the baked multiple scattering\n"
-    "then belongs to the old light until `b` re-bakes it in the background.\n"
+    "then belongs to the old light until `b` re-bakes it in the background. A VDB baked\n"
+    "with --method inet keeps it live instead: its network is rebuilt at start and every\n"
+    "frame after a light change runs --inet-sweeps warm sweeps and shows their result.\n"
     "\n"
     "scene (as render; flags override --scene, light flags replace the scene's lights):\n"
     "  --scene FILE.json  --grid NAME[@INDEX]  --density-scale S  --albedo A|R,G,B  --g G\n"
@@ -61,6 +68,9 @@ static const char help[] =
     "                           scene's fog sigma_t and albedo (0 turns it off)\n"
     "  --rebake                 re-bake the multiple scattering for the given lights before\n"
     "                           showing it (as the key b does), e.g. after --sun\n"
+    "  --inet-sweeps N          a VDB baked with inet: warm sweeps of its live multiple\n"
+    "                           scattering per frame after a light change (default 1; 0: no\n"
+    "                           live update, the baked one stays stale as for other methods)\n"
     "  --interleave M           interleaved sampling over M x M pixels, 2..4 (default 2)\n"
     "  --no-interleave          one full set of march steps in every pixel\n"
     "  --backend auto|cpu|gpu   the march on the C path or as a compute shader in the\n"
@@ -68,7 +78,8 @@ static const char help[] =
     "  --screenshot OUT.png|OUT.exr   render in a hidden window, save the last frame, exit\n"
     "                           (.exr: linear floats as render writes; .png: with exposure)\n"
     "  --warmup-frames N        frames drawn for the screenshot, the last one saved (default 1)\n"
-    "  --json                   with --screenshot: size, frame times and backend as JSON\n"
+    "  --json                   with --screenshot: size, frame times, backend and the live\n"
+    "                           multiple scattering's sweeps and change as JSON\n"
     "  -q                       no summary or warnings\n"
     "\n"
     "mouse: left drag orbits, middle drag (or shift + left) pans, wheel zooms,\n"
@@ -107,6 +118,7 @@ static const vdbs_arg_option options[] = {
     {"--fog", VDBS_ARG_VALUE},
     {"--rebake", VDBS_ARG_FLAG},
     {"--warmup-frames", VDBS_ARG_VALUE},
+    {"--inet-sweeps", VDBS_ARG_VALUE},
     {"-q", VDBS_ARG_FLAG},
     {NULL, VDBS_ARG_FLAG},
 };
@@ -189,6 +201,15 @@ typedef struct viewer {
     float *backdrop;
     vdbs_fog fog;
     vdbs_march_fog march_fog; /* march_fog.fog is NULL without a fog */
+    /* Live multiple scattering of a VDB baked with inet: created for the file's own lights;
+     * active once the lights differ from them. */
+    vdbs_inet_live *live;
+    int live_active;
+    int live_pending; /* sweeps ran since the session's ms were last replaced */
+    int inet_sweeps;  /* per frame */
+    float *live_ms, *live_l1[3];
+    vdbs_inet_live_status live_status;
+    double live_update_ms; /* the last frame's sweeps, ms and upload */
 } viewer;
 
 /* The session's new lighting to the shadow-map consumers: the render kernel (through the
@@ -232,6 +253,26 @@ static vdbs_march_options frame_options(const viewer *v, int moving)
     return o;
 }
 
+/* The frame's live multiple scattering: K warm sweeps, and their ms into the session. */
+static vdbs_status live_update(viewer *v, vdbs_error *err)
+{
+    if (!v->live_active)
+        return VDBS_OK;
+    double t0 = now();
+    const int before = v->live_status.sweeps;
+    vdbs_status st = vdbs_inet_live_sweep(v->live, v->inet_sweeps, &v->live_status, err);
+    if (st == VDBS_OK && v->live_status.sweeps != before)
+        v->live_pending = 1;
+    if (st == VDBS_OK && v->live_pending) {
+        st = vdbs_inet_live_ms(v->live, v->live_ms, v->live_l1, err);
+        if (st == VDBS_OK)
+            st = vdbs_march_session_set_ms(v->session, v->live_ms, v->live_l1, err);
+        v->live_pending = st != VDBS_OK;
+    }
+    v->live_update_ms = 1e3 * (now() - t0);
+    return st;
+}
+
 static vdbs_status draw_frame(viewer *v, int moving, vdbs_error *err)
 {
     vdbs_camera camera;
@@ -240,6 +281,8 @@ static vdbs_status draw_frame(viewer *v, int moving, vdbs_error *err)
     vdbs_status st = vdbs_camera_frame_init(&camera, &frame, err);
     vdbs_march_options o = frame_options(v, moving);
     double t0 = now();
+    if (st == VDBS_OK)
+        st = live_update(v, err);
     if (st == VDBS_OK && v->occluders.count > 0) {
         st = view_occluders_backdrop(&v->occluders, &frame, v->backdrop, err);
         o.backdrop = v->backdrop;
@@ -260,10 +303,16 @@ static void set_title(GLFWwindow *window, const viewer *v)
     char interleave[32] = "interleave off";
     if (v->interleave_on)
         snprintf(interleave, sizeof interleave, "interleave %dx%d", v->interleave, v->interleave);
+    char live[96] = "";
+    if (v->live_active && v->live_status.converged)
+        snprintf(live, sizeof live, " | ms live: converged (%d sweeps)", v->live_status.sweeps);
+    else if (v->live_active)
+        snprintf(live, sizeof live, " | ms live: %d sweeps, change %.1e", v->live_status.sweeps,
+                 v->live_status.change);
     char title[VDBS_ERROR_MAX + 512];
-    snprintf(title, sizeof title, PROGRAM " | %.1f ms | %s | %s | step %.3g vox | EV %+.1f%s%s%s",
+    snprintf(title, sizeof title, PROGRAM " | %.1f ms | %s | %s | step %.3g vox | EV %+.1f%s%s%s%s",
              v->frame_ms, v->in.mode == VDBS_RENDER_BAKED ? terms : "single (density only)",
-             interleave, (double)(v->march.step_voxels * v->step_scale), v->exposure,
+             interleave, (double)(v->march.step_voxels * v->step_scale), v->exposure, live,
              v->bake.running ? " | re-baking..."
              : v->ms_stale   ? " | multiple scattering stale: b re-bakes"
                              : "",
@@ -275,6 +324,16 @@ static void touch(viewer *v)
 {
     v->dirty = 1;
     v->last_input = now();
+}
+
+/* The scene's lights into the live multiple scattering: from here on it is shown. */
+static vdbs_status live_relight(viewer *v, vdbs_error *err)
+{
+    vdbs_status st = vdbs_inet_live_set_lights(v->live, v->in.scene, err);
+    if (st == VDBS_OK)
+        v->live_active = 1;
+    vdbs_inet_live_sweep(v->live, 0, &v->live_status, err);
+    return st;
 }
 
 static void light_moved(viewer *v, double yaw, double pitch)
@@ -289,7 +348,12 @@ static void light_moved(viewer *v, double yaw, double pitch)
     if (vdbs_march_session_set_scene(v->session, v->in.scene, &err) != VDBS_OK ||
         update_shadows(v, &err) != VDBS_OK)
         snprintf(v->message, sizeof v->message, "%s", err.message);
-    v->ms_stale = v->in.mode == VDBS_RENDER_BAKED;
+    if (v->live) {
+        if (live_relight(v, &err) != VDBS_OK)
+            snprintf(v->message, sizeof v->message, "%s", err.message);
+    } else {
+        v->ms_stale = v->in.mode == VDBS_RENDER_BAKED;
+    }
     touch(v);
 }
 
@@ -493,6 +557,7 @@ typedef struct view_args {
     int quiet;
     int json;
     int rebake;
+    long inet_sweeps;
 } view_args;
 
 static vdbs_status parse_view_args(const vdbs_options_args *args, view_args *a, vdbs_error *err)
@@ -501,6 +566,7 @@ static vdbs_status parse_view_args(const vdbs_options_args *args, view_args *a, 
     const char *v;
     a->warmup = 1;
     a->interleave = DEFAULT_INTERLEAVE;
+    a->inet_sweeps = DEFAULT_INET_SWEEPS;
     if ((v = vdbs_options_value(args, "--backend")) &&
         (st = vdbs_backend_parse(v, &a->backend, err)))
         return st;
@@ -522,6 +588,9 @@ static vdbs_status parse_view_args(const vdbs_options_args *args, view_args *a, 
                                    err)) != VDBS_OK)
         return st;
     a->no_interleave = vdbs_options_flag(args, "--no-interleave");
+    if ((v = vdbs_options_value(args, "--inet-sweeps")) &&
+        (st = vdbs_options_integer("--inet-sweeps", v, 0, 1000, &a->inet_sweeps, err)) != VDBS_OK)
+        return st;
     if ((v = vdbs_options_value(args, "--warmup-frames")) &&
         (st = vdbs_options_integer("--warmup-frames", v, 1, 100000, &a->warmup, err)) != VDBS_OK)
         return st;
@@ -617,6 +686,56 @@ static vdbs_status parse_fog(const char *text, vdbs_scene *scene, vdbs_error *er
     return VDBS_OK;
 }
 
+/* A VDB baked with inet: its live multiple scattering, created for the file's own lights,
+ * quality and inet options (its vdbscatter_scene) with the viewer's medium, so that converged
+ * it is the baked ms; active at once when the viewer's lights or medium are others. */
+static vdbs_status open_live(viewer *v, const view_args *a, vdbs_error *err)
+{
+    v->inet_sweeps = (int)a->inet_sweeps;
+    if (v->in.mode != VDBS_RENDER_BAKED || strcmp(v->in.baked_method, "inet") != 0 ||
+        a->inet_sweeps <= 0 || !vdbs_lit_grids_have_ms(&v->in.ms))
+        return VDBS_OK;
+    vdbio_lit *lit = NULL;
+    vdbs_status st = vdbio_lit_open(v->input, &lit, err);
+    if (st != VDBS_OK)
+        return st;
+    vdbs_scene *baked = malloc(sizeof *baked);
+    const char *meta = vdbio_lit_meta(lit, "vdbscatter_scene");
+    if (!baked)
+        st = vdbs_error_set(err, VDBS_ERR_NOMEM, "out of memory for a scene");
+    else if (!meta)
+        st = vdbs_error_set(err, VDBS_ERR_INPUT, "%s: no vdbscatter_scene metadata", v->input);
+    else
+        st = vdbs_scene_parse(meta, NULL, baked, err);
+    vdbio_lit_close(lit);
+    if (st == VDBS_OK) {
+        baked->density_scale = v->in.scene->density_scale;
+        memcpy(baked->albedo, v->in.scene->albedo, sizeof baked->albedo);
+        baked->g = v->in.scene->g;
+        vdbs_inet_live_desc d = {0};
+        d.volume = &v->in.volume;
+        d.scene = baked;
+        d.quality = baked->quality;
+        d.runner = v->runner;
+        st = vdbs_inet_live_create(&d, &v->live, err);
+    }
+    free(baked);
+    const size_t n = 3 * v->in.volume.coord_count;
+    if (st == VDBS_OK) {
+        v->live_ms = malloc(sizeof *v->live_ms * (n ? n : 1));
+        for (int c = 0; c < 3; ++c)
+            v->live_l1[c] = malloc(sizeof *v->live_l1[c] * (n ? n : 1));
+        if (!v->live_ms || !v->live_l1[0] || !v->live_l1[1] || !v->live_l1[2])
+            st = vdbs_error_set(err, VDBS_ERR_NOMEM, "out of memory for the live ms");
+    }
+    const unsigned changes = VDBS_SCENE_SET_LIGHTS | VDBS_SCENE_FROM_FILE |
+                             VDBS_SCENE_SET_DENSITY_SCALE | VDBS_SCENE_SET_ALBEDO |
+                             VDBS_SCENE_SET_G;
+    if (st == VDBS_OK && (a->desc.scene_set & changes))
+        st = live_relight(v, err);
+    return st;
+}
+
 /* Everything up to the first frame; on failure the caller frees what was made. */
 static vdbs_status viewer_open(viewer *v, const view_args *a, GLFWwindow **window, vdbs_error *err)
 {
@@ -668,6 +787,8 @@ static vdbs_status viewer_open(viewer *v, const view_args *a, GLFWwindow **windo
                                         v->in.mode == VDBS_RENDER_BAKED ? &v->in.ms : NULL,
                                         v->in.scene, &v->march, &v->session, err)) != VDBS_OK)
         return st;
+    if ((st = open_live(v, a, err)) != VDBS_OK)
+        return st;
     return open_occluders_and_fog(v, err);
 }
 
@@ -679,6 +800,10 @@ static void viewer_close(viewer *v, GLFWwindow *window)
         remove(v->bake.output);
     }
     vdbs_march_session_destroy(v->session);
+    vdbs_inet_live_destroy(v->live);
+    free(v->live_ms);
+    for (int c = 0; c < 3; ++c)
+        free(v->live_l1[c]);
     vdbs_image_free(&v->image);
     vdbs_shadow_table_free(&v->shadows);
     vdbs_fog_free(&v->fog);
@@ -723,13 +848,17 @@ static vdbs_status run_screenshot(viewer *v, GLFWwindow *window, const view_args
         printf("{\"width\": %d, \"height\": %d, \"frames\": %ld, \"open_ms\": %.3f, "
                "\"first_frame_ms\": %.3f, \"frame_ms\": %.3f, \"s1\": \"%s\", "
                "\"backend\": \"%s\", \"renderer\": \"%s\", "
-               "\"interleave\": %d, \"occluders\": %d, \"fog\": %d}\n",
+               "\"interleave\": %d, \"occluders\": %d, \"fog\": %d, \"inet_sweeps\": %d, "
+               "\"ms_live\": %d, \"live_sweeps\": %d, \"live_change\": %.6g, "
+               "\"live_converged\": %d, \"live_update_ms\": %.3f}\n",
                v->image.width, v->image.height, a->warmup, v->open_ms, first_ms, mean_ms,
                v->march.stored_depths ? "stored"
                : v->march.s1_march    ? "march"
                                       : "grid",
                vdbs_runner_backend_name(v->runner), vdbs_runner_device(v->runner),
-               v->interleave_on ? v->interleave : 1, v->occluders.count, v->march_fog.fog != NULL);
+               v->interleave_on ? v->interleave : 1, v->occluders.count, v->march_fog.fog != NULL,
+               v->inet_sweeps, v->live_active, v->live_status.sweeps, v->live_status.change,
+               v->live_status.converged, v->live_update_ms);
     } else if (st == VDBS_OK && !a->quiet) {
         fprintf(stderr, PROGRAM ": %dx%d in %.1f ms a frame (first %.1f ms) on %s -> %s\n",
                 v->image.width, v->image.height, mean_ms, first_ms, vdbs_runner_device(v->runner),
@@ -753,6 +882,10 @@ static vdbs_status run_interactive(viewer *v, GLFWwindow *window, vdbs_error *er
         vdbs_error rebake_err;
         finish_rebake(v, 0, &rebake_err); /* a failure shows in the title */
         int moving = now() - v->last_input < MOVING_SECONDS || v->dragging;
+        /* The live multiple scattering converging: a frame (and its sweeps) each turn. */
+        const int live = v->live_active && !v->live_status.converged;
+        if (live)
+            v->dirty = 1;
         /* Still after moving: one more frame at the full step. */
         if (!moving && !refined)
             v->dirty = 1;
@@ -769,7 +902,9 @@ static vdbs_status run_interactive(viewer *v, GLFWwindow *window, vdbs_error *er
         set_title(window, v);
         glfwSwapBuffers(window);
         /* Idle without spinning; wake for the re-bake and the refinement. */
-        if (v->bake.running || moving)
+        if (live)
+            glfwPollEvents();
+        else if (v->bake.running || moving)
             glfwWaitEventsTimeout(0.05);
         else
             glfwWaitEvents();
@@ -838,7 +973,8 @@ int main(int argc, char **argv)
     v->open_ms = 1e3 * (now() - t_open);
     /* Light flags on a lit VDB: its multiple scattering belongs to the baked lights. */
     if (st == VDBS_OK)
-        v->ms_stale = v->in.mode == VDBS_RENDER_BAKED && (a.desc.scene_set & VDBS_SCENE_SET_LIGHTS);
+        v->ms_stale = v->in.mode == VDBS_RENDER_BAKED && !v->live &&
+                      (a.desc.scene_set & VDBS_SCENE_SET_LIGHTS);
     if (st == VDBS_OK && a.rebake)
         start_rebake(v);
     if (st == VDBS_OK)

@@ -213,6 +213,9 @@ struct vdbs_march_session {
     const float *shadows;                    /* the caller's (vs_shadow.h) or no_shadows */
     size_t shadow_floats;
     int stored; /* the light grids are the lit VDB's stored depths */
+    /* vdbs_march_session_set_ms: per ms grid (ms, l1x, l1y, l1z) and output voxel the byte
+     * offset of its value in `grids`, or UINT64_MAX where the grid has no leaf there */
+    uint64_t *ms_at;
     uint64_t id_grids, id_lights, id_light_grids, id_env, id_shadows;
 };
 
@@ -260,6 +263,7 @@ void vdbs_march_session_destroy(vdbs_march_session *session)
     vdbs_runner_release(session->runner, session->id_shadows);
     if (session->grids_owned)
         free(session->grids);
+    free(session->ms_at);
     free(session);
 }
 
@@ -405,6 +409,63 @@ vdbs_status vdbs_march_session_set_scene(vdbs_march_session *s, const vdbs_scene
                                          vdbs_error *err)
 {
     return session_scene(s, scene, 0, err);
+}
+
+/* Where set_ms writes: per ms grid and output voxel the byte offset of its value in the
+ * session's buffer (a Vec3f leaf value), found once. A voxel the grid has no leaf for (a
+ * tile or the background, shared with its neighbours) is left alone. */
+static vdbs_status ms_addresses(vdbs_march_session *s, vdbs_error *err)
+{
+    const vdbs_volume *volume = s->volume;
+    const int64_t n = (int64_t)volume->coord_count;
+    s->ms_at = malloc(sizeof *s->ms_at * 4 * (size_t)(n > 0 ? n : 1));
+    if (!s->ms_at)
+        return vdbs_error_set(err, VDBS_ERR_NOMEM, "out of memory for %lld voxels", (long long)n);
+    vdbs_lit_grids only_ms = *s->ms;
+    only_ms.depth_count = 0;
+    uint64_t offsets[4];
+    grid_offsets(volume, &only_ms, offsets);
+    const size_t sizes[4] = {s->ms->ms_size, s->ms->l1x_size, s->ms->l1y_size, s->ms->l1z_size};
+    for (int g = 0; g < 4; ++g) {
+        pnanovdb_buf_t buf = pnanovdb_make_buf(s->grids + offsets[g] / 4, sizes[g] / 4);
+        pnanovdb_readaccessor_t acc = vs_density_accessor(buf);
+        uint64_t *at = s->ms_at + (size_t)g * (size_t)n;
+        for (int64_t v = 0; v < n; ++v) {
+            const int32_t *c = volume->coords + 3 * v;
+            pnanovdb_coord_t ijk = vs_coord(c[0], c[1], c[2]);
+            pnanovdb_uint32_t level = 0;
+            pnanovdb_address_t a = pnanovdb_readaccessor_get_value_address_and_level(
+                PNANOVDB_GRID_TYPE_VEC3F, buf, &acc, &ijk, &level);
+            at[v] = level == 0 ? offsets[g] + a.byte_offset : UINT64_MAX;
+        }
+    }
+    return VDBS_OK;
+}
+
+vdbs_status vdbs_march_session_set_ms(vdbs_march_session *s, const float *ms, float *const ms_l1[3],
+                                      vdbs_error *err)
+{
+    if (!s->ms || !s->grids_owned)
+        return vdbs_error_set(err, VDBS_ERR_INPUT, "the render session has no ms grids to set");
+    if (!s->ms_at) {
+        vdbs_status st = ms_addresses(s, err);
+        if (st != VDBS_OK)
+            return st;
+    }
+    const int64_t n = (int64_t)s->volume->coord_count;
+    const float *src[4] = {ms, ms_l1[0], ms_l1[1], ms_l1[2]};
+    char *bytes = (char *)s->grids;
+    for (int g = 0; g < 4; ++g) {
+        const uint64_t *at = s->ms_at + (size_t)g * (size_t)n;
+#pragma omp parallel for schedule(static)
+        for (int64_t v = 0; v < n; ++v)
+            if (at[v] != UINT64_MAX)
+                memcpy(bytes + at[v], src[g] + 3 * v, 3 * sizeof(float));
+    }
+    /* A new resident id: the GPU uploads the buffer again on the next draw. */
+    vdbs_runner_release(s->runner, s->id_grids);
+    s->id_grids = vdbs_runner_resident_id(s->runner);
+    return VDBS_OK;
 }
 
 static vdbs_status session_scene(vdbs_march_session *s, const vdbs_scene *scene, int stored,

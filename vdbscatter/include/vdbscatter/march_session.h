@@ -128,6 +128,14 @@ void vdbs_march_session_tables(const vdbs_march_session *session, vdbs_march_tab
  * sweeping (a lit VDB's stored depths no longer apply). */
 vdbs_status vdbs_march_session_set_scene(vdbs_march_session *session, const vdbs_scene *scene,
                                          vdbs_error *err);
+/* New values of the ms grids (live multiple scattering, inet_live.h): ms and ms_l1[0..2]
+ * (l1x, l1y, l1z), 3 floats per output voxel as a bake writes them, into the session's copy
+ * of the grids, on their topology (a voxel where a grid has no leaf keeps its value); on the
+ * GPU the copy is uploaded again at the next draw, as a new resident input. The caller's
+ * grids given to create are not changed. Errors (VDBS_ERR_INPUT): a session without ms
+ * grids; out of memory the first time (the voxels' addresses). */
+vdbs_status vdbs_march_session_set_ms(vdbs_march_session *session, const float *ms,
+                                      float *const ms_l1[3], vdbs_error *err);
 /* One picture, as vdbs_render_march; options: step_voxels, the viewer's knobs, gpu_units,
  * progress and stats (the march's time). */
 vdbs_status vdbs_march_session_draw(vdbs_march_session *session, const vdbs_camera_frame *frame,
