@@ -83,7 +83,7 @@ static void test_keys_and_flags_unique(void **state)
         }
     assert_true(options <= VDBS_MAX_SOLVER_SETTINGS);
     assert_null(vdbs_solver_at(-1));
-    assert_null(vdbs_solver_find("inet")); /* no entry for a method that is not implemented */
+    assert_null(vdbs_solver_find("inets")); /* no entry for a method that is not implemented */
 }
 
 static void test_set_and_check(void **state)

@@ -147,6 +147,94 @@ vdbs_status vdbs_inet_iterate(vdbs_runner *runner, const vdbs_inet_problem *pb, 
     return vdbs_kernel_iterate(runner, &kd, result, err);
 }
 
+/* Sweeps the contraction is averaged over, and sweeps before its estimate may end a solve. */
+#define INET_RATIO_SPAN 4
+
+vdbs_status vdbs_inet_solve(vdbs_runner *runner, const vdbs_inet_problem *pb, int max_iterations,
+                            double residual, double reference, float *state,
+                            vdbs_progress *progress, vdbs_inet_solve_result *result,
+                            vdbs_error *err)
+{
+    vdbs_inet_solve_result res = {0};
+    vdbs_inet_problem p = *pb;
+    const int gpu = vdbs_runner_backend(runner) == VDBS_BACKEND_GPU;
+    for (int i = 0; i < 4 && gpu; ++i)
+        if (!p.resident[i])
+            p.resident[i] = vdbs_runner_resident_id(runner);
+    if (!(reference > 0.0))
+        reference = 1.0;
+    double changes[INET_RATIO_SPAN + 1] = {0};
+    vdbs_status st = VDBS_OK;
+    for (int it = 0; it < max_iterations && st == VDBS_OK; ++it) {
+        vdbs_kernel_result kr = {0};
+        st = vdbs_inet_iterate(runner, &p, 1, 0.0, state, NULL, &kr, err);
+        if (st != VDBS_OK)
+            break;
+        memmove(changes + 1, changes, sizeof changes[0] * INET_RATIO_SPAN);
+        changes[0] = kr.reduction / reference;
+        res.iterations = it + 1;
+        res.change = changes[0];
+        double rho = 1.0;
+        if (res.iterations > INET_RATIO_SPAN) {
+            double sum = 0.0;
+            for (int k = 0; k < INET_RATIO_SPAN; ++k)
+                sum += changes[k + 1] > 0.0 ? changes[k] / changes[k + 1] : 0.0;
+            rho = sum / INET_RATIO_SPAN;
+        }
+        res.contraction = rho;
+        res.residual = changes[0] == 0.0 ? 0.0
+                       : rho < 1.0       ? changes[0] * fmax(rho / (1.0 - rho), 1.0)
+                                         : HUGE_VAL;
+        if (progress)
+            vdbs_progress_update(progress, (uint64_t)res.iterations);
+        if (res.residual <= residual) {
+            res.converged = 1;
+            break;
+        }
+        if (vdbs_progress_cancelled(progress))
+            st = vdbs_error_cancelled(err);
+    }
+    for (int i = 0; i < 4 && gpu; ++i)
+        if (!pb->resident[i])
+            vdbs_runner_release(runner, p.resident[i]);
+    if (result)
+        *result = res;
+    return st;
+}
+
+vdbs_status vdbs_inet_setup_build(const vdbs_volume *volume, double density_scale, double g,
+                                  int64_t particles, int directions, int window, uint64_t seed,
+                                  vdbs_inet_setup *setup, vdbs_error *err)
+{
+    memset(setup, 0, sizeof *setup);
+    vdbs_phasemat_desc pdesc = {directions, g, -1};
+    vdbs_status st = vdbs_phasemat_build(&pdesc, &setup->pm, err);
+    const size_t D = (size_t)directions;
+    if (st == VDBS_OK && !(setup->phase = malloc(sizeof *setup->phase * D * D)))
+        st = vdbs_error_set(err, VDBS_ERR_NOMEM, "out of memory for %d directions", directions);
+    if (st == VDBS_OK) {
+        for (size_t i = 0; i < D * D; ++i)
+            setup->phase[i] = (float)setup->pm.p[i];
+        vdbs_inet_network_desc nd = {particles, window, seed};
+        st = vdbs_inet_network_build(volume, density_scale, setup->pm.dirs, directions, &nd,
+                                     &setup->net, err);
+    }
+    if (st == VDBS_OK)
+        st = vdbs_inet_links_build(&setup->net, &setup->links, err);
+    if (st != VDBS_OK)
+        vdbs_inet_setup_free(setup);
+    return st;
+}
+
+void vdbs_inet_setup_free(vdbs_inet_setup *setup)
+{
+    vdbs_inet_links_free(&setup->links);
+    vdbs_inet_network_free(&setup->net);
+    free(setup->phase);
+    vdbs_phasemat_free(&setup->pm);
+    memset(setup, 0, sizeof *setup);
+}
+
 double vdbs_inet_balance(const vdbs_inet_problem *pb, const float *before, const float *after)
 {
     const vdbs_inet_network *net = pb->net;
@@ -185,11 +273,7 @@ struct vdbs_inet_run {
     const vdbs_solve *s;
     vdbs_inet_desc desc;
     vdbs_inet_stats stats;
-    vdbs_phasemat pm;
-    double *dirs;
-    float *phase;
-    vdbs_inet_network net;
-    vdbs_inet_links links;
+    vdbs_inet_setup setup;
     vdbs_voxel_faces faces;
     double *scratch, *rate;
     float *emission;
@@ -200,11 +284,7 @@ void vdbs_inet_end(vdbs_inet_run *r)
 {
     if (!r)
         return;
-    vdbs_phasemat_free(&r->pm);
-    free(r->dirs);
-    free(r->phase);
-    vdbs_inet_network_free(&r->net);
-    vdbs_inet_links_free(&r->links);
+    vdbs_inet_setup_free(&r->setup);
     vdbs_voxel_faces_free(&r->faces);
     free(r->scratch);
     free(r->rate);
@@ -233,38 +313,21 @@ vdbs_status vdbs_inet_begin(const vdbs_solve *s, const vdbs_inet_desc *desc, vdb
         d->residual = preset.residual;
     if (d->max_iterations <= 0)
         d->max_iterations = INET_MAX_ITERATIONS;
-    /* The paper's phase without delta-M: the balanced matrix keeps every collision's power. */
-    vdbs_phasemat_desc pdesc = {d->directions, s->scene->g, -1};
-    vdbs_status st = vdbs_phasemat_build(&pdesc, &r->pm, err);
-    const size_t D = (size_t)d->directions, voxels = s->volume->coord_count;
-    if (st == VDBS_OK) {
-        r->phase = malloc(sizeof *r->phase * D * D);
-        r->dirs = malloc(sizeof *r->dirs * 3 * D);
-        if (!r->phase || !r->dirs)
-            st = vdbs_error_set(err, VDBS_ERR_NOMEM, "out of memory for %d directions",
-                                d->directions);
-    }
-    if (st == VDBS_OK) {
-        for (size_t i = 0; i < D * D; ++i)
-            r->phase[i] = (float)r->pm.p[i];
-        memcpy(r->dirs, r->pm.dirs, sizeof *r->dirs * 3 * D);
-        vdbs_inet_network_desc nd = {d->particles, d->window, d->seed};
-        st = vdbs_inet_network_build(s->volume, s->scene->density_scale, r->dirs, d->directions,
-                                     &nd, &r->net, err);
-    }
-    if (st == VDBS_OK)
-        st = vdbs_inet_links_build(&r->net, &r->links, err);
+    const size_t voxels = s->volume->coord_count;
+    vdbs_status st =
+        vdbs_inet_setup_build(s->volume, s->scene->density_scale, s->scene->g, d->particles,
+                              d->directions, d->window, d->seed, &r->setup, err);
     r->stats.seconds_network = vdbs_now() - r->t0;
     if (st == VDBS_OK)
         st = vdbs_voxel_faces_build(s->volume, &r->faces, err);
     if (st == VDBS_OK) {
         r->scratch = malloc(sizeof *r->scratch * VDBS_COLLISION_SCRATCH * (voxels ? voxels : 1));
         r->rate = malloc(sizeof *r->rate * 3 * (voxels ? voxels : 1));
-        r->emission = calloc(3 * (size_t)r->links.links, sizeof *r->emission);
+        r->emission = calloc(3 * (size_t)r->setup.links.links, sizeof *r->emission);
         if (!r->scratch || !r->rate || !r->emission)
             st = vdbs_error_set(err, VDBS_ERR_NOMEM,
                                 "out of memory for %lld particles x %d directions",
-                                (long long)r->net.particles, d->directions);
+                                (long long)r->setup.net.particles, d->directions);
     }
     if (st != VDBS_OK) {
         vdbs_inet_end(r);
@@ -310,7 +373,7 @@ void vdbs_inet_light_depth(void *user, int light, const float *depth)
     const double beam[3] = {1.0, 1.0, 1.0};
     vdbs_first_collisions(s->volume, &r->faces, s->lights, light, depth, s->scene->density_scale,
                           beam, r->scratch, r->rate, NULL);
-    const vdbs_inet_network *net = &r->net;
+    const vdbs_inet_network *net = &r->setup.net;
     /* Per particle the irradiance its voxel's medium collides, rate / sigma_t (the cube's
      * average of E T: particles are spread over the voxel in proportion to sigma_t). */
 #pragma omp parallel for schedule(static)
@@ -448,7 +511,7 @@ vdbs_status vdbs_inet_to_voxels(const vdbs_inet_network *net, const float *state
 vdbs_status vdbs_inet_finish(vdbs_inet_run *r, vdbs_inet_stats *stats, vdbs_error *err)
 {
     const vdbs_solve *s = r->s;
-    const vdbs_inet_network *net = &r->net;
+    const vdbs_inet_network *net = &r->setup.net;
     vdbs_inet_stats *st_out = &r->stats;
     st_out->particles = net->particles;
     st_out->directions = net->directions;
@@ -456,37 +519,41 @@ vdbs_status vdbs_inet_finish(vdbs_inet_run *r, vdbs_inet_stats *stats, vdbs_erro
     st_out->paper_window = net->paper_window;
     st_out->pixel_area = net->pixel_area;
     st_out->opacity = vdbs_inet_opacity(net);
-    st_out->links = r->links.links;
-    st_out->sinks = r->links.sinks;
+    st_out->links = r->setup.links.links;
+    st_out->sinks = r->setup.links.sinks;
     double first = 0.0;
-    for (int64_t k = 0; k < 3 * r->links.links; ++k)
+    for (int64_t k = 0; k < 3 * r->setup.links.links; ++k)
         first += r->emission[k];
     st_out->first_total = first;
-    const int64_t slots = r->links.links + r->links.sinks;
+    const int64_t slots = r->setup.links.links + r->setup.links.sinks;
     float *state = calloc(3 * (size_t)slots, sizeof *state);
     if (!state)
         return vdbs_error_set(err, VDBS_ERR_NOMEM, "out of memory for %lld network slots",
                               (long long)slots);
     vdbs_inet_problem pb = {.net = net,
-                            .links = &r->links,
-                            .phase = r->phase,
+                            .links = &r->setup.links,
+                            .phase = r->setup.phase,
                             .opacity = st_out->opacity,
                             .emission = r->emission};
     for (int ch = 0; ch < 3; ++ch)
         pb.albedo[ch] = s->scene->albedo[ch];
     const double t1 = vdbs_now();
-    vdbs_kernel_result kr = {0};
+    vdbs_inet_solve_result sr = {.converged = 1};
     vdbs_status st = VDBS_OK;
     if (first > 0.0) {
         if (r->desc.progress)
             vdbs_progress_begin(r->desc.progress, r->desc.progress->enabled, "inet sweeps",
                                 (uint64_t)r->desc.max_iterations);
-        st = vdbs_inet_iterate(s->runner, &pb, r->desc.max_iterations, r->desc.residual * first,
-                               state, r->desc.progress, &kr, err);
+        st = vdbs_inet_solve(s->runner, &pb, r->desc.max_iterations, r->desc.residual, first, state,
+                             r->desc.progress, &sr, err);
+        if (r->desc.progress)
+            vdbs_progress_end(r->desc.progress);
     }
-    st_out->iterations = kr.iterations;
-    st_out->residual = first > 0.0 ? kr.reduction / first : 0.0;
-    st_out->converged = first > 0.0 ? st_out->residual <= r->desc.residual : 1;
+    st_out->iterations = sr.iterations;
+    st_out->residual = sr.residual;
+    st_out->change = sr.change;
+    st_out->contraction = sr.contraction;
+    st_out->converged = sr.converged;
     st_out->seconds_solve = vdbs_now() - t1;
     const double t2 = vdbs_now();
     if (st == VDBS_OK)

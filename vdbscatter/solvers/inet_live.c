@@ -30,11 +30,7 @@ struct vdbs_inet_live {
     int own_runner;
     double residual;
     int max_iterations;
-    vdbs_phasemat pm;
-    double *dirs;
-    float *phase;
-    vdbs_inet_network net;
-    vdbs_inet_links links;
+    vdbs_inet_setup setup; /* the phase, the network and its slots */
     /* E per particle and direction (N D x 3): the direct lights', the sky ordinates', and
      * their sum that the sweeps read. Kept apart so that a moved sun re-marches only the
      * direct lights. */
@@ -71,10 +67,10 @@ static double inet_option(const vdbs_scene *scene, const char *key, const vdbs_q
  * variation inside a voxel separates the two. */
 static void seed_lights(vdbs_inet_live *l, int first, int count, float *out)
 {
-    const vdbs_inet_network *net = &l->net;
+    const vdbs_inet_network *net = &l->setup.net;
     const vdbs_volume *volume = l->volume;
     const vdbs_light_table *table = &l->lights;
-    memset(out, 0, sizeof *out * 3 * (size_t)l->links.links);
+    memset(out, 0, sizeof *out * 3 * (size_t)l->setup.links.links);
     if (count <= 0)
         return;
     const vs_vec4 *medium = (const vs_vec4 *)l->medium;
@@ -122,7 +118,7 @@ static void seed_lights(vdbs_inet_live *l, int first, int count, float *out)
 /* emission = e_direct + e_sky, and its total. */
 static void sum_emission(vdbs_inet_live *l)
 {
-    const int64_t count = 3 * l->links.links;
+    const int64_t count = 3 * l->setup.links.links;
     double first = 0.0;
     for (int64_t k = 0; k < count; ++k) {
         l->emission[k] = l->e_direct[k] + l->e_sky[k];
@@ -178,8 +174,8 @@ static vdbs_status seed(vdbs_inet_live *l, const vdbs_scene *scene, int keep_sky
 static void outgoing(const vdbs_inet_live *l, const float *state, const float *through, int64_t q,
                      int i, float alpha, const float keep[3], float *out)
 {
-    const int D = l->net.directions;
-    const float *row = l->phase + (size_t)i * (size_t)D;
+    const int D = l->setup.net.directions;
+    const float *row = l->setup.phase + (size_t)i * (size_t)D;
     const float *in = state + 3 * q * D;
     float r = 0.0f, g = 0.0f, b = 0.0f;
     for (int d = 0; d < D; ++d) {
@@ -204,8 +200,8 @@ static void outgoing(const vdbs_inet_live *l, const float *state, const float *t
  * sum of the slots' changes. */
 static double line_sweep(vdbs_inet_live *l)
 {
-    const vdbs_inet_network *net = &l->net;
-    const int64_t N = net->particles, links = l->links.links, sinks = l->links.sinks;
+    const vdbs_inet_network *net = &l->setup.net;
+    const int64_t N = net->particles, links = l->setup.links.links, sinks = l->setup.links.sinks;
     const int D = net->directions;
     const float alpha = (float)vdbs_inet_opacity(net);
     float keep[3];
@@ -237,8 +233,8 @@ static double line_sweep(vdbs_inet_live *l)
     }
     /* The sinks: the light leaving each chain's end. */
     for (int64_t k = 0; k < sinks; ++k) {
-        const int64_t q = l->links.source[links + k];
-        const int i = l->links.source[links + sinks + k];
+        const int64_t q = l->setup.links.source[links + k];
+        const int i = l->setup.links.source[links + sinks + k];
         float *to = state + 3 * (links + k);
         outgoing(l, state, state + 3 * (q * D + i), q, i, alpha, keep, to);
         for (int ch = 0; ch < 3; ++ch)
@@ -248,28 +244,29 @@ static double line_sweep(vdbs_inet_live *l)
 }
 
 /* The cold solve: up to `sweeps` Jacobi sweeps from the state through the runner, stopping at
- * the residual, as the bake's (inet.c): the same converged state as the baked ms. */
+ * the estimated residual, as the bake's (vdbs_inet_solve): the same converged state as the
+ * baked ms. */
 static vdbs_status run_sweeps(vdbs_inet_live *l, int sweeps, vdbs_progress *progress,
                               vdbs_error *err)
 {
-    vdbs_inet_problem pb = {.net = &l->net,
-                            .links = &l->links,
-                            .phase = l->phase,
-                            .opacity = vdbs_inet_opacity(&l->net),
+    vdbs_inet_problem pb = {.net = &l->setup.net,
+                            .links = &l->setup.links,
+                            .phase = l->setup.phase,
+                            .opacity = vdbs_inet_opacity(&l->setup.net),
                             .emission = l->emission};
     for (int ch = 0; ch < 3; ++ch)
         pb.albedo[ch] = l->scene->albedo[ch];
-    vdbs_kernel_result kr = {0};
     /* Without light the state decays to 0: its change is measured against nothing, so the
      * tolerance is absolute there. */
     const double reference = l->first > 0.0 ? l->first : 1.0;
-    vdbs_status st = vdbs_inet_iterate(l->runner, &pb, sweeps, l->residual * reference, l->state,
-                                       progress, &kr, err);
+    vdbs_inet_solve_result sr = {0};
+    vdbs_status st = vdbs_inet_solve(l->runner, &pb, sweeps, l->residual, reference, l->state,
+                                     progress, &sr, err);
     if (st != VDBS_OK)
         return st;
-    l->status.sweeps += kr.iterations;
-    l->status.change = kr.reduction / reference;
-    l->status.converged = l->status.change <= l->residual;
+    l->status.sweeps += sr.iterations;
+    l->status.change = sr.change;
+    l->status.converged = sr.converged;
     return VDBS_OK;
 }
 
@@ -277,11 +274,7 @@ void vdbs_inet_live_destroy(vdbs_inet_live *l)
 {
     if (!l)
         return;
-    vdbs_phasemat_free(&l->pm);
-    free(l->dirs);
-    free(l->phase);
-    vdbs_inet_network_free(&l->net);
-    vdbs_inet_links_free(&l->links);
+    vdbs_inet_setup_free(&l->setup);
     free(l->e_direct);
     free(l->e_sky);
     free(l->emission);
@@ -302,29 +295,14 @@ static vdbs_status build_network(vdbs_inet_live *l, const vdbs_quality *quality,
     const vdbs_scene *scene = l->scene;
     const int64_t particles = (int64_t)inet_option(scene, "inet_particles", quality);
     const int directions = (int)inet_option(scene, "inet_directions", quality);
-    /* The paper's phase without delta-M, as the bake's (inet.c). */
-    vdbs_phasemat_desc pdesc = {directions, scene->g, -1};
-    vdbs_status st = vdbs_phasemat_build(&pdesc, &l->pm, err);
-    if (st != VDBS_OK)
-        return st;
-    const size_t D = (size_t)directions;
-    l->phase = malloc(sizeof *l->phase * D * D);
-    l->dirs = malloc(sizeof *l->dirs * 3 * D);
-    if (!l->phase || !l->dirs)
-        return vdbs_error_set(err, VDBS_ERR_NOMEM, "out of memory for %d directions", directions);
-    for (size_t i = 0; i < D * D; ++i)
-        l->phase[i] = (float)l->pm.p[i];
-    memcpy(l->dirs, l->pm.dirs, sizeof *l->dirs * 3 * D);
     /* Seed 0, as the bake's: the same particles and network. */
-    vdbs_inet_network_desc nd = {particles, (int)inet_option(scene, "inet_window", quality), 0};
-    st = vdbs_inet_network_build(l->volume, scene->density_scale, l->dirs, directions, &nd, &l->net,
-                                 err);
-    if (st == VDBS_OK)
-        st = vdbs_inet_links_build(&l->net, &l->links, err);
+    vdbs_status st =
+        vdbs_inet_setup_build(l->volume, scene->density_scale, scene->g, particles, directions,
+                              (int)inet_option(scene, "inet_window", quality), 0, &l->setup, err);
     if (st != VDBS_OK)
         return st;
-    const size_t links = 3 * (size_t)l->links.links;
-    const size_t slots = 3 * (size_t)(l->links.links + l->links.sinks);
+    const size_t links = 3 * (size_t)l->setup.links.links;
+    const size_t slots = 3 * (size_t)(l->setup.links.links + l->setup.links.sinks);
     l->e_direct = calloc(links, sizeof *l->e_direct);
     l->e_sky = calloc(links, sizeof *l->e_sky);
     l->emission = calloc(links, sizeof *l->emission);
@@ -335,12 +313,12 @@ static vdbs_status build_network(vdbs_inet_live *l, const vdbs_quality *quality,
         return vdbs_error_set(err, VDBS_ERR_NOMEM,
                               "out of memory for %lld particles x %d directions",
                               (long long)particles, directions);
-    const int64_t count = l->links.links;
+    const int64_t count = l->setup.links.links;
     for (int64_t k = 0; k < count; ++k)
         l->downstream[k] = -1;
     for (int64_t k = 0; k < count; ++k)
-        if (l->net.upstream[k] >= 0)
-            l->downstream[(int64_t)l->net.upstream[k] * directions + k % directions] =
+        if (l->setup.net.upstream[k] >= 0)
+            l->downstream[(int64_t)l->setup.net.upstream[k] * directions + k % directions] =
                 (int32_t)(k / directions);
     return VDBS_OK;
 }
@@ -435,13 +413,13 @@ vdbs_status vdbs_inet_live_ms(const vdbs_inet_live *l, float *ms, float *const m
     memset(ms, 0, sizeof *ms * n);
     for (int a = 0; a < 3; ++a)
         memset(ms_l1[a], 0, sizeof *ms_l1[a] * n);
-    return vdbs_inet_to_voxels(&l->net, l->state, l->volume, l->scene->density_scale, l->scene->g,
-                               ms, ms_l1, NULL, NULL, err);
+    return vdbs_inet_to_voxels(&l->setup.net, l->state, l->volume, l->scene->density_scale,
+                               l->scene->g, ms, ms_l1, NULL, NULL, err);
 }
 
 const vdbs_inet_network *vdbs_inet_live_network(const vdbs_inet_live *l)
 {
-    return &l->net;
+    return &l->setup.net;
 }
 
 const float *vdbs_inet_live_state(const vdbs_inet_live *l)

@@ -15,6 +15,7 @@
 #include <stdint.h>
 
 #include "vdbscatter/inet_network.h"
+#include "vdbscatter/phasemat.h"
 #include "vdbscatter/progress.h"
 #include "vdbscatter/runner.h"
 #include "vdbscatter/solve.h"
@@ -45,7 +46,27 @@ typedef struct vdbs_inet_problem {
     double albedo[3];      /* a per channel */
     const float *emission; /* N D x 3: E per particle and direction, or NULL */
     double inflow[3];      /* radiance entering along a link without a source */
+    /* Resident ids (runner.h) for the kernel's constant inputs (parameters, sources, phase,
+     * emission), or 0: uploaded with every call. */
+    uint64_t resident[4];
 } vdbs_inet_problem;
+
+/* What every inet solve sets up once for a volume: the phase matrix (its directions are the
+ * network's), the matrix in float for the kernel, the network and its slots. */
+typedef struct vdbs_inet_setup {
+    vdbs_phasemat pm;
+    float *phase; /* D x D */
+    vdbs_inet_network net;
+    vdbs_inet_links links;
+} vdbs_inet_setup;
+
+/* The paper's phase without delta-M (the balanced matrix keeps every collision's power) for the
+ * medium's g, and the network of N particles on D directions with window M (0: the rule) and
+ * seed. Errors: phasemat.h's and inet_network.h's, out of memory. */
+vdbs_status vdbs_inet_setup_build(const vdbs_volume *volume, double density_scale, double g,
+                                  int64_t particles, int directions, int window, uint64_t seed,
+                                  vdbs_inet_setup *setup, vdbs_error *err);
+void vdbs_inet_setup_free(vdbs_inet_setup *setup);
 
 /* 1 - exp(-m / A): a particle's opacity for its mass and pixel area (inet_network.h). */
 double vdbs_inet_opacity(const vdbs_inet_network *net);
@@ -56,6 +77,25 @@ double vdbs_inet_opacity(const vdbs_inet_network *net);
 vdbs_status vdbs_inet_iterate(vdbs_runner *runner, const vdbs_inet_problem *pb, int max_iterations,
                               double tolerance, float *state, vdbs_progress *progress,
                               vdbs_kernel_result *result, vdbs_error *err);
+
+/* How a solve (vdbs_inet_solve) ended. */
+typedef struct vdbs_inet_solve_result {
+    int iterations;
+    double change;      /* the last sweep's total change over `reference` */
+    double residual;    /* the estimated distance from the converged state over `reference` */
+    double contraction; /* the mean ratio of successive changes over the last 4 sweeps */
+    int converged;
+} vdbs_inet_solve_result;
+
+/* Jacobi sweeps until the estimated distance from the converged state is at most
+ * residual x reference (reference: the first scattering's total): the last sweep's change c
+ * times rho / (1 - rho), rho the contraction, once rho has settled below 1 over 4 sweeps (the
+ * change alone stops far too early where rho is near 1, in thick media near albedo 1), or at
+ * max_iterations. The constant inputs stay on the GPU between sweeps. Errors: the runner's. */
+vdbs_status vdbs_inet_solve(vdbs_runner *runner, const vdbs_inet_problem *pb, int max_iterations,
+                            double residual, double reference, float *state,
+                            vdbs_progress *progress, vdbs_inet_solve_result *result,
+                            vdbs_error *err);
 
 /* The power balance of one sweep from `before` to `after`, in double: what the slots hold
  * after (links and sinks, less the inflow) against what the particles sent out, the radiance
@@ -109,7 +149,9 @@ typedef struct vdbs_inet_stats {
     double opacity, pixel_area;
     int64_t links, sinks;
     int iterations, converged;
-    double residual; /* the last sweep's change over the first scattering's total */
+    double residual; /* the estimated distance from converged over the first scattering's total */
+    double change;   /* the last sweep's change, the same way */
+    double contraction; /* vdbs_inet_solve_result's */
     double first_total;
     double seconds_network, seconds_emission, seconds_solve, seconds_splat;
 } vdbs_inet_stats;

@@ -89,7 +89,7 @@ typedef struct vdbs_scene_fog {
 #define VDBS_MAX_SKY_DIRECTIONS 65536
 
 /* One solver option of a scene (solver.h): its scene key and value (a choice's index). */
-#define VDBS_MAX_SOLVER_SETTINGS 24
+#define VDBS_MAX_SOLVER_SETTINGS 32
 typedef struct vdbs_solver_setting {
     char key[24];
     double value;

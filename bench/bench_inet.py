@@ -1,0 +1,122 @@
+#!/usr/bin/python3
+"""--method inet against the Monte-Carlo reference, beside the other methods, on the cloud and
+smoke samples and two real volumes (the Disney cloud, 1/16, and the USD smoke: the calibration
+set's rigs, bench_calibrate.py). Per scene one `vdbscatter tradeoff` run (C path) renders the
+reference once and measures pop, fld, svd and inet at --qualities; then inet over a table of
+particles N and directions D (the window at its default, M^2 = N / 4), each bake rendered and
+compared with that reference: relative RMSE (the reference's own noise in quadrature) and the
+bake's seconds. Writes a Markdown file and a plot of the error against N per scene and D.
+
+usage: bench/bench_inet.py BUILD_DIR [--out bench/inet.md] [--plot bench/inet.png]
+       [--size 96x72] [--ref-noise 0.015] [--particles 1000,10000,100000]
+       [--directions 32,64,128] [--scenes cloud,smoke,disney,usd_smoke] [--dir DIR]"""
+import argparse
+import glob
+import os
+import tempfile
+
+from benchlib import run_json, save_plot, timed
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+ROOT = os.path.dirname(HERE)
+SAMPLES = os.path.join(ROOT, "samples")
+SCENES = os.path.join(HERE, "tradeoff", "scenes")
+DATA = os.environ.get("VDBSCATTER_DATA_DIR", os.path.join(os.path.dirname(ROOT), "shared", "data"))
+
+# name: (scene file, input VDB or None for the scene's own, what it stands for)
+CASES = {
+    "cloud": (os.path.join(SAMPLES, "cloud.json"), os.path.join(SAMPLES, "cloud.vdb"),
+              "sample cloud, sun + constant sky, g 0.85, albedo 0.99"),
+    "smoke": (os.path.join(SAMPLES, "smoke.json"), os.path.join(SAMPLES, "smoke.vdb"),
+              "sample smoke, sun + point light, g 0.3, albedo 0.8"),
+    "disney": (os.path.join(SCENES, "disney.json"), os.path.join(DATA, "wdas_cloud_sixteenth.vdb"),
+               "Disney cloud (1/16), depth 20, sun + sky, g 0.9, albedo 0.999"),
+    "usd_smoke": (os.path.join(SCENES, "usd_smoke.json"),
+                  os.path.join(DATA, "usd_smoke_000002.vdb"),
+                  "USD smoke, depth 3, sun + point light inside, g 0.5, albedo 0.9"),
+}
+
+
+def inet_point(exe, vdb, scene, ref, size, tmp, n, d):
+    lit = os.path.join(tmp, "lit.vdb")
+    rep, _ = timed([exe, "bake", vdb, "--scene", scene, "-o", lit, "--backend", "cpu",
+                    "--method", "inet", "--inet-particles", str(n), "--inet-directions", str(d),
+                    "--json", "-q"])
+    img = os.path.join(tmp, "img.exr")
+    run_json([exe, "render", lit, "--scene", scene, "-o", img, "--backend", "cpu", "--size", size,
+              "--json", "-q"])
+    cmp = run_json([exe, "compare", img, ref, "--json"])
+    return cmp["relrmse"], rep["seconds"]["solve"], rep["inet"]
+
+
+def main():
+    ap = argparse.ArgumentParser()
+    ap.add_argument("build")
+    ap.add_argument("--out", default=os.path.join(HERE, "inet.md"))
+    ap.add_argument("--plot", default=os.path.join(HERE, "inet.png"))
+    ap.add_argument("--size", default="96x72")
+    ap.add_argument("--ref-noise", default="0.015")
+    ap.add_argument("--qualities", default="low,medium")
+    ap.add_argument("--particles", default="1000,10000,100000")
+    ap.add_argument("--directions", default="32,64,128")
+    ap.add_argument("--scenes", default="cloud,smoke,disney,usd_smoke")
+    ap.add_argument("--dir", default="", help="the tradeoff folders' parent (kept; a rerun "
+                    "reuses the references); default a fresh temporary one")
+    args = ap.parse_args()
+    exe = os.path.join(args.build, "vdbscatter")
+    work = args.dir or tempfile.mkdtemp(prefix="bench-inet-")
+    ns = [int(v) for v in args.particles.split(",")]
+    ds = [int(v) for v in args.directions.split(",")]
+    lines = [f"`bench/bench_inet.py BUILD --size {args.size} --ref-noise {args.ref_noise} "
+             f"--particles {args.particles} --directions {args.directions}`: C path, this "
+             "machine, one run. Relative RMSE of the picture against the scene's Monte-Carlo "
+             "reference (its noise `ref se` in every figure, in quadrature); seconds: bake + "
+             "render for the methods (`vdbscatter tradeoff`), the solve for the table of N and D "
+             "(the window at its default, M^2 = N / 4).", ""]
+    curves = {}
+    for name in args.scenes.split(","):
+        scene, vdb, what = CASES[name]
+        if not os.path.exists(vdb):
+            lines += [f"## {name}: skipped ({vdb} missing)", ""]
+            continue
+        folder = os.path.join(work, name)
+        rep = run_json([exe, "tradeoff", vdb, "--scene", scene, "-o", folder, "--size", args.size,
+                        "--methods", "pop,fld,svd,inet", "--qualities", args.qualities,
+                        "--ref-noise", args.ref_noise, "--backend", "cpu", "--json", "-q"])
+        ref = sorted(glob.glob(os.path.join(folder, "reference-*.exr")))[0]
+        lines += [f"## {name}: {what}", "",
+                  f"Reference: {rep['reference'].get('spp', '?')} spp, noise "
+                  f"{rep['reference'].get('noise', float('nan')):.4f}.", "",
+                  "| method | quality | error | seconds |", "|---|---|---|---|"]
+        for row in rep["rows"]:
+            if row["method"] == "reference":
+                continue
+            lines.append(f"| {row['method']} | {row['quality']} | {row['relrmse']:.4f} | "
+                         f"{row['bake_s'] + row['render_s']:.3g} |")
+        lines += ["", "| N \\ D | " + " | ".join(str(d) for d in ds) + " |",
+                  "|---|" + "---|" * len(ds)]
+        tmp = tempfile.mkdtemp(prefix="inet-", dir=work)
+        for n in ns:
+            cells = []
+            for d in ds:
+                err, secs, stats = inet_point(exe, vdb, scene, ref, args.size, tmp, n, d)
+                cells.append(f"{err:.4f} ({secs:.3g} s, {stats['iterations']} sweeps)")
+                curves.setdefault(f"{name}, D {d}", []).append((n, err))
+                print(f"{name} N {n} D {d}: {err:.4f} in {secs:.3g} s", flush=True)
+            lines.append(f"| {n} | " + " | ".join(cells) + " |")
+        lines.append("")
+    with open(args.out, "w") as f:
+        f.write("\n".join(lines) + "\n")
+
+    def draw(ax):
+        for label, pts in curves.items():
+            ax.plot([p[0] for p in pts], [p[1] for p in pts], "o-", label=label)
+        ax.set_xscale("log")
+        ax.set_yscale("log")
+    save_plot(args.plot, draw, "particles N", "image relative RMSE",
+              "--method inet: error against N per scene and D")
+    print(f"wrote {args.out}")
+
+
+if __name__ == "__main__":
+    main()
