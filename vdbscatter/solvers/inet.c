@@ -276,10 +276,6 @@ struct vdbs_inet_run {
     vdbs_inet_setup setup;
     vdbs_voxel_faces faces;
     double *scratch, *rate;
-    /* Per output voxel the voxel whose particles take its first collisions (assign_targets:
-     * itself, else its densest face neighbour, else -1: lost, counted). */
-    int32_t *target;
-    double *power; /* 3 per voxel: the collided power its particles share, per volume */
     float *emission;
     double t0;
 };
@@ -292,32 +288,8 @@ void vdbs_inet_end(vdbs_inet_run *r)
     vdbs_voxel_faces_free(&r->faces);
     free(r->scratch);
     free(r->rate);
-    free(r->target);
-    free(r->power);
     free(r->emission);
     free(r);
-}
-
-/* Where each voxel's first collisions go. The medium is the trilinear interpolant of the
- * voxel centres, so the dilated ring of output voxels around the active ones (density 0 at the
- * centre) holds medium too, and in a thick volume most of the first collisions: the S1 pass
- * counts them there (collision.h), but no particle is sampled there (in proportion to the
- * centre's sigma_t). Those voxels hand their collisions to the densest face neighbour, whose
- * particles carry them: without it the white furnace of an optically thick cube came out at
- * half. A voxel with density keeps its own (its particles' expected mass is its own). */
-static void assign_targets(vdbs_inet_run *r)
-{
-    const int64_t voxels = (int64_t)r->s->volume->coord_count;
-    const float *density = r->faces.density;
-    for (int64_t v = 0; v < voxels; ++v) {
-        int32_t best = density[v] > 0.0f ? (int32_t)v : -1;
-        for (int f = 0; f < 6 && density[v] <= 0.0f; ++f) {
-            const int32_t n = r->faces.neighbour[6 * v + f];
-            if (n >= 0 && density[n] > 0.0f && (best < 0 || density[n] > density[best]))
-                best = n;
-        }
-        r->target[v] = best;
-    }
 }
 
 vdbs_status vdbs_inet_begin(const vdbs_solve *s, const vdbs_inet_desc *desc, vdbs_inet_run **out,
@@ -352,9 +324,7 @@ vdbs_status vdbs_inet_begin(const vdbs_solve *s, const vdbs_inet_desc *desc, vdb
         r->scratch = malloc(sizeof *r->scratch * VDBS_COLLISION_SCRATCH * (voxels ? voxels : 1));
         r->rate = malloc(sizeof *r->rate * 3 * (voxels ? voxels : 1));
         r->emission = calloc(3 * (size_t)r->setup.links.links, sizeof *r->emission);
-        r->target = malloc(sizeof *r->target * (voxels ? voxels : 1));
-        r->power = malloc(sizeof *r->power * 3 * (voxels ? voxels : 1));
-        if (!r->scratch || !r->rate || !r->emission || !r->target || !r->power)
+        if (!r->scratch || !r->rate || !r->emission)
             st = vdbs_error_set(err, VDBS_ERR_NOMEM,
                                 "out of memory for %lld particles x %d directions",
                                 (long long)r->setup.net.particles, d->directions);
@@ -363,7 +333,6 @@ vdbs_status vdbs_inet_begin(const vdbs_solve *s, const vdbs_inet_desc *desc, vdb
         vdbs_inet_end(r);
         return st;
     }
-    assign_targets(r);
     *out = r;
     return VDBS_OK;
 }
@@ -405,23 +374,8 @@ void vdbs_inet_light_depth(void *user, int light, const float *depth)
     vdbs_first_collisions(s->volume, &r->faces, s->lights, light, depth, s->scene->density_scale,
                           beam, r->scratch, r->rate, NULL);
     const vdbs_inet_network *net = &r->setup.net;
-    const int64_t voxels = (int64_t)s->volume->coord_count;
-    const double volume = vdbs_volume_voxel_volume(s->volume);
-    /* Each voxel's collisions onto its target (assign_targets); then per particle the
-     * irradiance its voxel's medium collides, power / sigma_t: particles are spread over the
-     * voxels in proportion to sigma_t, so their sum is the S1 pass's power in expectation. */
-    memset(r->power, 0, sizeof *r->power * 3 * (size_t)voxels);
-    double lost = 0.0;
-    for (int64_t v = 0; v < voxels; ++v) {
-        const int32_t t = r->target[v];
-        for (int ch = 0; ch < 3; ++ch) {
-            if (t >= 0)
-                r->power[3 * t + ch] += r->rate[3 * v + ch];
-            else
-                lost += r->rate[3 * v + ch] * volume;
-        }
-    }
-    r->stats.first_lost += lost;
+    /* Per particle the irradiance its voxel's medium collides, rate / sigma_t (the cube's
+     * average of E T: particles are spread over the voxel in proportion to sigma_t). */
 #pragma omp parallel for schedule(static)
     for (int64_t p = 0; p < net->particles; ++p) {
         const int64_t v = net->voxel[p];
@@ -433,7 +387,7 @@ void vdbs_inet_light_depth(void *user, int light, const float *depth)
             w[a] = net->position[3 * p + a];
         vdbs_lights_arrival(s->lights, light, w, color, travel);
         for (int ch = 0; ch < 3; ++ch)
-            irradiance[ch] = r->power[3 * v + ch] / sigma;
+            irradiance[ch] = r->rate[3 * v + ch] / sigma;
         vdbs_inet_emit(net, s->scene->g, s->scene->albedo, p, irradiance, travel, r->emission);
     }
     r->stats.seconds_emission += vdbs_now() - t0;

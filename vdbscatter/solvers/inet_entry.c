@@ -104,7 +104,6 @@ static const vdbs_report_field report[] = {
     {"contraction", VDBS_REPORT_DOUBLE, offsetof(vdbs_inet_stats, contraction)},
     {"converged", VDBS_REPORT_BOOL, offsetof(vdbs_inet_stats, converged)},
     {"first_total", VDBS_REPORT_DOUBLE, offsetof(vdbs_inet_stats, first_total)},
-    {"first_lost", VDBS_REPORT_DOUBLE, offsetof(vdbs_inet_stats, first_lost)},
 };
 
 static void report_text(const void *stats, char *text, size_t size)

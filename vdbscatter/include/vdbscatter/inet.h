@@ -153,7 +153,6 @@ typedef struct vdbs_inet_stats {
     double change;   /* the last sweep's change, the same way */
     double contraction; /* vdbs_inet_solve_result's */
     double first_total;
-    double first_lost; /* collided power (summed over channels) no particle was near */
     double seconds_network, seconds_emission, seconds_solve, seconds_splat;
 } vdbs_inet_stats;
 
