@@ -817,9 +817,11 @@ static void test_reference_corners(void **state)
  * uniform part through its grid's boundary, skyfloor.h: FLD's and SVD's --*-sky) is held to
  * it with that choice, and measured and printed at its defaults (which bring the whole sky in
  * as first collisions, measured better on images: docs/robustness.md "White furnace"); any
- * other solver is held to it at its defaults, POP only measured: its bias is its published
- * method's. */
-static const char *const FURNACE_MEASURED_ONLY[] = {"pop", NULL};
+ * other solver is held to it at its defaults, POP and INET only measured: their bias is their
+ * published methods' (POP's transit loss; the network's particles of finite opacity in pixel
+ * columns, whose extinction is not the medium's: docs/methods/inet.md "White furnace"). With
+ * its own first scattering the network is exact in the furnace (tests/test_inet.c). */
+static const char *const FURNACE_MEASURED_ONLY[] = {"pop", "inet", NULL};
 static const double FURNACE_GS[] = {0.0, 0.5, 0.9};
 
 /* One case; `held`: 1 when it is held to the target, 0 when only printed. */
