@@ -99,12 +99,7 @@ static void make_dense(int nx, int ny, int nz, int (*keep)(int, int, int), vdbs_
     vdbio_transform xf;
     memset(&xf, 0, sizeof xf);
     xf.m[0][0] = xf.m[1][1] = xf.m[2][2] = VOXEL;
-    vdbio_density *density = NULL;
-    vdbs_error err;
-    assert_int_equal(vdbio_density_from_dense(values, dims, origin, &xf, "density", &density, &err),
-                     VDBS_OK);
-    free(values);
-    assert_int_equal(vdbs_volume_from_density(density, volume, &err), VDBS_OK);
+    test_dense_volume(values, dims, origin, &xf, volume);
 }
 
 static int two_blobs(int i, int j, int k)

@@ -38,12 +38,7 @@ static void two_region_volume(vdbs_volume *volume)
                 values[(k * TWO_NY + j) * TWO_NX + i] = i < TWO_NX / 2 ? 1.0f : 3.0f;
     const int origin[3] = {0, 0, 0};
     vdbio_transform xf = {{{0.1, 0.0, 0.0, 0.25}, {0.0, 0.12, 0.0, -0.5}, {0.0, 0.0, 0.08, 1.0}}};
-    vdbio_density *density = NULL;
-    vdbs_error err;
-    assert_int_equal(vdbio_density_from_dense(values, dims, origin, &xf, "density", &density, &err),
-                     VDBS_OK);
-    free(values);
-    assert_int_equal(vdbs_volume_from_density(density, volume, &err), VDBS_OK);
+    test_dense_volume(values, dims, origin, &xf, volume);
 }
 
 static void sphere_volume(int res, vdbs_volume *volume)

@@ -44,12 +44,7 @@ static void make_block(const int dims[3], const double m[3][4], vdbs_volume *vol
     int origin[3] = {0, 0, 0};
     vdbio_transform xf;
     memcpy(xf.m, m, sizeof xf.m);
-    vdbio_density *density = NULL;
-    vdbs_error err;
-    assert_int_equal(vdbio_density_from_dense(values, dims, origin, &xf, "density", &density, &err),
-                     VDBS_OK);
-    free(values);
-    assert_int_equal(vdbs_volume_from_density(density, volume, &err), VDBS_OK);
+    test_dense_volume(values, dims, origin, &xf, volume);
 }
 
 /* S1 radiance by grids (oversample > 0) or by the exact march (oversample 0); sky grids at

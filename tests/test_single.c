@@ -33,12 +33,7 @@ static void make_block(int n, const double m[3][4], vdbs_volume *volume)
     int dims[3] = {n, n, n}, origin[3] = {0, 0, 0};
     vdbio_transform xf;
     memcpy(xf.m, m, sizeof xf.m);
-    vdbio_density *density = NULL;
-    vdbs_error err;
-    assert_int_equal(vdbio_density_from_dense(values, dims, origin, &xf, "density", &density, &err),
-                     VDBS_OK);
-    free(values);
-    assert_int_equal(vdbs_volume_from_density(density, volume, &err), VDBS_OK);
+    test_dense_volume(values, dims, origin, &xf, volume);
 }
 
 static void scale_transform(double h, double m[3][4])

@@ -205,3 +205,14 @@ void test_gauss_legendre(int n, double a, double b, double *x, double *w)
         w[i] = (b - a) / ((1.0 - z * z) * pp * pp);
     }
 }
+
+void test_dense_volume(float *values, const int dims[3], const int origin[3],
+                       const vdbio_transform *xf, vdbs_volume *volume)
+{
+    vdbio_density *density = NULL;
+    vdbs_error err;
+    assert_int_equal(vdbio_density_from_dense(values, dims, origin, xf, "density", &density, &err),
+                     VDBS_OK);
+    free(values);
+    assert_int_equal(vdbs_volume_from_density(density, volume, &err), VDBS_OK);
+}

@@ -42,6 +42,11 @@ void test_load_ms_grids(const char *path, const double index_to_world[3][4], vdb
 void test_write_lit(const char *path, const vdbs_volume *volume, const float *ms,
                     float *const l1[3]);
 
+/* A volume from dense values (vdbio_density_from_dense, grid "density"); frees `values`;
+ * fails the test on error. */
+void test_dense_volume(float *values, const int dims[3], const int origin[3],
+                       const vdbio_transform *xf, vdbs_volume *volume);
+
 /* A procedural sample volume (vdbs_sample_create); fails the test on error. */
 void test_sample_volume(const char *name, int res, unsigned seed, vdbs_volume *volume);
 

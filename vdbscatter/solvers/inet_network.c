@@ -57,17 +57,7 @@ int vdbs_inet_window_rule(int64_t particles)
 
 void vdbs_inet_basis(const double w[3], double u[3], double v[3])
 {
-    /* Duff et al., "Building an orthonormal basis, revisited" (2017): branchless and continuous
-     * everywhere except across w.z = 0's sign change, where it stays orthonormal. */
-    const double sign = copysign(1.0, w[2]);
-    const double a = -1.0 / (sign + w[2]);
-    const double b = w[0] * w[1] * a;
-    u[0] = 1.0 + sign * w[0] * w[0] * a;
-    u[1] = sign * b;
-    u[2] = -sign * w[0];
-    v[0] = b;
-    v[1] = sign + w[1] * w[1] * a;
-    v[2] = -w[1];
+    vdbs_ortho_basis(w, u, v);
 }
 
 void vdbs_inet_network_free(vdbs_inet_network *net)
