@@ -5,7 +5,8 @@ set's rigs, bench_calibrate.py). Per scene one `vdbscatter tradeoff` run (C path
 reference once and measures pop, fld, svd and inet at --qualities; then inet over a table of
 particles N and directions D (the window at its default, M^2 = N / 4), each bake rendered and
 compared with that reference: relative RMSE (the reference's own noise in quadrature) and the
-bake's seconds. Writes a Markdown file and a plot of the error against N per scene and D.
+bake's seconds. Writes a Markdown file and a plot of the error against N per scene and D
+(the plot needs matplotlib).
 
 usage: bench/bench_inet.py BUILD_DIR [--out bench/inet.md] [--plot bench/inet.png]
        [--size 96x72] [--ref-noise 0.015] [--particles 1000,10000,100000]
@@ -70,7 +71,7 @@ def main():
     lines = [f"`bench/bench_inet.py BUILD --size {args.size} --ref-noise {args.ref_noise} "
              f"--particles {args.particles} --directions {args.directions}`: C path, this "
              "machine, one run. Relative RMSE of the picture against the scene's Monte-Carlo "
-             "reference (its noise `ref se` in every figure, in quadrature); seconds: bake + "
+             "reference (its own noise, below, is part of every figure); seconds: bake + "
              "render for the methods (`vdbscatter tradeoff`), the solve for the table of N and D "
              "(the window at its default, M^2 = N / 4).", ""]
     curves = {}

@@ -808,7 +808,7 @@ static void test_reference_corners(void **state)
  * At albedo 1 under a uniform sky of radiance 1 and no other light, the exact in-scattered
  * radiance is 1 at every voxel, whatever the density and g. Over the voxels whose density is
  * above 0.05 of the largest: the target at high is a mean within 2% of 1 and the 1st to 99th
- * percentiles within 5%. A solver with a choice "boundary" among its options (the sky's
+ * percentiles within 5% (inet runs at low). A solver with a choice "boundary" among its options (the sky's
  * uniform part through its grid's boundary, skyfloor.h: FLD's and SVD's --*-sky) is held to
  * it with that choice, and measured and printed at its defaults (which bring the whole sky in
  * as first collisions, measured better on images: docs/robustness.md "White furnace"); any
@@ -827,7 +827,9 @@ static void furnace_case(const vdbs_solver *solver, int boundary, int held, int 
     vdbs_volume_support_bounds(volume, b.lo, b.hi);
     vdbs_scene scene;
     make_scene(&scene, solver, LIGHT_SKY, 1.0, g, 1.0, 1.0, &b, volume->mean_voxel_size);
-    snprintf(scene.quality, sizeof scene.quality, "high");
+    /* inet measured at low: its figures printed at a fraction of high's time (its particles). */
+    snprintf(scene.quality, sizeof scene.quality, "%s",
+             strcmp(solver->name, "inet") == 0 ? "low" : "high");
     for (int c = 0; c < 3; ++c)
         scene.lights[0].color[c] = 1.0;
     const vdbs_solver_option *option = boundary ? set_boundary(solver, &scene) : NULL;
