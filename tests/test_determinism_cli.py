@@ -23,7 +23,7 @@ import pyopenvdb as vdb
 EXE = os.environ["VDBSCATTER"]
 SAMPLES = os.environ["VDBSCATTER_SAMPLES_DIR"]
 
-METHODS = ("single", "pop", "fld", "svd")
+METHODS = ("single", "pop", "fld", "svd", "inet")
 THREADS = (1, 2, 8)
 # The metadata that differs between two runs of the same bake: the one timing.
 VARYING = {"vdbscatter_solve_seconds"}
