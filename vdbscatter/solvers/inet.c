@@ -71,11 +71,48 @@ double vdbs_inet_opacity(const vdbs_inet_network *net)
 
 /* ---- the sweep through the runner ---- */
 
+static void put_float(uint32_t *words, int at, double value)
+{
+    float f = (float)value;
+    memcpy(&words[at], &f, sizeof f);
+}
+
 typedef struct inet_kernel {
     uint32_t params[VS_INET_PARAM_WORDS];
     const int32_t *source;
     const float *phase, *emission;
 } inet_kernel;
+
+/* The kernel's parameter words and tables for a problem (vs_inet.h). */
+static void kernel_make(const vdbs_inet_problem *pb, inet_kernel *k)
+{
+    memset(k, 0, sizeof *k);
+    k->source = pb->links->source;
+    k->phase = pb->phase;
+    k->emission = pb->emission;
+    k->params[VS_INET_OFF_PARTICLES] = (uint32_t)pb->net->particles;
+    k->params[VS_INET_OFF_DIRECTIONS] = (uint32_t)pb->net->directions;
+    put_float(k->params, VS_INET_OFF_OPACITY, pb->opacity);
+    for (int ch = 0; ch < 3; ++ch) {
+        put_float(k->params, VS_INET_OFF_ALBEDO + ch, pb->albedo[ch]);
+        put_float(k->params, VS_INET_OFF_INFLOW + ch, pb->inflow[ch]);
+    }
+    k->params[VS_INET_OFF_EMISSION] = pb->emission ? 1u : 0u;
+    k->params[VS_INET_OFF_SINKS] = (uint32_t)pb->links->sinks;
+}
+
+/* One slot's new value from `in` into `out` (which may be `in`); its change, summed over the
+ * channels. */
+static double slot_update(const inet_kernel *k, const float *in, float *out, int s)
+{
+    pnanovdb_vec3_t l = vs_inet_slot(k->params, k->source, k->phase, k->emission, in, s);
+    const double change = fabs((double)l.x - in[3 * s]) + fabs((double)l.y - in[3 * s + 1]) +
+                          fabs((double)l.z - in[3 * s + 2]);
+    out[3 * s] = l.x;
+    out[3 * s + 1] = l.y;
+    out[3 * s + 2] = l.z;
+    return change;
+}
 
 VS_CPU_CLONES static double inet_step(void *user, int step, const void *state_in, void *state_out,
                                       uint64_t begin, uint64_t end)
@@ -85,22 +122,9 @@ VS_CPU_CLONES static double inet_step(void *user, int step, const void *state_in
     const float *in = state_in;
     float *out = state_out;
     double change = 0.0;
-    for (uint64_t item = begin; item < end; ++item) {
-        const int s = (int)item;
-        pnanovdb_vec3_t l = vs_inet_slot(k->params, k->source, k->phase, k->emission, in, s);
-        out[3 * s] = l.x;
-        out[3 * s + 1] = l.y;
-        out[3 * s + 2] = l.z;
-        change += fabs((double)l.x - in[3 * s]) + fabs((double)l.y - in[3 * s + 1]) +
-                  fabs((double)l.z - in[3 * s + 2]);
-    }
+    for (uint64_t item = begin; item < end; ++item)
+        change += slot_update(k, in, out, (int)item);
     return change;
-}
-
-static void put_float(uint32_t *words, int at, double value)
-{
-    float f = (float)value;
-    memcpy(&words[at], &f, sizeof f);
 }
 
 vdbs_status vdbs_inet_iterate(vdbs_runner *runner, const vdbs_inet_problem *pb, int max_iterations,
@@ -113,16 +137,8 @@ vdbs_status vdbs_inet_iterate(vdbs_runner *runner, const vdbs_inet_problem *pb, 
         return vdbs_error_set(err, VDBS_ERR_INPUT,
                               "%lld particles x %d directions: more slots than a kernel indexes",
                               (long long)net->particles, net->directions);
-    inet_kernel k = {.source = pb->links->source, .phase = pb->phase, .emission = pb->emission};
-    k.params[VS_INET_OFF_PARTICLES] = (uint32_t)net->particles;
-    k.params[VS_INET_OFF_DIRECTIONS] = (uint32_t)net->directions;
-    put_float(k.params, VS_INET_OFF_OPACITY, pb->opacity);
-    for (int ch = 0; ch < 3; ++ch) {
-        put_float(k.params, VS_INET_OFF_ALBEDO + ch, pb->albedo[ch]);
-        put_float(k.params, VS_INET_OFF_INFLOW + ch, pb->inflow[ch]);
-    }
-    k.params[VS_INET_OFF_EMISSION] = pb->emission ? 1u : 0u;
-    k.params[VS_INET_OFF_SINKS] = (uint32_t)pb->links->sinks;
+    inet_kernel k;
+    kernel_make(pb, &k);
     const size_t d = (size_t)net->directions;
     vdbs_kernel_desc kd = {0};
     kd.items = (uint64_t)slots;
@@ -130,13 +146,13 @@ vdbs_status vdbs_inet_iterate(vdbs_runner *runner, const vdbs_inet_problem *pb, 
     kd.cpu_step = inet_step;
     kd.cpu_chunk = 1024;
     kd.shader = "inet_sweep.comp";
-    kd.inputs[1] = (vdbs_kernel_input){k.params, sizeof k.params, 0};
-    kd.inputs[2] = (vdbs_kernel_input){pb->links->source,
-                                       sizeof(int32_t) * (size_t)(slots + pb->links->sinks), 0};
-    kd.inputs[3] = (vdbs_kernel_input){pb->phase, sizeof(float) * d * d, 0};
+    kd.inputs[1] = (vdbs_kernel_input){k.params, sizeof k.params, pb->resident[0]};
+    kd.inputs[2] = (vdbs_kernel_input){
+        pb->links->source, sizeof(int32_t) * (size_t)(slots + pb->links->sinks), pb->resident[1]};
+    kd.inputs[3] = (vdbs_kernel_input){pb->phase, sizeof(float) * d * d, pb->resident[2]};
     if (pb->emission)
-        kd.inputs[4] =
-            (vdbs_kernel_input){pb->emission, sizeof(float) * 3 * (size_t)pb->links->links, 0};
+        kd.inputs[4] = (vdbs_kernel_input){
+            pb->emission, sizeof(float) * 3 * (size_t)pb->links->links, pb->resident[3]};
     kd.state = state;
     kd.state_words = 3;
     kd.max_iterations = max_iterations > 0 ? max_iterations : 1;
@@ -145,6 +161,35 @@ vdbs_status vdbs_inet_iterate(vdbs_runner *runner, const vdbs_inet_problem *pb, 
     kd.progress = progress;
     kd.cancel = vdbs_progress_cancel(progress);
     return vdbs_kernel_iterate(runner, &kd, result, err);
+}
+
+double vdbs_inet_line_sweep(const vdbs_inet_problem *pb, const int32_t *downstream, float *state,
+                            double *scratch)
+{
+    const vdbs_inet_network *net = pb->net;
+    const int64_t N = net->particles, links = pb->links->links, sinks = pb->links->sinks;
+    const int D = net->directions;
+    inet_kernel k;
+    kernel_make(pb, &k);
+    double change = 0.0;
+    for (int i = 0; i < D; ++i) {
+#pragma omp parallel for schedule(dynamic, 256)
+        for (int64_t head = 0; head < N; ++head) {
+            scratch[head] = 0.0;
+            if (net->upstream[head * D + i] >= 0)
+                continue;
+            /* A chain's slots in order, each from its source's newest values, in place. */
+            for (int64_t p = head; p >= 0; p = downstream[p * D + i])
+                scratch[head] += slot_update(&k, state, state, (int)(p * D + i));
+        }
+        /* In particle order, so that the change does not depend on the thread count. */
+        for (int64_t head = 0; head < N; ++head)
+            change += scratch[head];
+    }
+    /* The sinks: the light leaving each chain's end. */
+    for (int64_t s = links; s < links + sinks; ++s)
+        change += slot_update(&k, state, state, (int)s);
+    return change;
 }
 
 /* Sweeps the contraction is averaged over, and sweeps before its estimate may end a solve. */

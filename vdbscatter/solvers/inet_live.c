@@ -40,7 +40,7 @@ struct vdbs_inet_live {
     int have_lights;
     float medium[4 * VDBS_MEDIUM_TABLE_ENTRIES];
     float *state;    /* links then sinks, 3 floats a slot */
-    float *previous; /* the state before the running line sweep, for its change */
+    double *scratch; /* N: the line sweep's per-chain changes */
     /* N x D: downstream[p D + d], the particle whose upstream along d is p, or -1: the
      * chains walked from their heads by the line sweep */
     int32_t *downstream;
@@ -168,86 +168,8 @@ static vdbs_status seed(vdbs_inet_live *l, const vdbs_scene *scene, int keep_sky
     return VDBS_OK;
 }
 
-/* The outgoing radiance of particle q along direction i (vs_inet.h's Eq. 2): its incoming
- * light along i, `through`, passed on with 1 - alpha, plus its first scattering and the
- * scattering of its incoming light in `state` (the line sweep's newest values). */
-static void outgoing(const vdbs_inet_live *l, const float *state, const float *through, int64_t q,
-                     int i, float alpha, const float keep[3], float *out)
-{
-    const int D = l->setup.net.directions;
-    const float *row = l->setup.phase + (size_t)i * (size_t)D;
-    const float *in = state + 3 * q * D;
-    float r = 0.0f, g = 0.0f, b = 0.0f;
-    for (int d = 0; d < D; ++d) {
-        r += row[d] * in[3 * d];
-        g += row[d] * in[3 * d + 1];
-        b += row[d] * in[3 * d + 2];
-    }
-    const float *e = l->emission + 3 * (q * D + i);
-    out[0] = (1.0f - alpha) * through[0] + e[0] + keep[0] * r;
-    out[1] = (1.0f - alpha) * through[1] + e[1] + keep[1] * g;
-    out[2] = (1.0f - alpha) * through[2] + e[2] + keep[2] * b;
-}
-
-/* One Gauss-Seidel line sweep of the warm start: the directions in turn, and per direction
- * its chains walked from their heads downstream (in parallel), each slot taking its source's
- * outgoing light from the newest state: the light passed through the source already new
- * along the chain, and the scattering of directions already swept this time. The fixed point
- * is the Jacobi sweep's (the same equation); where a Jacobi sweep moves light one particle
- * along a chain and one scattering a sweep, this carries it through the whole volume and
- * many scatterings, so a moved light settles in a few sweeps (tests/test_inet_live.c: 5
- * sweeps leave 1% of the stale error on the cloud sample, Jacobi's leave half). Returns the
- * sum of the slots' changes. */
-static double line_sweep(vdbs_inet_live *l)
-{
-    const vdbs_inet_network *net = &l->setup.net;
-    const int64_t N = net->particles, links = l->setup.links.links, sinks = l->setup.links.sinks;
-    const int D = net->directions;
-    const float alpha = (float)vdbs_inet_opacity(net);
-    float keep[3];
-    for (int ch = 0; ch < 3; ++ch)
-        keep[ch] = alpha * (float)l->scene->albedo[ch];
-    memcpy(l->previous, l->state, sizeof *l->state * 3 * (size_t)(links + sinks));
-    const float *old = l->previous;
-    float *state = l->state;
-    double change = 0.0;
-    for (int i = 0; i < D; ++i) {
-#pragma omp parallel for schedule(dynamic, 256)
-        for (int64_t head = 0; head < N; ++head) {
-            if (net->upstream[head * D + i] >= 0)
-                continue;
-            /* A chain's head gets nothing from upstream (no inflow for scattered light). */
-            int64_t p = head;
-            float *slot = state + 3 * (p * D + i);
-            slot[0] = slot[1] = slot[2] = 0.0f;
-            for (int64_t next = l->downstream[p * D + i]; next >= 0;
-                 p = next, next = l->downstream[p * D + i]) {
-                float *to = state + 3 * (next * D + i);
-                outgoing(l, state, state + 3 * (p * D + i), p, i, alpha, keep, to);
-            }
-        }
-    }
-    for (int64_t s = 0; s < links; ++s) {
-        const float *a = old + 3 * s, *b = state + 3 * s;
-        change += fabs((double)b[0] - a[0]) + fabs((double)b[1] - a[1]) + fabs((double)b[2] - a[2]);
-    }
-    /* The sinks: the light leaving each chain's end. */
-    for (int64_t k = 0; k < sinks; ++k) {
-        const int64_t q = l->setup.links.source[links + k];
-        const int i = l->setup.links.source[links + sinks + k];
-        float *to = state + 3 * (links + k);
-        outgoing(l, state, state + 3 * (q * D + i), q, i, alpha, keep, to);
-        for (int ch = 0; ch < 3; ++ch)
-            change += fabs((double)to[ch] - old[3 * (links + k) + ch]);
-    }
-    return change;
-}
-
-/* The cold solve: up to `sweeps` Jacobi sweeps from the state through the runner, stopping at
- * the estimated residual, as the bake's (vdbs_inet_solve): the same converged state as the
- * baked ms. */
-static vdbs_status run_sweeps(vdbs_inet_live *l, int sweeps, vdbs_progress *progress,
-                              vdbs_error *err)
+/* The problem the sweeps solve: the network, its phase, the current first scattering. */
+static vdbs_inet_problem live_problem(const vdbs_inet_live *l)
 {
     vdbs_inet_problem pb = {.net = &l->setup.net,
                             .links = &l->setup.links,
@@ -256,6 +178,16 @@ static vdbs_status run_sweeps(vdbs_inet_live *l, int sweeps, vdbs_progress *prog
                             .emission = l->emission};
     for (int ch = 0; ch < 3; ++ch)
         pb.albedo[ch] = l->scene->albedo[ch];
+    return pb;
+}
+
+/* The cold solve: up to `sweeps` Jacobi sweeps from the state through the runner, stopping at
+ * the estimated residual, as the bake's (vdbs_inet_solve): the same converged state as the
+ * baked ms. */
+static vdbs_status run_sweeps(vdbs_inet_live *l, int sweeps, vdbs_progress *progress,
+                              vdbs_error *err)
+{
+    const vdbs_inet_problem pb = live_problem(l);
     /* Without light the state decays to 0: its change is measured against nothing, so the
      * tolerance is absolute there. */
     const double reference = l->first > 0.0 ? l->first : 1.0;
@@ -281,7 +213,7 @@ void vdbs_inet_live_destroy(vdbs_inet_live *l)
     if (l->have_lights)
         vdbs_lights_free(&l->lights);
     free(l->state);
-    free(l->previous);
+    free(l->scratch);
     free(l->downstream);
     free(l->scene);
     if (l->own_runner)
@@ -307,9 +239,10 @@ static vdbs_status build_network(vdbs_inet_live *l, const vdbs_quality *quality,
     l->e_sky = calloc(links, sizeof *l->e_sky);
     l->emission = calloc(links, sizeof *l->emission);
     l->state = calloc(slots, sizeof *l->state);
-    l->previous = calloc(slots, sizeof *l->previous);
+    l->scratch = malloc(sizeof *l->scratch *
+                        (size_t)(l->setup.net.particles > 0 ? l->setup.net.particles : 1));
     l->downstream = malloc(sizeof *l->downstream * (links / 3 ? links / 3 : 1));
-    if (!l->e_direct || !l->e_sky || !l->emission || !l->state || !l->previous || !l->downstream)
+    if (!l->e_direct || !l->e_sky || !l->emission || !l->state || !l->scratch || !l->downstream)
         return vdbs_error_set(err, VDBS_ERR_NOMEM,
                               "out of memory for %lld particles x %d directions",
                               (long long)particles, directions);
@@ -396,8 +329,10 @@ vdbs_status vdbs_inet_live_sweep(vdbs_inet_live *l, int sweeps, vdbs_inet_live_s
     vdbs_status st = VDBS_OK;
     (void)err; /* the line sweep is the C path's and allocates nothing */
     const double reference = l->first > 0.0 ? l->first : 1.0;
+    const vdbs_inet_problem pb = live_problem(l);
     for (int k = 0; k < sweeps && !(l->status.sweeps > 0 && l->status.converged); ++k) {
-        l->status.change = line_sweep(l) / reference;
+        l->status.change =
+            vdbs_inet_line_sweep(&pb, l->downstream, l->state, l->scratch) / reference;
         l->status.sweeps += 1;
         l->status.converged = l->status.change <= l->residual;
     }

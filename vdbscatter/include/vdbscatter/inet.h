@@ -78,6 +78,17 @@ vdbs_status vdbs_inet_iterate(vdbs_runner *runner, const vdbs_inet_problem *pb, 
                               double tolerance, float *state, vdbs_progress *progress,
                               vdbs_kernel_result *result, vdbs_error *err);
 
+/* One Gauss-Seidel line sweep on the C path, in place, through the same slot update as the
+ * kernel (vs_inet.h): the directions in turn, and per direction its chains walked from their
+ * heads downstream (in parallel), each slot taking its source's outgoing light from the newest
+ * state, then the sinks. The fixed point is the Jacobi sweep's; where a Jacobi sweep moves
+ * light one particle along a chain, this carries it through the whole volume and many
+ * scatterings (the viewer's warm start, inet_live.h). downstream: N x D, the particle whose
+ * upstream along d is p, or -1; scratch: N doubles. Returns the sum of the slots' changes over
+ * the channels. */
+double vdbs_inet_line_sweep(const vdbs_inet_problem *pb, const int32_t *downstream, float *state,
+                            double *scratch);
+
 /* How a solve (vdbs_inet_solve) ended. */
 typedef struct vdbs_inet_solve_result {
     int iterations;
