@@ -66,7 +66,7 @@ VALIDATION = {
 
 
 QUALITIES = ("low", "medium", "high", "ultra")
-METHODS = ("single", "pop", "fld", "svd")
+METHODS = ("single", "pop", "fld", "svd", "inet")
 
 
 def write_csv(path, rep):
@@ -131,8 +131,8 @@ def summary():
     every = []
     for kind, gathered in gathered_sets(HERE):
         lines += [f"## {kind.capitalize()}", "",
-                  "| scene | what | reference spp / noise | single | pop | fld | svd |",
-                  "|---|---|---|---|---|---|---|"]
+                  "| scene | what | reference spp / noise | " + " | ".join(METHODS) + " |",
+                  "|---|---|---|" + "---|" * len(METHODS)]
         for name, e in sorted(gathered.items()):
             every.append((name, e))
             rows = {(r["method"], r["quality"]): r["relrmse"] for r in e["tradeoff"]["rows"]}

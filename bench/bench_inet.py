@@ -10,7 +10,10 @@ bake's seconds. Writes a Markdown file and a plot of the error against N per sce
 
 usage: bench/bench_inet.py BUILD_DIR [--out bench/inet.md] [--plot bench/inet.png]
        [--size 96x72] [--ref-noise 0.015] [--particles 1000,10000,100000]
-       [--directions 32,64,128] [--scenes cloud,smoke,disney,usd_smoke] [--dir DIR]"""
+       [--directions 32,64,128] [--scenes cloud,smoke,disney,usd_smoke] [--dir DIR]
+       [--corner 1000000x64,10000x512]
+--corner: single points outside the table (N x D), listed under it. The scenes not run keep
+their sections from the existing --out file, so that a rerun of one scene updates it."""
 import argparse
 import glob
 import os
@@ -61,6 +64,7 @@ def main():
     ap.add_argument("--particles", default="1000,10000,100000")
     ap.add_argument("--directions", default="32,64,128")
     ap.add_argument("--scenes", default="cloud,smoke,disney,usd_smoke")
+    ap.add_argument("--corner", default="", help="extra N x D points, e.g. 1000000x64")
     ap.add_argument("--dir", default="", help="the tradeoff folders' parent (kept; a rerun "
                     "reuses the references); default a fresh temporary one")
     args = ap.parse_args()
@@ -75,10 +79,20 @@ def main():
              "render for the methods (`vdbscatter tradeoff`), the solve for the table of N and D "
              "(the window at its default, M^2 = N / 4).", ""]
     curves = {}
+    sections = {}  # scene: its lines, from the existing file, replaced by those run now
+    if os.path.exists(args.out):
+        current = None
+        for line in open(args.out).read().split("\n"):
+            if line.startswith("## "):
+                current = line[3:].split(":")[0]
+                sections[current] = []
+            if current:
+                sections[current].append(line)
     for name in args.scenes.split(","):
+        start = len(lines)
         scene, vdb, what = CASES[name]
         if not os.path.exists(vdb):
-            lines += [f"## {name}: skipped ({vdb} missing)", ""]
+            sections[name] = [f"## {name}: skipped ({vdb} missing)", ""]
             continue
         folder = os.path.join(work, name)
         rep = run_json([exe, "tradeoff", vdb, "--scene", scene, "-o", folder, "--size", args.size,
@@ -102,12 +116,35 @@ def main():
             for d in ds:
                 err, secs, stats = inet_point(exe, vdb, scene, ref, args.size, tmp, n, d)
                 cells.append(f"{err:.4f} ({secs:.3g} s, {stats['iterations']} sweeps)")
-                curves.setdefault(f"{name}, D {d}", []).append((n, err))
                 print(f"{name} N {n} D {d}: {err:.4f} in {secs:.3g} s", flush=True)
             lines.append(f"| {n} | " + " | ".join(cells) + " |")
         lines.append("")
+        for point in filter(None, args.corner.split(",")):
+            n, d = (int(v) for v in point.split("x"))
+            err, secs, stats = inet_point(exe, vdb, scene, ref, args.size, tmp, n, d)
+            lines.append(f"- N {n}, D {d}: {err:.4f} ({secs:.3g} s, {stats['iterations']} "
+                         "sweeps)")
+            print(f"{name} N {n} D {d}: {err:.4f} in {secs:.3g} s", flush=True)
+        if args.corner:
+            lines.append("")
+        sections[name] = lines[start:]
+        del lines[start:]
+    for name in list(CASES) + [k for k in sections if k not in CASES]:
+        lines += sections.get(name, [])
     with open(args.out, "w") as f:
-        f.write("\n".join(lines) + "\n")
+        f.write("\n".join(lines).rstrip("\n") + "\n")
+    # The plot from the file's tables, so that kept sections are drawn too.
+    name, ds = None, []
+    for line in lines:
+        cells = [c.strip() for c in line.strip().strip("|").split("|")]
+        if line.startswith("## "):
+            name, ds = line[3:].split(":")[0], []
+        elif line.startswith("| N \\ D"):
+            ds = cells[1:]
+        elif ds and line.startswith("| ") and cells[0].isdigit():
+            for d, cell in zip(ds, cells[1:]):
+                curves.setdefault(f"{name}, D {d}", []).append((int(cells[0]),
+                                                                float(cell.split()[0])))
 
     def draw(ax):
         for label, pts in curves.items():

@@ -3,7 +3,7 @@
 every method at low and medium against a Monte-Carlo reference (`vdbscatter tradeoff`, 48x36,
 fixed seeds): the error at medium is at most the error at low plus two of the estimates'
 standard errors (docs/planner.md has the whole calibration set); and SVD's high step on the
-env-map cloud, where 256 sky ordinates measured worse than medium's 64."""
+env-map cloud, where 256 sky ordinates measured worse than medium's 64; inet's stop at low."""
 import json
 import os
 import shutil
@@ -64,6 +64,23 @@ class Ladder(unittest.TestCase):
         print(f"cloud_sky svd: medium {me['relrmse']:.4f} +- {me['relrmse_se']:.4f}, high "
               f"{hi['relrmse']:.4f} +- {hi['relrmse_se']:.4f}")
         self.assertLessEqual(hi["relrmse"], bound)
+
+    def test_inet_bakes_every_quality_as_low(self):
+        """inet's ladder stops at low (more particles moved the error both ways): a bake at
+        high says so and is low's bake, the same particles, sky, light grids and sweeps."""
+        def bake(quality):
+            return json.loads(run("bake", "--scene", os.path.join(SAMPLES, "cloud.json"), "-o",
+                                  os.path.join(self.tmp, f"inet-{quality}.vdb"), "--method",
+                                  "inet", "--quality", quality, "--backend", "cpu", "--json",
+                                  "-q").stdout)
+        low, high = bake("low"), bake("high")
+        self.assertEqual(high["quality"], "high")
+        self.assertEqual(high.get("quality_baked"), "low")
+        self.assertNotIn("quality_baked", low)
+        for key in ("sky_directions", "s1_oversample"):
+            self.assertEqual(high[key], low[key], key)
+        for key in ("particles", "directions", "iterations", "first_total", "residual"):
+            self.assertEqual(high["inet"][key], low["inet"][key], key)
 
 
 if __name__ == "__main__":

@@ -57,6 +57,26 @@ static void test_presets_are_the_solvers(void **state)
     }
 }
 
+/* A ladder's stop: above it the solver bakes the stop's settings, below it its own; a solver
+ * without a stop bakes every quality as asked. */
+static void test_ladder_stop(void **state)
+{
+    (void)state;
+    int count = 0;
+    const vdbs_quality *q = vdbs_quality_list(&count);
+    const vdbs_solver *inet = vdbs_solver_find("inet"), *svd = vdbs_solver_find("svd");
+    assert_non_null(inet);
+    assert_string_equal(inet->ladder_stop, "low");
+    const int stop = vdbs_quality_level(inet->ladder_stop);
+    for (int level = 0; level < count; ++level) {
+        const vdbs_quality *baked = vdbs_solver_quality(inet, &q[level]);
+        assert_int_equal(vdbs_quality_level(baked->name), level < stop ? level : stop);
+        assert_ptr_equal(vdbs_solver_quality(svd, &q[level]), &q[level]);
+        assert_ptr_equal(vdbs_solver_quality(NULL, &q[level]), &q[level]);
+    }
+    assert_null(vdbs_solver_quality(inet, NULL));
+}
+
 static void test_keys_and_flags_unique(void **state)
 {
     (void)state;
@@ -80,6 +100,8 @@ static void test_keys_and_flags_unique(void **state)
         for (int q = 0; q < VDBS_QUALITY_COUNT; ++q) {
             assert_true(s->cost[q] > 0.0);
             assert_true(q == 0 || s->cost[q] >= s->cost[q - 1]);
+            assert_true(s->cost_fixed[q] >= 0.0);
+            assert_true(q == 0 || s->cost_fixed[q] >= s->cost_fixed[q - 1]);
         }
     assert_true(options <= VDBS_MAX_SOLVER_SETTINGS);
     assert_null(vdbs_solver_at(-1));
@@ -169,9 +191,8 @@ static void test_register_refuses_clashes(void **state)
 int main(void)
 {
     const struct CMUnitTest tests[] = {
-        cmocka_unit_test(test_presets_are_the_solvers),
-        cmocka_unit_test(test_keys_and_flags_unique),
-        cmocka_unit_test(test_set_and_check),
+        cmocka_unit_test(test_presets_are_the_solvers),  cmocka_unit_test(test_ladder_stop),
+        cmocka_unit_test(test_keys_and_flags_unique),    cmocka_unit_test(test_set_and_check),
         cmocka_unit_test(test_register_refuses_clashes),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);

@@ -212,7 +212,7 @@ vdbs_status vdbs_bake_volume(const vdbs_bake_options *o, const vdbs_volume *volu
 {
     memset(report, 0, sizeof *report);
     const vdbs_solver *solver = vdbs_solver_find(o->scene->method);
-    const vdbs_quality *quality = vdbs_quality_find(o->scene->quality);
+    const vdbs_quality *quality = vdbs_solver_quality(solver, vdbs_quality_find(o->scene->quality));
     if (!solver || !quality)
         return vdbs_error_set(err, VDBS_ERR_INPUT, "unknown method '%s' or quality '%s'",
                               o->scene->method, o->scene->quality);
@@ -295,7 +295,7 @@ static vdbs_status check_request(bake_job *j, vdbs_error *err)
         st = vdbio_check_output(o->output, j->input, err);
     if (st != VDBS_OK)
         return st;
-    j->quality = vdbs_quality_find(scene->quality);
+    j->quality = vdbs_solver_quality(j->solver, vdbs_quality_find(scene->quality));
     if (!j->quality)
         return vdbs_error_set(err, VDBS_ERR_INPUT, "unknown quality '%s'", scene->quality);
     j->sky = vdbs_solver_sky_directions(j->solver, scene, j->quality);
@@ -365,8 +365,8 @@ static vdbs_status plan(bake_job *j, vdbs_bake_report *report, vdbs_error *err)
     if (!(j->plan_json = vdbs_plan_json(p, &report->plan_features)))
         return vdbs_error_set(err, VDBS_ERR_NOMEM, "out of memory");
     j->solver = vdbs_solver_find(j->scene->method);
-    j->quality = q;
-    j->sky = vdbs_solver_sky_directions(j->solver, j->scene, q);
+    j->quality = vdbs_solver_quality(j->solver, q);
+    j->sky = vdbs_solver_sky_directions(j->solver, j->scene, j->quality);
     return VDBS_OK;
 }
 
@@ -601,6 +601,7 @@ static void report_setup(const bake_job *j, vdbs_bake_report *report)
     report->output_voxels = j->volume.coord_count;
     report->sky_directions = j->sky;
     snprintf(report->s1, sizeof report->s1, "%s", o->s1_march ? "march" : "grid");
+    snprintf(report->quality_baked, sizeof report->quality_baked, "%s", j->quality->name);
     report->s1_oversample = o->s1_march            ? 0
                             : o->s1_oversample > 0 ? o->s1_oversample
                                                    : j->quality->s1_oversample;

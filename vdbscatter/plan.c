@@ -204,7 +204,9 @@ static int predict(const vdbs_plan_features *f, const char *method, int quality,
     /* Cost from the solver entry's own hint (measured on a quiet machine, bench/cost.md):
      * the calibration's timings share two cores with everything else. */
     const vdbs_solver *solver = vdbs_solver_find(method);
-    *seconds = solver ? solver->cost[quality] * f->active_voxels * 1e-6 : INFINITY;
+    *seconds = solver
+                   ? solver->cost_fixed[quality] + solver->cost[quality] * f->active_voxels * 1e-6
+                   : INFINITY;
     return 1;
 }
 

@@ -165,6 +165,8 @@ static cJSON *report_json(const char *input, const char *output, const vdbs_scen
     cJSON_AddStringToObject(j, "grid", r->grid);
     cJSON_AddStringToObject(j, "method", scene->method);
     cJSON_AddStringToObject(j, "quality", scene->quality);
+    if (r->quality_baked[0] && strcmp(r->quality_baked, scene->quality) != 0)
+        cJSON_AddStringToObject(j, "quality_baked", r->quality_baked);
     cJSON_AddNumberToObject(j, "sky_directions", r->sky_directions);
     cJSON_AddStringToObject(j, "s1", r->s1);
     if (r->s1_oversample > 0)

@@ -147,9 +147,10 @@ static int same_sky(const vdbs_light_table *a, const vdbs_light_table *b)
  * ordinates are those already seeded (`keep_sky`). */
 static vdbs_status seed(vdbs_inet_live *l, const vdbs_scene *scene, int keep_sky, vdbs_error *err)
 {
-    const vdbs_quality *quality = vdbs_quality_find(l->scene->quality);
+    const vdbs_solver *inet = vdbs_solver_find("inet");
+    const vdbs_quality *quality = vdbs_solver_quality(inet, vdbs_quality_find(l->scene->quality));
     vdbs_lights_desc ld = {0};
-    ld.sky_ordinates = vdbs_solver_sky_directions(vdbs_solver_find("inet"), scene, quality);
+    ld.sky_ordinates = vdbs_solver_sky_directions(inet, scene, quality);
     vdbs_light_table table;
     vdbs_status st = vdbs_lights_build(l->volume, scene, &ld, &table, err);
     if (st != VDBS_OK)
@@ -273,7 +274,8 @@ vdbs_status vdbs_inet_live_create(const vdbs_inet_live_desc *d, vdbs_inet_live *
     const char *name = d->quality && d->quality[0]    ? d->quality
                        : l->scene->quality[0] != '\0' ? l->scene->quality
                                                       : "medium";
-    const vdbs_quality *quality = vdbs_quality_find(name);
+    const vdbs_quality *quality =
+        vdbs_solver_quality(vdbs_solver_find("inet"), vdbs_quality_find(name));
     vdbs_status st = VDBS_OK;
     if (!quality)
         st = vdbs_error_set(err, VDBS_ERR_INPUT, "inet live: unknown quality '%s'", name);

@@ -292,6 +292,14 @@ void vdbs_solver_report_json(const vdbs_solver *solver, const vdbs_scene *scene,
     }
 }
 
+const vdbs_quality *vdbs_solver_quality(const vdbs_solver *solver, const vdbs_quality *quality)
+{
+    const vdbs_quality *stop =
+        solver && solver->ladder_stop && quality ? vdbs_quality_find(solver->ladder_stop) : NULL;
+    return stop && vdbs_quality_level(quality->name) > vdbs_quality_level(stop->name) ? stop
+                                                                                      : quality;
+}
+
 int vdbs_solver_sky_directions(const vdbs_solver *solver, const vdbs_scene *scene,
                                const vdbs_quality *quality)
 {

@@ -76,8 +76,9 @@ typedef struct vdbs_bake_report {
      * path). */
     unsigned long long bytes_uploaded, bytes_read_back;
     int sky_directions;
-    char s1[8];        /* "march" or "grid" */
-    int s1_oversample; /* 0 for march */
+    char quality_baked[8]; /* the quality whose settings were baked (vdbs_solver_quality) */
+    char s1[8];            /* "march" or "grid" */
+    int s1_oversample;     /* 0 for march */
     /* Light grids (grid only): sizes summed over the lights, and the time of each stage. */
     vdbs_light_grid_stats s1_grids;
     double seconds_s1_lookup;

@@ -112,15 +112,27 @@ typedef struct vdbs_solver {
      * at each quality, measured on the bundled cloud (bench/defaults.md); the same
      * order of magnitude on other scenes, no more. */
     double cost[VDBS_QUALITY_COUNT];
+    /* The part of the solve's seconds that does not follow the voxels, at each quality, from
+     * the same bench at two volume sizes (0 for a solver whose work is all per voxel; the
+     * illumination network's sweeps follow its particles and directions). */
+    double cost_fixed[VDBS_QUALITY_COUNT];
     /* The sky quadrature of S1 at each quality; 0: the quality's (quality.h). A method whose
      * error rises with a finer sky (its bias no longer cancels) stops its ladder here. */
     int sky_directions[VDBS_QUALITY_COUNT];
+    /* Where the ladder stops ("medium"): a higher quality bakes exactly as this one (S1 and
+     * the solver's presets), because beyond it the method's bias floor, not its settings,
+     * sets the error. NULL: the whole ladder. */
+    const char *ladder_stop;
 } vdbs_solver;
 
 /* The sky directions of a bake: the scene's when set, else the solver's at the quality,
  * else the quality's. */
 int vdbs_solver_sky_directions(const vdbs_solver *solver, const vdbs_scene *scene,
                                const vdbs_quality *quality);
+
+/* The quality whose settings the solver bakes at `quality`: the same, or its ladder's stop
+ * below it. */
+const vdbs_quality *vdbs_solver_quality(const vdbs_solver *solver, const vdbs_quality *quality);
 
 /* The solver of a method name, or NULL if none is implemented under that name. */
 const vdbs_solver *vdbs_solver_find(const char *name);
