@@ -344,7 +344,7 @@ static void test_warm_start_from_kept_state(void **unused)
     vdbs_inet_voxel_state vs;
     assert_int_equal(vdbs_inet_voxel_state_alloc(&vs, f.net.directions, f.volume.coord_count, &err),
                      VDBS_OK);
-    vdbs_inet_voxel_state_store(&f.net, cold, &vs);
+    assert_int_equal(vdbs_inet_voxel_state_store(&f.net, cold, &vs, &err), VDBS_OK);
     vdbs_inet_voxel_state_start(&f.net, &vs, warm);
     float *zero = calloc(n, sizeof *zero);
     assert_non_null(zero);

@@ -334,17 +334,21 @@ void vdbs_inet_voxel_state_free(vdbs_inet_voxel_state *vs)
     memset(vs, 0, sizeof *vs);
 }
 
-void vdbs_inet_voxel_state_store(const vdbs_inet_network *net, const float *state,
-                                 vdbs_inet_voxel_state *vs)
+vdbs_status vdbs_inet_voxel_state_store(const vdbs_inet_network *net, const float *state,
+                                        vdbs_inet_voxel_state *vs, vdbs_error *err)
 {
     const int D = net->directions;
     const size_t voxels = vs->voxels;
     uint32_t *count = calloc(voxels ? voxels : 1, sizeof *count);
     double *sum = calloc(3 * (voxels ? voxels : 1), sizeof *sum);
-    if (!count || !sum || D != vs->directions) {
+    if (D != vs->directions || !count || !sum) {
         free(count);
         free(sum);
-        return;
+        return D != vs->directions
+                   ? vdbs_error_set(err, VDBS_ERR_INTERNAL,
+                                    "inet state: %d directions for a network of %d", vs->directions,
+                                    D)
+                   : vdbs_error_set(err, VDBS_ERR_NOMEM, "out of memory for the network's state");
     }
     for (int d = 0; d < D; ++d) {
         memset(sum, 0, sizeof *sum * 3 * voxels);
@@ -364,6 +368,7 @@ void vdbs_inet_voxel_state_store(const vdbs_inet_network *net, const float *stat
     }
     free(count);
     free(sum);
+    return VDBS_OK;
 }
 
 void vdbs_inet_voxel_state_start(const vdbs_inet_network *net, const vdbs_inet_voxel_state *vs,
@@ -741,7 +746,7 @@ vdbs_status vdbs_inet_finish(vdbs_inet_run *r, vdbs_inet_stats *stats, vdbs_erro
         st =
             vdbs_inet_voxel_state_alloc(r->desc.keep, net->directions, s->volume->coord_count, err);
         if (st == VDBS_OK)
-            vdbs_inet_voxel_state_store(net, state, r->desc.keep);
+            st = vdbs_inet_voxel_state_store(net, state, r->desc.keep, err);
     }
     if (st == VDBS_OK)
         st = vdbs_inet_to_voxels(net, state, s->volume, s->scene->density_scale, s->scene->g, s->ms,

@@ -156,9 +156,10 @@ vdbs_status vdbs_inet_voxel_state_alloc(vdbs_inet_voxel_state *vs, int direction
 void vdbs_inet_voxel_state_free(vdbs_inet_voxel_state *vs);
 /* The network's state (links then sinks, 3 floats a slot) into vs (allocated for the network's
  * D and its volume's voxels): per voxel and direction the mean of the links' radiance over the
- * voxel's particles with an upstream particle along the direction, 0 where none. */
-void vdbs_inet_voxel_state_store(const vdbs_inet_network *net, const float *state,
-                                 vdbs_inet_voxel_state *vs);
+ * voxel's particles with an upstream particle along the direction, 0 where none. Errors: vs
+ * of another D (VDBS_ERR_INTERNAL), out of memory. */
+vdbs_status vdbs_inet_voxel_state_store(const vdbs_inet_network *net, const float *state,
+                                        vdbs_inet_voxel_state *vs, vdbs_error *err);
 /* The warm start: every particle's links that have an upstream particle take its voxel's
  * stored radiance (0 where the voxel holds none, as a cold start); the other slots (the chains'
  * heads, which hold the inflow, and the sinks, whatever the first sweep makes them) are left as
