@@ -929,6 +929,59 @@ class Svd(Base):
                                    cold, *extra], needle)
 
 
+class InetState(Base):
+    def test_keep_state_and_warm_start(self):
+        """--method inet --keep-state writes one vec3 grid per direction, inet_r0000...
+        (the RGB radiance reaching the voxel's particles along it), and the D they belong to;
+        --warm-start from it (the same particles: each starts from its voxel's mean) reports
+        warm_start and stops by the same rule in at most half the sweeps (measured 15 against
+        43 on the cloud sample at low), its ms within 1% of the cold bake's peak (measured
+        0.09%); a state starts another seed's particles too. Another --inet-directions, an svd
+        state and a file without state are refused (exit 2, one line, no output)."""
+        src = os.path.join(SAMPLES, "cloud.vdb")
+        base = ["--scene", os.path.join(SAMPLES, "cloud.json"), "--method", "inet",
+                "--quality", "low", "--json"]
+        cold, p = self.bake(src, *base, "--keep-state", out="cold.vdb")
+        self.assertEqual(p.returncode, 0, p.stderr)
+        cold_stats = json.loads(p.stdout)["inet"]
+        self.assertEqual(cold_stats["directions"], 64)
+        names = {g["name"] for g in vdb.readAllGridMetadata(cold)}
+        self.assertEqual({n for n in names if n.startswith("inet_r")},
+                         {f"inet_r{d:04d}" for d in range(64)})
+        meta = vdb.readAllGridMetadata(cold)[0]
+        self.assertEqual(meta["vdbscatter_inet_directions"], "64")
+        state = values(cold, "inet_r0007")
+        self.assertTrue(all(c >= 0.0 for v in state.values() for c in v))
+        self.assertGreater(sum(1 for v in state.values() if v[1] > 0.0), 100)
+        warm, q = self.bake(src, *base, "--warm-start", cold, out="warm.vdb")
+        self.assertEqual(q.returncode, 0, q.stderr)
+        warm_stats = json.loads(q.stdout)["inet"]
+        self.assertEqual((cold_stats["warm_start"], warm_stats["warm_start"]), (False, True))
+        self.assertTrue(warm_stats["converged"])
+        self.assertLessEqual(warm_stats["residual"], 1e-2)
+        self.assertLessEqual(warm_stats["iterations"], cold_stats["iterations"] // 2)
+        ms_cold, ms_warm = values(cold, "ms"), values(warm, "ms")
+        peak = max(max(v) for v in ms_cold.values())
+        worst = max(abs(a - b) for k in ms_cold for a, b in zip(ms_cold[k], ms_warm[k]))
+        self.assertLessEqual(worst, 1e-2 * peak)
+        self.assertNotIn("inet_r0000", {g["name"] for g in vdb.readAllGridMetadata(warm)})
+        _, r = self.bake(src, *base, "--warm-start", cold, "--inet-seed", "5", out="seed.vdb")
+        self.assertEqual(r.returncode, 0, r.stderr)
+        self.assertTrue(json.loads(r.stdout)["inet"]["warm_start"])
+        svd, s = self.bake(src, "--scene", os.path.join(SAMPLES, "cloud.json"), "--method", "svd",
+                           "--quality", "low", "--svd-directions", "8", "--svd-res", "8",
+                           "--keep-state", "-q", out="svd.vdb")
+        self.assertEqual(s.returncode, 0, s.stderr)
+        out = self.path("out.vdb")
+        line = self.assert_bad_input(["bake", src, "-o", out, *base, "--warm-start", cold,
+                                      "--inet-directions", "32"], "--warm-start")
+        self.assertIn("64 directions, not 32", line)
+        for state_file in (svd, src):
+            line = self.assert_bad_input(["bake", src, "-o", out, *base, "--warm-start",
+                                          state_file], "--warm-start")
+            self.assertIn("--method inet --keep-state", line)
+
+
 class PhaseSvd(Base):
     def test_rows_for_every_term(self):
         """phase-svd --json: one row per N from 1 to D, the error falling to 0 at N = D; g 0

@@ -50,8 +50,9 @@ static const char help[] =
     "plus the baked multiple scattering). A density-only VDB opens too, single scattering\n"
     "only. Moving a light rebuilds its light grids at once; the baked multiple scattering\n"
     "then belongs to the old light until `b` re-bakes it in the background. A VDB baked\n"
-    "with --method inet keeps it live instead: its network is rebuilt at start and every\n"
-    "frame after a light change runs --inet-sweeps warm sweeps and shows their result.\n"
+    "with --method inet keeps it live instead: its network is rebuilt at start (solved\n"
+    "cold, or from the file's state when baked with --keep-state) and every frame after\n"
+    "a light change runs --inet-sweeps warm sweeps and shows their result.\n"
     "\n"
     "scene (as render; flags override --scene, light flags replace the scene's lights):\n"
     "  --scene FILE.json  --grid NAME[@INDEX]  --density-scale S  --albedo A|R,G,B  --g G\n"
@@ -695,8 +696,9 @@ static vdbs_status open_live(viewer *v, const view_args *a, vdbs_error *err)
     if (v->in.mode != VDBS_RENDER_BAKED || strcmp(v->in.baked_method, "inet") != 0 ||
         a->inet_sweeps <= 0 || !vdbs_lit_grids_have_ms(&v->in.ms))
         return VDBS_OK;
+    /* The metadata, and the inet state's grids when a --keep-state bake wrote them. */
     vdbio_lit *lit = NULL;
-    vdbs_status st = vdbio_lit_open(v->input, &lit, err);
+    vdbs_status st = vdbio_lit_open_prefix(v->input, VDBS_INET_STATE_PREFIX, &lit, err);
     if (st != VDBS_OK)
         return st;
     vdbs_scene *baked = malloc(sizeof *baked);
@@ -707,7 +709,6 @@ static vdbs_status open_live(viewer *v, const view_args *a, vdbs_error *err)
         st = vdbs_error_set(err, VDBS_ERR_INPUT, "%s: no vdbscatter_scene metadata", v->input);
     else
         st = vdbs_scene_parse(meta, NULL, baked, err);
-    vdbio_lit_close(lit);
     if (st == VDBS_OK) {
         baked->density_scale = v->in.scene->density_scale;
         memcpy(baked->albedo, v->in.scene->albedo, sizeof baked->albedo);
@@ -717,8 +718,11 @@ static vdbs_status open_live(viewer *v, const view_args *a, vdbs_error *err)
         d.scene = baked;
         d.quality = baked->quality;
         d.runner = v->runner;
+        d.state = lit;
+        d.state_path = v->input;
         st = vdbs_inet_live_create(&d, &v->live, err);
     }
+    vdbio_lit_close(lit);
     free(baked);
     const size_t n = 3 * v->in.volume.coord_count;
     if (st == VDBS_OK) {
@@ -850,7 +854,8 @@ static vdbs_status run_screenshot(viewer *v, GLFWwindow *window, const view_args
                "\"backend\": \"%s\", \"renderer\": \"%s\", "
                "\"interleave\": %d, \"occluders\": %d, \"fog\": %d, \"inet_sweeps\": %d, "
                "\"ms_live\": %d, \"live_sweeps\": %d, \"live_change\": %.6g, "
-               "\"live_converged\": %d, \"live_update_ms\": %.3f}\n",
+               "\"live_converged\": %d, \"live_update_ms\": %.3f, \"inet_start\": \"%s\", "
+               "\"inet_open_sweeps\": %d}\n",
                v->image.width, v->image.height, a->warmup, v->open_ms, first_ms, mean_ms,
                v->march.stored_depths ? "stored"
                : v->march.s1_march    ? "march"
@@ -858,7 +863,11 @@ static vdbs_status run_screenshot(viewer *v, GLFWwindow *window, const view_args
                vdbs_runner_backend_name(v->runner), vdbs_runner_device(v->runner),
                v->interleave_on ? v->interleave : 1, v->occluders.count, v->march_fog.fog != NULL,
                v->inet_sweeps, v->live_active, v->live_status.sweeps, v->live_status.change,
-               v->live_status.converged, v->live_update_ms);
+               v->live_status.converged, v->live_update_ms,
+               !v->live                                    ? "none"
+               : vdbs_inet_live_opened(v->live).from_state ? "state"
+                                                           : "cold",
+               v->live ? vdbs_inet_live_opened(v->live).sweeps : 0);
     } else if (st == VDBS_OK && !a->quiet) {
         fprintf(stderr, PROGRAM ": %dx%d in %.1f ms a frame (first %.1f ms) on %s -> %s\n",
                 v->image.width, v->image.height, mean_ms, first_ms, vdbs_runner_device(v->runner),

@@ -55,13 +55,16 @@ static const char help[] =
     "  --camera PX,PY,PZ:TX,TY,TZ:FOV   the camera radiance_view is written toward\n"
     "  --quality Q              low (default) | medium | high | ultra (sky directions\n"
     "                           16/64/256/1024, POP 16 at all, SVD 64 at high and\n"
-    "                           ultra; and each method's defaults below)\n"
-    "  --keep-state             a method with state (svd, fld) also writes it into the\n"
-    "                           lit VDB (svd: the N radiance moment grids svd_m0000...;\n"
-    "                           fld: the fluence grid fld_phi)\n"
+    "                           ultra; and each method's defaults below; inet bakes\n"
+    "                           every quality as low)\n"
+    "  --keep-state             a method with state (svd, fld, inet) also writes it into\n"
+    "                           the lit VDB (svd: the N radiance moment grids svd_m0000...;\n"
+    "                           fld: the fluence grid fld_phi; inet: per direction the RGB\n"
+    "                           slot radiance, a voxel's particles' mean, inet_r0000...)\n"
     "  --warm-start FILE.vdb    start from a --keep-state bake's state (svd: its moments,\n"
     "                           its D and N; fld: its fluence, for the first solve and\n"
-    "                           limiter), read where the volume's voxels are in the world\n"
+    "                           limiter; inet: each particle from its voxel's radiance, the\n"
+    "                           same D), read where the volume's voxels are in the world\n"
     "\n"
     "other options:\n"
     "  -o, --output FILE        lit VDB to write (refused if equal to the input): FILE.vdb\n"
@@ -98,8 +101,9 @@ static const char help[] =
     "  --verify                 bake nothing: check that every frame is done with this\n"
     "                           bake's hash (exit 0, else 3)\n"
     "  --summary FILE.json      the sequence summary, rewritten after every frame\n"
-    "  --no-warm-start          start svd and fld cold on every frame (default: from the\n"
-    "                           previous frame's state, kept in its .vdb)\n"
+    "  --no-warm-start          start svd and fld cold on every frame (default: from\n"
+    "                           the previous frame's state, kept in its .vdb; inet's only\n"
+    "                           with --keep-state)\n"
     "exit status: 0 done, 1 failure, 2 bad input, 3 a sequence done in part\n";
 
 static const vdbs_arg_option own_options[] = {
@@ -628,9 +632,10 @@ static int run_sequence(bake_request *r)
                                                 "frame: give a frame number (report.####.json)");
     const vdbs_solver *solver = vdbs_solver_find(r->scene.method);
     /* Warm starts need the state inside the lit VDB (.vdb) and a solver that keeps one. */
-    r->sequence_warm = solver && solver->state && r->options.tolerance <= 0.0 &&
-                       !r->options.warm_start && !vdbs_options_flag(args, "--no-warm-start") &&
-                       vdbs_options_has_extension(r->out, ".vdb");
+    r->sequence_warm =
+        solver && solver->state && (!solver->state->sequence_on_request || r->options.keep_state) &&
+        r->options.tolerance <= 0.0 && !r->options.warm_start &&
+        !vdbs_options_flag(args, "--no-warm-start") && vdbs_options_has_extension(r->out, ".vdb");
     vdbs_sequence_step step = {0};
     step.command = "bake";
     step.worked = "baked";

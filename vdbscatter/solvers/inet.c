@@ -2,6 +2,7 @@
 
 #include <math.h>
 #include <stdint.h>
+#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -302,6 +303,135 @@ double vdbs_inet_balance(const vdbs_inet_problem *pb, const float *before, const
     return sent > 0.0 ? fabs(sent - held) / sent : 0.0;
 }
 
+/* ---- the state on the output voxels ---- */
+
+vdbs_status vdbs_inet_voxel_state_alloc(vdbs_inet_voxel_state *vs, int directions, size_t voxels,
+                                        vdbs_error *err)
+{
+    memset(vs, 0, sizeof *vs);
+    vs->radiance = calloc((size_t)(directions > 0 ? directions : 1), sizeof *vs->radiance);
+    vdbs_status st =
+        vs->radiance ? VDBS_OK
+                     : vdbs_error_set(err, VDBS_ERR_NOMEM, "out of memory for the network's state");
+    vs->directions = vs->radiance ? directions : 0;
+    vs->voxels = voxels;
+    for (int d = 0; d < vs->directions && st == VDBS_OK; ++d)
+        if (!(vs->radiance[d] = calloc(3 * (voxels ? voxels : 1), sizeof *vs->radiance[d])))
+            st = vdbs_error_set(err, VDBS_ERR_NOMEM,
+                                "out of memory for the network's state: %d directions x %zu "
+                                "voxels",
+                                directions, voxels);
+    if (st != VDBS_OK)
+        vdbs_inet_voxel_state_free(vs);
+    return st;
+}
+
+void vdbs_inet_voxel_state_free(vdbs_inet_voxel_state *vs)
+{
+    for (int d = 0; vs->radiance && d < vs->directions; ++d)
+        free(vs->radiance[d]);
+    free(vs->radiance);
+    memset(vs, 0, sizeof *vs);
+}
+
+vdbs_status vdbs_inet_voxel_state_store(const vdbs_inet_network *net, const float *state,
+                                        vdbs_inet_voxel_state *vs, vdbs_error *err)
+{
+    const int D = net->directions;
+    const size_t voxels = vs->voxels;
+    uint32_t *count = calloc(voxels ? voxels : 1, sizeof *count);
+    double *sum = calloc(3 * (voxels ? voxels : 1), sizeof *sum);
+    if (D != vs->directions || !count || !sum) {
+        free(count);
+        free(sum);
+        return D != vs->directions
+                   ? vdbs_error_set(err, VDBS_ERR_INTERNAL,
+                                    "inet state: %d directions for a network of %d", vs->directions,
+                                    D)
+                   : vdbs_error_set(err, VDBS_ERR_NOMEM, "out of memory for the network's state");
+    }
+    for (int d = 0; d < D; ++d) {
+        memset(sum, 0, sizeof *sum * 3 * voxels);
+        memset(count, 0, sizeof *count * voxels);
+        for (int64_t p = 0; p < net->particles; ++p) {
+            const size_t v = (size_t)net->voxel[p];
+            if (v >= voxels || net->upstream[p * D + d] < 0)
+                continue;
+            ++count[v];
+            for (int ch = 0; ch < 3; ++ch)
+                sum[3 * v + ch] += state[3 * (p * D + d) + ch];
+        }
+        float *out = vs->radiance[d];
+        for (size_t v = 0; v < voxels; ++v)
+            for (int ch = 0; ch < 3; ++ch)
+                out[3 * v + ch] = count[v] ? (float)(sum[3 * v + ch] / count[v]) : 0.0f;
+    }
+    free(count);
+    free(sum);
+    return VDBS_OK;
+}
+
+void vdbs_inet_voxel_state_start(const vdbs_inet_network *net, const vdbs_inet_voxel_state *vs,
+                                 float *state)
+{
+    const int D = net->directions;
+    if (D != vs->directions)
+        return;
+#pragma omp parallel for schedule(static)
+    for (int64_t p = 0; p < net->particles; ++p) {
+        const size_t v = (size_t)net->voxel[p];
+        if (v >= vs->voxels)
+            continue;
+        for (int d = 0; d < D; ++d)
+            if (net->upstream[p * D + d] >= 0)
+                for (int ch = 0; ch < 3; ++ch)
+                    state[3 * (p * D + d) + ch] = vs->radiance[d][3 * v + ch];
+    }
+}
+
+static void state_grid_name(int d, char *name, size_t size)
+{
+    snprintf(name, size, VDBS_INET_STATE_PREFIX "%04d", d);
+}
+
+int vdbs_inet_voxel_state_directions(const vdbio_lit *lit)
+{
+    const char *text = lit ? vdbio_lit_meta(lit, VDBS_INET_STATE_META) : NULL;
+    const long d = text ? strtol(text, NULL, 10) : 0;
+    char name[32];
+    if (d < 1 || d > 100000)
+        return 0;
+    state_grid_name((int)d - 1, name, sizeof name);
+    return vdbio_lit_has_grid(lit, name) ? (int)d : 0;
+}
+
+vdbs_status vdbs_inet_voxel_state_read(const vdbio_lit *lit, const char *path,
+                                       const vdbs_volume *volume, int directions,
+                                       vdbs_inet_voxel_state *vs, vdbs_error *err)
+{
+    memset(vs, 0, sizeof *vs);
+    const int held = vdbs_inet_voxel_state_directions(lit);
+    if (held == 0)
+        return vdbs_error_set(err, VDBS_ERR_INPUT,
+                              "--warm-start %s: no illumination-network state in it (bake it "
+                              "with --method inet --keep-state)",
+                              path);
+    if (held != directions)
+        return vdbs_error_set(err, VDBS_ERR_INPUT,
+                              "--warm-start %s: its illumination-network state has %d "
+                              "directions, not %d (--inet-directions)",
+                              path, held, directions);
+    vdbs_status st = vdbs_inet_voxel_state_alloc(vs, held, volume->coord_count, err);
+    for (int d = 0; d < held && st == VDBS_OK; ++d) {
+        char name[32];
+        state_grid_name(d, name, sizeof name);
+        st = vdbs_solve_state_vec3(lit, name, volume, vs->radiance[d], err);
+    }
+    if (st != VDBS_OK)
+        vdbs_inet_voxel_state_free(vs);
+    return st;
+}
+
 /* ---- the bake's solve ---- */
 
 /* What a quality chooses (docs/methods/inet.md, "Presets and the ladder": 64 directions
@@ -584,6 +714,17 @@ vdbs_status vdbs_inet_finish(vdbs_inet_run *r, vdbs_inet_stats *stats, vdbs_erro
                             .emission = r->emission};
     for (int ch = 0; ch < 3; ++ch)
         pb.albedo[ch] = s->scene->albedo[ch];
+    const vdbs_inet_voxel_state *warm = r->desc.warm;
+    if (warm && (warm->directions != net->directions || warm->voxels != s->volume->coord_count)) {
+        free(state);
+        return vdbs_error_set(err, VDBS_ERR_INTERNAL,
+                              "inet warm start: a state of %d directions x %zu voxels for %d x %zu",
+                              warm->directions, warm->voxels, net->directions,
+                              s->volume->coord_count);
+    }
+    if (warm)
+        vdbs_inet_voxel_state_start(net, warm, state);
+    st_out->warm_start = warm != NULL;
     const double t1 = vdbs_now();
     vdbs_inet_solve_result sr = {.converged = 1};
     vdbs_status st = VDBS_OK;
@@ -603,6 +744,12 @@ vdbs_status vdbs_inet_finish(vdbs_inet_run *r, vdbs_inet_stats *stats, vdbs_erro
     st_out->converged = sr.converged;
     st_out->seconds_solve = vdbs_now() - t1;
     const double t2 = vdbs_now();
+    if (st == VDBS_OK && r->desc.keep) {
+        st =
+            vdbs_inet_voxel_state_alloc(r->desc.keep, net->directions, s->volume->coord_count, err);
+        if (st == VDBS_OK)
+            st = vdbs_inet_voxel_state_store(net, state, r->desc.keep, err);
+    }
     if (st == VDBS_OK)
         st = vdbs_inet_to_voxels(net, state, s->volume, s->scene->density_scale, s->scene->g, s->ms,
                                  s->ms_l1, s->radiance, &st_out->resolution, err);

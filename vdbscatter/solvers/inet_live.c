@@ -45,6 +45,7 @@ struct vdbs_inet_live {
      * chains walked from their heads by the line sweep */
     int32_t *downstream;
     vdbs_inet_live_status status;
+    vdbs_inet_live_opening opening;
 };
 
 /* An inet option's value at the quality (solver.h): the scene's, else the bake's preset. */
@@ -301,11 +302,25 @@ vdbs_status vdbs_inet_live_create(const vdbs_inet_live_desc *d, vdbs_inet_live *
     }
     if (st == VDBS_OK)
         st = seed(l, d->scene, 0, err);
-    if (st == VDBS_OK && l->first > 0.0) {
+    /* From a kept state of the same D: its voxels' radiance, then warm line sweeps. */
+    const int directions = l->setup.net.directions;
+    if (st == VDBS_OK && d->state && vdbs_inet_voxel_state_directions(d->state) == directions) {
+        vdbs_inet_voxel_state vs;
+        st = vdbs_inet_voxel_state_read(d->state, d->state_path ? d->state_path : "the lit VDB",
+                                        l->volume, directions, &vs, err);
+        if (st == VDBS_OK) {
+            vdbs_inet_voxel_state_start(&l->setup.net, &vs, l->state);
+            vdbs_inet_voxel_state_free(&vs);
+            l->opening.from_state = 1;
+            st = vdbs_inet_live_sweep(l, l->max_iterations, NULL, err);
+            l->opening.sweeps = l->status.sweeps;
+        }
+    } else if (st == VDBS_OK && l->first > 0.0) {
         if (d->progress)
             vdbs_progress_begin(d->progress, d->progress->enabled, "inet sweeps",
                                 (uint64_t)l->max_iterations);
         st = run_sweeps(l, l->max_iterations, d->progress, err);
+        l->opening.sweeps = l->status.sweeps;
     } else if (st == VDBS_OK) {
         l->status.converged = 1;
     }
@@ -362,4 +377,9 @@ const vdbs_inet_network *vdbs_inet_live_network(const vdbs_inet_live *l)
 const float *vdbs_inet_live_state(const vdbs_inet_live *l)
 {
     return l->state;
+}
+
+vdbs_inet_live_opening vdbs_inet_live_opened(const vdbs_inet_live *l)
+{
+    return l->opening;
 }

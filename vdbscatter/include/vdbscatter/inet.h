@@ -20,6 +20,8 @@
 #include "vdbscatter/runner.h"
 #include "vdbscatter/solve.h"
 #include "vdbscatter/status.h"
+#include "vdbscatter/vdbio.h"
+#include "vdbscatter/volume.h"
 
 #ifdef __cplusplus
 extern "C" {
@@ -131,6 +133,50 @@ vdbs_status vdbs_inet_to_voxels(const vdbs_inet_network *net, const float *state
                                 float *ms, float *const ms_l1[3], float *radiance, int *resolution,
                                 vdbs_error *err);
 
+/* A solve's state on the output voxels (--keep-state, --warm-start, the viewer's open): per
+ * direction d one grid of 3 floats per output voxel, the RGB radiance I reaching the voxel's
+ * particles along w_d (the slots carry a value per colour channel, the albedo being one per
+ * channel), the mean over the voxel's particles that have an upstream particle along w_d; 0
+ * where none has. A chain's head holds only the inflow, whatever the state: it is neither
+ * averaged nor started. Per voxel, not per particle, so that a state starts a network of
+ * another seed or particle count on the same volume. A lit VDB stores it as the vec3 grids
+ * inet_r0000 ... (one per direction) with the file metadata vdbscatter_inet_directions (D). */
+typedef struct vdbs_inet_voxel_state {
+    int directions;   /* D; 0: empty */
+    size_t voxels;    /* the volume's output voxels */
+    float **radiance; /* D arrays of 3 floats per output voxel (coords order) */
+} vdbs_inet_voxel_state;
+
+#define VDBS_INET_STATE_PREFIX "inet_r"
+#define VDBS_INET_STATE_META "vdbscatter_inet_directions"
+
+/* Errors: out of memory. */
+vdbs_status vdbs_inet_voxel_state_alloc(vdbs_inet_voxel_state *vs, int directions, size_t voxels,
+                                        vdbs_error *err);
+void vdbs_inet_voxel_state_free(vdbs_inet_voxel_state *vs);
+/* The network's state (links then sinks, 3 floats a slot) into vs (allocated for the network's
+ * D and its volume's voxels): per voxel and direction the mean of the links' radiance over the
+ * voxel's particles with an upstream particle along the direction, 0 where none. Errors: vs
+ * of another D (VDBS_ERR_INTERNAL), out of memory. */
+vdbs_status vdbs_inet_voxel_state_store(const vdbs_inet_network *net, const float *state,
+                                        vdbs_inet_voxel_state *vs, vdbs_error *err);
+/* The warm start: every particle's links that have an upstream particle take its voxel's
+ * stored radiance (0 where the voxel holds none, as a cold start); the other slots (the chains'
+ * heads, which hold the inflow, and the sinks, whatever the first sweep makes them) are left as
+ * they are. vs has the network's D and its volume's voxels. */
+void vdbs_inet_voxel_state_start(const vdbs_inet_network *net, const vdbs_inet_voxel_state *vs,
+                                 float *state);
+/* The D a lit VDB's inet state was solved with (its metadata, and its last grid there), or 0
+ * when it holds none. */
+int vdbs_inet_voxel_state_directions(const vdbio_lit *lit);
+/* The state of a lit VDB (opened with at least the inet_r grids; `path` for messages) at the
+ * volume's output voxels (vdbs_solve_state_vec3: by index, else through world space).
+ * Errors (VDBS_ERR_INPUT, one line naming --warm-start): no inet state in it; a state for
+ * another D than `directions`; out of memory. */
+vdbs_status vdbs_inet_voxel_state_read(const vdbio_lit *lit, const char *path,
+                                       const vdbs_volume *volume, int directions,
+                                       vdbs_inet_voxel_state *vs, vdbs_error *err);
+
 /* What a quality chooses. */
 typedef struct vdbs_inet_preset {
     int64_t particles; /* 5000 / 20000 / 50000 / 100000 */
@@ -150,6 +196,10 @@ typedef struct vdbs_inet_desc {
     double residual;    /* stop once a sweep's total change is at most this fraction of the
                            first scattering's total (--inet-residual); default: the quality's */
     uint64_t seed;      /* of the particles (--inet-seed) */
+    /* --warm-start's state (the network's D, the volume's voxels), or NULL: a cold start */
+    const vdbs_inet_voxel_state *warm;
+    /* --keep-state's, filled (allocated here) once the solve ends, or NULL */
+    vdbs_inet_voxel_state *keep;
     vdbs_progress *progress;
 } vdbs_inet_desc;
 
@@ -160,6 +210,7 @@ typedef struct vdbs_inet_stats {
     double opacity, pixel_area;
     int64_t links, sinks;
     int iterations, converged;
+    int warm_start;  /* the slots started from a --warm-start state */
     double residual; /* the estimated distance from converged over the first scattering's total */
     double change;   /* the last sweep's change, the same way */
     double contraction; /* vdbs_inet_solve_result's */

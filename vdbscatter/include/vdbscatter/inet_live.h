@@ -4,7 +4,9 @@
  * solution (a warm start) and a few sweeps a frame walk it to the new one. The viewer shows
  * the state of every frame (vdbs_inet_live_ms) while it converges.
  *
- * The cold solve is the bake's Jacobi iteration through the runner; the warm sweeps are
+ * The cold solve is the bake's Jacobi iteration through the runner; a lit VDB's kept state
+ * (inet.h's vdbs_inet_voxel_state) replaces it with a start from the stored radiance and warm
+ * sweeps. The warm sweeps are
  * Gauss-Seidel line sweeps on the C path (the directions in turn, each direction's chains
  * walked downstream with the newest values), which reach the same fixed point in a few
  * sweeps where Jacobi needs tens.
@@ -23,6 +25,7 @@
 #include "vdbscatter/runner.h"
 #include "vdbscatter/scene.h"
 #include "vdbscatter/status.h"
+#include "vdbscatter/vdbio.h"
 #include "vdbscatter/volume.h"
 
 #ifdef __cplusplus
@@ -40,7 +43,19 @@ typedef struct vdbs_inet_live_desc {
     vdbs_runner *runner;     /* the cold solve's (the viewer's, a GPU in its GL context);
                                 NULL: a C-path runner of the object's own */
     vdbs_progress *progress; /* the cold solve's; may be NULL */
+    /* A lit VDB holding an inet --keep-state (inet.h's vdbs_inet_voxel_state; opened with at
+     * least its inet_r grids), or NULL. When its D is the network's, the opening solve starts
+     * every particle from its voxel's stored radiance and runs warm line sweeps to the
+     * quality's residual instead of the cold solve; else it solves cold. */
+    const vdbio_lit *state;
+    const char *state_path; /* the file's name, for messages */
 } vdbs_inet_live_desc;
+
+/* How the opening solve went. */
+typedef struct vdbs_inet_live_opening {
+    int from_state; /* 1: started from desc.state and warm line sweeps; 0: the cold solve */
+    int sweeps;     /* the opening solve's sweeps (line sweeps from a state, else Jacobi) */
+} vdbs_inet_live_opening;
 
 typedef struct vdbs_inet_live vdbs_inet_live;
 
@@ -51,9 +66,10 @@ typedef struct vdbs_inet_live_status {
     int converged;
 } vdbs_inet_live_status;
 
-/* Builds the network, links and phase matrix, seeds E for the scene's lights and solves from
- * zero until the quality's residual (or the iteration cap). Errors: no density, a bad light
- * (lights.h), the runner's, out of memory. */
+/* Builds the network, links and phase matrix, seeds E for the scene's lights and solves until
+ * the quality's residual (or the iteration cap): from zero, or from desc.state. Errors: no
+ * density, a bad light (lights.h), the runner's, a state file's grids unreadable, out of
+ * memory. */
 vdbs_status vdbs_inet_live_create(const vdbs_inet_live_desc *desc, vdbs_inet_live **out,
                                   vdbs_error *err);
 /* Re-seeds E for the scene's lights (only its lights are read) and keeps the state: the next
@@ -74,6 +90,8 @@ vdbs_status vdbs_inet_live_ms(const vdbs_inet_live *live, float *ms, float *cons
  * that changes them (tests compare with vdbs_inet_to_voxels). */
 const vdbs_inet_network *vdbs_inet_live_network(const vdbs_inet_live *live);
 const float *vdbs_inet_live_state(const vdbs_inet_live *live);
+/* How the opening solve (vdbs_inet_live_create) started and how many sweeps it took. */
+vdbs_inet_live_opening vdbs_inet_live_opened(const vdbs_inet_live *live);
 void vdbs_inet_live_destroy(vdbs_inet_live *live);
 
 #ifdef __cplusplus

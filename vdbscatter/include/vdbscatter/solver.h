@@ -79,6 +79,9 @@ typedef struct vdbs_solver_state {
     int (*grids)(const void *state, vdbio_vec3_grid *grids, int max);
     int (*meta)(const void *state, vdbio_meta *meta, int max);
     void (*destroy)(void *state); /* NULL is fine */
+    /* 1: a frame sequence keeps and warm-starts this state only with --keep-state (its grids
+     * are large for what they save); 0: by default. */
+    int sequence_on_request;
 } vdbs_solver_state;
 
 /* The largest report block (stats) any solver keeps: the bake report holds it by value. */
