@@ -125,16 +125,8 @@ static vdbs_status state_read(const char *path, const vdbs_volume *volume, const
 static int state_grids(const void *state, vdbio_vec3_grid *grids, int max)
 {
     inet_state *s = (inet_state *)state; /* the names are made here, once */
-    if (!grids)
-        return s->vs.directions;
-    const int n = s->vs.directions < max ? s->vs.directions : max;
-    if (!s->names && n > 0 && !(s->names = calloc((size_t)n, sizeof *s->names)))
-        return -1;
-    for (int d = 0; d < n; ++d) {
-        snprintf(s->names[d], sizeof s->names[d], VDBS_INET_STATE_PREFIX "%04d", d);
-        grids[d] = (vdbio_vec3_grid){s->names[d], s->vs.radiance[d]};
-    }
-    return n;
+    return vdbs_solver_state_grids(VDBS_INET_STATE_PREFIX, s->vs.directions, s->vs.radiance,
+                                   &s->names, grids, max);
 }
 
 static int state_meta(const void *state, vdbio_meta *meta, int max)

@@ -4,6 +4,7 @@
 #include <math.h>
 #include <stdint.h>
 #include <stdio.h>
+#include <stdlib.h>
 #include <string.h>
 
 /* The table: one line per solver; each entry is defined in the solver's own file. */
@@ -290,6 +291,21 @@ void vdbs_solver_report_json(const vdbs_solver *solver, const vdbs_scene *scene,
         else if (o->report_key)
             cJSON_AddNumberToObject(block, o->report_key, vdbs_scene_solver_value(scene, o->key));
     }
+}
+
+int vdbs_solver_state_grids(const char *prefix, int count, float *const *values, char (**names)[24],
+                            vdbio_vec3_grid *grids, int max)
+{
+    if (!grids)
+        return count;
+    const int n = count < max ? count : max;
+    if (!*names && n > 0 && !(*names = calloc((size_t)n, sizeof **names)))
+        return -1;
+    for (int k = 0; k < n; ++k) {
+        snprintf((*names)[k], sizeof(*names)[k], "%s%04d", prefix, k);
+        grids[k] = (vdbio_vec3_grid){(*names)[k], values[k]};
+    }
+    return n;
 }
 
 const vdbs_quality *vdbs_solver_quality(const vdbs_solver *solver, const vdbs_quality *quality)

@@ -178,16 +178,8 @@ static vdbs_status state_read(const char *path, const vdbs_volume *volume, const
 static int state_grids(const void *state, vdbio_vec3_grid *grids, int max)
 {
     svd_state *s = (svd_state *)state; /* the names are made here, once */
-    if (!grids)
-        return s->moments.terms;
-    const int n = s->moments.terms < max ? s->moments.terms : max;
-    if (!s->names && n > 0 && !(s->names = calloc((size_t)n, sizeof *s->names)))
-        return -1;
-    for (int k = 0; k < n; ++k) {
-        grid_name(k, s->names[k], sizeof s->names[k]);
-        grids[k] = (vdbio_vec3_grid){s->names[k], s->moments.voxels[k]};
-    }
-    return n;
+    return vdbs_solver_state_grids(STATE_PREFIX, s->moments.terms, s->moments.voxels, &s->names,
+                                   grids, max);
 }
 
 static int state_meta(const void *state, vdbio_meta *meta, int max)

@@ -179,9 +179,9 @@ vdbs_status vdbs_inet_voxel_state_read(const vdbio_lit *lit, const char *path,
 
 /* What a quality chooses. */
 typedef struct vdbs_inet_preset {
-    int64_t particles; /* 5000 / 20000 / 50000 / 100000 */
+    int64_t particles; /* 5000 at every quality (the ladder stops at low) */
     int directions;    /* 64 at every quality */
-    double residual;   /* 1e-2 / 3e-3 / 1e-3 / 1e-3 */
+    double residual;   /* 1e-2 at every quality */
 } vdbs_inet_preset;
 
 /* The preset of a quality name (medium's for an unknown one or NULL). */

@@ -84,6 +84,13 @@ typedef struct vdbs_solver_state {
     int sequence_on_request;
 } vdbs_solver_state;
 
+/* The grids of a state held as `count` arrays (3 floats per output voxel each), named PREFIX
+ * then the index in 4 digits (svd_m0000 ...): the body of a state's `grids`. `names` is the
+ * state's own, made on the first call (freed by the state). As `grids` returns: the count for
+ * NULL grids, else how many filled, -1 out of memory. */
+int vdbs_solver_state_grids(const char *prefix, int count, float *const *values, char (**names)[24],
+                            vdbio_vec3_grid *grids, int max);
+
 /* The largest report block (stats) any solver keeps: the bake report holds it by value. */
 #define VDBS_SOLVER_STATS_MAX 1024
 
