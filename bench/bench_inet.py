@@ -75,9 +75,11 @@ def main():
     lines = [f"`bench/bench_inet.py BUILD --size {args.size} --ref-noise {args.ref_noise} "
              f"--particles {args.particles} --directions {args.directions}`: C path, this "
              "machine, one run. Relative RMSE of the picture against the scene's Monte-Carlo "
-             "reference (its own noise, below, is part of every figure); seconds: bake + "
-             "render for the methods (`vdbscatter tradeoff`), the solve for the table of N and D "
-             "(the window at its default, M^2 = N / 4).", ""]
+             "reference: for the methods (`vdbscatter tradeoff`) with the reference's noise "
+             "removed, for the table of N and D (and the points under it) with it left in; "
+             "seconds: bake + render for the methods, the solve for the table (the window at "
+             "its default, M^2 = N / 4). Each scene's section is from the last run that "
+             "measured it (its reference is named in it).", ""]
     curves = {}
     sections = {}  # scene: its lines, from the existing file, replaced by those run now
     if os.path.exists(args.out):
