@@ -67,16 +67,12 @@ static double option(const vdbs_scene *scene, int i)
     return vdbs_scene_solver_value(scene, options[i].key);
 }
 
-/* The scene's D: its option, else the quality's preset. */
+/* The scene's D: its option, else the preset of the quality it bakes at. */
 static int scene_directions(const vdbs_scene *scene)
 {
-    int d = (int)option(scene, OPT_DIRECTIONS);
-    if (d <= 0) {
-        vdbs_inet_preset preset;
-        vdbs_inet_quality(scene->quality, &preset);
-        d = preset.directions;
-    }
-    return d;
+    const vdbs_quality *q =
+        vdbs_solver_quality(vdbs_solver_find("inet"), vdbs_quality_find(scene->quality));
+    return (int)vdbs_solver_option_value(scene, &options[OPT_DIRECTIONS], q);
 }
 
 /* ---- state: the slots' radiance per output voxel and direction ---- */
