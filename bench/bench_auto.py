@@ -1,11 +1,15 @@
 #!/usr/bin/python3
 """Does `bake --method auto --tolerance E` meet E, and at what cost? For every scene that
-bench/bench_calibrate.py measured (bench/tradeoff/calibration.json and validation.json), and
-E in 0.3, 0.15, 0.08, 0.04: the plan (`--dry-run`), the error that plan's method and quality
-measured there (bakes and renders on the C path are deterministic, so the tradeoff row is
-the plan's result), whether it is within E + 2 standard errors, whether "out of reach" was
-right (no method and quality measured within E), and its time against the cheapest fixed
-method and quality that met E. Writes bench/tradeoff/auto.md.
+bench/bench_calibrate.py measured (bench/tradeoff/calibration.json and validation.json; all
+of them are in the planner's table) and E in 0.3, 0.15, 0.08, 0.04, two plans (`--dry-run`):
+with the table as built ("in table": the scene's own measurements are in it), and with the
+scene left out of it (`--calibration-leave-out`: the planner on a scene it has not seen, as
+on a user's volume). For each: the error that plan's method and quality measured there
+(bakes and renders on the C path are deterministic, so the tradeoff row is the plan's
+result), whether it is within E + 2 standard errors (a miss when not), whether "out of
+reach" was right (no method and quality measured within E; a needless refusal when not),
+and its time against the cheapest fixed method and quality that met E. Writes
+bench/tradeoff/auto.md.
 
 usage: bench/bench_auto.py BUILD"""
 import os
@@ -18,54 +22,71 @@ ROOT = os.path.dirname(HERE)
 DATA = os.environ.get("VDBSCATTER_DATA_DIR",
                       os.path.join(os.path.dirname(ROOT), "shared", "data"))
 TOLERANCES = [0.3, 0.15, 0.08, 0.04]
+WAYS = ("in table", "left out")
+
+
+def judge(p, rows, secs, e, cheapest, tally):
+    """(cell text, ratio text) of one plan; counts it in tally."""
+    tally["runs"] += 1
+    if not p["reachable"]:
+        right = cheapest is None
+        tally["met"] += right
+        tally["refused_wrongly"] += not right
+        return f"out of reach (best {p['predicted_error']:.3f}): {'right' if right else 'WRONG'}", "-"
+    key = (p["method"], p["quality"])
+    if p["skipped_lights"] or key not in rows:
+        tally["unmeasured"] += 1
+        return f"{key[0]} {key[1]} (not measured as planned)", "-"
+    r = rows[key]
+    ok = r["relrmse"] <= e + 2 * r["relrmse_se"]
+    tally["met"] += ok
+    tally["missed"] += not ok
+    ratio = "-"
+    if cheapest:
+        x = secs[key] / secs[cheapest]
+        tally["ratio_runs"] += 1
+        tally["ratio_ok"] += x <= 1.5
+        ratio = f"{x:.2f}"
+    return (f"{key[0]} {key[1]}: pred {p['predicted_error']:.3f}, measured {r['relrmse']:.4f}"
+            f"{'' if ok else ' MISSED'}"), ratio
+
+
+def summary_line(way, t):
+    return (f"- {way}: met E or rightly out of reach {t['met']} of {t['runs']}; missed E "
+            f"{t['missed']}; out of reach wrongly {t['refused_wrongly']}; time within 1.5x of "
+            f"the cheapest that met E {t['ratio_ok']} of {t['ratio_runs']}.")
 
 
 def main():
     exe = os.path.join(sys.argv[1], "vdbscatter")
     lines = ["`bench/bench_auto.py BUILD`: `bake --method auto --tolerance E` on every scene "
-             "bench_calibrate.py measured (96x72, references of relative noise about 0.01). "
-             "met: the plan's measured error is at most E + 2 standard errors; out of reach: "
-             "right when no method and quality measured within E. Time: bake + render of the "
-             "plan against the cheapest fixed method and quality that met E (both measured "
-             "in the calibration run, two shared cores: ratios are rough).", ""]
-    summary = {"met": 0, "runs": 0, "ratio_ok": 0, "ratio_runs": 0}
+             "bench_calibrate.py measured (96x72, references of relative noise about 0.01), "
+             "planned with the whole table (in table) and with the scene left out of it (left "
+             "out: as on a volume the planner has not seen). Met: the plan's measured error is "
+             "at most E + 2 standard errors; out of reach: right when no method and quality "
+             "measured within E. Time: bake + render of the plan against the cheapest fixed "
+             "method and quality that met E (both measured in the calibration run, two shared "
+             "cores: ratios are rough).", ""]
+    tallies = {w: dict.fromkeys(("met", "runs", "missed", "refused_wrongly", "unmeasured",
+                                 "ratio_ok", "ratio_runs"), 0) for w in WAYS}
     for kind, gathered in gathered_sets(HERE):
         lines += [f"## {kind.capitalize()} scenes", "",
-                  "| scene | E | plan | its error | met | cheapest that met E | time ratio |",
-                  "|---|---|---|---|---|---|---|"]
+                  "| scene | E | plan, in table | ratio | plan, left out | ratio | "
+                  "cheapest that met E |", "|---|---|---|---|---|---|---|"]
         for name, entry in sorted(gathered.items()):
             rows = {(r["method"], r["quality"]): r for r in entry["tradeoff"]["rows"]}
             secs = {k: r["bake_s"] + r["render_s"] for k, r in rows.items()}
             for e in TOLERANCES:
-                p = dry_run_plan(exe, ROOT, DATA, entry, e)
                 met = [k for k, r in rows.items() if r["relrmse"] <= e]
                 cheapest = min(met, key=lambda k: secs[k]) if met else None
                 ch = f"{cheapest[0]} {cheapest[1]} ({secs[cheapest]:.1f} s)" if cheapest else "none"
-                summary["runs"] += 1
-                if not p["reachable"]:
-                    ok = cheapest is None
-                    summary["met"] += ok
-                    lines.append(f"| {name} | {e} | out of reach (best {p['predicted_error']:.3f}) "
-                                 f"| - | {'right' if ok else 'WRONG'} | {ch} | - |")
-                    continue
-                key = (p["method"], p["quality"])
-                if p["skipped_lights"] or key not in rows:
-                    lines.append(f"| {name} | {e} | {key[0]} {key[1]} (not measured as planned) "
-                                 f"| - | - | {ch} | - |")
-                    continue
-                r = rows[key]
-                ok = r["relrmse"] <= e + 2 * r["relrmse_se"]
-                summary["met"] += ok
-                ratio = secs[key] / secs[cheapest] if cheapest else float("nan")
-                if cheapest:
-                    summary["ratio_runs"] += 1
-                    summary["ratio_ok"] += ratio <= 1.5
-                lines.append(f"| {name} | {e} | {key[0]} {key[1]} | {r['relrmse']:.4f} | "
-                             f"{'yes' if ok else 'NO'} | {ch} | {ratio:.2f} |")
+                cells = []
+                for way, leave in zip(WAYS, (None, name)):
+                    p = dry_run_plan(exe, ROOT, DATA, entry, e, leave)
+                    cells += judge(p, rows, secs, e, cheapest, tallies[way])
+                lines.append(f"| {name} | {e} | " + " | ".join(cells) + f" | {ch} |")
         lines.append("")
-    lines.insert(2, f"Met its tolerance (or rightly said out of reach): {summary['met']} of "
-                    f"{summary['runs']}; time within 1.5x of the cheapest that met E: "
-                    f"{summary['ratio_ok']} of {summary['ratio_runs']}.\n")
+    lines[2:2] = [summary_line(w, tallies[w]) for w in WAYS] + [""]
     out = os.path.join(HERE, "tradeoff", "auto.md")
     open(out, "w").write("\n".join(lines) + "\n")
     print("\n".join(lines))

@@ -76,12 +76,14 @@ def gathered_sets(here):
                 yield kind, json.load(f)
 
 
-def dry_run_plan(exe, root, data, entry, tolerance):
-    """`bake --method auto --tolerance T --dry-run --json` of a gathered scene: its plan."""
+def dry_run_plan(exe, root, data, entry, tolerance, leave_out=None):
+    """`bake --method auto --tolerance T --dry-run --json` of a gathered scene: its plan
+    (with leave_out, as if that calibration scene were not in the planner's table)."""
     inp = []
     if entry["volume"]:
         path = os.path.join(data, entry["volume"])
         inp = [path if os.path.exists(path) else os.path.join(root, "samples", entry["volume"])]
     return run_json([exe, "bake", *inp, "--scene", os.path.join(root, entry["scene"]), "-o",
                      "/tmp/vdbscatter-dry-run.vdb", "--method", "auto", "--tolerance",
-                     str(tolerance), "--dry-run", "--json", "-q"])["plan"]
+                     str(tolerance), "--dry-run", "--json", "-q",
+                     *(["--calibration-leave-out", leave_out] if leave_out else [])])["plan"]

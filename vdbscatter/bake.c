@@ -346,7 +346,8 @@ static vdbs_status plan(bake_job *j, vdbs_bake_report *report, vdbs_error *err)
     const vdbs_bake_options *o = &j->options;
     vdbs_status st = vdbs_plan_measure(j->scene, &j->volume, &report->plan_features, err);
     if (st == VDBS_OK)
-        st = vdbs_plan_make(&report->plan_features, o->tolerance, &report->plan, err);
+        st = vdbs_plan_make(&report->plan_features,
+                            &(vdbs_plan_desc){o->tolerance, o->plan_leave_out}, &report->plan, err);
     if (st != VDBS_OK)
         return st;
     report->planned = 1;

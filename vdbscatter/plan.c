@@ -1,6 +1,7 @@
 #include "vdbscatter/plan.h"
 
 #include <cjson/cJSON.h>
+#include <lapacke.h>
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -22,7 +23,8 @@ typedef struct plan_measure {
     const char *scene;
     const char *method;
     int quality;
-    double error; /* image relative RMSE against the reference, its noise removed */
+    double error;    /* image relative RMSE against the reference, its noise removed */
+    double error_se; /* its standard error */
 } plan_measure;
 
 #include "plan_table.h"
@@ -33,10 +35,13 @@ typedef struct plan_measure {
 #define PLAN_SKY_ORDINATES 64
 /* A light is left out when its power share is below this fraction of the tolerance. */
 #define PLAN_SKIP_FRACTION 0.125
-/* log(error) margin per unit of missing neighbour weight: far from every calibration scene
- * the prediction is raised up to e^0.4 = 1.5x (errors on unseen volumes measured 1.5-3x
- * the sample's). */
-#define PLAN_FAR_MARGIN 0.4
+/* The error model's floors, in log error: a measurement's own noise (the bake is
+ * deterministic, the reference's noise is removed) and the spread across scenes of a method
+ * measured on one scene only. */
+#define PLAN_NOISE_FLOOR 0.01
+#define PLAN_PRIOR_FLOOR 0.1
+/* Calibration scenes the error model holds at most. */
+#define PLAN_MAX_SCENES 32
 /* Measured single-scattering error over the multiple-scattering share ms / (ms + ss): 0.48
  * (the sky-lit cloud) to 1.25 (the smoke) on the calibration set, the sparse dragon aside
  * (its picture is mostly background). */
@@ -166,6 +171,20 @@ static double distance2(const vdbs_plan_features *f, const plan_scene *s)
     return sum;
 }
 
+static vdbs_plan_features scene_features(const plan_scene *s)
+{
+    vdbs_plan_features f = {
+        .mean_depth = s->mean_depth,
+        .albedo = s->albedo,
+        .g = s->g,
+        .ms_to_ss = s->ms_to_ss,
+        .active_voxels = s->active_voxels,
+        .sky_share = s->sky_share,
+        .point_share = s->point_share,
+    };
+    return f;
+}
+
 static const plan_scene *scene_named(const char *name)
 {
     for (size_t i = 0; plan_scenes[i].name; ++i)
@@ -174,52 +193,96 @@ static const plan_scene *scene_named(const char *name)
     return NULL;
 }
 
-/* Kernel regression over the calibration scenes that measured (method, quality): the
- * weighted mean of log error plus its weighted spread and the far margin. 0 when no scene
- * measured it. */
-static int predict(const vdbs_plan_features *f, const char *method, int quality, double *error,
-                   double *seconds)
+/* A Gaussian process over the calibration scenes that measured (method, quality), in log
+ * error: its prior mean and variance are those scenes' mean and spread, its covariance
+ * decays as exp(-d^2 / 2) with the distance above, and each measurement carries its own
+ * noise. The prediction is the posterior mean plus one posterior standard deviation: at a
+ * calibration scene, its measurement; far from all of them, the method's mean error across
+ * scenes raised by its spread across scenes. 0 when no scene measured it (or every one that
+ * did is left out); *spread: the posterior standard deviation of log error. */
+static int predict(const vdbs_plan_features *f, const char *method, int quality,
+                   const char *leave_out, double *error, double *spread)
 {
-    double w_sum = 0.0, e1 = 0.0, e2 = 0.0;
-    for (size_t i = 0; plan_measures[i].scene; ++i) {
+    const plan_scene *at[PLAN_MAX_SCENES];
+    double y[PLAN_MAX_SCENES], noise[PLAN_MAX_SCENES];
+    int n = 0;
+    for (size_t i = 0; plan_measures[i].scene && n < PLAN_MAX_SCENES; ++i) {
         const plan_measure *m = &plan_measures[i];
         const plan_scene *s = scene_named(m->scene);
-        if (!s || m->quality != quality || strcmp(m->method, method) != 0 || !(m->error > 0.0))
+        if (!s || m->quality != quality || strcmp(m->method, method) != 0 || !(m->error > 0.0) ||
+            (leave_out && strcmp(leave_out, m->scene) == 0))
             continue;
-        const double w = exp(-0.5 * distance2(f, s));
-        const double le = log(m->error);
-        w_sum += w;
-        e1 += w * le;
-        e2 += w * le * le;
+        at[n] = s;
+        y[n] = log(m->error);
+        noise[n] = fmax(m->error_se / m->error, PLAN_NOISE_FLOOR);
+        ++n;
     }
-    if (!(w_sum > 1e-12))
+    if (n == 0)
         return 0;
-    const double mean = e1 / w_sum, spread = sqrt(fmax(e2 / w_sum - mean * mean, 0.0));
-    *error = exp(mean + spread + PLAN_FAR_MARGIN * fmax(0.0, 1.0 - w_sum));
+    double mean = 0.0, var = 0.0;
+    for (int i = 0; i < n; ++i)
+        mean += y[i] / n;
+    for (int i = 0; i < n; ++i)
+        var += n > 1 ? (y[i] - mean) * (y[i] - mean) / (n - 1) : 0.0;
+    var = fmax(var, PLAN_PRIOR_FLOOR * PLAN_PRIOR_FLOOR);
+    /* K (row-major, SPD) and two right-hand sides: y - mean and k(x, f). */
+    double K[PLAN_MAX_SCENES * PLAN_MAX_SCENES], rhs[PLAN_MAX_SCENES * 2], k[PLAN_MAX_SCENES];
+    for (int i = 0; i < n; ++i) {
+        const vdbs_plan_features fi = scene_features(at[i]);
+        for (int j = 0; j < n; ++j)
+            K[i * n + j] =
+                var * exp(-0.5 * distance2(&fi, at[j])) + (i == j ? noise[i] * noise[i] : 0.0);
+        k[i] = var * exp(-0.5 * distance2(f, at[i]));
+        rhs[2 * i] = y[i] - mean;
+        rhs[2 * i + 1] = k[i];
+    }
+    if (LAPACKE_dposv(LAPACK_ROW_MAJOR, 'U', n, 2, K, n, rhs, 2) != 0)
+        return 0; /* not positive definite: cannot happen with the noise on the diagonal */
+    double post_mean = mean, post_var = var;
+    for (int i = 0; i < n; ++i) {
+        post_mean += k[i] * rhs[2 * i];
+        post_var -= k[i] * rhs[2 * i + 1];
+    }
+    *spread = sqrt(fmax(post_var, 0.0));
+    *error = exp(post_mean + *spread);
     /* Single scattering leaves out the multiply scattered light: its error is at least
      * PLAN_SINGLE_FLOOR of that share (the calibration set's lower envelope), whatever a
      * scene seen mostly against its background taught the regression. */
     if (strcmp(method, "single") == 0)
         *error = fmax(*error, PLAN_SINGLE_FLOOR * f->ms_to_ss / (1.0 + f->ms_to_ss));
-    /* Cost from the solver entry's own hint (measured on a quiet machine, bench/cost.md):
-     * the calibration's timings share two cores with everything else. */
-    const vdbs_solver *solver = vdbs_solver_find(method);
-    *seconds = solver
-                   ? solver->cost_fixed[quality] + solver->cost[quality] * f->active_voxels * 1e-6
-                   : INFINITY;
     return 1;
 }
 
-vdbs_status vdbs_plan_make(const vdbs_plan_features *f, double tolerance, vdbs_plan *plan,
+/* Cost from the solver entry's own hint (measured on a quiet machine, bench/cost.md): the
+ * calibration's timings share two cores with everything else. */
+static double predict_seconds(const vdbs_solver *solver, int quality, const vdbs_plan_features *f)
+{
+    return solver->cost_fixed[quality] + solver->cost[quality] * f->active_voxels * 1e-6;
+}
+
+vdbs_status vdbs_plan_make(const vdbs_plan_features *f, const vdbs_plan_desc *desc, vdbs_plan *plan,
                            vdbs_error *err)
 {
     memset(plan, 0, sizeof *plan);
-    if (!(tolerance > 0.0 && tolerance < 1.0))
+    if (!(desc->tolerance >= 0.0 && desc->tolerance < 1.0))
         return vdbs_error_set(err, VDBS_ERR_INPUT, "--tolerance: expected 0 < E < 1, got %g",
-                              tolerance);
+                              desc->tolerance);
+    const double tolerance = desc->tolerance > 0.0 ? desc->tolerance : 0.1;
+    const char *leave_out = desc->leave_out;
+    if (leave_out && !scene_named(leave_out)) {
+        char names[512] = "";
+        for (size_t i = 0; plan_scenes[i].name; ++i)
+            snprintf(names + strlen(names), sizeof names - strlen(names), "%s%s", i ? ", " : "",
+                     plan_scenes[i].name);
+        return vdbs_error_set(err, VDBS_ERR_INPUT,
+                              "--calibration-leave-out: '%s' is not a calibration scene (%s)",
+                              leave_out, names);
+    }
     plan->tolerance = tolerance;
     double best_d = INFINITY;
     for (size_t i = 0; plan_scenes[i].name; ++i) {
+        if (leave_out && strcmp(leave_out, plan_scenes[i].name) == 0)
+            continue;
         plan->calibration_scenes++;
         const double d = distance2(f, &plan_scenes[i]);
         if (d < best_d) {
@@ -241,16 +304,17 @@ vdbs_status vdbs_plan_make(const vdbs_plan_features *f, double tolerance, vdbs_p
         if (!s)
             break;
         for (int q = 0; q < VDBS_QUALITY_COUNT; ++q) {
-            vdbs_plan_candidate c = {s->name, q, 0.0, 0.0};
+            vdbs_plan_candidate c = {s->name, q, 0.0, 0.0, 0.0};
             if (plan->candidate_count == VDBS_PLAN_MAX_CANDIDATES ||
-                !predict(f, s->name, q, &c.error, &c.seconds))
+                !predict(f, s->name, q, leave_out, &c.error, &c.spread))
                 continue;
+            c.seconds = predict_seconds(s, q, f);
             c.error += plan->skipped_share; /* what the left-out lights would have added */
             plan->candidates[plan->candidate_count++] = c;
         }
     }
     /* Without a table (a build before any calibration) nothing is reachable. */
-    const vdbs_plan_candidate none = {"svd", 0, INFINITY, 0.0};
+    const vdbs_plan_candidate none = {"svd", 0, INFINITY, 0.0, 0.0};
     const vdbs_plan_candidate *best = plan->candidate_count ? NULL : &none, *cheapest = NULL;
     for (int i = 0; i < plan->candidate_count; ++i) {
         const vdbs_plan_candidate *c = &plan->candidates[i];
@@ -335,6 +399,7 @@ char *vdbs_plan_json(const vdbs_plan *plan, const vdbs_plan_features *f)
         cJSON_AddStringToObject(e, "quality", q[c->quality].name);
         cJSON_AddNumberToObject(e, "predicted_error", c->error);
         cJSON_AddNumberToObject(e, "predicted_seconds", c->seconds);
+        cJSON_AddNumberToObject(e, "log_error_sd", c->spread);
         cJSON_AddItemToArray(cands, e);
     }
     char *text = cJSON_PrintUnformatted(o);

@@ -52,6 +52,9 @@ static const char help[] =
     "                           no plan is predicted to reach it\n"
     "  --dry-run                with --method auto: print the plan and its predictions\n"
     "                           (with --json as JSON) and bake nothing\n"
+    "  --calibration-leave-out SCENE   with --dry-run: plan as if the calibration scene\n"
+    "                           SCENE were not in the planner's table (measures the\n"
+    "                           planner on scenes it has not seen)\n"
     "  --camera PX,PY,PZ:TX,TY,TZ:FOV   the camera radiance_view is written toward\n"
     "  --quality Q              low (default) | medium | high | ultra (sky directions\n"
     "                           16/64/256/1024, POP 16 at all, SVD 64 at high and\n"
@@ -118,6 +121,7 @@ static const vdbs_arg_option own_options[] = {
     {"--store", VDBS_ARG_VALUE},
     {"--tolerance", VDBS_ARG_VALUE},
     {"--dry-run", VDBS_ARG_FLAG},
+    {"--calibration-leave-out", VDBS_ARG_VALUE},
     {"--s1-sky-spacing", VDBS_ARG_VALUE},
     {"--max-memory", VDBS_ARG_VALUE},
     VDBS_SEQUENCE_OPTIONS,
@@ -424,6 +428,9 @@ static int prepare(const vdbs_options_args *args, bake_request *r)
     o->dry_run = vdbs_options_flag(args, "--dry-run");
     if (o->dry_run && !automatic)
         return vdbs_command_fail("bake", 2, "--dry-run needs --method auto");
+    o->plan_leave_out = vdbs_options_value(args, "--calibration-leave-out");
+    if (o->plan_leave_out && !o->dry_run)
+        return vdbs_command_fail("bake", 2, "--calibration-leave-out needs --dry-run");
     if (automatic) {
         o->tolerance = 0.1;
         if (tolerance &&

@@ -52,6 +52,9 @@ typedef struct vdbs_bake_options {
      * scene's method and quality are replaced. */
     double tolerance;
     int dry_run; /* with tolerance: plan, fill the report's plan, solve and write nothing */
+    /* With dry_run: plan as if this calibration scene were not in the planner's table
+     * (vdbs_plan_desc.leave_out), to measure the planner on scenes it has not seen. */
+    const char *plan_leave_out;
     /* Polled between stages and in the solvers' loops (cancel.h): once set, the bake stops
      * with VDBS_ERR_CANCELLED and leaves no temporary file; the output is the old file, or
      * the complete new one when the flag came after the rename. NULL: never. */

@@ -39,6 +39,8 @@ typedef struct vdbs_plan_candidate {
     double error;   /* predicted image relative RMSE */
     double seconds; /* predicted solve seconds on the C path: the solver entry's cost hint
                        times the active voxels */
+    double spread;  /* the prediction's standard deviation in log error: error is the
+                       predicted median times e^spread */
 } vdbs_plan_candidate;
 
 #define VDBS_PLAN_MAX_CANDIDATES 32
@@ -52,7 +54,7 @@ typedef struct vdbs_plan {
     double skipped_share; /* the power share of the lights left out */
     vdbs_plan_candidate candidates[VDBS_PLAN_MAX_CANDIDATES];
     int candidate_count;
-    int calibration_scenes; /* rows of the table the prediction came from */
+    int calibration_scenes; /* scenes of the table the prediction came from */
     char nearest[32];       /* the calibration scene most like this one */
 } vdbs_plan;
 
@@ -61,10 +63,17 @@ typedef struct vdbs_plan {
 vdbs_status vdbs_plan_measure(const vdbs_scene *scene, const vdbs_volume *volume,
                               vdbs_plan_features *features, vdbs_error *err);
 
-/* The plan for a tolerance in (0, 1). Never fails for a tolerance in range; an unreachable
- * tolerance gives reachable 0 with the most accurate candidate as `chosen`. */
-vdbs_status vdbs_plan_make(const vdbs_plan_features *features, double tolerance, vdbs_plan *plan,
-                           vdbs_error *err);
+/* What to plan for; zero-initialised means the defaults. */
+typedef struct vdbs_plan_desc {
+    double tolerance;      /* in (0, 1); 0: 0.1 */
+    const char *leave_out; /* NULL, or a calibration scene predicted as if it were not in the
+                              table: the planner measured on a scene it has not seen */
+} vdbs_plan_desc;
+
+/* The plan. Errors: a tolerance of 1 or more, a leave_out that is not a calibration scene.
+ * An unreachable tolerance gives reachable 0 with the most accurate candidate as `chosen`. */
+vdbs_status vdbs_plan_make(const vdbs_plan_features *features, const vdbs_plan_desc *desc,
+                           vdbs_plan *plan, vdbs_error *err);
 
 /* Sets the chosen method and quality on the scene and removes the skipped lights. */
 vdbs_status vdbs_plan_apply(const vdbs_plan *plan, vdbs_scene *scene, vdbs_error *err);
