@@ -142,9 +142,10 @@ static void test_warm_start_after_a_light_move(void **unused)
     /* ms is the splat of the live state. */
     ms_grids direct;
     grids_alloc(&direct, volume.coord_count);
-    assert_int_equal(vdbs_inet_to_voxels(vdbs_inet_live_network(live), vdbs_inet_live_state(live),
-                                         &volume, a->density_scale, a->g, direct.ms, direct.l1,
-                                         NULL, NULL, &err),
+    const vdbs_inet_problem problem = vdbs_inet_live_problem(live);
+    assert_int_equal(vdbs_inet_to_voxels(&problem, vdbs_inet_live_state(live), &volume,
+                                         a->density_scale, a->g, direct.ms, direct.l1, NULL, NULL,
+                                         &err),
                      VDBS_OK);
     for (size_t k = 0; k < n; ++k) {
         assert_true(fabsf(direct.ms[k] - now.ms[k]) <= 1e-6f * fabsf(direct.ms[k]) + 1e-30f);

@@ -1,10 +1,10 @@
 /* The illumination network's particles and links (vdbscatter/inet_network.h): sampling in
- * proportion to sigma_t within the stratification's bound (per voxel and per region), every
- * particle inside its voxel under an anisotropic transform, the optical mass, determinism over
- * runs and thread counts, the links against a brute-force oracle (the pixel recomputed from
- * the basis, the upstream the previous particle by depth then index) and their invariants
- * (acyclic, one downstream at most, same pixel, smaller depth), also where depths tie and on
- * the comparison-sort path, the window rule on hand-computed cases, and bad input. */
+ * proportion to the voxel cubes' optical mass within the stratification's bound (per voxel and per
+ * region), every particle inside its voxel under an anisotropic transform, the optical mass,
+ * determinism over runs and thread counts, the links against a brute-force oracle (the pixel
+ * recomputed from the basis, the upstream the previous particle by depth then index) and their
+ * invariants (acyclic, one downstream at most, same pixel, smaller depth), also where depths tie
+ * and on the comparison-sort path, the window rule on hand-computed cases, and bad input. */
 #include "testutil.h"
 
 #include <math.h>
@@ -58,18 +58,27 @@ static void build(const vdbs_volume *volume, double scale, const double *dirs, i
         fail_msg("%s", err.message);
 }
 
-/* sigma_t times the voxel volume of every output voxel, read through OpenVDB's tree (not the
- * NanoVDB path the module reads), and the total. */
+/* The optical mass of every output voxel's cube under the trilinear density, read through
+ * OpenVDB's tree (not the NanoVDB path the module reads): the hat function integrates to 3/4
+ * over its own cube and 1/8 over each face neighbour's, per axis. And the total. */
 static double *voxel_masses(const vdbs_volume *volume, double scale, double *total)
 {
+    static const double hat[3] = {0.125, 0.75, 0.125};
     double *mass = malloc(sizeof *mass * volume->coord_count);
     assert_non_null(mass);
     const double vv = vdbs_volume_voxel_volume(volume);
     *total = 0.0;
     for (size_t n = 0; n < volume->coord_count; ++n) {
-        const int ijk[3] = {volume->coords[3 * n], volume->coords[3 * n + 1],
-                            volume->coords[3 * n + 2]};
-        mass[n] = scale * vdbio_density_value(volume->density, ijk) * vv;
+        const int32_t *c = volume->coords + 3 * n;
+        double sum = 0.0;
+        for (int dz = -1; dz <= 1; ++dz)
+            for (int dy = -1; dy <= 1; ++dy)
+                for (int dx = -1; dx <= 1; ++dx) {
+                    const int ijk[3] = {c[0] + dx, c[1] + dy, c[2] + dz};
+                    sum += hat[dx + 1] * hat[dy + 1] * hat[dz + 1] *
+                           fmax(vdbio_density_value(volume->density, ijk), 0.0);
+                }
+        mass[n] = scale * sum * vv;
         *total += mass[n];
     }
     return mass;
@@ -93,6 +102,9 @@ static void test_sampling_proportional(void **state)
     vdbs_inet_network net;
     build(&volume, scale, dirs, 4, n, 0, 7, &net);
     assert_true(test_rel_diff(net.mass * (double)n, total) <= 1e-9);
+    /* The cubes' masses add up to the medium's: 8^3 voxels of density 1 and 8^3 of 3. */
+    const double medium = scale * vdbs_volume_voxel_volume(&volume) * 8 * 8 * 8 * (1.0 + 3.0);
+    assert_true(test_rel_diff(total, medium) <= 1e-9);
 
     const size_t count = volume.coord_count;
     int64_t *per_voxel = calloc(count, sizeof *per_voxel);
@@ -120,8 +132,10 @@ static void test_sampling_proportional(void **state)
         in_run = is_heavy;
     }
     assert_true(worst < 2.0);
-    /* 3 times the density over half the voxels: 3/4 of the mass. */
-    assert_true(fabs(heavy_mass / total - 0.75) < 1e-12);
+    /* 3 times the density over half the voxels, i >= 8 with the ring at i = 16: 3/4 of the
+     * mass less the eighth of slab 8's that falls in slab 7's cubes (3/8 of a slab of
+     * density 1) plus the eighth of slab 7's in slab 8's (1/8), of 32 such slabs in all. */
+    assert_true(fabs(heavy_mass / total - (24.0 - 0.375 + 0.125) / 32.0) < 1e-12);
     const double expected_heavy = (double)n * heavy_mass / total;
     print_message("per-voxel worst |count - N m / M| = %.3f; heavy half %lld particles, expected "
                   "%.3f, in %d run(s) of coords order\n",

@@ -551,12 +551,13 @@ void vdbs_inet_light_depth(void *user, int light, const float *depth)
     vdbs_first_collisions(s->volume, &r->faces, s->lights, light, depth, s->scene->density_scale,
                           beam, r->scratch, r->rate, NULL);
     const vdbs_inet_network *net = &r->setup.net;
-    /* Per particle the irradiance its voxel's medium collides, rate / sigma_t (the cube's
-     * average of E T: particles are spread over the voxel in proportion to sigma_t). */
+    /* Per particle the irradiance its voxel's medium collides, rate over the cube's mean
+     * sigma_t: the voxel's particles carry its mass, so they carry its collisions, in the
+     * dilated ring too. */
 #pragma omp parallel for schedule(static)
     for (int64_t p = 0; p < net->particles; ++p) {
         const int64_t v = net->voxel[p];
-        const double sigma = s->scene->density_scale * (double)r->faces.density[v];
+        const double sigma = (double)net->voxel_sigma_t[v];
         if (!(sigma > 0.0))
             continue;
         double w[3], color[3], travel[3], irradiance[3];
@@ -650,11 +651,47 @@ static int splat_resolution(const vdbs_inet_network *net, const vdbs_volume *vol
     return best;
 }
 
-vdbs_status vdbs_inet_to_voxels(const vdbs_inet_network *net, const float *state,
+/* The power scattered into the network (the first scattering's, a times the collisions), per
+ * channel: its emission times a link's cross-section and solid angle. */
+static void scattered_power(const vdbs_inet_problem *pb, double power[3])
+{
+    const vdbs_inet_network *net = pb->net;
+    const int64_t slots = net->particles * net->directions;
+    double sum[3] = {0.0, 0.0, 0.0};
+    for (int64_t k = 0; k < slots; ++k)
+        for (int ch = 0; ch < 3; ++ch)
+            sum[ch] += pb->emission[3 * k + ch];
+    for (int ch = 0; ch < 3; ++ch)
+        power[ch] = sum[ch] * net->pixel_area * 4.0 * VDBS_PI / net->directions;
+}
+
+/* Energy: the light ms says the medium absorbs, 4 pi sum (1 - a) sigma_t ms V over the voxels
+ * (sigma_t the cube's mean), may not exceed the power scattered into it. Far from that bound
+ * wherever the particles are optically thin or the light diffuse; reached where a particle is
+ * optically so thick (thousands per particle) that the network passes on, particle to
+ * particle, light the medium would absorb inside the first: a link has no medium, and an
+ * opaque particle's scattered light leaves it whole. There ms (and its moments) are scaled
+ * down to the bound, per channel. scale: 1 where not bound. */
+static void energy_scale(const vdbs_inet_problem *pb, const vdbs_volume *volume, const float *ms,
+                         double scale[3])
+{
+    double power[3], absorbed[3] = {0.0, 0.0, 0.0};
+    scattered_power(pb, power);
+    const double to_power = 4.0 * VDBS_PI * vdbs_volume_voxel_volume(volume);
+    for (size_t v = 0; v < volume->coord_count; ++v)
+        for (int ch = 0; ch < 3; ++ch)
+            absorbed[ch] += (1.0 - pb->albedo[ch]) * (double)pb->net->voxel_sigma_t[v] *
+                            (double)ms[3 * v + ch] * to_power;
+    for (int ch = 0; ch < 3; ++ch)
+        scale[ch] = absorbed[ch] > power[ch] ? power[ch] / absorbed[ch] : 1.0;
+}
+
+vdbs_status vdbs_inet_to_voxels(const vdbs_inet_problem *pb, const float *state,
                                 const vdbs_volume *volume, double density_scale, double g,
                                 float *ms, float *const ms_l1[3], float *radiance, int *resolution,
                                 vdbs_error *err)
 {
+    const vdbs_inet_network *net = pb->net;
     vdbs_coarse_frame f;
     const int res = vdbs_coarse_world_frame(volume, splat_resolution(net, volume), 1, &f);
     if (resolution)
@@ -673,11 +710,32 @@ vdbs_status vdbs_inet_to_voxels(const vdbs_inet_network *net, const float *state
         int block = (int)floor(f.h / volume->mean_voxel_size);
         st = vdbs_medium_box_build(volume, block < 1 ? 1 : block, &box, err);
     }
+    /* Reconstructed apart, then added within the energy bound. */
+    const size_t n = 3 * volume->coord_count;
+    float *part = st == VDBS_OK ? calloc(5 * n, sizeof *part) : NULL;
+    if (st == VDBS_OK && !part)
+        st = vdbs_error_set(err, VDBS_ERR_NOMEM, "out of memory for %zu voxels",
+                            volume->coord_count);
     if (st == VDBS_OK) {
+        float *const part_l1[3] = {part + n, part + 2 * n, part + 3 * n};
         vdbs_coarse_ms_values(cells, fluence, flux, g, values);
         st = vdbs_coarse_upsample(&f, values, volume, &box, density_scale,
-                                  VDBS_COARSE_BSPLINE_INTERP, ms, ms_l1, radiance, err);
+                                  VDBS_COARSE_BSPLINE_INTERP, part, part_l1, part + 4 * n, err);
     }
+    if (st == VDBS_OK) {
+        double scale[3] = {1.0, 1.0, 1.0};
+        if (pb->emission)
+            energy_scale(pb, volume, part, scale);
+        for (size_t k = 0; k < n; ++k) {
+            const float c = (float)scale[k % 3];
+            ms[k] += c * part[k];
+            for (int a = 0; a < 3; ++a)
+                ms_l1[a][k] += c * part[(size_t)(1 + a) * n + k];
+            if (radiance)
+                radiance[k] += c * part[4 * n + k];
+        }
+    }
+    free(part);
     vdbs_medium_box_free(&box);
     free(fluence);
     free(flux);
@@ -751,7 +809,7 @@ vdbs_status vdbs_inet_finish(vdbs_inet_run *r, vdbs_inet_stats *stats, vdbs_erro
             st = vdbs_inet_voxel_state_store(net, state, r->desc.keep, err);
     }
     if (st == VDBS_OK)
-        st = vdbs_inet_to_voxels(net, state, s->volume, s->scene->density_scale, s->scene->g, s->ms,
+        st = vdbs_inet_to_voxels(&pb, state, s->volume, s->scene->density_scale, s->scene->g, s->ms,
                                  s->ms_l1, s->radiance, &st_out->resolution, err);
     free(state);
     st_out->seconds_splat = vdbs_now() - t2;

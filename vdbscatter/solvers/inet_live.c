@@ -61,11 +61,11 @@ static double inet_option(const vdbs_scene *scene, const char *key, const vdbs_q
 /* The unscattered light that lights [first, first + count) of the table bring to the
  * particles, scattered once into out (N D x 3, zeroed here). Per particle the transmittance
  * is marched from its point to each light (vs_march.h, in index space), times the light's
- * arrival there. Particles fall in the voxels in proportion to the voxel's sigma_t and are
- * placed uniformly inside, so E T at a particle's point is an unbiased estimate of the
- * voxel's cube average of E T, which is the bake's collided irradiance (rate / sigma_t,
- * collision.h) where sigma_t is constant over the voxel; only the trilinear density's
- * variation inside a voxel separates the two. */
+ * arrival there. Particles fall in the voxels in proportion to the voxel cube's optical mass
+ * and are placed uniformly inside, so E T at a particle's point is an unbiased estimate of the
+ * voxel's cube average of E T, which is the bake's collided irradiance (rate over the cube's
+ * mean sigma_t, collision.h) where sigma_t is constant over the voxel; only the trilinear
+ * density's variation inside a voxel separates the two. */
 static void seed_lights(vdbs_inet_live *l, int first, int count, float *out)
 {
     const vdbs_inet_network *net = &l->setup.net;
@@ -365,13 +365,14 @@ vdbs_status vdbs_inet_live_ms(const vdbs_inet_live *l, float *ms, float *const m
     memset(ms, 0, sizeof *ms * n);
     for (int a = 0; a < 3; ++a)
         memset(ms_l1[a], 0, sizeof *ms_l1[a] * n);
-    return vdbs_inet_to_voxels(&l->setup.net, l->state, l->volume, l->scene->density_scale,
-                               l->scene->g, ms, ms_l1, NULL, NULL, err);
+    const vdbs_inet_problem pb = live_problem(l);
+    return vdbs_inet_to_voxels(&pb, l->state, l->volume, l->scene->density_scale, l->scene->g, ms,
+                               ms_l1, NULL, NULL, err);
 }
 
-const vdbs_inet_network *vdbs_inet_live_network(const vdbs_inet_live *l)
+vdbs_inet_problem vdbs_inet_live_problem(const vdbs_inet_live *l)
 {
-    return &l->setup.net;
+    return live_problem(l);
 }
 
 const float *vdbs_inet_live_state(const vdbs_inet_live *l)

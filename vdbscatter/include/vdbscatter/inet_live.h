@@ -86,9 +86,9 @@ vdbs_status vdbs_inet_live_sweep(vdbs_inet_live *live, int sweeps, vdbs_inet_liv
  * as vdbs_inet_to_voxels). Errors: out of memory. */
 vdbs_status vdbs_inet_live_ms(const vdbs_inet_live *live, float *ms, float *const ms_l1[3],
                               vdbs_error *err);
-/* The network and the state (links then sinks, 3 floats a slot), valid until the next call
- * that changes them (tests compare with vdbs_inet_to_voxels). */
-const vdbs_inet_network *vdbs_inet_live_network(const vdbs_inet_live *live);
+/* The problem (network, phase, emission) and the state (links then sinks, 3 floats a slot),
+ * valid until the next call that changes them (tests compare with vdbs_inet_to_voxels). */
+vdbs_inet_problem vdbs_inet_live_problem(const vdbs_inet_live *live);
 const float *vdbs_inet_live_state(const vdbs_inet_live *live);
 /* How the opening solve (vdbs_inet_live_create) started and how many sweeps it took. */
 vdbs_inet_live_opening vdbs_inet_live_opened(const vdbs_inet_live *live);

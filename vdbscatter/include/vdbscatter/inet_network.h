@@ -1,10 +1,12 @@
 /* The particles and the visibility network of the illumination-network solver
  * (Szirmay-Kalos et al., docs/methods/inet.md; `--method inet`), built once per volume.
  *
- * Particles: N points sampled in proportion to sigma_t over the output voxels, stratified
- * (the k-th at cumulative mass (k + xi_k) / N, xi_k from a seeded stream), each uniformly
- * placed inside the voxel it fell in; every particle carries the same optical mass
- * m = (sum of sigma_t over the voxels times the voxel volume) / N.
+ * Particles: N points sampled in proportion to the optical mass of each output voxel's cube,
+ * the integral of the trilinear sigma_t the renderer and the light grids see (the centre's
+ * value weighs 3/4 per axis, each face neighbour's 1/8, so the dilated ring of output voxels
+ * past the last active centres holds the ramp's medium), stratified (the k-th at cumulative
+ * mass (k + xi_k) / N, xi_k from a seeded stream), each uniformly placed inside the voxel it
+ * fell in; every particle carries the same optical mass m = (total mass) / N.
  *
  * The network: for each of D directions of travel w_d, the particles projected orthographically
  * onto a window of M x M pixels that covers the particles' bounding sphere (side 2R,
@@ -44,6 +46,9 @@ typedef struct vdbs_inet_network {
     double pixel_area; /* A = (2R / M)^2 (world^2) */
     float *position;   /* 3 N: world positions */
     int64_t *voxel;    /* N: the output voxel (coords index) each particle was sampled in */
+    /* Per output voxel its cube's mean sigma_t (its optical mass over its volume): a
+     * particle's share of its voxel's first collisions is m / (this times the volume). */
+    float *voxel_sigma_t;
     /* N x D: upstream[p D + d], the particle just before p along direction d in p's pixel
      * (the light travelling along w_d reaches p from it), or -1 where p is first. */
     int32_t *upstream;
