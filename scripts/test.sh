@@ -36,7 +36,7 @@ report_skipped build-ci
 cmake -S . -B build-asan -DCMAKE_BUILD_TYPE=Debug -DVDBSCATTER_WERROR=ON -DVDBSCATTER_SANITIZE=ON
 cmake --build build-asan -j "$jobs"
 export UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1
-ASAN_OPTIONS=detect_leaks=1 ctest --test-dir build-asan --output-on-failure -j "$jobs" -L unit -LE "statistical|long"
+ASAN_OPTIONS=detect_leaks=1 ctest --test-dir build-asan --output-on-failure -j "$jobs" -L unit -LE "statistical|long|heavy"
 ASAN_OPTIONS=detect_leaks=0 ctest --test-dir build-asan --output-on-failure -j "$jobs" -L "gl|cli" -LE "statistical|long|heavy"
 
 # libFuzzer: every harness of fuzz/ for 30 s, all at once, sharing the cores (a 30 s sample
