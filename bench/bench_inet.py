@@ -19,31 +19,18 @@ import glob
 import os
 import tempfile
 
+from bench_calibrate import CALIBRATION
 from benchlib import run_json, save_plot, timed
 
 HERE = os.path.dirname(os.path.abspath(__file__))
-ROOT = os.path.dirname(HERE)
-SAMPLES = os.path.join(ROOT, "samples")
-SCENES = os.path.join(HERE, "tradeoff", "scenes")
-DATA = os.environ.get("VDBSCATTER_DATA_DIR", os.path.join(os.path.dirname(ROOT), "shared", "data"))
 
-# name: (scene file, input VDB or None for the scene's own, what it stands for)
-CASES = {
-    "cloud": (os.path.join(SAMPLES, "cloud.json"), os.path.join(SAMPLES, "cloud.vdb"),
-              "sample cloud, sun + constant sky, g 0.85, albedo 0.99"),
-    "smoke": (os.path.join(SAMPLES, "smoke.json"), os.path.join(SAMPLES, "smoke.vdb"),
-              "sample smoke, sun + point light, g 0.3, albedo 0.8"),
-    "disney": (os.path.join(SCENES, "disney.json"), os.path.join(DATA, "wdas_cloud_sixteenth.vdb"),
-               "Disney cloud (1/16), depth 20, sun + sky, g 0.9, albedo 0.999"),
-    "usd_smoke": (os.path.join(SCENES, "usd_smoke.json"),
-                  os.path.join(DATA, "usd_smoke_000002.vdb"),
-                  "USD smoke, depth 3, sun + point light inside, g 0.5, albedo 0.9"),
-}
+# The calibration set's scenes (bench_calibrate.py), by name.
+SCENES_RUN = ("cloud", "smoke", "disney", "usd_smoke")
 
 
-def inet_point(exe, vdb, scene, ref, size, tmp, n, d):
+def inet_point(exe, inp, scene, ref, size, tmp, n, d):
     lit = os.path.join(tmp, "lit.vdb")
-    rep, _ = timed([exe, "bake", vdb, "--scene", scene, "-o", lit, "--backend", "cpu",
+    rep, _ = timed([exe, "bake", *inp, "--scene", scene, "-o", lit, "--backend", "cpu",
                     "--method", "inet", "--inet-particles", str(n), "--inet-directions", str(d),
                     "--json", "-q"])
     img = os.path.join(tmp, "img.exr")
@@ -63,7 +50,7 @@ def main():
     ap.add_argument("--qualities", default="low,medium")
     ap.add_argument("--particles", default="1000,10000,100000")
     ap.add_argument("--directions", default="32,64,128")
-    ap.add_argument("--scenes", default="cloud,smoke,disney,usd_smoke")
+    ap.add_argument("--scenes", default=",".join(SCENES_RUN))
     ap.add_argument("--corner", default="", help="extra N x D points, e.g. 1000000x64")
     ap.add_argument("--dir", default="", help="the tradeoff folders' parent (kept; a rerun "
                     "reuses the references); default a fresh temporary one")
@@ -92,12 +79,13 @@ def main():
                 sections[current].append(line)
     for name in args.scenes.split(","):
         start = len(lines)
-        scene, vdb, what = CASES[name]
-        if not os.path.exists(vdb):
+        scene, vdb, what = CALIBRATION[name]
+        if vdb and not os.path.exists(vdb):
             sections[name] = [f"## {name}: skipped ({vdb} missing)", ""]
             continue
         folder = os.path.join(work, name)
-        rep = run_json([exe, "tradeoff", vdb, "--scene", scene, "-o", folder, "--size", args.size,
+        inp = [vdb] if vdb else []  # None: the scene file names its own volume
+        rep = run_json([exe, "tradeoff", *inp, "--scene", scene, "-o", folder, "--size", args.size,
                         "--methods", "pop,fld,svd,inet", "--qualities", args.qualities,
                         "--ref-noise", args.ref_noise, "--backend", "cpu", "--json", "-q"])
         ref = sorted(glob.glob(os.path.join(folder, "reference-*.exr")))[0]
@@ -116,14 +104,14 @@ def main():
         for n in ns:
             cells = []
             for d in ds:
-                err, secs, stats = inet_point(exe, vdb, scene, ref, args.size, tmp, n, d)
+                err, secs, stats = inet_point(exe, inp, scene, ref, args.size, tmp, n, d)
                 cells.append(f"{err:.4f} ({secs:.3g} s, {stats['iterations']} sweeps)")
                 print(f"{name} N {n} D {d}: {err:.4f} in {secs:.3g} s", flush=True)
             lines.append(f"| {n} | " + " | ".join(cells) + " |")
         lines.append("")
         for point in filter(None, args.corner.split(",")):
             n, d = (int(v) for v in point.split("x"))
-            err, secs, stats = inet_point(exe, vdb, scene, ref, args.size, tmp, n, d)
+            err, secs, stats = inet_point(exe, inp, scene, ref, args.size, tmp, n, d)
             lines.append(f"- N {n}, D {d}: {err:.4f} ({secs:.3g} s, {stats['iterations']} "
                          "sweeps)")
             print(f"{name} N {n} D {d}: {err:.4f} in {secs:.3g} s", flush=True)
@@ -131,7 +119,7 @@ def main():
             lines.append("")
         sections[name] = lines[start:]
         del lines[start:]
-    for name in list(CASES) + [k for k in sections if k not in CASES]:
+    for name in list(SCENES_RUN) + [k for k in sections if k not in SCENES_RUN]:
         lines += sections.get(name, [])
     with open(args.out, "w") as f:
         f.write("\n".join(lines).rstrip("\n") + "\n")

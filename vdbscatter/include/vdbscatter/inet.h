@@ -123,13 +123,13 @@ double vdbs_inet_balance(const vdbs_inet_problem *pb, const float *before, const
 void vdbs_inet_emit(const vdbs_inet_network *net, double g, const double albedo[3], int64_t p,
                     const double irradiance[3], const double travel[3], float *emission);
 
-/* The particles' scattered radiance (`state`'s links, the problem's emission and phase) as
- * docs/design.md's ms and ms_l1 on the output voxels: per particle the fluence and net flux
- * over the D directions of its radiance averaged over its own depth (the light reaching it,
- * attenuated through it, and its own source filling in), averaged onto a
+/* The particles' incoming radiance (`state`'s links) as docs/design.md's ms and ms_l1 on the
+ * output voxels: per particle the fluence and net flux over the D directions, averaged onto a
  * coarse world grid (about 8 particles to a cell; its resolution out, may be NULL) and
- * reconstructed by the interpolating B-spline with the joint bilateral weights (coarse.h).
- * Adds to ms, ms_l1 and radiance (which may be NULL). Errors: out of memory. */
+ * reconstructed by the interpolating B-spline with the joint bilateral weights (coarse.h),
+ * then held to the energy bound: the light ms says the medium absorbs may not exceed the power
+ * scattered into the network (the problem's emission; no bound without one). Adds to ms,
+ * ms_l1 and radiance (which may be NULL). Errors: out of memory. */
 vdbs_status vdbs_inet_to_voxels(const vdbs_inet_problem *pb, const float *state,
                                 const vdbs_volume *volume, double density_scale, double g,
                                 float *ms, float *const ms_l1[3], float *radiance, int *resolution,
