@@ -1,7 +1,9 @@
 /* The thin slab of bench/bench_slab.py: writes a homogeneous slab of W x T x W voxels of side 1
  * (density 1, its lit face +Y) to a VDB and prints, as JSON, adding-doubling's diffusely
  * reflected radiance of a normal beam of irradiance 1 at the cosines asked for, for the
- * optical thickness, albedo and g given (tests/planeparallel.h).
+ * optical thickness, albedo and g given (tests/planeparallel.h); beside it, discrete ordinates'
+ * own answer (`ordinates`) and the same field rebuilt from the two moments a lit VDB carries
+ * (`moments`: what a perfect solver's lit VDB renders).
  * usage: bench_slab OUT.vdb W T TAU ALBEDO G MU... */
 #include <stdio.h>
 #include <stdlib.h>
@@ -36,13 +38,21 @@ int main(int argc, char **argv)
         return 1;
     }
     free(values);
-    double mu[16], r[16], t_rad[16], refl, trans;
+    double mu[16], r[16], t_rad[16], dom[16], lobe[16], refl, trans;
     for (int i = 0; i < n; ++i)
         mu[i] = atof(argv[7 + i]);
     pp_adding_doubling_dirs(tau, albedo, g, &refl, &trans, NULL, NULL, n, mu, r, t_rad);
     printf("{\"R\": %.9g, \"T\": %.9g, \"radiance\": {", refl, trans);
     for (int i = 0; i < n; ++i)
         printf("%s\"%g\": %.9g", i ? ", " : "", mu[i], r[i]);
+    pp_moments_reflection(tau, albedo, g, n, mu, dom, lobe);
+    const char *names[2] = {"ordinates", "moments"};
+    const double *values2[2] = {dom, lobe};
+    for (int k = 0; k < 2; ++k) {
+        printf("}, \"%s\": {", names[k]);
+        for (int i = 0; i < n; ++i)
+            printf("%s\"%g\": %.9g", i ? ", " : "", mu[i], values2[k][i]);
+    }
     printf("}}\n");
     return 0;
 }

@@ -92,6 +92,50 @@ static void matinv(const double *a, double *inv)
             inv[i * PP_NQ + j] = m[i * 2 * PP_NQ + PP_NQ + j];
 }
 
+/* Azimuth-averaged phase into the same hemisphere (pf) and the other one (pb), times the
+ * solid-angle weight 2 pi w_j, scaled symmetrically (p_ij d_i d_j, a few Sinkhorn steps, d in
+ * scale) so that rows and columns both sum to 1: the quadrature then conserves energy
+ * exactly. */
+static void phase_matrices(double g, const double *mu, const double *wq, double *pf, double *pb,
+                           double *scale)
+{
+    for (int i = 0; i < PP_NQ; ++i) {
+        scale[i] = 1.0;
+        for (int j = 0; j < PP_NQ; ++j) {
+            pf[i * PP_NQ + j] = hg_azimuth(g, mu[i], mu[j]);
+            pb[i * PP_NQ + j] = hg_azimuth(g, mu[i], -mu[j]);
+        }
+    }
+    for (int it = 0; it < 200; ++it) {
+        double worst = 0.0;
+        for (int i = 0; i < PP_NQ; ++i) {
+            double sum = 0.0;
+            for (int j = 0; j < PP_NQ; ++j)
+                sum += 2.0 * PI * wq[j] * scale[i] * scale[j] *
+                       (pf[i * PP_NQ + j] + pb[i * PP_NQ + j]);
+            worst = fmax(worst, fabs(sum - 1.0));
+            scale[i] /= sqrt(sum);
+        }
+        if (worst < 1e-15)
+            break;
+    }
+    for (int i = 0; i < PP_NQ; ++i)
+        for (int j = 0; j < PP_NQ; ++j) {
+            double f = 2.0 * PI * wq[j] * scale[i] * scale[j];
+            pf[i * PP_NQ + j] *= f;
+            pb[i * PP_NQ + j] *= f;
+        }
+}
+
+/* The quadrature's integral of the phase out of the normal beam, which normalises it. */
+static double beam_phase_sum(double g, const double *mu, const double *wq)
+{
+    double sum = 0.0;
+    for (int i = 0; i < PP_NQ; ++i)
+        sum += 2.0 * PI * wq[i] * (pp_hg(g, mu[i]) + pp_hg(g, -mu[i]));
+    return sum;
+}
+
 /* Thin-layer single-scattering transmission factor from cosine mj into cosine mi,
  * mj / (mi - mj) (exp(-delta / mi) - exp(-delta / mj)), without the cancellation of the
  * difference of two exponentials near 1 (delta is about 1e-8): for the extra directions of
@@ -129,40 +173,9 @@ void pp_adding_doubling_dirs(double tau, double albedo, double g, double *refl, 
     double *q = malloc(bytes), *tmp = malloc(bytes), *tmp2 = malloc(bytes), *tq = malloc(bytes);
     double r0[PP_NQ], t0[PP_NQ];
 
-    /* Azimuth-averaged phase into the same hemisphere (pf) and the other one (pb),
-     * times the solid-angle weight 2 pi w_j, scaled symmetrically (p_ij d_i d_j, a few
-     * Sinkhorn steps) so that rows and columns both sum to 1: the quadrature then
-     * conserves energy exactly. */
     double scale[PP_NQ];
-    for (int i = 0; i < PP_NQ; ++i) {
-        scale[i] = 1.0;
-        for (int j = 0; j < PP_NQ; ++j) {
-            pf[i * PP_NQ + j] = hg_azimuth(g, mu[i], mu[j]);
-            pb[i * PP_NQ + j] = hg_azimuth(g, mu[i], -mu[j]);
-        }
-    }
-    for (int it = 0; it < 200; ++it) {
-        double worst = 0.0;
-        for (int i = 0; i < PP_NQ; ++i) {
-            double sum = 0.0;
-            for (int j = 0; j < PP_NQ; ++j)
-                sum += 2.0 * PI * wq[j] * scale[i] * scale[j] *
-                       (pf[i * PP_NQ + j] + pb[i * PP_NQ + j]);
-            worst = fmax(worst, fabs(sum - 1.0));
-            scale[i] /= sqrt(sum);
-        }
-        if (worst < 1e-15)
-            break;
-    }
-    for (int i = 0; i < PP_NQ; ++i)
-        for (int j = 0; j < PP_NQ; ++j) {
-            double f = 2.0 * PI * wq[j] * scale[i] * scale[j];
-            pf[i * PP_NQ + j] *= f;
-            pb[i * PP_NQ + j] *= f;
-        }
-    double beam_sum = 0.0;
-    for (int i = 0; i < PP_NQ; ++i)
-        beam_sum += 2.0 * PI * wq[i] * (pp_hg(g, mu[i]) + pp_hg(g, -mu[i]));
+    phase_matrices(g, mu, wq, pf, pb, scale);
+    const double beam_sum = beam_phase_sum(g, mu, wq);
 
     /* Exact single scattering in the thin layer: light entering along mu_j and leaving
      * along mu_i after one scattering at depth x is weighted exp(-x/mu_j) exp(-y/mu_i)
@@ -326,4 +339,119 @@ void pp_adding_doubling(double tau, double albedo, double g, double *refl, doubl
                         double *r_rad, double *t_rad)
 {
     pp_adding_doubling_dirs(tau, albedo, g, refl, trans, r_rad, t_rad, 0, NULL, NULL, NULL);
+}
+
+/* ---- discrete ordinates inside the slab: what the lit VDB's two moments carry ----
+ *
+ * Source iteration on the same 2 PP_NQ cosines and phase matrices as adding-doubling, over
+ * PP_LAYERS layers of equal optical thickness, step characteristics (the source constant in a
+ * layer). The field is kept at every layer, so its direction average and first moment give
+ * the lit VDB's ms and ms_l1 (docs/design.md "The output grids"), and the reflected radiance
+ * can be formed twice: with the full angular field, and with the multiple scattering rebuilt
+ * from those two moments as every renderer of the lit VDB does (an HG lobe of the first
+ * moment's anisotropy). */
+#define PP_LAYERS 400
+
+/* A view cosine's phase row from the 2 PP_NQ ordinates (up: cosine +mu_j, then down), normalised
+ * as adding-doubling's extra directions are. */
+static void view_phase_row(double g, double mv, const double *mu, const double *wq,
+                           const double *scale, double *row)
+{
+    double sum = 0.0;
+    for (int j = 0; j < PP_NQ; ++j) {
+        row[j] = 2.0 * PI * wq[j] * scale[j] * hg_azimuth(g, mv, mu[j]);
+        row[PP_NQ + j] = 2.0 * PI * wq[j] * scale[j] * hg_azimuth(g, mv, -mu[j]);
+        sum += row[j] + row[PP_NQ + j];
+    }
+    for (int j = 0; j < 2 * PP_NQ; ++j)
+        row[j] /= sum;
+}
+
+void pp_moments_reflection(double tau, double albedo, double g, int n_view, const double *mu_view,
+                           double *exact, double *lobe)
+{
+    enum { ND = 2 * PP_NQ, NZ = PP_LAYERS };
+    double mu[PP_NQ], wq[PP_NQ], scale[PP_NQ];
+    test_gauss_legendre(PP_NQ, 0.0, 1.0, mu, wq);
+    size_t bytes = sizeof(double) * PP_NQ * PP_NQ;
+    double *pf = malloc(bytes), *pb = malloc(bytes);
+    double *kernel = malloc(sizeof(double) * ND * ND), *beam = malloc(sizeof(double) * ND);
+    double *radiance = calloc((size_t)NZ * ND, sizeof(double));
+    double *source = malloc(sizeof(double) * NZ * ND), *first = malloc(sizeof(double) * NZ * ND);
+    assert_non_null(pf && pb && kernel && beam && radiance && source && first);
+    phase_matrices(g, mu, wq, pf, pb, scale);
+    const double beam_sum = beam_phase_sum(g, mu, wq);
+    /* Ordinate d < PP_NQ travels up (cosine +mu), d >= PP_NQ down; kernel[i][j] takes light
+     * travelling along j into i. */
+    for (int i = 0; i < ND; ++i) {
+        const int ii = i % PP_NQ, up_i = i < PP_NQ;
+        for (int j = 0; j < ND; ++j) {
+            const int jj = j % PP_NQ, same = (j < PP_NQ) == up_i;
+            kernel[i * ND + j] = same ? pf[ii * PP_NQ + jj] : pb[ii * PP_NQ + jj];
+        }
+        /* The beam travels down (cosine -1). */
+        beam[i] = pp_hg(g, up_i ? -mu[ii] : mu[ii]) / beam_sum;
+    }
+    const double dz = tau / NZ;
+    for (int k = 0; k < NZ; ++k)
+        for (int i = 0; i < ND; ++i)
+            first[k * ND + i] = exp(-(k + 0.5) * dz) * beam[i];
+    memcpy(source, first, sizeof(double) * NZ * ND);
+    for (int it = 0; it < 2000; ++it) {
+        for (int i = 0; i < ND; ++i) {
+            const double m = mu[i % PP_NQ], through = exp(-dz / m), half = exp(-0.5 * dz / m);
+            double in = 0.0;
+            for (int s = 0; s < NZ; ++s) {
+                const int k = i < PP_NQ ? NZ - 1 - s : s;
+                const double q = albedo * source[k * ND + i];
+                radiance[k * ND + i] = in * half + q * (1.0 - half);
+                in = in * through + q * (1.0 - through);
+            }
+        }
+        double change = 0.0, size = 0.0;
+        for (int k = 0; k < NZ; ++k)
+            for (int i = 0; i < ND; ++i) {
+                double s = first[k * ND + i];
+                for (int j = 0; j < ND; ++j)
+                    s += kernel[i * ND + j] * radiance[k * ND + j];
+                change = fmax(change, fabs(s - source[k * ND + i]));
+                size = fmax(size, s);
+                source[k * ND + i] = s;
+            }
+        if (change <= 1e-12 * size)
+            break;
+    }
+    double row[ND];
+    for (int v = 0; v < n_view; ++v) {
+        const double mv = mu_view[v];
+        view_phase_row(g, mv, mu, wq, scale, row);
+        const double s1_view = pp_hg(g, -mv) / beam_sum;
+        double full = 0.0, rebuilt = 0.0;
+        for (int k = 0; k < NZ; ++k) {
+            double s_ms = 0.0, ms = 0.0, flux = 0.0;
+            for (int j = 0; j < ND; ++j) {
+                const double lj = radiance[k * ND + j], cj = j < PP_NQ ? mu[j] : -mu[j - PP_NQ];
+                const double wj = 2.0 * PI * wq[j % PP_NQ];
+                s_ms += row[j] * lj;
+                ms += wj * lj / (4.0 * PI);
+                flux += wj * cj * lj;
+            }
+            /* b = |ms_l1| / (3 ms) with ms_l1 = 3 g flux / 4 pi, along +flux. */
+            const double b = ms > 0.0 ? fmin(fabs(g * flux) / (4.0 * PI * ms), 0.999) : 0.0;
+            const double cosine = (g * flux >= 0.0) ? mv : -mv;
+            const double s1 = exp(-(k + 0.5) * dz) * s1_view;
+            const double seen = albedo * (exp(-k * dz / mv) - exp(-(k + 1) * dz / mv));
+            full += (s1 + s_ms) * seen;
+            rebuilt += (s1 + 4.0 * PI * ms * pp_hg(b, cosine)) * seen;
+        }
+        exact[v] = full;
+        lobe[v] = rebuilt;
+    }
+    free(pf);
+    free(pb);
+    free(kernel);
+    free(beam);
+    free(radiance);
+    free(source);
+    free(first);
 }

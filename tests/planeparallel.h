@@ -21,4 +21,12 @@ void pp_adding_doubling_dirs(double tau, double albedo, double g, double *refl, 
 void pp_adding_doubling(double tau, double albedo, double g, double *refl, double *trans,
                         double *r_rad, double *t_rad);
 
+/* The radiance a slab of optical thickness tau under a normal beam of irradiance 1 reflects
+ * along each cosine mu_view (single and multiple scattering), by discrete ordinates inside the
+ * slab: exact with the full angular field; lobe with the multiple scattering rebuilt from its
+ * direction average and first moment, the lit VDB's ms and ms_l1, as its renderers do. The
+ * difference is what the lit VDB's format cannot carry, whatever the solver. */
+void pp_moments_reflection(double tau, double albedo, double g, int n_view, const double *mu_view,
+                           double *exact, double *lobe);
+
 #endif

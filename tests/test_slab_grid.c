@@ -115,32 +115,40 @@ static void bake_and_look(const char *slab, int across, double radiance[2])
     remove(lit);
 }
 
-/* The default grid (8 cells through the thickness) within 5% of adding-doubling at mu = 0.5;
- * at mu = 1 the lit VDB's ms and ms_l1 (isotropic plus the first moment) leave the baked
- * radiance 40-50% high whatever the grid (bench/slab.md: 0.0179 at 16 cells through the
- * thickness and 64 across, 0.0183 with 512 directions), so that bar is 50%; both closer than
- * cubic cells, which leave the slab 2 cells thick. */
+/* The default grid (8 cells through the thickness) within 5% of adding-doubling at mu = 0.5. At
+ * mu = 1 no lit VDB can be: it holds the multiple scattering as a direction average and a first
+ * moment (ms, ms_l1), and the slab's exact field inside, rebuilt from those two moments as every
+ * renderer of the lit VDB does, reflects 40% more than adding-doubling there (5% less at
+ * mu = 0.5; pp_moments_reflection). So at mu = 1 the 5% is against that: the solver against
+ * what its output format can carry. Both closer than cubic cells, which leave the slab 2 cells
+ * thick. The discrete-ordinates field itself is checked against adding-doubling first. */
 static void test_svd_high_on_a_thin_slab(void **state)
 {
     (void)state;
     const char *slab = test_tmp_path("slab_grid.vdb");
     write_slab(slab);
     const double mus[2] = {1.0, 0.5};
-    double r_flux, t_flux, oracle[2], t_rad[2];
-    pp_adding_doubling_dirs(1.0, 1.0, 0.75, &r_flux, &t_flux, NULL, NULL, 2, mus, oracle, t_rad);
+    double r_flux, t_flux, truth[2], t_rad[2], ordinates[2], moments[2];
+    pp_adding_doubling_dirs(1.0, 1.0, 0.75, &r_flux, &t_flux, NULL, NULL, 2, mus, truth, t_rad);
+    pp_moments_reflection(1.0, 1.0, 0.75, 2, mus, ordinates, moments);
+    for (int i = 0; i < 2; ++i) {
+        print_message("mu %.1f: adding-doubling %.6f, ordinates %.6f, from two moments %.6f\n",
+                      mus[i], truth[i], ordinates[i], moments[i]);
+        assert_true(fabs(ordinates[i] / truth[i] - 1.0) < 1e-3);
+    }
     double boxes[2], cubes[2];
     bake_and_look(slab, 0, boxes);
     bake_and_look(slab, 1, cubes);
     remove(slab);
-    const double bar[2] = {0.5, 0.05};
+    /* The oracle per cosine: mu = 1 against the two moments, mu = 0.5 against the truth. */
+    const double oracle[2] = {moments[0], truth[1]};
     for (int i = 0; i < 2; ++i) {
         const double e_box = boxes[i] / oracle[i] - 1.0, e_cube = cubes[i] / oracle[i] - 1.0;
-        print_message("mu %.1f: adding-doubling %.6f, svd high %.6f (%+.1f%%), cubic cells %.6f "
-                      "(%+.1f%%)\n",
+        print_message("mu %.1f: oracle %.6f, svd high %.6f (%+.1f%%), cubic cells %.6f (%+.1f%%)\n",
                       mus[i], oracle[i], boxes[i], 100.0 * e_box, cubes[i], 100.0 * e_cube);
-        if (!(fabs(e_box) <= bar[i]))
-            fail_msg("mu %.1f: svd high %.6f against adding-doubling %.6f (%+.1f%%, bar %.0f%%)",
-                     mus[i], boxes[i], oracle[i], 100.0 * e_box, 100.0 * bar[i]);
+        if (!(fabs(e_box) <= 0.05))
+            fail_msg("mu %.1f: svd high %.6f against %.6f (%+.1f%%, bar 5%%)", mus[i], boxes[i],
+                     oracle[i], 100.0 * e_box);
         assert_true(fabs(e_box) < fabs(e_cube));
     }
 }
