@@ -354,13 +354,17 @@ static vdbs_status plan(bake_job *j, vdbs_bake_report *report, vdbs_error *err)
     const vdbs_plan *p = &report->plan;
     int count;
     const vdbs_quality *q = &vdbs_quality_list(&count)[p->chosen.quality];
-    if (!p->reachable && !o->dry_run)
-        return vdbs_error_set(err, VDBS_ERR_INPUT,
-                              "--tolerance %g is out of reach on this scene: the best predicted "
-                              "is %.3g (--method %s --quality %s, cost hint %.0f s); raise "
-                              "--tolerance or choose a method",
-                              o->tolerance, p->chosen.error, p->chosen.method, q->name,
-                              p->chosen.seconds);
+    /* Out of reach, the bake still gives the best the planner expects, and says so: a farm job
+     * gets a picture and a line (and the report's and metadata's reachable false) rather than a
+     * failed frame. */
+    if (!p->reachable && !o->dry_run) {
+        char line[320];
+        snprintf(line, sizeof line,
+                 "--tolerance %g is out of reach on this scene: baking the most accurate plan, "
+                 "predicted %.3g (--method %s --quality %s, cost hint %.0f s)",
+                 o->tolerance, p->chosen.error, p->chosen.method, q->name, p->chosen.seconds);
+        warn(o, "%s", line);
+    }
     if ((st = vdbs_plan_apply(p, j->scene, err)) != VDBS_OK)
         return st;
     if (!(j->plan_json = vdbs_plan_json(p, &report->plan_features)))
