@@ -64,13 +64,17 @@ static void test_ladder_stop(void **state)
     (void)state;
     int count = 0;
     const vdbs_quality *q = vdbs_quality_list(&count);
-    const vdbs_solver *inet = vdbs_solver_find("inet"), *svd = vdbs_solver_find("svd");
+    const vdbs_solver *inet = vdbs_solver_find("inet"), *pop = vdbs_solver_find("pop");
+    const vdbs_solver *svd = vdbs_solver_find("svd");
     assert_non_null(inet);
+    assert_non_null(pop);
     assert_string_equal(inet->ladder_stop, "low");
+    assert_string_equal(pop->ladder_stop, "low");
     const int stop = vdbs_quality_level(inet->ladder_stop);
     for (int level = 0; level < count; ++level) {
         const vdbs_quality *baked = vdbs_solver_quality(inet, &q[level]);
         assert_int_equal(vdbs_quality_level(baked->name), level < stop ? level : stop);
+        assert_ptr_equal(vdbs_solver_quality(pop, &q[level]), baked);
         assert_ptr_equal(vdbs_solver_quality(svd, &q[level]), &q[level]);
         assert_ptr_equal(vdbs_solver_quality(NULL, &q[level]), &q[level]);
     }
