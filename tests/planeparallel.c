@@ -136,6 +136,22 @@ static double beam_phase_sum(double g, const double *mu, const double *wq)
     return sum;
 }
 
+/* A view cosine's phase row from the 2 PP_NQ ordinates (cosine +mu_j, then -mu_j), each node's
+ * Sinkhorn scale applied and the row normalised to sum 1, so that at a node it gives that
+ * node's row: adding-doubling's extra directions and the discrete ordinates' view. */
+static void view_phase_row(double g, double mv, const double *mu, const double *wq,
+                           const double *scale, double *row)
+{
+    double sum = 0.0;
+    for (int j = 0; j < PP_NQ; ++j) {
+        row[j] = 2.0 * PI * wq[j] * scale[j] * hg_azimuth(g, mv, mu[j]);
+        row[PP_NQ + j] = 2.0 * PI * wq[j] * scale[j] * hg_azimuth(g, mv, -mu[j]);
+        sum += row[j] + row[PP_NQ + j];
+    }
+    for (int j = 0; j < 2 * PP_NQ; ++j)
+        row[j] /= sum;
+}
+
 /* Thin-layer single-scattering transmission factor from cosine mj into cosine mi,
  * mj / (mi - mj) (exp(-delta / mi) - exp(-delta / mj)), without the cancellation of the
  * difference of two exponentials near 1 (delta is about 1e-8): for the extra directions of
@@ -212,16 +228,12 @@ void pp_adding_doubling_dirs(double tau, double albedo, double g, double *refl, 
         qt = malloc(bytes);
         rqt = malloc(bytes);
         for (int m = 0; m < n_extra; ++m) {
-            double mi = mu_extra[m], rowf[PP_NQ], rowb[PP_NQ], sum = 0.0;
-            for (int j = 0; j < PP_NQ; ++j) {
-                rowf[j] = 2.0 * PI * wq[j] * scale[j] * hg_azimuth(g, mi, mu[j]);
-                rowb[j] = 2.0 * PI * wq[j] * scale[j] * hg_azimuth(g, mi, -mu[j]);
-                sum += rowf[j] + rowb[j];
-            }
+            double mi = mu_extra[m], row[2 * PP_NQ];
+            view_phase_row(g, mi, mu, wq, scale, row);
             for (int j = 0; j < PP_NQ; ++j) {
                 double ref = mu[j] / (mi + mu[j]) * -expm1(-delta * (1.0 / mi + 1.0 / mu[j]));
-                xr[m * PP_NQ + j] = albedo * rowb[j] / sum * ref;
-                xt[m * PP_NQ + j] = albedo * rowf[j] / sum * thin_transmission(delta, mi, mu[j]);
+                xr[m * PP_NQ + j] = albedo * row[PP_NQ + j] * ref;
+                xt[m * PP_NQ + j] = albedo * row[j] * thin_transmission(delta, mi, mu[j]);
             }
             xr0[m] = albedo * pp_hg(g, -mi) / beam_sum * (1.0 / (mi + 1.0)) *
                      -expm1(-delta * (1.0 / mi + 1.0));
@@ -351,21 +363,6 @@ void pp_adding_doubling(double tau, double albedo, double g, double *refl, doubl
  * from those two moments as every renderer of the lit VDB does (an HG lobe of the first
  * moment's anisotropy). */
 #define PP_LAYERS 400
-
-/* A view cosine's phase row from the 2 PP_NQ ordinates (up: cosine +mu_j, then down), normalised
- * as adding-doubling's extra directions are. */
-static void view_phase_row(double g, double mv, const double *mu, const double *wq,
-                           const double *scale, double *row)
-{
-    double sum = 0.0;
-    for (int j = 0; j < PP_NQ; ++j) {
-        row[j] = 2.0 * PI * wq[j] * scale[j] * hg_azimuth(g, mv, mu[j]);
-        row[PP_NQ + j] = 2.0 * PI * wq[j] * scale[j] * hg_azimuth(g, mv, -mu[j]);
-        sum += row[j] + row[PP_NQ + j];
-    }
-    for (int j = 0; j < 2 * PP_NQ; ++j)
-        row[j] /= sum;
-}
 
 void pp_moments_reflection(double tau, double albedo, double g, int n_view, const double *mu_view,
                            double *exact, double *lobe)
