@@ -68,8 +68,8 @@ static const vdbs_solver_option options[] = {
                     .max = POP_MAX_RADIAL,
                     .even = "the octahedral map",
                     .help = "POP: a point light's radial grid, N x N octahedral texels\n"
-                            "times N shells (even; default 8: the ladder stops at\n"
-                            "low, as finer grids helped only lights outside the medium)",
+                            "times N shells (even; default 8 at every quality: finer\n"
+                            "grids helped lights outside the medium, hurt lights inside)",
                     .preset = {8, 16, 32, 64}},
     [OPT_IMPORTANCE] = {.key = "pop_importance",
                         .flag = "--pop-importance",
@@ -169,7 +169,8 @@ const vdbs_solver vdbs_solver_pop = {
     /* 16 at every quality: a finer sky raised POP's error (docs/planner.md, "Ladders") */
     .sky_directions = {16, 16, 16, 16},
     /* A point light's finer radial grids moved the error both ways on the calibration set
-     * (better on the smoke, worse on the USD smoke, the box lit from inside and the plasma);
+     * (better on the sphere's light outside and the smoke's at its edge, worse on the lights
+     * inside the USD smoke, the box and the plasma);
      * suns and skies gained nothing past low (docs/planner.md, "Ladders"). */
     .ladder_stop = "low",
 };
