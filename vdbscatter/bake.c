@@ -2,6 +2,7 @@
 
 #include <cjson/cJSON.h>
 #include <math.h>
+#include <stdarg.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -100,12 +101,22 @@ static vdbs_status stored_alloc(const vdbs_light_table *lights, stored_lights *k
     return VDBS_OK;
 }
 
-static void warn(const vdbs_bake_options *o, const char *fmt, const char *arg)
+static void warn(const vdbs_bake_options *o, const char *fmt, ...)
+#if defined(__GNUC__)
+    __attribute__((format(printf, 2, 3)))
+#endif
+    ;
+
+static void warn(const vdbs_bake_options *o, const char *fmt, ...)
 {
+    if (!o->warn)
+        return;
     char line[512];
-    snprintf(line, sizeof line, fmt, arg);
-    if (o->warn)
-        o->warn(o->warn_user, line);
+    va_list args;
+    va_start(args, fmt);
+    vsnprintf(line, sizeof line, fmt, args);
+    va_end(args);
+    o->warn(o->warn_user, line);
 }
 
 const void *vdbs_bake_report_stats(const vdbs_bake_report *report)
@@ -301,9 +312,8 @@ static vdbs_status check_request(bake_job *j, vdbs_error *err)
     j->sky = vdbs_solver_sky_directions(j->solver, scene, j->quality);
     for (int i = 0; i < scene->light_count; ++i)
         if (scene->lights[i].type == VDBS_LIGHT_SUN && scene->lights[i].angular_diameter_deg > 0)
-            warn(o, "%s",
-                 "sun angular_diameter_deg is treated as 0 (a delta light) by --method "
-                 "single");
+            warn(o, "sun angular_diameter_deg is treated as 0 (a delta light) by --method "
+                    "single");
     return vdbs_cancelled(o->cancel) ? vdbs_error_cancelled(err) : VDBS_OK;
 }
 
@@ -357,14 +367,11 @@ static vdbs_status plan(bake_job *j, vdbs_bake_report *report, vdbs_error *err)
     /* Out of reach, the bake still gives the best the planner expects, and says so: a farm job
      * gets a picture and a line (and the report's and metadata's reachable false) rather than a
      * failed frame. */
-    if (!p->reachable && !o->dry_run) {
-        char line[320];
-        snprintf(line, sizeof line,
-                 "--tolerance %g is out of reach on this scene: baking the most accurate plan, "
-                 "predicted %.3g (--method %s --quality %s, cost hint %.0f s)",
-                 o->tolerance, p->chosen.error, p->chosen.method, q->name, p->chosen.seconds);
-        warn(o, "%s", line);
-    }
+    if (!p->reachable && !o->dry_run)
+        warn(o,
+             "--tolerance %g is out of reach on this scene: baking the most accurate plan, "
+             "predicted %.3g (--method %s --quality %s, cost hint %.0f s)",
+             o->tolerance, p->chosen.error, p->chosen.method, q->name, p->chosen.seconds);
     if ((st = vdbs_plan_apply(p, j->scene, err)) != VDBS_OK)
         return st;
     if (!(j->plan_json = vdbs_plan_json(p, &report->plan_features)))
