@@ -42,17 +42,16 @@ int main(int argc, char **argv)
     for (int i = 0; i < n; ++i)
         mu[i] = atof(argv[7 + i]);
     pp_adding_doubling_dirs(tau, albedo, g, &refl, &trans, NULL, NULL, n, mu, r, t_rad);
-    printf("{\"R\": %.9g, \"T\": %.9g, \"radiance\": {", refl, trans);
-    for (int i = 0; i < n; ++i)
-        printf("%s\"%g\": %.9g", i ? ", " : "", mu[i], r[i]);
     pp_moments_reflection(tau, albedo, g, n, mu, dom, lobe);
-    const char *names[2] = {"ordinates", "moments"};
-    const double *values2[2] = {dom, lobe};
-    for (int k = 0; k < 2; ++k) {
-        printf("}, \"%s\": {", names[k]);
+    printf("{\"R\": %.9g, \"T\": %.9g", refl, trans);
+    const char *names[3] = {"radiance", "ordinates", "moments"};
+    const double *per_mu[3] = {r, dom, lobe};
+    for (int k = 0; k < 3; ++k) {
+        printf(", \"%s\": {", names[k]);
         for (int i = 0; i < n; ++i)
-            printf("%s\"%g\": %.9g", i ? ", " : "", mu[i], values2[k][i]);
+            printf("%s\"%g\": %.9g", i ? ", " : "", mu[i], per_mu[k][i]);
+        printf("}");
     }
-    printf("}}\n");
+    printf("}\n");
     return 0;
 }

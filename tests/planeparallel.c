@@ -374,8 +374,8 @@ void pp_moments_reflection(double tau, double albedo, double g, int n_view, cons
     double *pf = malloc(bytes), *pb = malloc(bytes);
     double *kernel = malloc(sizeof(double) * ND * ND), *beam = malloc(sizeof(double) * ND);
     double *radiance = calloc((size_t)NZ * ND, sizeof(double));
-    double *source = malloc(sizeof(double) * NZ * ND), *first = malloc(sizeof(double) * NZ * ND);
-    assert_non_null(pf && pb && kernel && beam && radiance && source && first);
+    double *source = malloc(sizeof(double) * NZ * ND);
+    assert_non_null(pf && pb && kernel && beam && radiance && source);
     phase_matrices(g, mu, wq, pf, pb, scale);
     const double beam_sum = beam_phase_sum(g, mu, wq);
     /* Ordinate d < PP_NQ travels up (cosine +mu), d >= PP_NQ down; kernel[i][j] takes light
@@ -389,11 +389,14 @@ void pp_moments_reflection(double tau, double albedo, double g, int n_view, cons
         /* The beam travels down (cosine -1). */
         beam[i] = pp_hg(g, up_i ? -mu[ii] : mu[ii]) / beam_sum;
     }
+    /* The beam's transmittance to each layer's middle: the first collisions are fall x beam. */
     const double dz = tau / NZ;
-    for (int k = 0; k < NZ; ++k)
+    double fall[NZ];
+    for (int k = 0; k < NZ; ++k) {
+        fall[k] = exp(-(k + 0.5) * dz);
         for (int i = 0; i < ND; ++i)
-            first[k * ND + i] = exp(-(k + 0.5) * dz) * beam[i];
-    memcpy(source, first, sizeof(double) * NZ * ND);
+            source[k * ND + i] = fall[k] * beam[i];
+    }
     for (int it = 0; it < 2000; ++it) {
         for (int i = 0; i < ND; ++i) {
             const double m = mu[i % PP_NQ], through = exp(-dz / m), half = exp(-0.5 * dz / m);
@@ -408,7 +411,7 @@ void pp_moments_reflection(double tau, double albedo, double g, int n_view, cons
         double change = 0.0, size = 0.0;
         for (int k = 0; k < NZ; ++k)
             for (int i = 0; i < ND; ++i) {
-                double s = first[k * ND + i];
+                double s = fall[k] * beam[i];
                 for (int j = 0; j < ND; ++j)
                     s += kernel[i * ND + j] * radiance[k * ND + j];
                 change = fmax(change, fabs(s - source[k * ND + i]));
@@ -436,7 +439,7 @@ void pp_moments_reflection(double tau, double albedo, double g, int n_view, cons
             /* b = |ms_l1| / (3 ms) with ms_l1 = 3 g flux / 4 pi, along +flux. */
             const double b = ms > 0.0 ? fmin(fabs(g * flux) / (4.0 * PI * ms), 0.999) : 0.0;
             const double cosine = (g * flux >= 0.0) ? mv : -mv;
-            const double s1 = exp(-(k + 0.5) * dz) * s1_view;
+            const double s1 = fall[k] * s1_view;
             const double seen = albedo * (exp(-k * dz / mv) - exp(-(k + 1) * dz / mv));
             full += (s1 + s_ms) * seen;
             rebuilt += (s1 + 4.0 * PI * ms * pp_hg(b, cosine)) * seen;
@@ -450,5 +453,4 @@ void pp_moments_reflection(double tau, double albedo, double g, int n_view, cons
     free(beam);
     free(radiance);
     free(source);
-    free(first);
 }
