@@ -46,6 +46,8 @@ typedef struct plan_measure {
  * (the sky-lit cloud) to 1.25 (the smoke) on the calibration set, the sparse dragon aside
  * (its picture is mostly background). */
 #define PLAN_SINGLE_FLOOR 0.5
+/* The least multiply scattered share the error model divides by. */
+#define PLAN_MIN_SHARE 1e-3
 
 static double mean3(const double v[3])
 {
@@ -185,6 +187,13 @@ static vdbs_plan_features scene_features(const plan_scene *s)
     return f;
 }
 
+/* The multiply scattered share of the light, ms / (ms + ss), floored: what every method's error
+ * scales with first (the prior mean of predict's regression). */
+static double ms_share(double ms_to_ss)
+{
+    return fmax(ms_to_ss / (1.0 + ms_to_ss), PLAN_MIN_SHARE);
+}
+
 static const plan_scene *scene_named(const char *name)
 {
     for (size_t i = 0; plan_scenes[i].name; ++i)
@@ -213,7 +222,7 @@ static int predict(const vdbs_plan_features *f, const char *method, int quality,
             (leave_out && strcmp(leave_out, m->scene) == 0))
             continue;
         at[n] = s;
-        y[n] = log(m->error);
+        y[n] = log(m->error / ms_share(s->ms_to_ss));
         noise[n] = fmax(m->error_se / m->error, PLAN_NOISE_FLOOR);
         ++n;
     }
@@ -244,7 +253,7 @@ static int predict(const vdbs_plan_features *f, const char *method, int quality,
         post_var -= k[i] * rhs[2 * i + 1];
     }
     *spread = sqrt(fmax(post_var, 0.0));
-    *error = exp(post_mean + *spread);
+    *error = exp(post_mean + *spread) * ms_share(f->ms_to_ss);
     /* Single scattering leaves out the multiply scattered light: its error is at least
      * PLAN_SINGLE_FLOOR of that share (the calibration set's lower envelope), whatever a
      * scene seen mostly against its background taught the regression. */
