@@ -71,8 +71,9 @@ static const vdbs_solver_option options[] = {
                       .min = 0,
                       .max = 1,
                       .help = "SVD: stop when the fluence's estimated relative error is at\n"
-                              "most R (default 3e-2/1e-2/3e-3/1e-3)",
-                      .preset = {3e-2, 1e-2, 3e-3, 1e-3}},
+                              "most R, then extrapolate along the iteration's tail (default\n"
+                              "3e-2/3e-2/1e-2/3e-3)",
+                      .preset = {3e-2, 3e-2, 1e-2, 3e-3}},
     [OPT_SCHEME] = {.key = "svd_scheme",
                     .flag = "--svd-scheme",
                     .kind = VDBS_OPTION_CHOICE,
@@ -261,6 +262,7 @@ static const vdbs_report_field report[] = {
     {"contraction", VDBS_REPORT_DOUBLE, offsetof(vdbs_svd_stats, contraction)},
     {"predicted_iterations", VDBS_REPORT_INT, offsetof(vdbs_svd_stats, predicted_iterations)},
     {"converged", VDBS_REPORT_BOOL, offsetof(vdbs_svd_stats, converged)},
+    {"extrapolated", VDBS_REPORT_DOUBLE, offsetof(vdbs_svd_stats, extrapolated)},
     {"steps_per_sweep", VDBS_REPORT_INT, offsetof(vdbs_svd_stats, steps_per_sweep)},
     {"chunk", VDBS_REPORT_INT, offsetof(vdbs_svd_stats, chunk)},
     {"cell_direction_updates", VDBS_REPORT_INT64, offsetof(vdbs_svd_stats, cell_direction_updates)},

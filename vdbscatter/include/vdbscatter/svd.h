@@ -49,7 +49,11 @@ typedef struct vdbs_svd_desc {
     double residual;        /* stop once the fluence's estimated relative distance from the
                                converged one is at most this (--residual): the last iteration's
                                relative change, times rho / (1 - rho) where the contraction rho
-                               (stats) exceeds 1/2; default: the quality's */
+                               (stats) exceeds 1/2; default: the quality's. The fluence and flux
+                               (and kept moments) are then extrapolated along that tail
+                               (stats.extrapolated), which lands them far closer than this */
+    int last_sweep;         /* 1: the outputs are the last sweep's, not extrapolated (studies of
+                               the iteration itself); default 0 */
     int max_iterations;     /* the cap (--svd-iterations); default 2000; a solve whose
                                settled contraction predicts more stops early, not converged */
     int delta_m;            /* phasemat.h: 0 auto, 1 always, -1 never */
@@ -62,8 +66,8 @@ typedef struct vdbs_svd_desc {
     const struct vdbs_svd_moments *warm; /* --warm-start: moments to start from, or NULL;
                                             its D and N unless directions or terms are set
                                             (then they must match) */
-    struct vdbs_svd_moments *keep;       /* --keep-state: filled with the final moments, or
-                                            NULL */
+    struct vdbs_svd_moments *keep;       /* --keep-state: filled with the final moments
+                                            (extrapolated as the fluence), or NULL */
     vdbs_progress *progress;             /* the iterations, as the residual's way from 1 to
                                             `residual` on a log scale; may be NULL */
 } vdbs_svd_desc;
@@ -95,7 +99,7 @@ typedef struct vdbs_svd_preset {
     int directions;   /* low 32, medium 64, high 128, ultra 512 */
     int resolution;   /* 16 / 24 / 32 / 32 */
     double tolerance; /* factorisation RMSE of the default N: 10% / 5% / 2% / 1% */
-    double residual;  /* 3e-2 / 1e-2 / 3e-3 / 1e-3 */
+    double residual;  /* 3e-2 / 3e-2 / 1e-2 / 3e-3 (extrapolated after, svd_desc) */
 } vdbs_svd_preset;
 
 /* The preset of a quality name (medium's for an unknown one). */
@@ -153,6 +157,8 @@ typedef struct vdbs_svd_stats {
                            the error's shrink per iteration */
     int predicted_iterations; /* what the contraction says reaching `residual` takes in all */
     int converged; /* 0: stopped at the cap, or before it where predicted_iterations exceeds it */
+    double extrapolated; /* rho / (1 - rho): the fluence and flux were extrapolated along the
+                            geometric tail by this times the last change (0: not) */
     /* The last sweep's power balance (summed over channels, in double from per-cell float
      * tallies): emitted = collided + leaked up to `balance`, the worst relative mismatch
      * |emitted - collided - leaked| / emitted over every sweep. */
