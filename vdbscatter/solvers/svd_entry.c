@@ -296,7 +296,7 @@ const vdbs_solver vdbs_solver_svd = {
     .report_count = (int)(sizeof report / sizeof report[0]),
     .report_text = report_text,
     .state = &state,
-    .cost = {26.7, 209, 578, 4.99e+03}, /* bench/cost.md */
+    .cost = {24, 187, 492, 6.53e+03}, /* bench/cost.md */
     /* medium's 64 sky ordinates at high and ultra: 256 measured worse on both env-map scenes
      * and no better elsewhere, for 4x the light grids (docs/planner.md, "Ladders") */
     .sky_directions = {0, 0, 64, 64},
