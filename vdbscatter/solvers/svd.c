@@ -42,8 +42,10 @@
 
 void vdbs_svd_quality(const char *quality, vdbs_svd_preset *preset)
 {
-    static const vdbs_svd_preset presets[] = {
-        {32, 16, 0.10, 3e-2}, {64, 24, 0.05, 3e-2}, {128, 32, 0.02, 1e-2}, {512, 32, 0.01, 3e-3}};
+    static const vdbs_svd_preset presets[] = {{32, 16, 8, 0.10, 3e-2},
+                                              {64, 24, 8, 0.05, 3e-2},
+                                              {128, 32, 12, 0.02, 1e-2},
+                                              {512, 32, 12, 0.01, 3e-3}};
     *preset = presets[vdbs_quality_level(quality)];
 }
 
@@ -821,7 +823,7 @@ vdbs_status vdbs_svd_begin(const vdbs_solve *s, const vdbs_svd_desc *desc, vdbs_
                            : vdbs_svd_terms_for(&r->pm, preset.tolerance);
     r->stats.resolution =
         vdbs_coarse_world_frame(s->volume, d.resolution > 0 ? d.resolution : preset.resolution,
-                                d.across > 0 ? d.across : VDBS_COARSE_MIN_ACROSS, &r->f);
+                                d.across > 0 ? d.across : preset.across, &r->f);
     r->cells = vdbs_coarse_cells(&r->f);
     const int64_t cells = r->cells;
     const size_t voxels = s->volume->coord_count ? s->volume->coord_count : 1;

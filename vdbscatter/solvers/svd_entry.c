@@ -56,7 +56,8 @@ static const vdbs_solver_option options[] = {
                     .min = 1,
                     .max = SVD_MAX_RESOLUTION,
                     .help = "SVD: cells at least across every axis, shorter cells along a\n"
-                            "thin one (default 8; 1: cubic cells)"},
+                            "thin one (default 8/8/12/12; 1: cubic cells)",
+                    .preset = {8, 8, 12, 12}},
     [OPT_ITERATIONS] = {.key = "svd_iterations",
                         .flag = "--svd-iterations",
                         .syntax = "N",

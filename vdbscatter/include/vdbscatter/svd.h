@@ -44,7 +44,7 @@ typedef struct vdbs_svd_desc {
     int resolution;         /* cells across the support box's extent (--svd-res); default: the
                                quality's; never finer than the voxels */
     int across;             /* cells at least across every axis (--svd-across; coarse.h's
-                               vdbs_coarse_world_frame); default VDBS_COARSE_MIN_ACROSS, 1: cubic
+                               vdbs_coarse_world_frame); default the quality's, 1: cubic
                                cells */
     double residual;        /* stop once the fluence's estimated relative distance from the
                                converged one is at most this (--residual): the last iteration's
@@ -98,6 +98,7 @@ vdbs_status vdbs_svd_warm_check(const vdbs_svd_moments *warm, int directions, in
 typedef struct vdbs_svd_preset {
     int directions;   /* low 32, medium 64, high 128, ultra 512 */
     int resolution;   /* 16 / 24 / 32 / 32 */
+    int across;       /* cells at least across every axis: 8 / 8 / 12 / 12 */
     double tolerance; /* factorisation RMSE of the default N: 10% / 5% / 2% / 1% */
     double residual;  /* 3e-2 / 3e-2 / 1e-2 / 3e-3 (extrapolated after, svd_desc) */
 } vdbs_svd_preset;
