@@ -158,8 +158,9 @@ typedef struct vdbs_svd_stats {
                            the error's shrink per iteration */
     int predicted_iterations; /* what the contraction says reaching `residual` takes in all */
     int converged; /* 0: stopped at the cap, or before it where predicted_iterations exceeds it */
-    double extrapolated; /* rho / (1 - rho): the fluence and flux were extrapolated along the
-                            geometric tail by this times the last change (0: not) */
+    double extrapolated; /* rho / (1 - rho): the fluence, flux and kept moments were
+                            extrapolated along the geometric tail by this times the last
+                            change (0: not) */
     /* The last sweep's power balance (summed over channels, in double from per-cell float
      * tallies): emitted = collided + leaked up to `balance`, the worst relative mismatch
      * |emitted - collided - leaked| / emitted over every sweep. */
