@@ -45,6 +45,7 @@ static void test_presets_are_the_solvers(void **state)
         vdbs_svd_quality(q[level].name, &svd);
         assert_true(preset("svd_directions", level) == svd.directions);
         assert_true(preset("svd_res", level) == svd.resolution);
+        assert_true(preset("svd_across", level) == svd.across);
         assert_true(preset("svd_residual", level) == svd.residual);
         vdbs_inet_preset inet;
         vdbs_inet_quality(q[level].name, &inet);

@@ -345,11 +345,28 @@ static int predicted_iterations(int done, double remaining, double target, doubl
     return done + (int)fmin(ceil(log(target / remaining) / log(rho)), 1e9);
 }
 
+/* Each cell's fluence and flux words of the sweep's records (VS_SVD_OUT_FLUENCE then
+ * VS_SVD_OUT_FLUX, adjacent), and where the flux starts among them. */
+#define SVD_FIELD_WORDS 12
+#define SVD_FIELD_FLUX 3
+_Static_assert(VS_SVD_OUT_FLUX == VS_SVD_OUT_FLUENCE + SVD_FIELD_FLUX &&
+                   VS_SVD_OUT_FLUENCE + SVD_FIELD_WORDS <= VS_SVD_OUT_WORDS,
+               "the fluence and flux words are adjacent");
+
+/* The fluence and flux of the last sweep into `kept` (SVD_FIELD_WORDS a cell). */
+static void keep_fields(int64_t cells, const float *out, float *kept)
+{
+    for (int64_t c = 0; c < cells; ++c)
+        memcpy(kept + (size_t)c * SVD_FIELD_WORDS,
+               out + (size_t)c * VS_SVD_OUT_WORDS + VS_SVD_OUT_FLUENCE,
+               sizeof *kept * SVD_FIELD_WORDS);
+}
+
 /* Sweep `it`'s tallies into stats from its per-cell records `out`: the power balance, the
- * clamp, and the fluence's relative change since the last sweep (previous: updated), returned
- * for remaining_error. */
-static double sweep_tally(int64_t cells, int directions, const float *out, int it, double *previous,
-                          vdbs_svd_stats *stats)
+ * clamp, and the fluence's relative change since the sweep before (`before`: its fields,
+ * keep_fields', zeros before the first sweep), returned for remaining_error. */
+static double sweep_tally(int64_t cells, int directions, const float *out, int it,
+                          const float *before, vdbs_svd_stats *stats)
 {
     stats->cell_direction_updates += cells * directions;
     double emitted = 0.0, collided = 0.0, leaked = 0.0, clamped = 0.0, change = 0.0, total = 0.0;
@@ -361,9 +378,8 @@ static double sweep_tally(int64_t cells, int directions, const float *out, int i
         clamped += rec[VS_SVD_OUT_CLAMPED];
         for (int ch = 0; ch < 3; ++ch) {
             double phi = rec[VS_SVD_OUT_FLUENCE + ch];
-            change += fabs(phi - previous[3 * c + ch]);
+            change += fabs(phi - before[(size_t)c * SVD_FIELD_WORDS + ch]);
             total += fabs(phi);
-            previous[3 * c + ch] = phi;
         }
     }
     if (it == 0)
@@ -393,20 +409,8 @@ static void sweep_progress(const vdbs_svd_desc *desc, const vdbs_svd_stats *stat
     }
 }
 
-/* Each cell's fluence and flux words of the sweep's records (VS_SVD_OUT_FLUENCE then
- * VS_SVD_OUT_FLUX, adjacent). */
-#define SVD_FIELD_WORDS 12
-
-/* The fluence and flux of the last sweep into `kept` (SVD_FIELD_WORDS a cell). */
-static void keep_fields(int64_t cells, const float *out, float *kept)
-{
-    for (int64_t c = 0; c < cells; ++c)
-        memcpy(kept + (size_t)c * SVD_FIELD_WORDS, out + (size_t)c * VS_SVD_OUT_WORDS,
-               sizeof *kept * SVD_FIELD_WORDS);
-}
-
-/* The solve's outputs from the last sweep's state (each may be NULL). With `before` (the sweep
- * before's fields) and tail > 0, the fluence and flux are extrapolated along the iteration's
+/* The solve's outputs from the last sweep's state (each may be NULL). With tail > 0 (`before`:
+ * the sweep before's fields), the fluence and flux are extrapolated along the iteration's
  * slowest mode: source iteration closes the distance x* - x_k by the contraction rho a sweep,
  * so x* ~ x_k + (x_k - x_{k-1}) rho / (1 - rho) (`tail`), the same geometric tail the stopping
  * rule takes as the remaining error. The fluence stays >= 0 and each channel's flux within
@@ -421,26 +425,24 @@ static void solve_outputs(int64_t cells, int terms, const float *state, const fl
         double field[SVD_FIELD_WORDS];
         for (int v = 0; v < SVD_FIELD_WORDS; ++v) {
             const double now = rec[VS_SVD_OUT_FLUENCE + v];
-            field[v] = before && tail > 0.0
-                           ? now + (now - before[(size_t)c * SVD_FIELD_WORDS + v]) * tail
-                           : now;
+            field[v] =
+                tail > 0.0 ? now + (now - before[(size_t)c * SVD_FIELD_WORDS + v]) * tail : now;
         }
         for (int ch = 0; ch < 3; ++ch) {
-            double *f = field + VS_SVD_OUT_FLUENCE;
-            double *x = field + VS_SVD_OUT_FLUX + ch, *y = x + 3, *z = x + 6;
-            f[ch] = fmax(f[ch], 0.0);
+            double *x = field + SVD_FIELD_FLUX + ch, *y = x + 3, *z = x + 6;
+            field[ch] = fmax(field[ch], 0.0);
             const double norm = sqrt(*x * *x + *y * *y + *z * *z);
-            if (norm > f[ch]) {
-                const double scale = f[ch] / norm;
+            if (norm > field[ch]) {
+                const double scale = field[ch] / norm;
                 *x *= scale;
                 *y *= scale;
                 *z *= scale;
             }
         }
         for (int v = 0; fluence && v < 3; ++v)
-            fluence[3 * c + v] = field[VS_SVD_OUT_FLUENCE + v];
+            fluence[3 * c + v] = field[v];
         for (int v = 0; flux && v < 9; ++v)
-            flux[9 * c + v] = field[VS_SVD_OUT_FLUX + v];
+            flux[9 * c + v] = field[SVD_FIELD_FLUX + v];
     }
     const size_t count = (size_t)cells * (size_t)terms * 3;
     if (moments && before_moments && tail > 0.0) {
@@ -468,13 +470,12 @@ vdbs_status vdbs_svd_solve_grid(vdbs_runner *runner, const vdbs_svd_grid *grid,
     stats->steps_per_sweep = VS_SVD_OCTANTS * l.chunks * l.planes;
     float *state = malloc(sizeof *state * l.state_words);
     float *source = malloc(sizeof *source * (size_t)cells * grid->terms * 3);
-    double *previous = calloc(3 * (size_t)cells, sizeof *previous);
-    float *before = malloc(sizeof *before * SVD_FIELD_WORDS * (size_t)cells);
+    float *before = calloc(SVD_FIELD_WORDS * (size_t)cells, sizeof *before);
     const size_t moment_count = (size_t)cells * (size_t)grid->terms * 3;
     float *before_moments = moments ? malloc(sizeof *before_moments * moment_count) : NULL;
     const uint64_t ids[4] = {vdbs_runner_resident_id(runner), vdbs_runner_resident_id(runner),
                              vdbs_runner_resident_id(runner), vdbs_runner_resident_id(runner)};
-    if (!state || !source || !previous || !before || (moments && !before_moments))
+    if (!state || !source || !before || (moments && !before_moments))
         st = vdbs_error_set(err, VDBS_ERR_NOMEM, "out of memory for %lld cells x %d terms",
                             (long long)cells, grid->terms);
     svd_kernel k = {l.params, l.tables, grid->sigma_t, grid->direct, source};
@@ -499,7 +500,7 @@ vdbs_status vdbs_svd_solve_grid(vdbs_runner *runner, const vdbs_svd_grid *grid,
         memset(state, 0, sizeof *state * l.state_words);
         if ((st = vdbs_kernel_iterate(runner, &kd, NULL, err)) != VDBS_OK)
             break;
-        const double change = sweep_tally(cells, grid->phase->d, state + out, it, previous, stats);
+        const double change = sweep_tally(cells, grid->phase->d, state + out, it, before, stats);
         memmove(changes + 1, changes, sizeof changes - sizeof *changes);
         changes[0] = change;
         double rho;
@@ -548,7 +549,6 @@ vdbs_status vdbs_svd_solve_grid(vdbs_runner *runner, const vdbs_svd_grid *grid,
     layout_free(&l);
     free(state);
     free(source);
-    free(previous);
     free(before);
     free(before_moments);
     return st;
