@@ -10,7 +10,9 @@ limit, the estimate by part and each stage's peak resident set; and the estimate
 against the measured growth of the peak over the resident set it starts from, on a bake and
 a render of a fog (within 0.7x-1.5x: below 0.7 the limit would let an input through that
 needs far more than it says, above 1.5 it would refuse ones that fit; the estimate counts
-the large arrays only, and the allocator's and OpenVDB's small ones go uncounted).
+the large arrays only, and the allocator's and OpenVDB's small ones go uncounted); with
+--keep-state the estimate counts the state grids the lit VDB then holds, for every method
+that keeps state, and holds against the growth of an SVD bake that keeps them.
 Set VDBSCATTER_MEMORY_VERBOSE=1 to print the measured numbers."""
 import json
 import os
@@ -224,6 +226,61 @@ class MemoryCliTest(unittest.TestCase):
             self.assertGreater(grew, 50 << 20, what)  # large enough to measure
             self.assertTrue(0.7 * grew <= est <= 1.5 * grew,
                             f"{what}: estimate {est} against a growth of {grew}")
+
+    def test_kept_state_counted(self):
+        """--keep-state's grids are in the estimate: SVD keeps one per phase term, 3 floats per
+        output voxel while it solves, and writes their trees with the outputs. The estimate
+        holds against the growth as the plain bake's does (without them it measured 0.39 of
+        it), and a limit between the two bakes' needs lets the plain one through and refuses
+        the kept one, naming --keep-state."""
+        if sanitized():
+            self.skipTest("resident sets under AddressSanitizer are its allocator's")
+        args = ["bake", self.fog, "--sun", "0.3,-1,0.2", "--density-scale", "50", "--g", "0.8",
+                "--method", "svd", "--svd-terms", "8", "--backend", "cpu", "--store", "none",
+                "--json"]
+        plain = json.loads(run(*args, "-o", self.path("svd.vdb"), check=0).stdout)
+        kept_out = self.path("svd_kept.vdb")
+        kept = json.loads(run(*args, "-o", kept_out, "--keep-state", check=0).stdout)
+        self.assertNotIn("kept state", plain["memory"]["estimate"])
+        self.assertEqual(kept["svd"]["terms"], 8)
+        self.assertEqual(kept["memory"]["estimate"]["kept state"],
+                         8 * 3 * 4 * kept["output_voxels"])
+        self.assertGreater(kept["memory"]["estimate"]["write"],
+                           plain["memory"]["estimate"]["write"])
+        est, grew = self.growth(kept, ["solve", "write"])
+        if VERBOSE:
+            print(f"\nsvd --keep-state: estimate {est / 2**20:.1f} MiB "
+                  f"{kept['memory']['estimate']}, grew {grew / 2**20:.1f} MiB")
+        self.assertTrue(0.7 * grew <= est <= 1.5 * grew, f"estimate {est} against a growth of {grew}")
+        need = [r["memory"]["estimate_bytes"] + r["memory"]["baseline_bytes"] for r in (plain, kept)]
+        limit = str((need[0] + need[1]) // 2)
+        run(*args, "-o", self.path("svd_limited.vdb"), "--max-memory", limit, check=0)
+        os.remove(kept_out)
+        self.assert_refused(args + ["-o", kept_out, "--keep-state", "--max-memory", limit],
+                            kept_out, ["vdbscatter bake: needs ", "--keep-state 8 grids",
+                                       "over the ", "lower --quality, --s1-oversample, "
+                                       "--keep-state or raise --max-memory"])
+
+    def test_kept_state_is_what_is_written(self):
+        """Each method that keeps state: the estimate's kept state is 3 floats per output voxel
+        for every state grid the lit VDB then holds (SVD at its own terms rule, FLD's fluence,
+        INET's directions), and a warm-started SVD bake keeps its warm start's terms."""
+        cloud = os.path.join(SAMPLES, "cloud.json")
+        prefixes = {"svd": "svd_m", "fld": "fld_phi", "inet": "inet_r"}
+        for method, prefix in prefixes.items():
+            out = self.path(f"kept_{method}.vdb")
+            args = ["bake", "--scene", cloud, "--method", method, "--keep-state", "--json", "-q"]
+            runs = [args + ["-o", out]]
+            if method == "svd":
+                runs.append(args + ["-o", self.path("kept_warm.vdb"), "--warm-start", out])
+            for words in runs:
+                r = json.loads(run(*words, check=0).stdout)
+                written = words[words.index("-o") + 1]
+                names = [m["name"] for m in vdb.readAllGridMetadata(written)]
+                grids = sum(n.startswith(prefix) for n in names)
+                self.assertGreater(grids, 0, method)
+                self.assertEqual(r["memory"]["estimate"]["kept state"],
+                                 grids * 3 * 4 * r["output_voxels"], words)
 
 
 if __name__ == "__main__":

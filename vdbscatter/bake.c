@@ -445,10 +445,19 @@ static vdbs_status check_memory(bake_job *j, vdbs_bake_report *report, vdbs_erro
     const int64_t stored = store ? lg.samples : 0;
     vdbs_memory_add(e, "outputs", outputs_bytes(j));
     vdbs_memory_add(e, "stored depths", stored * STORED_SAMPLE_BYTES);
+    /* --keep-state's arrays, filled by the solve and written with the outputs (a warm start's
+     * were read before: the baseline holds them) */
+    const vdbs_solver_state *state = j->solver->state;
+    const int kept = j->keep && state->arrays ? state->arrays(j->scene, j->warm) : 0;
+    if (kept > 0)
+        vdbs_memory_add(e, "kept state",
+                        kept * 3 * (int64_t)(j->volume.coord_count ? j->volume.coord_count : 1) *
+                            (int64_t)sizeof(float));
     int64_t s1 =
         vdbs_single_scatter_grids_bytes(&j->volume, j->scene->camera.present) + lg.peak_one;
-    /* write_lit writes radiance, ms and the three l1 grids (shared zeros or not), and the view */
-    int vec3 = 5 + (j->scene->camera.present ? 1 : 0);
+    /* write_lit writes radiance, ms and the three l1 grids (shared zeros or not), the view and
+     * the kept state's grids */
+    int vec3 = 5 + (j->scene->camera.present ? 1 : 0) + kept;
     int64_t nodes[3];
     vdbs_volume_node_counts(&j->volume, nodes);
     int64_t write = vdbio_write_bytes(nodes, vec3, store ? count : 0, stored);
@@ -460,12 +469,16 @@ static vdbs_status check_memory(bake_job *j, vdbs_bake_report *report, vdbs_erro
     snprintf(what, sizeof what, "%d light%s at --quality %s, --s1-oversample %d%s", count,
              count == 1 ? "" : "s", j->scene->quality, grids.oversample,
              store ? ", --store lights" : "");
+    if (kept > 0)
+        snprintf(what + strlen(what), sizeof what - strlen(what), ", --keep-state %d grids", kept);
+    char lower[96];
+    snprintf(lower, sizeof lower, "--quality, --s1-oversample%s%s", store ? ", --store none" : "",
+             kept > 0 ? ", --keep-state" : "");
     vdbs_memory_estimate all = *e;
     vdbs_memory_add(&all, "loaded", report->memory_baseline);
-    return vdbs_memory_check(
-        &all, report->memory_limit, o->max_memory > 0 ? "--max-memory" : VDBS_MEMORY_DEFAULT_SOURCE,
-        what, store ? "--quality, --s1-oversample, --store none" : "--quality, --s1-oversample",
-        err);
+    return vdbs_memory_check(&all, report->memory_limit,
+                             o->max_memory > 0 ? "--max-memory" : VDBS_MEMORY_DEFAULT_SOURCE, what,
+                             lower, err);
 }
 
 /* Zeroed output arrays; without multiple scattering the four ms grids are one. */

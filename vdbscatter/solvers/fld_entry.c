@@ -149,11 +149,20 @@ static int state_meta(const void *state, vdbio_meta *meta, int max)
     return 1;
 }
 
+/* The fluence phi. */
+static int state_arrays(const vdbs_scene *scene, const void *warm)
+{
+    (void)scene;
+    (void)warm;
+    return 1;
+}
+
 static const vdbs_solver_state state = {
     .create = state_create,
     .read = state_read,
     .grids = state_grids,
     .meta = state_meta,
+    .arrays = state_arrays,
     .destroy = state_destroy,
 };
 

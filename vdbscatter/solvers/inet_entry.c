@@ -135,11 +135,19 @@ static int state_meta(const void *state, vdbio_meta *meta, int max)
     return 1;
 }
 
+/* One radiance per direction (a warm start's D is the scene's: state_read checks it). */
+static int state_arrays(const vdbs_scene *scene, const void *warm)
+{
+    (void)warm;
+    return scene_directions(scene);
+}
+
 static const vdbs_solver_state state = {
     .create = state_create,
     .read = state_read,
     .grids = state_grids,
     .meta = state_meta,
+    .arrays = state_arrays,
     .destroy = state_destroy,
     /* D grids per frame (the cloud's lit VDB 3.4 MB to 13 MB) for 17% fewer sweeps: a
      * sequence keeps them only when asked (docs/methods/inet.md, "State and warm starts") */

@@ -57,6 +57,32 @@ int vdbs_svd_terms_for(const vdbs_phasemat *pm, double tolerance)
     return pm->d;
 }
 
+/* The terms a solve of d keeps with this phase matrix: those asked for (at most D), else the
+ * fewest within the preset's tolerance. */
+static int terms_kept(const vdbs_svd_desc *d, const vdbs_svd_preset *preset,
+                      const vdbs_phasemat *pm)
+{
+    return d->terms > 0 ? (d->terms < pm->d ? d->terms : pm->d)
+                        : vdbs_svd_terms_for(pm, preset->tolerance);
+}
+
+int vdbs_svd_kept_terms(const vdbs_svd_desc *desc, const char *quality, double g)
+{
+    if (desc->warm)
+        return desc->warm->terms;
+    vdbs_svd_preset preset;
+    vdbs_svd_quality(quality, &preset);
+    vdbs_phasemat_desc pdesc = {desc->directions > 0 ? desc->directions : preset.directions, g,
+                                desc->delta_m};
+    vdbs_phasemat pm;
+    vdbs_error err;
+    if (vdbs_phasemat_build(&pdesc, &pm, &err) != VDBS_OK)
+        return 0;
+    const int terms = terms_kept(desc, &preset, &pm);
+    vdbs_phasemat_free(&pm);
+    return terms;
+}
+
 vdbs_status vdbs_svd_moments_alloc(vdbs_svd_moments *m, int directions, int terms, double g,
                                    size_t voxels, vdbs_error *err)
 {
@@ -819,8 +845,7 @@ vdbs_status vdbs_svd_begin(const vdbs_solve *s, const vdbs_svd_desc *desc, vdbs_
         vdbs_svd_end(r);
         return st;
     }
-    r->terms = d.terms > 0 ? (d.terms < r->pm.d ? d.terms : r->pm.d)
-                           : vdbs_svd_terms_for(&r->pm, preset.tolerance);
+    r->terms = terms_kept(&d, &preset, &r->pm);
     r->stats.resolution =
         vdbs_coarse_world_frame(s->volume, d.resolution > 0 ? d.resolution : preset.resolution,
                                 d.across > 0 ? d.across : preset.across, &r->f);

@@ -198,11 +198,35 @@ static int state_meta(const void *state, vdbio_meta *meta, int max)
     return 3;
 }
 
+/* The solve's settings from the scene's options (0: the quality's). */
+static vdbs_svd_desc desc_of(const vdbs_scene *scene)
+{
+    vdbs_svd_desc desc = {0};
+    desc.directions = (int)option(scene, OPT_DIRECTIONS);
+    desc.terms = (int)option(scene, OPT_TERMS);
+    desc.resolution = (int)option(scene, OPT_RES);
+    desc.across = (int)option(scene, OPT_ACROSS);
+    desc.residual = option(scene, OPT_RESIDUAL);
+    desc.scheme = (vdbs_svd_scheme)option(scene, OPT_SCHEME);
+    desc.sky_boundary = (int)option(scene, OPT_SKY) == VDBS_SKY_BOUNDARY;
+    desc.max_iterations = (int)option(scene, OPT_ITERATIONS);
+    return desc;
+}
+
+/* One moment grid per term. */
+static int state_arrays(const vdbs_scene *scene, const void *warm)
+{
+    vdbs_svd_desc desc = desc_of(scene);
+    desc.warm = warm ? &((const svd_state *)warm)->moments : NULL;
+    return vdbs_svd_kept_terms(&desc, scene->quality, scene->g);
+}
+
 static const vdbs_solver_state state = {
     .create = state_create,
     .read = state_read,
     .grids = state_grids,
     .meta = state_meta,
+    .arrays = state_arrays,
     .destroy = state_destroy,
 };
 
@@ -212,15 +236,7 @@ static const vdbs_solver_state state = {
  * which comes from the S1 pass's own light grids. */
 static vdbs_status run_svd(const vdbs_solve *s, void *stats, vdbs_error *err)
 {
-    vdbs_svd_desc desc = {0};
-    desc.directions = (int)option(s->scene, OPT_DIRECTIONS);
-    desc.terms = (int)option(s->scene, OPT_TERMS);
-    desc.resolution = (int)option(s->scene, OPT_RES);
-    desc.across = (int)option(s->scene, OPT_ACROSS);
-    desc.residual = option(s->scene, OPT_RESIDUAL);
-    desc.scheme = (vdbs_svd_scheme)option(s->scene, OPT_SCHEME);
-    desc.sky_boundary = (int)option(s->scene, OPT_SKY) == VDBS_SKY_BOUNDARY;
-    desc.max_iterations = (int)option(s->scene, OPT_ITERATIONS);
+    vdbs_svd_desc desc = desc_of(s->scene);
     desc.warm = s->warm ? &((const svd_state *)s->warm)->moments : NULL;
     desc.keep = s->keep ? &((svd_state *)s->keep)->moments : NULL;
     desc.progress = s->progress;

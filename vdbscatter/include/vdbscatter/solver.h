@@ -78,6 +78,9 @@ typedef struct vdbs_solver_state {
      * returns how many it filled, at most `max`; grids with NULL returns how many it has. */
     int (*grids)(const void *state, vdbio_vec3_grid *grids, int max);
     int (*meta)(const void *state, vdbio_meta *meta, int max);
+    /* The arrays of 3 floats per output voxel that --keep-state fills in a bake of `scene`
+     * (`warm`: its --warm-start's state, or NULL), for the bake's memory estimate. */
+    int (*arrays)(const vdbs_scene *scene, const void *warm);
     void (*destroy)(void *state); /* NULL is fine */
     /* 1: a frame sequence keeps and warm-starts this state only with --keep-state (its grids
      * are large for what they save); 0: by default. */

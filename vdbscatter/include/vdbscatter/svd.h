@@ -109,6 +109,11 @@ void vdbs_svd_quality(const char *quality, vdbs_svd_preset *preset);
 /* The fewest terms whose relative RMSE is at most tolerance (D when none is). */
 int vdbs_svd_terms_for(const vdbs_phasemat *pm, double tolerance);
 
+/* The moments per voxel a solve of desc at this quality keeps (vdbs_svd_begin's rule: the
+ * warm start's, the terms asked for, or the fewest within the quality's tolerance), before
+ * it runs: for the bake's memory estimate. 0 when the phase matrix cannot be built. */
+int vdbs_svd_kept_terms(const vdbs_svd_desc *desc, const char *quality, double g);
+
 /* A direct light of a grid problem. */
 typedef struct vdbs_svd_light {
     int point; /* 1: a point light at vec; 0: a sun travelling along vec (unit) */
