@@ -42,11 +42,12 @@
 
 void vdbs_svd_quality(const char *quality, vdbs_svd_preset *preset)
 {
-    static const vdbs_svd_preset presets[] = {{32, 16, 8, 0.10, 3e-2},
-                                              {64, 24, 8, 0.05, 3e-2},
-                                              {128, 32, 12, 0.02, 1e-2},
-                                              {512, 32, 12, 0.01, 3e-3}};
-    *preset = presets[vdbs_quality_level(quality)];
+    static const int directions[] = VDBS_SVD_PRESET_DIRECTIONS,
+                     resolution[] = VDBS_SVD_PRESET_RESOLUTION, across[] = VDBS_SVD_PRESET_ACROSS;
+    static const double tolerance[] = VDBS_SVD_PRESET_TOLERANCE,
+                        residual[] = VDBS_SVD_PRESET_RESIDUAL;
+    const int q = vdbs_quality_level(quality);
+    *preset = (vdbs_svd_preset){directions[q], resolution[q], across[q], tolerance[q], residual[q]};
 }
 
 int vdbs_svd_terms_for(const vdbs_phasemat *pm, double tolerance)

@@ -94,6 +94,29 @@ void vdbs_svd_moments_free(vdbs_svd_moments *m);
 vdbs_status vdbs_svd_warm_check(const vdbs_svd_moments *warm, int directions, int terms, double g,
                                 vdbs_error *err);
 
+/* What each quality chooses, low to ultra: one list per field, read by vdbs_svd_quality and
+ * by the solver entry's option presets (so --help's defaults and the solve's agree). */
+#define VDBS_SVD_PRESET_DIRECTIONS                                                                 \
+    {                                                                                              \
+        32, 64, 128, 512                                                                           \
+    }
+#define VDBS_SVD_PRESET_RESOLUTION                                                                 \
+    {                                                                                              \
+        16, 24, 32, 32                                                                             \
+    }
+#define VDBS_SVD_PRESET_ACROSS                                                                     \
+    {                                                                                              \
+        8, 8, 12, 12                                                                               \
+    }
+#define VDBS_SVD_PRESET_TOLERANCE                                                                  \
+    {                                                                                              \
+        0.10, 0.05, 0.02, 0.01                                                                     \
+    }
+#define VDBS_SVD_PRESET_RESIDUAL                                                                   \
+    {                                                                                              \
+        3e-2, 3e-2, 1e-2, 3e-3                                                                     \
+    }
+
 /* What a quality chooses. */
 typedef struct vdbs_svd_preset {
     int directions;   /* low 32, medium 64, high 128, ultra 512 */
