@@ -12,6 +12,7 @@ the fixed part is 0.) Writes a table and the C initialisers to paste into the en
 hint, not a promise: the cost follows sky directions, cells and iterations, which differ from
 scene to scene."""
 import argparse
+import datetime
 import os
 import statistics
 import subprocess
@@ -34,16 +35,20 @@ def main():
     ap.add_argument("--methods", default="single,pop,fld,svd,inet")
     args = ap.parse_args()
     measured = args.methods.split(",")
-    kept = {}  # rows of the existing table for the methods not measured now
+    # Rows of the existing table for the methods not measured now, each with its own note of
+    # how and when it was measured (the last cell).
+    kept = {}
     if os.path.exists(args.out):
         for line in open(args.out):
             cells = [c.strip() for c in line.strip().strip("|").split("|")]
-            if len(cells) in (5, 9) and cells[0] != "method" and not cells[0].startswith("-"):
+            if len(cells) == 10 and cells[0] != "method" and not cells[0].startswith("-"):
                 try:
-                    v = [float(c) for c in cells[1:]]
+                    v = [float(c) for c in cells[1:9]]
                 except ValueError:
                     continue
-                kept[cells[0]] = (v[:4], v[4:] or [0.0] * 4)
+                kept[cells[0]] = (v[:4], v[4:], cells[9])
+    how = (f"--res {args.res}{f' --res2 {args.res2}' if args.res2 else ''} --runs {args.runs}, "
+           f"{datetime.date.today().isoformat()}")
     exe = os.path.join(args.build, "vdbscatter")
     tmp = tempfile.mkdtemp(prefix="bench-cost-")
     scene = os.path.join(ROOT, "samples", "cloud.json")
@@ -84,22 +89,25 @@ def main():
             fixed.append(max(s1 - slope * v1, 0.0))
             print(f"{method} {q}: {per_voxel[-1]:.3g} s per million voxels + {fixed[-1]:.3g} s "
                   f"({', '.join(f'{s:.2f} s at {v} voxels' for s, v in points)})", flush=True)
-        rows.append((method, per_voxel, fixed))
+        rows.append((method, per_voxel, fixed, how))
     with open(args.out, "w") as f:
-        f.write(f"`bench/bench_cost.py BUILD --res {args.res} --runs {args.runs}`"
-                f"{f' (and --res2 {args.res2} for the rows measured with it)' if args.res2 else ''}"
-                ": solve seconds per million output voxels, and seconds per solve that do not "
+        f.write("`bench/bench_cost.py BUILD [--res N] [--res2 M] [--runs K] [--methods M,...]`: "
+                "solve seconds per million output voxels, and seconds per solve that do not "
                 "follow the voxels (fixed; from two volume sizes, 0 where measured at one), C "
-                "path, cloud sample under samples/cloud.json's lights, median of the runs.\n\n"
+                "path, cloud sample under samples/cloud.json's lights, median of the runs. "
+                "`--methods` measures those rows again and keeps the others; the last column "
+                "says how and when each row was measured.\n\n"
                 "| method | " + " | ".join(QUALITIES) + " | " +
-                " | ".join(f"fixed {q}" for q in QUALITIES) + " |\n|---" + "|---" * 8 + "|\n")
-        for method, row, fixed in rows:
-            f.write(f"| {method} | " + " | ".join(f"{v:.3g}" for v in row + fixed) + " |\n")
+                " | ".join(f"fixed {q}" for q in QUALITIES) + " | measured |\n|---" +
+                "|---" * 9 + "|\n")
+        for method, row, fixed, note in rows:
+            f.write(f"| {method} | " + " | ".join(f"{v:.3g}" for v in row + fixed) +
+                    f" | {note} |\n")
         f.write("\nAs the entries' `cost` initialisers, each quality at least the one below (a "
                 "step that keeps the settings below, such as POP's stopped ladder, measures the "
                 "same up to noise, and a hint must not say a higher quality is cheaper):\n\n"
                 "```c\n")
-        for method, row, fixed in rows:
+        for method, row, fixed, _ in rows:
             hint = [max(row[:q + 1]) for q in range(len(row))]
             f.write(f"/* {method} */ .cost = {{" + ", ".join(f"{v:.3g}" for v in hint) + "},\n")
             if any(fixed):
