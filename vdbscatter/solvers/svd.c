@@ -42,10 +42,11 @@
 
 void vdbs_svd_quality(const char *quality, vdbs_svd_preset *preset)
 {
-    static const int directions[] = VDBS_SVD_PRESET_DIRECTIONS,
-                     resolution[] = VDBS_SVD_PRESET_RESOLUTION, across[] = VDBS_SVD_PRESET_ACROSS;
-    static const double tolerance[] = VDBS_SVD_PRESET_TOLERANCE,
-                        residual[] = VDBS_SVD_PRESET_RESIDUAL;
+    static const int directions[] = {VDBS_SVD_PRESET_DIRECTIONS},
+                     resolution[] = {VDBS_SVD_PRESET_RESOLUTION},
+                     across[] = {VDBS_SVD_PRESET_ACROSS};
+    static const double tolerance[] = {VDBS_SVD_PRESET_TOLERANCE},
+                        residual[] = {VDBS_SVD_PRESET_RESIDUAL};
     const int q = vdbs_quality_level(quality);
     *preset = (vdbs_svd_preset){directions[q], resolution[q], across[q], tolerance[q], residual[q]};
 }

@@ -35,7 +35,7 @@ static const vdbs_solver_option options[] = {
                         .min = 2,
                         .max = SVD_MAX_DIRECTIONS,
                         .help = "SVD: discrete directions (default 32/64/128/512 per quality)",
-                        .preset = VDBS_SVD_PRESET_DIRECTIONS},
+                        .preset = {VDBS_SVD_PRESET_DIRECTIONS}},
     [OPT_TERMS] = {.key = "svd_terms",
                    .flag = "--svd-terms",
                    .syntax = "N",
@@ -49,7 +49,7 @@ static const vdbs_solver_option options[] = {
                  .min = 2,
                  .max = SVD_MAX_RESOLUTION,
                  .help = "SVD: cells across the largest extent (default 16/24/32/32)",
-                 .preset = VDBS_SVD_PRESET_RESOLUTION},
+                 .preset = {VDBS_SVD_PRESET_RESOLUTION}},
     [OPT_ACROSS] = {.key = "svd_across",
                     .flag = "--svd-across",
                     .syntax = "N",
@@ -57,7 +57,7 @@ static const vdbs_solver_option options[] = {
                     .max = SVD_MAX_RESOLUTION,
                     .help = "SVD: cells at least across every axis, shorter cells along a\n"
                             "thin one (default 8/8/12/12; 1: cubic cells)",
-                    .preset = VDBS_SVD_PRESET_ACROSS},
+                    .preset = {VDBS_SVD_PRESET_ACROSS}},
     [OPT_ITERATIONS] = {.key = "svd_iterations",
                         .flag = "--svd-iterations",
                         .syntax = "N",
@@ -74,7 +74,7 @@ static const vdbs_solver_option options[] = {
                       .help = "SVD: stop when the fluence's estimated relative error is at\n"
                               "most R, then extrapolate along the iteration's tail (default\n"
                               "3e-2/3e-2/1e-2/3e-3)",
-                      .preset = VDBS_SVD_PRESET_RESIDUAL},
+                      .preset = {VDBS_SVD_PRESET_RESIDUAL}},
     [OPT_SCHEME] = {.key = "svd_scheme",
                     .flag = "--svd-scheme",
                     .kind = VDBS_OPTION_CHOICE,

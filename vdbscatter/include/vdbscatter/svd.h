@@ -96,34 +96,19 @@ vdbs_status vdbs_svd_warm_check(const vdbs_svd_moments *warm, int directions, in
 
 /* What each quality chooses, low to ultra: one list per field, read by vdbs_svd_quality and
  * by the solver entry's option presets (so --help's defaults and the solve's agree). */
-#define VDBS_SVD_PRESET_DIRECTIONS                                                                 \
-    {                                                                                              \
-        32, 64, 128, 512                                                                           \
-    }
-#define VDBS_SVD_PRESET_RESOLUTION                                                                 \
-    {                                                                                              \
-        16, 24, 32, 32                                                                             \
-    }
-#define VDBS_SVD_PRESET_ACROSS                                                                     \
-    {                                                                                              \
-        8, 8, 12, 12                                                                               \
-    }
-#define VDBS_SVD_PRESET_TOLERANCE                                                                  \
-    {                                                                                              \
-        0.10, 0.05, 0.02, 0.01                                                                     \
-    }
-#define VDBS_SVD_PRESET_RESIDUAL                                                                   \
-    {                                                                                              \
-        3e-2, 3e-2, 1e-2, 3e-3                                                                     \
-    }
+#define VDBS_SVD_PRESET_DIRECTIONS 32, 64, 128, 512
+#define VDBS_SVD_PRESET_RESOLUTION 16, 24, 32, 32
+#define VDBS_SVD_PRESET_ACROSS 8, 8, 12, 12
+#define VDBS_SVD_PRESET_TOLERANCE 0.10, 0.05, 0.02, 0.01
+#define VDBS_SVD_PRESET_RESIDUAL 3e-2, 3e-2, 1e-2, 3e-3
 
 /* What a quality chooses. */
 typedef struct vdbs_svd_preset {
-    int directions;   /* low 32, medium 64, high 128, ultra 512 */
-    int resolution;   /* 16 / 24 / 32 / 32 */
-    int across;       /* cells at least across every axis: 8 / 8 / 12 / 12 */
-    double tolerance; /* factorisation RMSE of the default N: 10% / 5% / 2% / 1% */
-    double residual;  /* 3e-2 / 3e-2 / 1e-2 / 3e-3 (extrapolated after, svd_desc) */
+    int directions;   /* D */
+    int resolution;   /* cells across the largest extent */
+    int across;       /* cells at least across every axis */
+    double tolerance; /* factorisation RMSE of the default N */
+    double residual;  /* the stopping rule's (extrapolated after, svd_desc) */
 } vdbs_svd_preset;
 
 /* The preset of a quality name (medium's for an unknown one). */
