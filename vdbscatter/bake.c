@@ -461,10 +461,18 @@ static vdbs_status check_memory(bake_job *j, vdbs_bake_report *report, vdbs_erro
     int64_t nodes[3];
     vdbs_volume_node_counts(&j->volume, nodes);
     int64_t write = vdbio_write_bytes(nodes, vec3, store ? count : 0, stored);
-    if (s1 >= write)
+    /* the solver's own arrays that follow the voxels live beside the S1 pass's */
+    const int64_t solver =
+        j->solver->voxel_bytes
+            ? j->solver->voxel_bytes(j->scene, j->volume.coord_count ? j->volume.coord_count : 1)
+            : 0;
+    if (s1 + solver >= write) {
         vdbs_memory_add(e, "light grids", s1);
-    else
+        if (solver > 0)
+            vdbs_memory_add(e, "solver", solver);
+    } else {
         vdbs_memory_add(e, "write", write);
+    }
     char what[160];
     snprintf(what, sizeof what, "%d light%s at --quality %s, --s1-oversample %d%s", count,
              count == 1 ? "" : "s", j->scene->quality, grids.oversample,

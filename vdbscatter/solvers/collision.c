@@ -210,6 +210,23 @@ void vdbs_first_collisions(const vdbs_volume *volume, const vdbs_voxel_faces *fa
     }
 }
 
+int64_t vdbs_voxel_faces_bytes(size_t count)
+{
+    const vdbs_voxel_faces *f = NULL; /* sizeof only: the fields' types, as allocated */
+    return (int64_t)count *
+           (int64_t)(6 * sizeof *f->neighbour + sizeof *f->density + sizeof *f->density_near);
+}
+
+int64_t vdbs_collision_sum_bytes(size_t count, int with_flux)
+{
+    const vdbs_collision_sum *s = NULL; /* sizeof only */
+    size_t per =
+        VDBS_COLLISION_SCRATCH * sizeof *s->scratch + 3 * sizeof *s->rate + 3 * sizeof *s->total;
+    if (with_flux)
+        per += 3 * sizeof *s->travel + 9 * sizeof *s->flux;
+    return vdbs_voxel_faces_bytes(count) + (int64_t)(per * count);
+}
+
 vdbs_status vdbs_collision_sum_init(vdbs_collision_sum *sum, const vdbs_volume *volume,
                                     const vdbs_light_table *lights, double density_scale,
                                     int with_flux, vdbs_error *err)

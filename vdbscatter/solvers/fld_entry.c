@@ -188,12 +188,19 @@ static void fld_first_light(void *user, int light, const float *depth)
     vdbs_collision_sum_share(&x->sum, light, depth, rest);
 }
 
-/* Exact S1, every light's first collisions (with their flux for the first-moment source
- * unless g = 0 or --fld-p1 off), then flux-limited diffusion of the first-scattered light;
- * with --fld-sky boundary the sky's uniform part enters through the grid's boundary. */
+/* Whether the first collisions carry their flux for the first-moment source: unless g = 0
+ * or --fld-p1 off. */
+static int with_p1(const vdbs_scene *scene)
+{
+    return scene->g != 0.0 && !option_int(scene, OPT_P1);
+}
+
+/* Exact S1, every light's first collisions (with their flux, with_p1), then flux-limited
+ * diffusion of the first-scattered light; with --fld-sky boundary the sky's uniform part
+ * enters through the grid's boundary. */
 static vdbs_status run_fld(const vdbs_solve *s, void *stats, vdbs_error *err)
 {
-    const int p1 = s->scene->g != 0.0 && !option_int(s->scene, OPT_P1);
+    const int p1 = with_p1(s->scene);
     fld_first first;
     memset(&first, 0, sizeof first);
     vdbs_status st =
@@ -249,6 +256,12 @@ static void report_text(const void *stats, char *text, size_t size)
              f->residual);
 }
 
+/* The first collisions' sums (with their flux for the first-moment source). */
+static int64_t voxel_bytes(const vdbs_scene *scene, size_t voxels)
+{
+    return vdbs_collision_sum_bytes(voxels, with_p1(scene));
+}
+
 const vdbs_solver vdbs_solver_fld = {
     .name = "fld",
     .summary = "exact single scattering + flux-limited diffusion of the first-scattered light",
@@ -261,5 +274,6 @@ const vdbs_solver vdbs_solver_fld = {
     .report_count = (int)(sizeof report / sizeof report[0]),
     .report_text = report_text,
     .state = &state,
+    .voxel_bytes = voxel_bytes,
     .cost = {8.03, 23.4, 280, 1.04e+03}, /* bench/cost.md */
 };

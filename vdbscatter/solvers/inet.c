@@ -457,6 +457,16 @@ struct vdbs_inet_run {
     double t0;
 };
 
+int64_t vdbs_inet_voxel_bytes(size_t voxels)
+{
+    const vdbs_inet_run *r =
+        NULL; /* sizeof only: the fields' types, as vdbs_inet_begin allocates */
+    return vdbs_voxel_faces_bytes(voxels) +
+           (int64_t)((VDBS_COLLISION_SCRATCH * sizeof *r->scratch + 3 * sizeof *r->rate +
+                      sizeof *r->setup.net.voxel_sigma_t) *
+                     voxels);
+}
+
 void vdbs_inet_end(vdbs_inet_run *r)
 {
     if (!r)

@@ -209,6 +209,12 @@ static void report_text(const void *stats, char *text, size_t size)
              v->converged ? "" : " (not converged)");
 }
 
+static int64_t voxel_bytes(const vdbs_scene *scene, size_t voxels)
+{
+    (void)scene;
+    return vdbs_inet_voxel_bytes(voxels);
+}
+
 const vdbs_solver vdbs_solver_inet = {
     .name = "inet",
     .summary = "exact single scattering + illumination networks: particles iterated on a "
@@ -222,6 +228,7 @@ const vdbs_solver vdbs_solver_inet = {
     .report_count = (int)(sizeof report / sizeof report[0]),
     .report_text = report_text,
     .state = &state,
+    .voxel_bytes = voxel_bytes,
     /* bench/cost.md, from two volume sizes: the sweeps follow the particles and directions
      * (N D^2 each), a fixed part; S1 and the splat follow the voxels. That part is at least
      * single's at low (its S1 at every quality; the fit's 4.25 is within the noise of it). */

@@ -625,6 +625,13 @@ struct vdbs_svd_run {
     vdbs_sky_floor floor; /* the sky's uniform part, through the boundary (skyfloor.h) */
 };
 
+int64_t vdbs_svd_voxel_bytes(size_t voxels)
+{
+    const vdbs_svd_run *r = NULL; /* sizeof only: the fields' types, as vdbs_svd_begin allocates */
+    return vdbs_voxel_faces_bytes(voxels) +
+           (int64_t)((3 * sizeof *r->scatter + VDBS_COLLISION_SCRATCH * sizeof *r->beam) * voxels);
+}
+
 /* One light's first scattering in the scaled problem, from the optical depth toward it at
  * every output voxel (the S1 pass's light grids, vdbs_s1_outputs.light_depth): per voxel
  * sigma_s* E T*, T* = exp(-(1 - f albedo) tau), averaged over the voxel (vdbs_first_collisions:

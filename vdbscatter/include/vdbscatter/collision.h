@@ -27,6 +27,8 @@ typedef struct vdbs_voxel_faces {
 
 vdbs_status vdbs_voxel_faces_build(const vdbs_volume *volume, vdbs_voxel_faces *faces,
                                    vdbs_error *err);
+/* The bytes the faces of `count` voxels hold once built (the memory estimate's). */
+int64_t vdbs_voxel_faces_bytes(size_t count);
 void vdbs_voxel_faces_free(vdbs_voxel_faces *faces);
 
 /* One light's first collisions: rate[3 n + ch], per unit world volume, the cube average of
@@ -77,6 +79,8 @@ void vdbs_collision_sum_light(void *user, int light, const float *depth);
 void vdbs_collision_sum_share(vdbs_collision_sum *sum, int light, const float *depth,
                               const double share[3]);
 void vdbs_collision_sum_free(vdbs_collision_sum *sum);
+/* The bytes vdbs_collision_sum_init holds for `count` voxels, its faces included. */
+int64_t vdbs_collision_sum_bytes(size_t count, int with_flux);
 
 #ifdef __cplusplus
 }

@@ -223,6 +223,11 @@ typedef struct vdbs_inet_stats {
 /* The bake's solver around the S1 pass, as the discrete ordinates' (svd.h): begin, the S1 pass
  * with vdbs_inet_light_depth, finish (adds ms, ms_l1 and radiance), end. */
 typedef struct vdbs_inet_run vdbs_inet_run;
+/* The bytes a solve holds per output voxel (the faces, one light's first collisions and
+ * their scratch, the network's per-voxel extinction) for `voxels` of them; its particles'
+ * arrays are bounded by --inet-particles and not counted. For the bake's memory estimate. */
+int64_t vdbs_inet_voxel_bytes(size_t voxels);
+
 vdbs_status vdbs_inet_begin(const vdbs_solve *s, const vdbs_inet_desc *desc, vdbs_inet_run **run,
                             vdbs_error *err);
 void vdbs_inet_light_depth(void *run, int light, const float *depth);

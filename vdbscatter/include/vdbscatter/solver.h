@@ -121,6 +121,10 @@ typedef struct vdbs_solver {
      * NULL: none. */
     void (*report_text)(const void *stats, char *text, size_t size);
     const vdbs_solver_state *state; /* NULL: keeps no state */
+    /* The solve's own arrays that follow the output voxels (its coarse grids and particles
+     * aside), in bytes for a bake of `scene` on `voxels` output voxels: the bake's memory
+     * estimate. NULL: none beyond the S1 pass's. */
+    int64_t (*voxel_bytes)(const vdbs_scene *scene, size_t voxels);
     /* Cost hint for planning: the solve's seconds per million output voxels on the C path
      * at each quality, measured on the bundled cloud (bench/defaults.md); the same
      * order of magnitude on other scenes, no more. */

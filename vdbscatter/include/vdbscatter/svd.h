@@ -122,6 +122,11 @@ int vdbs_svd_terms_for(const vdbs_phasemat *pm, double tolerance);
  * it runs: for the bake's memory estimate. 0 when the phase matrix cannot be built. */
 int vdbs_svd_kept_terms(const vdbs_svd_desc *desc, const char *quality, double g);
 
+/* The bytes a solve holds per output voxel (the faces, one light's first collisions and
+ * their scratch) for `voxels` of them; its cells are bounded by the grid's resolution and not
+ * counted. For the bake's memory estimate. */
+int64_t vdbs_svd_voxel_bytes(size_t voxels);
+
 /* A direct light of a grid problem. */
 typedef struct vdbs_svd_light {
     int point; /* 1: a point light at vec; 0: a sun travelling along vec (unit) */
