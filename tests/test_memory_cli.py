@@ -232,8 +232,8 @@ class MemoryCliTest(unittest.TestCase):
         """The methods that hold arrays of their own per output voxel while they solve (SVD,
         FLD, INET: the voxels' faces and the first collisions' sums and scratch) have them in
         the estimate beside the S1 pass, and each bake's estimate holds against its growth
-        within the same 0.7-1.5x. Without them the fog measured 0.71 (SVD), 0.53 (FLD) and
-        0.60 (INET)."""
+        within the same 0.7-1.5x. Without them the fog's estimates were 0.71 (SVD), 0.53 (FLD)
+        and 0.60 (INET) of the growth."""
         if sanitized():
             self.skipTest("resident sets under AddressSanitizer are its allocator's")
         for method in ("svd", "fld", "inet"):
