@@ -187,6 +187,15 @@ class MemoryCliTest(unittest.TestCase):
         peak = max(m["peak_bytes"][s] for s in stages)
         return m["estimate_bytes"], peak - m["baseline_bytes"]
 
+    def assert_holds(self, what, report, stages):
+        """The estimate within 0.7-1.5x of the growth of the stages' peak."""
+        est, grew = self.growth(report, stages)
+        if VERBOSE:
+            print(f"\n{what}: estimate {est / 2**20:.1f} MiB {report['memory']['estimate']}, "
+                  f"grew {grew / 2**20:.1f} MiB")
+        self.assertTrue(0.7 * grew <= est <= 1.5 * grew,
+                        f"{what}: estimate {est} against a growth of {grew}")
+
     def test_report_and_estimate_against_peak(self):
         if sanitized():
             self.skipTest("resident sets under AddressSanitizer are its allocator's")
@@ -208,7 +217,6 @@ class MemoryCliTest(unittest.TestCase):
         self.assertGreater(m["peak_bytes"]["load"], 0)
         for stage in ("solve", "write"):
             self.assertGreaterEqual(m["peak_bytes"][stage], m["baseline_bytes"] * 0.9)
-        bake_est, bake_grew = self.growth(j, ["solve", "write"])
 
         img = self.path("fog.exr")
         p = run("render", self.fog, "-o", img, "--sun", "0.3,-1,0.2", "--env", "0.2,0.3,0.5",
@@ -217,16 +225,10 @@ class MemoryCliTest(unittest.TestCase):
         r = json.loads(p.stdout)
         self.assertEqual(sorted(r["memory"]["peak_bytes"]), ["load", "render", "write"])
         self.assertGreater(r["memory"]["estimate"]["light grids"], 0)
-        render_est, render_grew = self.growth(r, ["render", "write"])
-        if VERBOSE:
-            print(f"\nbake: estimate {bake_est / 2**20:.1f} MiB {j['memory']['estimate']}, "
-                  f"grew {bake_grew / 2**20:.1f} MiB over {m['baseline_bytes'] / 2**20:.1f}")
-            print(f"render: estimate {render_est / 2**20:.1f} MiB {r['memory']['estimate']}, "
-                  f"grew {render_grew / 2**20:.1f} MiB")
-        for what, est, grew in (("bake", bake_est, bake_grew), ("render", render_est, render_grew)):
-            self.assertGreater(grew, 50 << 20, what)  # large enough to measure
-            self.assertTrue(0.7 * grew <= est <= 1.5 * grew,
-                            f"{what}: estimate {est} against a growth of {grew}")
+        for what, report, stages in (("bake", j, ["solve", "write"]),
+                                     ("render", r, ["render", "write"])):
+            self.assertGreater(self.growth(report, stages)[1], 50 << 20, what)  # measurable
+            self.assert_holds(what, report, stages)
 
     def test_solvers_estimate_against_peak(self):
         """The methods that hold arrays of their own per output voxel while they solve (SVD,
@@ -241,13 +243,8 @@ class MemoryCliTest(unittest.TestCase):
                                "0.3,-1,0.2", "--density-scale", "50", "--g", "0.8", "--method",
                                method, "--backend", "cpu", "--store", "none", "--json",
                                check=0).stdout)
-            est, grew = self.growth(r, ["solve", "write"])
-            if VERBOSE:
-                print(f"\n{method}: estimate {est / 2**20:.1f} MiB {r['memory']['estimate']}, "
-                      f"grew {grew / 2**20:.1f} MiB")
             self.assertGreater(r["memory"]["estimate"]["solver"], 0, method)
-            self.assertTrue(0.7 * grew <= est <= 1.5 * grew,
-                            f"{method}: estimate {est} against a growth of {grew}")
+            self.assert_holds(method, r, ["solve", "write"])
 
     def test_kept_state_counted(self):
         """--keep-state's grids are in the estimate: SVD keeps one per phase term, 3 floats per
@@ -270,11 +267,7 @@ class MemoryCliTest(unittest.TestCase):
         # the kept arrays, and their trees in the write on top
         self.assertGreater(kept["memory"]["estimate_bytes"] - plain["memory"]["estimate_bytes"],
                            kept["memory"]["estimate"]["kept state"])
-        est, grew = self.growth(kept, ["solve", "write"])
-        if VERBOSE:
-            print(f"\nsvd --keep-state: estimate {est / 2**20:.1f} MiB "
-                  f"{kept['memory']['estimate']}, grew {grew / 2**20:.1f} MiB")
-        self.assertTrue(0.7 * grew <= est <= 1.5 * grew, f"estimate {est} against a growth of {grew}")
+        self.assert_holds("svd --keep-state", kept, ["solve", "write"])
         need = [r["memory"]["estimate_bytes"] + r["memory"]["baseline_bytes"] for r in (plain, kept)]
         limit = str((need[0] + need[1]) // 2)
         run(*args, "-o", self.path("svd_limited.vdb"), "--max-memory", limit, check=0)

@@ -397,12 +397,23 @@ static vdbs_status open_state(bake_job *j, vdbs_error *err)
     return st;
 }
 
+/* The output voxels the arrays are sized for (one for an empty volume). */
+static size_t output_voxels(const bake_job *j)
+{
+    return j->volume.coord_count ? j->volume.coord_count : 1;
+}
+
+/* `arrays` arrays of 3 floats per output voxel, in bytes. */
+static int64_t voxel_arrays_bytes(const bake_job *j, int arrays)
+{
+    return arrays * 3 * (int64_t)output_voxels(j) * (int64_t)sizeof(float);
+}
+
 /* The output arrays' bytes (alloc_outputs). */
 static int64_t outputs_bytes(const bake_job *j)
 {
-    int64_t n = (int64_t)(j->volume.coord_count ? j->volume.coord_count : 1);
-    int arrays = 2 + (j->solver->writes_ms ? 3 : 0) + (j->scene->camera.present ? 1 : 0);
-    return arrays * 3 * n * (int64_t)sizeof(float);
+    return voxel_arrays_bytes(j, 2 + (j->solver->writes_ms ? 3 : 0) +
+                                     (j->scene->camera.present ? 1 : 0));
 }
 
 /* A stored depth sample: its (i, j, k) and value (vdbs_light_grid_samples). */
@@ -450,9 +461,7 @@ static vdbs_status check_memory(bake_job *j, vdbs_bake_report *report, vdbs_erro
     const vdbs_solver_state *state = j->solver->state;
     const int kept = j->keep && state->arrays ? state->arrays(j->scene, j->warm) : 0;
     if (kept > 0)
-        vdbs_memory_add(e, "kept state",
-                        kept * 3 * (int64_t)(j->volume.coord_count ? j->volume.coord_count : 1) *
-                            (int64_t)sizeof(float));
+        vdbs_memory_add(e, "kept state", voxel_arrays_bytes(j, kept));
     int64_t s1 =
         vdbs_single_scatter_grids_bytes(&j->volume, j->scene->camera.present) + lg.peak_one;
     /* write_lit writes radiance, ms and the three l1 grids (shared zeros or not), the view and
@@ -463,9 +472,7 @@ static vdbs_status check_memory(bake_job *j, vdbs_bake_report *report, vdbs_erro
     int64_t write = vdbio_write_bytes(nodes, vec3, store ? count : 0, stored);
     /* the solver's own arrays that follow the voxels live beside the S1 pass's */
     const int64_t solver =
-        j->solver->voxel_bytes
-            ? j->solver->voxel_bytes(j->scene, j->volume.coord_count ? j->volume.coord_count : 1)
-            : 0;
+        j->solver->voxel_bytes ? j->solver->voxel_bytes(j->scene, output_voxels(j)) : 0;
     if (s1 + solver >= write) {
         vdbs_memory_add(e, "light grids", s1);
         if (solver > 0)
@@ -492,7 +499,7 @@ static vdbs_status check_memory(bake_job *j, vdbs_bake_report *report, vdbs_erro
 /* Zeroed output arrays; without multiple scattering the four ms grids are one. */
 static vdbs_status alloc_outputs(bake_job *j, vdbs_error *err)
 {
-    size_t n = j->volume.coord_count ? j->volume.coord_count : 1;
+    size_t n = output_voxels(j);
     vdbs_solve *out = &j->out;
     out->radiance = calloc(3 * n, sizeof(float));
     out->ms = calloc(3 * n, sizeof(float));

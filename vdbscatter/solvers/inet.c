@@ -459,8 +459,8 @@ struct vdbs_inet_run {
 
 int64_t vdbs_inet_voxel_bytes(size_t voxels)
 {
-    const vdbs_inet_run *r =
-        NULL; /* sizeof only: the fields' types, as vdbs_inet_begin allocates */
+    /* sizeof only: the fields' types, as vdbs_inet_begin allocates */
+    const vdbs_inet_run *r = NULL;
     return vdbs_voxel_faces_bytes(voxels) +
            (int64_t)((VDBS_COLLISION_SCRATCH * sizeof *r->scratch + 3 * sizeof *r->rate +
                       sizeof *r->setup.net.voxel_sigma_t) *
