@@ -470,9 +470,9 @@ static vdbs_status check_memory(bake_job *j, vdbs_bake_report *report, vdbs_erro
     int64_t nodes[3];
     vdbs_volume_node_counts(&j->volume, nodes);
     int64_t write = vdbio_write_bytes(nodes, vec3, store ? count : 0, stored);
-    /* the solver's own arrays that follow the voxels live beside the S1 pass's */
+    /* the solver's own arrays live beside the S1 pass's */
     const int64_t solver =
-        j->solver->voxel_bytes ? j->solver->voxel_bytes(j->scene, output_voxels(j)) : 0;
+        j->solver->solve_bytes ? j->solver->solve_bytes(j->scene, output_voxels(j)) : 0;
     if (s1 + solver >= write) {
         vdbs_memory_add(e, "light grids", s1);
         if (solver > 0)
@@ -486,9 +486,11 @@ static vdbs_status check_memory(bake_job *j, vdbs_bake_report *report, vdbs_erro
              store ? ", --store lights" : "");
     if (kept > 0)
         snprintf(what + strlen(what), sizeof what - strlen(what), ", --keep-state %d grids", kept);
-    char lower[96];
-    snprintf(lower, sizeof lower, "--quality, --s1-oversample%s%s", store ? ", --store none" : "",
-             kept > 0 ? ", --keep-state" : "");
+    const char *flags = solver > 0 ? j->solver->solve_bytes_flags : NULL;
+    char lower[128];
+    snprintf(lower, sizeof lower, "--quality, --s1-oversample%s%s%s%s",
+             store ? ", --store none" : "", kept > 0 ? ", --keep-state" : "", flags ? ", " : "",
+             flags ? flags : "");
     vdbs_memory_estimate all = *e;
     vdbs_memory_add(&all, "loaded", report->memory_baseline);
     return vdbs_memory_check(&all, report->memory_limit,

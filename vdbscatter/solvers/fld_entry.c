@@ -257,7 +257,7 @@ static void report_text(const void *stats, char *text, size_t size)
 }
 
 /* The first collisions' sums (with their flux for the first-moment source). */
-static int64_t voxel_bytes(const vdbs_scene *scene, size_t voxels)
+static int64_t solve_bytes(const vdbs_scene *scene, size_t voxels)
 {
     return vdbs_collision_sum_bytes(voxels, with_p1(scene));
 }
@@ -274,6 +274,6 @@ const vdbs_solver vdbs_solver_fld = {
     .report_count = (int)(sizeof report / sizeof report[0]),
     .report_text = report_text,
     .state = &state,
-    .voxel_bytes = voxel_bytes,
+    .solve_bytes = solve_bytes,
     .cost = {8.03, 23.4, 280, 1.04e+03}, /* bench/cost.md */
 };

@@ -467,6 +467,20 @@ int64_t vdbs_inet_voxel_bytes(size_t voxels)
                      voxels);
 }
 
+int64_t vdbs_inet_network_bytes(int64_t particles, int directions)
+{
+    /* sizeof only: the fields' types, as the network, its links and the solve allocate */
+    const vdbs_inet_run *r = NULL;
+    const int64_t slots = particles * directions;
+    /* the solve's state and the C runner's second copy of it, 3 floats a slot each */
+    const int64_t state = 2 * 3 * (int64_t)sizeof(float);
+    return particles * (int64_t)(3 * sizeof *r->setup.net.position + sizeof *r->setup.net.voxel) +
+           slots * ((int64_t)(sizeof *r->setup.net.upstream + sizeof *r->setup.links.source +
+                              3 * sizeof *r->emission) +
+                    state) +
+           (int64_t)directions * directions * (int64_t)sizeof *r->setup.phase;
+}
+
 void vdbs_inet_end(vdbs_inet_run *r)
 {
     if (!r)

@@ -209,10 +209,13 @@ static void report_text(const void *stats, char *text, size_t size)
              v->converged ? "" : " (not converged)");
 }
 
-static int64_t voxel_bytes(const vdbs_scene *scene, size_t voxels)
+static int64_t solve_bytes(const vdbs_scene *scene, size_t voxels)
 {
-    (void)scene;
-    return vdbs_inet_voxel_bytes(voxels);
+    const vdbs_quality *q =
+        vdbs_solver_quality(vdbs_solver_find("inet"), vdbs_quality_find(scene->quality));
+    const int64_t particles = (int64_t)vdbs_solver_option_value(scene, &options[OPT_PARTICLES], q);
+    return vdbs_inet_voxel_bytes(voxels) +
+           vdbs_inet_network_bytes(particles, scene_directions(scene));
 }
 
 const vdbs_solver vdbs_solver_inet = {
@@ -228,7 +231,8 @@ const vdbs_solver vdbs_solver_inet = {
     .report_count = (int)(sizeof report / sizeof report[0]),
     .report_text = report_text,
     .state = &state,
-    .voxel_bytes = voxel_bytes,
+    .solve_bytes = solve_bytes,
+    .solve_bytes_flags = "--inet-particles",
     /* bench/cost.md, from two volume sizes: the sweeps follow the particles and directions
      * (N D^2 each), a fixed part; S1 and the splat follow the voxels. That part is at least
      * single's at low (its S1 at every quality; the fit's 4.25 is within the noise of it). */

@@ -299,7 +299,7 @@ static void report_text(const void *stats, char *text, size_t size)
              v->iterations, v->residual, v->converged ? "" : " (not converged)");
 }
 
-static int64_t voxel_bytes(const vdbs_scene *scene, size_t voxels)
+static int64_t solve_bytes(const vdbs_scene *scene, size_t voxels)
 {
     (void)scene;
     return vdbs_svd_voxel_bytes(voxels);
@@ -319,7 +319,7 @@ const vdbs_solver vdbs_solver_svd = {
     .report_count = (int)(sizeof report / sizeof report[0]),
     .report_text = report_text,
     .state = &state,
-    .voxel_bytes = voxel_bytes,
+    .solve_bytes = solve_bytes,
     .cost = {24, 187, 492, 6.53e+03}, /* bench/cost.md */
     /* medium's 64 sky ordinates at high and ultra: 256 measured worse on both env-map scenes
      * and no better elsewhere, for 4x the light grids (docs/planner.md, "Ladders") */

@@ -224,9 +224,13 @@ typedef struct vdbs_inet_stats {
  * with vdbs_inet_light_depth, finish (adds ms, ms_l1 and radiance), end. */
 typedef struct vdbs_inet_run vdbs_inet_run;
 /* The bytes a solve holds per output voxel (the faces, one light's first collisions and
- * their scratch, the network's per-voxel extinction) for `voxels` of them; its particles'
- * arrays are bounded by --inet-particles and not counted. For the bake's memory estimate. */
+ * their scratch, the network's per-voxel extinction) for `voxels` of them. For the bake's
+ * memory estimate, with vdbs_inet_network_bytes. */
 int64_t vdbs_inet_voxel_bytes(size_t voxels);
+/* The bytes of a network of `particles` on `directions` and its solve: per particle its
+ * position and voxel, per slot (particle and direction) its upstream link, its emission and
+ * the sweep's state (twice on the C path: the runner's copy), and the D x D phase. */
+int64_t vdbs_inet_network_bytes(int64_t particles, int directions);
 
 vdbs_status vdbs_inet_begin(const vdbs_solve *s, const vdbs_inet_desc *desc, vdbs_inet_run **run,
                             vdbs_error *err);

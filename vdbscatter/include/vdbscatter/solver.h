@@ -121,10 +121,14 @@ typedef struct vdbs_solver {
      * NULL: none. */
     void (*report_text)(const void *stats, char *text, size_t size);
     const vdbs_solver_state *state; /* NULL: keeps no state */
-    /* The solve's own arrays that follow the output voxels (its coarse grids and particles
-     * aside), in bytes for a bake of `scene` on `voxels` output voxels: the bake's memory
-     * estimate. NULL: none beyond the S1 pass's. */
-    int64_t (*voxel_bytes)(const vdbs_scene *scene, size_t voxels);
+    /* The solve's own arrays, in bytes for a bake of `scene` on `voxels` output voxels: those
+     * that follow the voxels, and those its own options size (the illumination network's
+     * particles and directions; the coarse grids, bounded by the resolution, aside). The bake's
+     * memory estimate. NULL: none beyond the S1 pass's. */
+    int64_t (*solve_bytes)(const vdbs_scene *scene, size_t voxels);
+    /* The solver's flags that lower solve_bytes beyond what the voxels need ("--inet-particles"),
+     * named when the estimate refuses a bake; NULL: none. */
+    const char *solve_bytes_flags;
     /* Cost hint for planning: the solve's seconds per million output voxels on the C path
      * at each quality, measured on the bundled cloud (bench/defaults.md); the same
      * order of magnitude on other scenes, no more. */
