@@ -67,12 +67,17 @@ static double option(const vdbs_scene *scene, int i)
     return vdbs_scene_solver_value(scene, options[i].key);
 }
 
-/* The scene's D: its option, else the preset of the quality it bakes at. */
-static int scene_directions(const vdbs_scene *scene)
+/* Option i of the scene: its value, else the preset of the quality it bakes at. */
+static double scene_value(const vdbs_scene *scene, int i)
 {
     const vdbs_quality *q =
         vdbs_solver_quality(vdbs_solver_find("inet"), vdbs_quality_find(scene->quality));
-    return (int)vdbs_solver_option_value(scene, &options[OPT_DIRECTIONS], q);
+    return vdbs_solver_option_value(scene, &options[i], q);
+}
+
+static int scene_directions(const vdbs_scene *scene)
+{
+    return (int)scene_value(scene, OPT_DIRECTIONS);
 }
 
 /* ---- state: the slots' radiance per output voxel and direction ---- */
@@ -211,11 +216,9 @@ static void report_text(const void *stats, char *text, size_t size)
 
 static int64_t solve_bytes(const vdbs_scene *scene, size_t voxels)
 {
-    const vdbs_quality *q =
-        vdbs_solver_quality(vdbs_solver_find("inet"), vdbs_quality_find(scene->quality));
-    const int64_t particles = (int64_t)vdbs_solver_option_value(scene, &options[OPT_PARTICLES], q);
     return vdbs_inet_voxel_bytes(voxels) +
-           vdbs_inet_network_bytes(particles, scene_directions(scene));
+           vdbs_inet_network_bytes((int64_t)scene_value(scene, OPT_PARTICLES),
+                                   scene_directions(scene));
 }
 
 const vdbs_solver vdbs_solver_inet = {
