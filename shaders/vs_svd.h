@@ -58,22 +58,13 @@
 #define VS_SVD_OFF_INFLOW 32 /* 3 floats */
 #define VS_SVD_PARAM_WORDS 35
 
-/* `svd_tables` (floats): D direction records from word 0, then v, then the lights, then their
- * phase rows. */
+/* `svd_tables` (floats): D direction records from word 0, then v, then the lights. */
 #define VS_SVD_DIR_W 0      /* 3: unit direction of travel */
 #define VS_SVD_DIR_WEIGHT 3 /* its solid angle */
 #define VS_SVD_DIR_WORDS 4
 #define VS_SVD_LIGHT_POINT 0 /* 1: a point light at VEC; 0: a sun travelling along VEC */
 #define VS_SVD_LIGHT_VEC 1
 #define VS_SVD_LIGHT_WORDS 4
-/* After the L light records, L rows of D floats: row l holds HG(g*) between sun l's travel and
- * each direction in sweep order, the same in every cell, so that the sweep reads it rather than
- * evaluating it per cell and direction (a point light's row is 0: its travel varies with the
- * cell). */
-VS_FUNC int vs_svd_light_phase_at(int light_at, int lights, int dirs, int l, int d)
-{
-    return light_at + lights * VS_SVD_LIGHT_WORDS + l * dirs + d;
-}
 
 /* Octant o sweeps +x when bit 0 is clear, +y when bit 1 is, +z when bit 2 is; a direction
  * with a zero component belongs to the + side. */
@@ -184,7 +175,7 @@ VS_FUNC vs_svd_at vs_svd_locate(VS_DATA_PARAM(vs_uint, svd_params) int item, int
 /* What the cell's directions share: the grid, the medium, the tables' layout. */
 struct vs_svd_cell {
     int n0, n1, n2;
-    int terms, lights, dirs;
+    int terms, lights;
     int v_at, light_at; /* word offsets in svd_tables */
     int record;         /* word offset of the cell's record in the state */
     int diamond;        /* VS_SVD_OFF_SCHEME */
@@ -207,7 +198,6 @@ VS_FUNC vs_svd_cell vs_svd_cell_of(VS_DATA_PARAM(vs_uint, svd_params)
     c.n2 = VS_INT(svd_params[VS_SVD_OFF_N + 2]);
     c.terms = VS_INT(svd_params[VS_SVD_OFF_TERMS]);
     c.lights = VS_INT(svd_params[VS_SVD_OFF_LIGHTS]);
-    c.dirs = VS_INT(svd_params[VS_SVD_OFF_OCTANT + VS_SVD_OCTANTS]);
     c.v_at = VS_INT(svd_params[VS_SVD_OFF_TABLE_V]);
     c.light_at = VS_INT(svd_params[VS_SVD_OFF_TABLE_LIGHTS]);
     c.record = VS_INT(svd_params[VS_SVD_OFF_STATE_OUT]) + at.cell * VS_SVD_OUT_WORDS;
@@ -278,10 +268,9 @@ VS_FUNC_HOT pnanovdb_vec3_t vs_svd_emission(VS_DATA_PARAM(float, svd_tables)
     VS_PRECISE float q1 = 0.0f;
     VS_PRECISE float q2 = 0.0f;
     for (int l = 0; l < c.lights; ++l) {
-        int record = c.light_at + l * VS_SVD_LIGHT_WORDS;
-        float p = svd_tables[vs_svd_light_phase_at(c.light_at, c.lights, c.dirs, l, d)];
-        if (svd_tables[record + VS_SVD_LIGHT_POINT] != 0.0f)
-            p = vs_hg_dirs(c.g, vs_svd_light_travel(VS_DATA_ARG(svd_tables) record, c.centre), w);
+        pnanovdb_vec3_t travel = vs_svd_light_travel(
+            VS_DATA_ARG(svd_tables) c.light_at + l * VS_SVD_LIGHT_WORDS, c.centre);
+        float p = vs_hg_dirs(c.g, travel, w);
         int e = (cell * c.lights + l) * 3;
         q0 += svd_direct[e] * p;
         q1 += svd_direct[e + 1] * p;

@@ -1070,7 +1070,7 @@ static void test_svd_uploads_once(void **state)
         const unsigned long long D = (unsigned long long)s->pm.d, N = SVD_TERMS, L = 2;
         const unsigned long long constant =
             sizeof(uint32_t) * VS_SVD_PARAM_WORDS +
-            sizeof(float) * (D * VS_SVD_DIR_WORDS + D * N + L * (VS_SVD_LIGHT_WORDS + D)) +
+            sizeof(float) * (D * VS_SVD_DIR_WORDS + D * N + L * VS_SVD_LIGHT_WORDS) +
             sizeof(float) * SVD_CELLS + sizeof(float) * 3 * SVD_CELLS * L;
         const unsigned long long source = sizeof(float) * SVD_CELLS * N * 3;
         const unsigned long long control =

@@ -186,7 +186,7 @@ static vdbs_status layout_build(const vdbs_svd_grid *g, int chunk, vdbs_svd_sche
     const int D = pm->d, N = g->terms;
     l->order = malloc(sizeof *l->order * (size_t)D);
     l->table_words = (size_t)D * VS_SVD_DIR_WORDS + (size_t)D * (size_t)N +
-                     (size_t)g->light_count * (VS_SVD_LIGHT_WORDS + (size_t)D);
+                     (size_t)g->light_count * VS_SVD_LIGHT_WORDS;
     l->tables = malloc(sizeof *l->tables * l->table_words);
     if (!l->order || !l->tables) {
         layout_free(l);
@@ -223,16 +223,6 @@ static vdbs_status layout_build(const vdbs_svd_grid *g, int chunk, vdbs_svd_sche
         rec[VS_SVD_LIGHT_POINT] = g->lights[i].point ? 1.0f : 0.0f;
         for (int a = 0; a < 3; ++a)
             rec[VS_SVD_LIGHT_VEC + a] = (float)g->lights[i].vec[a];
-        /* The kernel's own float HG, so that reading the row changes no rounding. */
-        pnanovdb_vec3_t travel =
-            vs_vec3(rec[VS_SVD_LIGHT_VEC], rec[VS_SVD_LIGHT_VEC + 1], rec[VS_SVD_LIGHT_VEC + 2]);
-        for (int s = 0; s < D; ++s) {
-            const float *w = l->tables + (size_t)s * VS_SVD_DIR_WORDS + VS_SVD_DIR_W;
-            l->tables[vs_svd_light_phase_at((int)light_at, g->light_count, D, i, s)] =
-                g->lights[i].point
-                    ? 0.0f
-                    : vs_hg_dirs((float)pm->g_scaled, travel, vs_vec3(w[0], w[1], w[2]));
-        }
     }
     const size_t cells = (size_t)g->n[0] * g->n[1] * g->n[2];
     uint32_t *p = l->params;
