@@ -15,6 +15,12 @@ for arg in "$@"; do
 done
 bash scripts/setup.sh
 jobs=$(nproc)
+# One OpenMP thread per test: ctest runs a test per core already, and OpenMP's barriers spin
+# while they wait, so two tests of two threads each on two cores wait on each other's
+# descheduled threads (the extremes slice: 9-16 s alone, 73-85 s for two at once; 13-15 s for
+# two of one thread each). The tests about thread counts set their own (test_determinism_cli, and
+# omp_set_num_threads in the statistical tests). A value already set is kept.
+export OMP_NUM_THREADS="${OMP_NUM_THREADS:-1}"
 
 # Without the external test data beside the clone (../shared/data), the tests that read it
 # skip themselves; name them once per build, from ctest's log.
