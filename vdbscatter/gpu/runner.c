@@ -2,6 +2,8 @@
 
 #include <inttypes.h>
 #include <omp.h>
+#include <sched.h>
+#include <stdatomic.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -191,6 +193,87 @@ static double combine(vdbs_reduce reduce, double a, double b)
     return reduce == VDBS_REDUCE_MAX ? (a > b ? a : b) : a + b;
 }
 
+/* The steps of an iterate loop share one team, and each step ends at this barrier instead of
+ * OpenMP's: a thread that waits spins briefly, then yields its core, so that a thread of ours
+ * or another process's that the core owes time to runs. OpenMP's barriers spin for much longer
+ * before they sleep: on cores shared with another busy process, a solver of thousands of short
+ * steps (SVD's wavefront planes) then waits at every step for a thread that is not running
+ * (docs/farm.md "Cores shared with other work"). */
+#define STEP_SPINS 2000
+
+typedef struct step_team {
+    const vdbs_kernel_desc *d;
+    int64_t chunks;
+    uint64_t chunk;
+    double *partials;
+    void *in, *out;
+    int threads, max_iterations;
+    atomic_int arrived, generation;
+    atomic_llong next[2]; /* the next chunk to take, by the step's parity */
+    int stop;             /* 1: done, 2: cancelled; written by the step's last thread */
+    vdbs_kernel_result *result;
+} step_team;
+
+/* Between two steps, on the calling thread (progress is per thread): the reduction, the swap,
+ * the stop. */
+static void step_end(step_team *t, int it)
+{
+    const vdbs_kernel_desc *d = t->d;
+    /* In chunk order, so that the reduction does not depend on the thread count. */
+    double reduction = 0.0;
+    for (int64_t c = 0; c < t->chunks && d->reduce != VDBS_REDUCE_NONE; ++c)
+        reduction = combine(d->reduce, reduction, t->partials[c]);
+    void *swap = t->in;
+    t->in = t->out;
+    t->out = swap;
+    if (step_done(d, it, reduction, t->result))
+        t->stop = 1;
+    else if (desc_cancelled(d))
+        t->stop = 2;
+    /* This step's counter is next used two steps on; every thread has left it. */
+    atomic_store(&t->next[it & 1], 0);
+}
+
+/* Spins, then yields, while *v == value (until_equal 0) or until it is (until_equal 1). */
+static void step_wait(atomic_int *v, int value, int until_equal)
+{
+    for (int spins = 0; (atomic_load(v) == value) != until_equal; ++spins)
+        if (spins >= STEP_SPINS)
+            sched_yield();
+}
+
+/* The calling thread (OpenMP's thread 0) waits for the others, ends the step and lets them on;
+ * the others wait for the next generation. */
+static void step_barrier(step_team *t, int it, int caller)
+{
+    if (caller) {
+        step_wait(&t->arrived, t->threads - 1, 1);
+        step_end(t, it);
+        atomic_store(&t->arrived, 0);
+        atomic_fetch_add(&t->generation, 1);
+        return;
+    }
+    const int generation = atomic_load(&t->generation);
+    atomic_fetch_add(&t->arrived, 1);
+    step_wait(&t->generation, generation, 0);
+}
+
+static void step_team_run(step_team *t)
+{
+    const vdbs_kernel_desc *d = t->d;
+    const int caller = omp_get_thread_num() == 0;
+    for (int it = 0; it < t->max_iterations; ++it) {
+        for (int64_t c; (c = atomic_fetch_add(&t->next[it & 1], 1)) < t->chunks;) {
+            uint64_t begin = (uint64_t)c * t->chunk;
+            uint64_t end = begin + t->chunk < d->items ? begin + t->chunk : d->items;
+            t->partials[c] = d->cpu_step(d->user, it, t->in, t->out, begin, end);
+        }
+        step_barrier(t, it, caller);
+        if (t->stop)
+            return;
+    }
+}
+
 static vdbs_status cpu_iterate(const vdbs_kernel_desc *d, int max_iterations,
                                vdbs_kernel_result *result, vdbs_error *err)
 {
@@ -205,34 +288,31 @@ static vdbs_status cpu_iterate(const vdbs_kernel_desc *d, int max_iterations,
         return vdbs_error_set(err, VDBS_ERR_NOMEM, "out of memory for %zu bytes of state", bytes);
     }
     /* In place, in and out stay the same buffer. */
-    void *in = d->state, *out = d->in_place ? d->state : other;
-    for (int it = 0; it < max_iterations; ++it) {
-#pragma omp parallel for schedule(dynamic, 1)
-        for (int64_t c = 0; c < chunks; ++c) {
-            uint64_t begin = (uint64_t)c * chunk;
-            uint64_t end = begin + chunk < d->items ? begin + chunk : d->items;
-            partials[c] = d->cpu_step(d->user, it, in, out, begin, end);
-        }
-        /* In chunk order, so that the reduction does not depend on the thread count. */
-        double reduction = 0.0;
-        for (int64_t c = 0; c < chunks && d->reduce != VDBS_REDUCE_NONE; ++c)
-            reduction = combine(d->reduce, reduction, partials[c]);
-        void *t = in;
-        in = out;
-        out = t;
-        if (step_done(d, it, reduction, result))
-            break;
-        if (desc_cancelled(d)) {
-            free(other);
-            free(partials);
-            return vdbs_error_cancelled(err);
-        }
+    step_team t = {.d = d,
+                   .chunks = chunks,
+                   .chunk = chunk,
+                   .partials = partials,
+                   .in = d->state,
+                   .out = d->in_place ? d->state : other,
+                   .max_iterations = max_iterations,
+                   .result = result};
+    atomic_init(&t.arrived, 0);
+    atomic_init(&t.generation, 0);
+    atomic_init(&t.next[0], 0);
+    atomic_init(&t.next[1], 0);
+#pragma omp parallel
+    {
+#pragma omp single
+        t.threads = omp_get_num_threads();
+        /* The single's barrier: every thread knows the team's size. */
+        step_team_run(&t);
     }
-    if (in != d->state)
-        memcpy(d->state, in, bytes);
+    const int cancelled = t.stop == 2;
+    if (!cancelled && t.in != d->state)
+        memcpy(d->state, t.in, bytes);
     free(other);
     free(partials);
-    return VDBS_OK;
+    return cancelled ? vdbs_error_cancelled(err) : VDBS_OK;
 }
 
 /* ---- GPU path ---- */
