@@ -9,10 +9,12 @@
  *
  * And a sweep in dependency order (in place, plane after plane, with a sum reduction),
  * whose planes are exact binary fractions (shaders/test_sweep.comp). And the bytes the runner
- * counts as moved, exactly, from the buffer sizes of each call. */
+ * counts as moved, exactly, from the buffer sizes of each call. The C path runs on 1, 2 and 4
+ * threads whatever OMP_NUM_THREADS says (the steps' own barrier: 4 threads wait for cores). */
 #include "testutil.h"
 
 #include <math.h>
+#include <omp.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -143,10 +145,20 @@ static void check_closed_form(vdbs_backend backend, uint64_t gpu_chunk)
     free(u);
 }
 
+/* The C path's thread counts; on more threads than cores the waiting threads yield. */
+static const int C_THREADS[] = {1, 2, 4};
+#define C_THREAD_COUNTS (int)(sizeof C_THREADS / sizeof *C_THREADS)
+
 static void test_closed_form_c(void **state)
 {
     (void)state;
-    check_closed_form(VDBS_BACKEND_CPU, 0);
+    const int before = omp_get_max_threads();
+    for (int t = 0; t < C_THREAD_COUNTS; ++t) {
+        omp_set_num_threads(C_THREADS[t]);
+        print_message("C on %d threads:\n", C_THREADS[t]);
+        check_closed_form(VDBS_BACKEND_CPU, 0);
+    }
+    omp_set_num_threads(before);
 }
 
 static void test_closed_form_gpu(void **state)
@@ -218,17 +230,20 @@ static void test_sweep_in_place(void **state)
     static float rhs[ITEMS];
     for (int m = 0; m < ITEMS; ++m)
         rhs[m] = 1.0f;
-    const vdbs_backend backends[2] = {VDBS_BACKEND_CPU, VDBS_BACKEND_GPU};
+    /* The C path on each thread count, then the GPU. */
+    const int runs = C_THREAD_COUNTS + 1, before = omp_get_max_threads();
     const int steps[3] = {1, 5, NZ};
     float *u = malloc(sizeof(float) * ITEMS);
-    for (int b = 0; b < 2; ++b)
+    for (int r = 0; r < runs; ++r)
         for (int t = 0; t < 3; ++t) {
+            const int b = r == C_THREAD_COUNTS;
+            omp_set_num_threads(b ? before : C_THREADS[r]);
             memset(u, 0, sizeof(float) * ITEMS);
             vdbs_kernel_desc desc = {0};
             desc.items = PLANE;
             desc.user = rhs;
             desc.cpu_step = sweep_step;
-            desc.cpu_chunk = 50;
+            desc.cpu_chunk = 10; /* 14 chunks a step for the threads to share */
             desc.shader = "test_sweep.comp";
             desc.inputs[1] = (vdbs_kernel_input){.data = rhs, .size = sizeof rhs};
             desc.state = u;
@@ -238,21 +253,25 @@ static void test_sweep_in_place(void **state)
             desc.reduce = VDBS_REDUCE_SUM;
             vdbs_kernel_result result;
             vdbs_error err;
-            if (vdbs_kernel_iterate(test_runner(backends[b]), &desc, &result, &err) != VDBS_OK)
+            if (vdbs_kernel_iterate(test_runner(b ? VDBS_BACKEND_GPU : VDBS_BACKEND_CPU), &desc,
+                                    &result, &err) != VDBS_OK)
                 fail_msg("%s", err.message);
             assert_int_equal(result.iterations, steps[t]);
             for (int k = 0; k < NZ; ++k) {
                 float want = k < steps[t] ? (float)(2.0 - ldexp(1.0, -k)) : 0.0f;
                 for (int n = 0; n < PLANE; ++n)
                     if (u[n + k * PLANE] != want)
-                        fail_msg("%s, %d steps: plane %d item %d is %.9g, want %.9g",
-                                 b ? "GPU" : "C", steps[t], k, n, u[n + k * PLANE], want);
+                        fail_msg("%s (%d threads), %d steps: plane %d item %d is %.9g, want %.9g",
+                                 b ? "GPU" : "C", omp_get_max_threads(), steps[t], k, n,
+                                 u[n + k * PLANE], want);
             }
             double last = PLANE * (2.0 - ldexp(1.0, -(steps[t] - 1)));
-            print_message("%s: %d in-place steps exact; last plane sum %.9g (exact %.9g)\n",
-                          b ? "GPU" : "C", steps[t], result.reduction, last);
+            print_message("%s (%d threads): %d in-place steps exact; last plane sum %.9g (exact "
+                          "%.9g)\n",
+                          b ? "GPU" : "C", omp_get_max_threads(), steps[t], result.reduction, last);
             assert_true(fabs(result.reduction - last) <= 1e-6 * last);
         }
+    omp_set_num_threads(before);
     free(u);
 }
 
