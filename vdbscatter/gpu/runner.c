@@ -7,6 +7,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <time.h>
 
 #include "vs_pass.h"
 
@@ -200,6 +201,10 @@ static double combine(vdbs_reduce reduce, double a, double b)
  * steps (SVD's wavefront planes) then waits at every step for a thread that is not running
  * (docs/farm.md "Cores shared with other work"). */
 #define STEP_SPINS 2000
+/* Then, past this many yields (a long step: milliseconds), it sleeps between looks instead of
+ * keeping a core busy. */
+#define STEP_YIELDS 2000
+#define STEP_NAP_NS 50000L
 
 typedef struct step_team {
     const vdbs_kernel_desc *d;
@@ -210,7 +215,7 @@ typedef struct step_team {
     int threads, max_iterations;
     atomic_int arrived, generation;
     atomic_llong next[2]; /* the next chunk to take, by the step's parity */
-    int stop;             /* 1: done, 2: cancelled; written by the step's last thread */
+    int stop;             /* 1: done, 2: cancelled; written by the calling thread */
     vdbs_kernel_result *result;
 } step_team;
 
@@ -234,12 +239,18 @@ static void step_end(step_team *t, int it)
     atomic_store(&t->next[it & 1], 0);
 }
 
-/* Spins, then yields, while *v == value (until_equal 0) or until it is (until_equal 1). */
+/* Spins, then yields, then naps, while *v == value (until_equal 0) or until it is (until_equal
+ * 1). */
 static void step_wait(atomic_int *v, int value, int until_equal)
 {
-    for (int spins = 0; (atomic_load(v) == value) != until_equal; ++spins)
-        if (spins >= STEP_SPINS)
+    const int nap_after = STEP_SPINS + STEP_YIELDS;
+    for (int looks = 0; (atomic_load(v) == value) != until_equal; looks += looks < nap_after) {
+        if (looks >= nap_after) {
+            struct timespec nap = {0, STEP_NAP_NS};
+            nanosleep(&nap, NULL);
+        } else if (looks >= STEP_SPINS)
             sched_yield();
+    }
 }
 
 /* The calling thread (OpenMP's thread 0) waits for the others, ends the step and lets them on;
