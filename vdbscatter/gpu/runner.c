@@ -212,7 +212,7 @@ typedef struct step_team {
     uint64_t chunk;
     double *partials;
     void *in, *out;
-    int threads, max_iterations;
+    int max_iterations;
     atomic_int arrived, generation;
     atomic_llong next[2]; /* the next chunk to take, by the step's parity */
     int stop;             /* 1: done, 2: cancelled; written by the calling thread */
@@ -239,12 +239,11 @@ static void step_end(step_team *t, int it)
     atomic_store(&t->next[it & 1], 0);
 }
 
-/* Spins, then yields, then naps, while *v == value (until_equal 0) or until it is (until_equal
- * 1). */
-static void step_wait(atomic_int *v, int value, int until_equal)
+/* Spins, then yields, then naps, until *v == value. */
+static void step_wait(atomic_int *v, int value)
 {
     const int nap_after = STEP_SPINS + STEP_YIELDS;
-    for (int looks = 0; (atomic_load(v) == value) != until_equal; looks += looks < nap_after) {
+    for (int looks = 0; atomic_load(v) != value; looks += looks < nap_after) {
         if (looks >= nap_after) {
             struct timespec nap = {0, STEP_NAP_NS};
             nanosleep(&nap, NULL);
@@ -254,11 +253,11 @@ static void step_wait(atomic_int *v, int value, int until_equal)
 }
 
 /* The calling thread (OpenMP's thread 0) waits for the others, ends the step and lets them on;
- * the others wait for the next generation. */
+ * the others wait for the next generation (it cannot move twice: the next needs them). */
 static void step_barrier(step_team *t, int it, int caller)
 {
     if (caller) {
-        step_wait(&t->arrived, t->threads - 1, 1);
+        step_wait(&t->arrived, omp_get_num_threads() - 1);
         step_end(t, it);
         atomic_store(&t->arrived, 0);
         atomic_fetch_add(&t->generation, 1);
@@ -266,7 +265,7 @@ static void step_barrier(step_team *t, int it, int caller)
     }
     const int generation = atomic_load(&t->generation);
     atomic_fetch_add(&t->arrived, 1);
-    step_wait(&t->generation, generation, 0);
+    step_wait(&t->generation, generation + 1);
 }
 
 static void step_team_run(step_team *t)
@@ -312,12 +311,7 @@ static vdbs_status cpu_iterate(const vdbs_kernel_desc *d, int max_iterations,
     atomic_init(&t.next[0], 0);
     atomic_init(&t.next[1], 0);
 #pragma omp parallel
-    {
-#pragma omp single
-        t.threads = omp_get_num_threads();
-        /* The single's barrier: every thread knows the team's size. */
-        step_team_run(&t);
-    }
+    step_team_run(&t);
     const int cancelled = t.stop == 2;
     if (!cancelled && t.in != d->state)
         memcpy(d->state, t.in, bytes);
