@@ -10,6 +10,8 @@
  *     ms_l1 = -3 g L <w T> / 4 pi, with the box's exact piecewise-cubic optical depths
  *     integrated over directions and the ball; a map lighting only the upper hemisphere
  *     gives the furnace's answer as the sum of a point and its mirror image;
+ *   - the second moment ms_t2 in the furnace (the same closed form with w_a w_b), and its
+ *     trace, ms, flight by flight;
  *   - symmetry: under a sun travelling straight down a laterally uniform slab ms_l1 points
  *     along the travel direction (all orders, RGB albedo);
  *   - energy: the scattered power escaping an absorbing box, from the difference of two
@@ -88,7 +90,7 @@ static vdbs_light *add_light(vdbs_scene *scene, vdbs_light_type type, const doub
 
 /* The probe's outputs for up to 8 points. */
 typedef struct probe_out {
-    double ms[3 * 8], ms_l1[9 * 8], ms_se[3 * 8], ms_l1_se[9 * 8];
+    double ms[3 * 8], ms_l1[9 * 8], ms_t2[18 * 8], ms_se[3 * 8], ms_l1_se[9 * 8], ms_t2_se[18 * 8];
     double seconds;
 } probe_out;
 
@@ -105,8 +107,9 @@ static void run_probe(const vdbs_volume *volume, const vdbs_scene *scene, int64_
     o.seed = seed;
     vdbs_error err;
     double t0 = omp_get_wtime();
-    if (vdbs_reference_probe(volume, scene, &o, points, n, out->ms, out->ms_l1, out->ms_se,
-                             out->ms_l1_se, &err) != VDBS_OK)
+    const vdbs_reference_probe_outputs to = {out->ms,    out->ms_l1,    out->ms_t2,
+                                             out->ms_se, out->ms_l1_se, out->ms_t2_se};
+    if (vdbs_reference_probe_moments(volume, scene, &o, points, n, &to, &err) != VDBS_OK)
         fail_msg("%s", err.message);
     out->seconds = omp_get_wtime() - t0;
 }
@@ -413,11 +416,12 @@ static double box_tau(const box_profile *b, const double x[3], const double v[3]
     return b->sigma * sum;
 }
 
-/* <T> and <int w T dw> (per unit L) over the ball of radius rb at c: the ball by Gauss-
- * Legendre in r^3 (uniform in volume) times a Fibonacci set of directions, the sphere of
- * travel directions w by a Fibonacci set of nd directions. */
+/* <T>, <int w T dw> and <int w_a w_b T dw> (xx, yy, zz, xy, xz, yz; per unit L) over the
+ * ball of radius rb at c: the ball by Gauss-Legendre in r^3 (uniform in volume) times a
+ * Fibonacci set of directions, the sphere of travel directions w by a Fibonacci set of nd
+ * directions. */
 static void furnace_exact(const box_profile *b, const double c[3], double rb, double *t_mean,
-                          double flux[3])
+                          double flux[3], double second[6])
 {
     enum { NR = 6, NB = 48, ND = 6000 };
     static double dirs[3 * ND], bdirs[3 * NB];
@@ -425,7 +429,7 @@ static void furnace_exact(const box_profile *b, const double c[3], double rb, do
     vdbs_sphere_directions(NB, bdirs);
     double xr[NR], wr[NR];
     test_gauss_legendre(NR, 0.0, 1.0, xr, wr);
-    double tsum = 0.0, fsum[3] = {0.0, 0.0, 0.0};
+    double tsum = 0.0, fsum[3] = {0.0, 0.0, 0.0}, ssum[6] = {0.0, 0.0, 0.0, 0.0, 0.0, 0.0};
     for (int i = 0; i < NR; ++i) {
         double rad = rb * cbrt(xr[i]);
         for (int j = 0; j < NB; ++j) {
@@ -439,11 +443,16 @@ static void furnace_exact(const box_profile *b, const double c[3], double rb, do
                 tsum += tr / ND;
                 for (int a = 0; a < 3; ++a)
                     fsum[a] += tr * w[a] * 4.0 * PI / ND;
+                const double ww[6] = {w[0] * w[0], w[1] * w[1], w[2] * w[2],
+                                      w[0] * w[1], w[0] * w[2], w[1] * w[2]};
+                for (int q = 0; q < 6; ++q)
+                    ssum[q] += tr * ww[q] * 4.0 * PI / ND;
             }
         }
     }
     *t_mean = tsum;
     memcpy(flux, fsum, sizeof fsum);
+    memcpy(second, ssum, sizeof ssum);
 }
 
 /* Writes a 2H x H map: rows above the horizon `upper`, below it `lower`. */
@@ -479,10 +488,10 @@ static void test_furnace(void **state)
     }
     const double r = 0.25;
     const double pts[3 * 3] = {0.0, 0.0, 0.0, 0.12, 0.15, -0.08, 0.12, -0.15, -0.08};
-    double t_mean[3], flux[3][3];
+    double t_mean[3], flux[3][3], second[3][6];
     double t0 = omp_get_wtime();
     for (int i = 0; i < 3; ++i)
-        furnace_exact(&box, pts + 3 * i, r, &t_mean[i], flux[i]);
+        furnace_exact(&box, pts + 3 * i, r, &t_mean[i], flux[i], second[i]);
     print_message("furnace quadrature: %.2fs; <T> %.7f %.7f %.7f, <wT>y %.7f %.7f %.7f\n",
                   omp_get_wtime() - t0, t_mean[0], t_mean[1], t_mean[2], flux[0][1], flux[1][1],
                   flux[2][1]);
@@ -517,6 +526,15 @@ static void test_furnace(void **state)
                     double l1 = -3.0 * g * L[c] * flux[i][a] / (4.0 * PI);
                     snprintf(what, sizeof what, "point %d ms_l1%c[%d]", i, "xyz"[a], c);
                     check(what, p.ms_l1[9 * i + 3 * a + c], p.ms_l1_se[9 * i + 3 * a + c], l1,
+                          2e-3 * ms);
+                }
+                /* The scattered light is L (1 - T) per direction: its second moment is
+                 * L (delta_ab / 3 - <int w_a w_b T dw> / 4 pi). */
+                for (int q = 0; q < 6; ++q) {
+                    double t2 = L[c] * ((q < 3 ? 1.0 / 3.0 : 0.0) - second[i][q] / (4.0 * PI));
+                    snprintf(what, sizeof what, "point %d ms_t2%s[%d]", i,
+                             (const char *[]){"xx", "yy", "zz", "xy", "xz", "yz"}[q], c);
+                    check(what, p.ms_t2[18 * i + 3 * q + c], p.ms_t2_se[18 * i + 3 * q + c], t2,
                           2e-3 * ms);
                 }
             }
@@ -601,6 +619,12 @@ static void test_sun_symmetry(void **state)
             if (!(p.ms[3 * i + c] >
                   p1.ms[3 * i + c] + 4.0 * (p.ms_se[3 * i + c] + p1.ms_se[3 * i + c])))
                 ++failures;
+            /* The second moment's trace is ms, flight by flight (|w| = 1); its values are
+             * checked against the furnace's closed form above. */
+            const double *t2 = p.ms_t2 + 18 * i;
+            snprintf(what, sizeof what, "y %+.1f trace ms_t2[%d]", pts[3 * i + 1], c);
+            check(what, t2[c] + t2[3 + c] + t2[6 + c], 0.0, p.ms[3 * i + c],
+                  1e-12 * p.ms[3 * i + c]);
         }
     vdbs_volume_free(&volume);
     assert_int_equal(failures, 0);

@@ -835,6 +835,13 @@ vdbs_status vdbs_reference_tally_sun(const vdbs_volume *volume, const vdbs_scene
 
 enum { PROBE_SUN, PROBE_POINT, PROBE_SKY, PROBE_ENV };
 
+/* A point's sums: the fluence per channel, the flux's x, y, z components per channel, the
+ * second moment's xx, yy, zz, xy, xz, yz components per channel. */
+#define PROBE_PHI 0
+#define PROBE_FLUX 3
+#define PROBE_T2 12
+#define PROBE_WORDS 30
+
 typedef struct probe_source {
     int kind;
     const vdbs_direct_light *light; /* suns and points */
@@ -865,7 +872,7 @@ typedef struct probe_ctx {
 
 /* One thread's sums for the batch it works on. */
 typedef struct probe_thread {
-    double *acc;          /* 12 per point: fluence per channel, then flux x, y, z per channel */
+    double *acc;          /* PROBE_WORDS per point */
     uint64_t *batch_mark; /* batch index + 1 that last touched the point */
     uint64_t *seg_mark;   /* flight number that last visited the point */
     size_t *touched;      /* points touched in this batch */
@@ -878,7 +885,7 @@ typedef struct probe_result {
     size_t n;       /* points touched */
     double photons; /* in the batch */
     size_t *idx;    /* n points */
-    double *val;    /* 12 n sums, as probe_thread.acc */
+    double *val;    /* PROBE_WORDS n sums, as probe_thread.acc */
 } probe_result;
 
 /* Moves the thread's sums for its batch into a new result (NULL when out of memory: the
@@ -886,20 +893,21 @@ typedef struct probe_result {
 static probe_result *probe_pack(probe_thread *th, double photons)
 {
     size_t n = th->touched_count;
-    probe_result *r = malloc(sizeof *r + n * (sizeof *r->idx + 12 * sizeof *r->val));
+    probe_result *r = malloc(sizeof *r + n * (sizeof *r->idx + PROBE_WORDS * sizeof *r->val));
     if (r) {
         r->n = n;
         r->photons = photons;
         r->val = (double *)(r + 1);
-        r->idx = (size_t *)(r->val + 12 * n);
+        r->idx = (size_t *)(r->val + PROBE_WORDS * n);
     }
     for (size_t j = 0; j < n; ++j) {
         size_t i = th->touched[j];
         if (r) {
             r->idx[j] = i;
-            memcpy(r->val + 12 * j, th->acc + 12 * i, 12 * sizeof *r->val);
+            memcpy(r->val + PROBE_WORDS * j, th->acc + PROBE_WORDS * i,
+                   PROBE_WORDS * sizeof *r->val);
         }
-        memset(th->acc + 12 * i, 0, 12 * sizeof *th->acc);
+        memset(th->acc + PROBE_WORDS * i, 0, PROBE_WORDS * sizeof *th->acc);
     }
     th->touched_count = 0;
     return r;
@@ -1055,12 +1063,16 @@ static void probe_flight(const probe_ctx *pc, probe_thread *th, const double o[3
                 th->batch_mark[i] = th->batch + 1;
                 th->touched[th->touched_count++] = i;
             }
-            double *acc = th->acc + 12 * i;
+            double *acc = th->acc + PROBE_WORDS * i;
+            const double ww[6] = {w[0] * w[0], w[1] * w[1], w[2] * w[2],
+                                  w[0] * w[1], w[0] * w[2], w[1] * w[2]};
             for (int ch = 0; ch < 3; ++ch) {
                 double x = f[ch] * len;
-                acc[ch] += x;
+                acc[PROBE_PHI + ch] += x;
                 for (int a = 0; a < 3; ++a)
-                    acc[3 + 3 * a + ch] += x * w[a];
+                    acc[PROBE_FLUX + 3 * a + ch] += x * w[a];
+                for (int k = 0; k < 6; ++k)
+                    acc[PROBE_T2 + 3 * k + ch] += x * ww[k];
             }
         }
         int a = next[0] < next[1] ? (next[0] < next[2] ? 0 : 2) : (next[1] < next[2] ? 1 : 2);
@@ -1225,12 +1237,6 @@ static double probe_sources(probe_ctx *pc)
     return total;
 }
 
-/* Where the probe writes: Sms (3 per point) and its first moment (9 per point), and their
- * standard errors; any may be NULL. */
-typedef struct probe_out {
-    double *ms, *ms_l1, *ms_se, *ms_l1_se;
-} probe_out;
-
 static vdbs_status probe_check(const vdbs_reference_probe_options *o, const double *points,
                                size_t count, vdbs_error *err)
 {
@@ -1247,7 +1253,7 @@ static vdbs_status probe_check(const vdbs_reference_probe_options *o, const doub
     return VDBS_OK;
 }
 
-static void probe_clear(const probe_out *out, size_t count)
+static void probe_clear(const vdbs_reference_probe_outputs *out, size_t count)
 {
     if (out->ms)
         memset(out->ms, 0, sizeof *out->ms * 3 * count);
@@ -1257,11 +1263,15 @@ static void probe_clear(const probe_out *out, size_t count)
         memset(out->ms_se, 0, sizeof *out->ms_se * 3 * count);
     if (out->ms_l1_se)
         memset(out->ms_l1_se, 0, sizeof *out->ms_l1_se * 9 * count);
+    if (out->ms_t2)
+        memset(out->ms_t2, 0, sizeof *out->ms_t2 * 18 * count);
+    if (out->ms_t2_se)
+        memset(out->ms_t2_se, 0, sizeof *out->ms_t2_se * 18 * count);
 }
 
 /* The probe's sums: each thread's for its batch, the finished batches waiting for their
- * turn, and the merged sums (12 per point, as probe_thread.acc): s1 of the batches' sums,
- * s2 of their squares over the batch's photons. */
+ * turn, and the merged sums (PROBE_WORDS per point, as probe_thread.acc): s1 of the batches'
+ * sums, s2 of their squares over the batch's photons. */
 typedef struct probe_sums {
     int threads;
     probe_thread *th;
@@ -1288,14 +1298,14 @@ static void probe_sums_free(probe_sums *ps)
 static int probe_sums_alloc(probe_sums *ps, size_t count, int64_t batches)
 {
     ps->threads = omp_get_max_threads();
-    ps->s1 = calloc(12 * count, sizeof *ps->s1);
-    ps->s2 = calloc(12 * count, sizeof *ps->s2);
+    ps->s1 = calloc(PROBE_WORDS * count, sizeof *ps->s1);
+    ps->s2 = calloc(PROBE_WORDS * count, sizeof *ps->s2);
     ps->th = calloc((size_t)ps->threads, sizeof *ps->th);
     ps->pending = calloc((size_t)batches, sizeof *ps->pending);
     int ok = ps->s1 && ps->s2 && ps->th && ps->pending;
     for (int k = 0; ok && k < ps->threads; ++k) {
         probe_thread *th = &ps->th[k];
-        th->acc = calloc(12 * count, sizeof *th->acc);
+        th->acc = calloc(PROBE_WORDS * count, sizeof *th->acc);
         th->batch_mark = calloc(count, sizeof *th->batch_mark);
         th->seg_mark = calloc(count, sizeof *th->seg_mark);
         th->touched = malloc(count * sizeof *th->touched);
@@ -1311,10 +1321,10 @@ static void probe_merge_ready(probe_sums *ps, int64_t *next, int64_t batches, pr
     while (*next < batches && ps->pending[*next]) {
         probe_result *r = ps->pending[*next];
         for (size_t j = 0; j < r->n; ++j)
-            for (int q = 0; q < 12; ++q) {
-                double x = r->val[12 * j + q];
-                ps->s1[12 * r->idx[j] + q] += x;
-                ps->s2[12 * r->idx[j] + q] += x * x / r->photons;
+            for (int q = 0; q < PROBE_WORDS; ++q) {
+                double x = r->val[PROBE_WORDS * j + q];
+                ps->s1[PROBE_WORDS * r->idx[j] + q] += x;
+                ps->s2[PROBE_WORDS * r->idx[j] + q] += x * x / r->photons;
             }
         if (r != lost)
             free(r);
@@ -1363,34 +1373,40 @@ static int probe_trace(const probe_ctx *pc, const vdbs_reference_probe_options *
     return ok;
 }
 
-/* The merged sums of `photons` photons in `batches` batches as Sms and its first moment
- * (medium anisotropy g) per point of balls of `radius`, the errors from the batches'
- * spread. */
+/* The merged sums of `photons` photons in `batches` batches as Sms, its first moment
+ * (medium anisotropy g) and its second moment per point of balls of `radius`, the errors from
+ * the batches' spread. */
 static void probe_results(const probe_sums *ps, size_t count, int64_t photons, int64_t batches,
-                          double radius, double g, const probe_out *out)
+                          double radius, double g, const vdbs_reference_probe_outputs *out)
 {
     const double n = (double)photons, volume_ball = 4.0 / 3.0 * VDBS_PI * radius * radius * radius;
     const double k_phi = 1.0 / (4.0 * VDBS_PI * volume_ball * n);
     const double k_l1 = 3.0 * g / (4.0 * VDBS_PI * volume_ball * n);
     for (size_t i = 0; i < count; ++i)
-        for (int q = 0; q < 12; ++q) {
-            double sum = ps->s1[12 * i + q];
-            double var = batches > 1
-                             ? fmax(0.0, ps->s2[12 * i + q] - sum * sum / n) / (double)(batches - 1)
-                             : 0.0;
+        for (int q = 0; q < PROBE_WORDS; ++q) {
+            double sum = ps->s1[PROBE_WORDS * i + q];
+            double var = batches > 1 ? fmax(0.0, ps->s2[PROBE_WORDS * i + q] - sum * sum / n) /
+                                           (double)(batches - 1)
+                                     : 0.0;
             /* se of the sum: sqrt(n var). */
             double se = sqrt(n * var);
-            if (q < 3) {
-                if (out->ms)
-                    out->ms[3 * i + q] = sum * k_phi;
-                if (out->ms_se)
-                    out->ms_se[3 * i + q] = se * k_phi;
-            } else {
-                if (out->ms_l1)
-                    out->ms_l1[9 * i + q - 3] = sum * k_l1;
-                if (out->ms_l1_se)
-                    out->ms_l1_se[9 * i + q - 3] = se * fabs(k_l1);
+            /* Which output the word q belongs to, its scale and its place there. */
+            double *value = out->ms, *error = out->ms_se, k = k_phi;
+            size_t at = 3 * i + (size_t)q;
+            if (q >= PROBE_T2) {
+                value = out->ms_t2;
+                error = out->ms_t2_se;
+                at = 18 * i + (size_t)(q - PROBE_T2);
+            } else if (q >= PROBE_FLUX) {
+                value = out->ms_l1;
+                error = out->ms_l1_se;
+                k = k_l1;
+                at = 9 * i + (size_t)(q - PROBE_FLUX);
             }
+            if (value)
+                value[at] = sum * k;
+            if (error)
+                error[at] = se * fabs(k);
         }
 }
 
@@ -1398,6 +1414,16 @@ vdbs_status vdbs_reference_probe(const vdbs_volume *volume, const vdbs_scene *sc
                                  const vdbs_reference_probe_options *options, const double *points,
                                  size_t count, double *ms, double *ms_l1, double *ms_se,
                                  double *ms_l1_se, vdbs_error *err)
+{
+    const vdbs_reference_probe_outputs out = {ms, ms_l1, NULL, ms_se, ms_l1_se, NULL};
+    return vdbs_reference_probe_moments(volume, scene, options, points, count, &out, err);
+}
+
+vdbs_status vdbs_reference_probe_moments(const vdbs_volume *volume, const vdbs_scene *scene,
+                                         const vdbs_reference_probe_options *options,
+                                         const double *points, size_t count,
+                                         const vdbs_reference_probe_outputs *outputs,
+                                         vdbs_error *err)
 {
     const vdbs_reference_probe_options defaults = {0};
     const vdbs_reference_probe_options *o = options ? options : &defaults;
@@ -1407,7 +1433,8 @@ vdbs_status vdbs_reference_probe(const vdbs_volume *volume, const vdbs_scene *sc
     const int64_t photons = o->photons > 0 ? o->photons : (int64_t)1 << 20;
     const int max_bounces = o->max_bounces > 0 ? o->max_bounces : 1000;
     const double radius = o->radius > 0.0 ? o->radius : 2.0 * volume->mean_voxel_size;
-    const probe_out out = {ms, ms_l1, ms_se, ms_l1_se};
+    const vdbs_reference_probe_outputs none = {0};
+    const vdbs_reference_probe_outputs out = outputs ? *outputs : none;
     probe_clear(&out, count);
 
     ref_ctx ctx;

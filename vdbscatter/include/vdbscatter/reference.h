@@ -134,8 +134,8 @@ vdbs_status vdbs_reference_tally_sun(const vdbs_volume *volume, const vdbs_scene
  * count: random streams are keyed by photon index, and batches are merged in their order
  * (a finished batch waits, sparse, for the ones before it; no thread waits).
  *
- * Memory: about 120 bytes per point per thread, 250 per point, and the finished batches
- * waiting to merge (96 bytes per point a batch touched). */
+ * Memory: about 260 bytes per point per thread, 500 per point, and the finished batches
+ * waiting to merge (250 bytes per point a batch touched). */
 typedef struct vdbs_reference_probe_options {
     int64_t photons;         /* photons traced from all lights together; 0: 1 << 20 */
     double radius;           /* world radius of the probe balls; 0: 2 x the mean voxel size */
@@ -160,6 +160,25 @@ vdbs_status vdbs_reference_probe(const vdbs_volume *volume, const vdbs_scene *sc
                                  const vdbs_reference_probe_options *options, const double *points,
                                  size_t count, double *ms, double *ms_l1, double *ms_se,
                                  double *ms_l1_se, vdbs_error *err);
+
+/* The probe's estimates, each NULL or count times its width (the caller allocates them):
+ *   ms[3 i + c], ms_l1[9 i + 3 a + c]  as vdbs_reference_probe's;
+ *   ms_t2[18 i + 3 k + c]  the second moment (1 / 4 pi) integral Lms w_a w_b dw, component
+ *                          k = xx, yy, zz, xy, xz, yz of channel c: its trace is ms, and with
+ *                          n the direction of ms_l1 its part along n gives the second
+ *                          Legendre moment of the light's direction (docs/lit-vdb.md);
+ *   ms_se, ms_l1_se, ms_t2_se  their standard errors, in the same layouts. */
+typedef struct vdbs_reference_probe_outputs {
+    double *ms, *ms_l1, *ms_t2;
+    double *ms_se, *ms_l1_se, *ms_t2_se;
+} vdbs_reference_probe_outputs;
+
+/* vdbs_reference_probe with the second moment as well (outputs may be NULL: nothing). */
+vdbs_status vdbs_reference_probe_moments(const vdbs_volume *volume, const vdbs_scene *scene,
+                                         const vdbs_reference_probe_options *options,
+                                         const double *points, size_t count,
+                                         const vdbs_reference_probe_outputs *outputs,
+                                         vdbs_error *err);
 
 /* The cosine mu between incident and scattered propagation directions drawn from the HG
  * phase of anisotropy g for a uniform number u in [0, 1): the exact inverse of its CDF,
