@@ -19,7 +19,7 @@ compared with a reference image (`render --mode reference --tolerance`). Rows:
                   flux, b' = p2 / mu and beta = mu^2 / p2 (p2 held within [mu^2, mu])
   exact, beam     p2 = mu: an isotropic part plus a beam
 
-usage: bench/bench_lobe.py BUILD [--out bench/lobe.md] [--scenes cloud,sphere_env,usd_heat]
+usage: bench/bench_lobe.py BUILD [--out bench/lobe.md] [--scenes cloud,sphere_env,...]
        [--methods svd] [--photons 16000000] [--ref-noise 0.01] [--data DIR] [--work DIR]"""
 import argparse
 import json
@@ -51,6 +51,16 @@ def scene_table(data):
         "usd_heat": (os.path.join(SCENES, "usd_heat.json"),
                      os.path.join(data, "usd_densityAndHeat.vdb"),
                      "USD density, sun + env map from the camera's side, g 0.7"),
+        "cloud_sky": (os.path.join(SAMPLES, "cloud_sky.json"), None,
+                      "sample cloud, env map only, g 0.85"),
+        "smoke_sky": (os.path.join(SCENES, "smoke_sky.json"), os.path.join(SAMPLES, "smoke.vdb"),
+                      "sample smoke, depth 10, sun + constant sky, g 0.7"),
+        "smoke_thin": (os.path.join(SCENES, "smoke_thin.json"),
+                       os.path.join(SAMPLES, "smoke.vdb"),
+                       "sample smoke, depth 0.5, sun + constant sky, g 0.8"),
+        "usd_smoke": (os.path.join(SCENES, "usd_smoke.json"),
+                      os.path.join(data, "usd_smoke_000002.vdb"),
+                      "USD smoke, point light inside + sun, g 0.5"),
     }
 
 
@@ -113,7 +123,8 @@ def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("build")
     ap.add_argument("--out", default=os.path.join(HERE, "lobe.md"))
-    ap.add_argument("--scenes", default="cloud,sphere_env,thick_cube,usd_heat")
+    ap.add_argument("--scenes", default="cloud,cloud_sky,sphere_env,thick_cube,smoke_sky,"
+                                       "smoke_thin,usd_smoke,usd_heat")
     ap.add_argument("--methods", default="svd")
     ap.add_argument("--photons", type=int, default=16000000)
     ap.add_argument("--ref-noise", default="0.01")
