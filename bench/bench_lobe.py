@@ -20,10 +20,10 @@ compared with a reference image (`render --mode reference --tolerance`). Rows:
   exact, beam     p2 = mu: an isotropic part plus a beam
 
 usage: bench/bench_lobe.py BUILD [--out bench/lobe.md] [--scenes cloud,sphere_env,...]
-       [--methods svd] [--photons 16000000] [--ref-noise 0.01] [--data DIR] [--work DIR]"""
+       [--methods svd] [--photons 16000000] [--ref-noise 0.01] [--work DIR]
+Scenes are bench_calibrate.py's, by name (VDBSCATTER_DATA_DIR: the data folder)."""
 import argparse
 import json
-import math
 import os
 import shutil
 import subprocess
@@ -32,36 +32,10 @@ import tempfile
 
 import numpy as np
 
+from bench_calibrate import CALIBRATION, VALIDATION
 from benchlib import run_json
 
 HERE = os.path.dirname(os.path.abspath(__file__))
-ROOT = os.path.dirname(HERE)
-SAMPLES = os.path.join(ROOT, "samples")
-SCENES = os.path.join(HERE, "tradeoff", "scenes")
-
-
-def scene_table(data):
-    return {
-        "cloud": (os.path.join(SAMPLES, "cloud.json"), None,
-                  "sample cloud, sun + constant sky, g 0.85"),
-        "sphere_env": (os.path.join(SCENES, "sphere_env.json"),
-                       os.path.join(SAMPLES, "sphere.vdb"), "sample sphere, env map, g 0.85"),
-        "thick_cube": (os.path.join(SCENES, "thick_cube.json"), os.path.join(SAMPLES, "cube.vdb"),
-                       "cube, depth 50, sun + env map, g 0.6"),
-        "usd_heat": (os.path.join(SCENES, "usd_heat.json"),
-                     os.path.join(data, "usd_densityAndHeat.vdb"),
-                     "USD density, sun + env map from the camera's side, g 0.7"),
-        "cloud_sky": (os.path.join(SAMPLES, "cloud_sky.json"), None,
-                      "sample cloud, env map only, g 0.85"),
-        "smoke_sky": (os.path.join(SCENES, "smoke_sky.json"), os.path.join(SAMPLES, "smoke.vdb"),
-                      "sample smoke, depth 10, sun + constant sky, g 0.7"),
-        "smoke_thin": (os.path.join(SCENES, "smoke_thin.json"),
-                       os.path.join(SAMPLES, "smoke.vdb"),
-                       "sample smoke, depth 0.5, sun + constant sky, g 0.8"),
-        "usd_smoke": (os.path.join(SCENES, "usd_smoke.json"),
-                      os.path.join(data, "usd_smoke_000002.vdb"),
-                      "USD smoke, point light inside + sun, g 0.5"),
-    }
 
 
 def voxel_points(lit):
@@ -129,15 +103,13 @@ def main():
     ap.add_argument("--photons", type=int, default=16000000)
     ap.add_argument("--ref-noise", default="0.01")
     ap.add_argument("--size", default="96x72")
-    ap.add_argument("--data", default=os.environ.get(
-        "VDBSCATTER_DATA_DIR", os.path.join(os.path.dirname(ROOT), "shared", "data")))
     ap.add_argument("--work", help="keep the work files here (default: a temporary folder)")
     args = ap.parse_args()
     exe = os.path.join(args.build, "vdbscatter")
     probe = os.path.join(args.build, "bench", "bench_moments")
     work = args.work or tempfile.mkdtemp(prefix="bench_lobe-")
     os.makedirs(work, exist_ok=True)
-    table = scene_table(args.data)
+    table = {**CALIBRATION, **VALIDATION}  # the calibration's scenes, by name
     rows = []
     for name in args.scenes.split(","):
         scene, vdb, what = table[name]
